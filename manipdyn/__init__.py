@@ -1,0 +1,38 @@
+"""manipdyn: serial-arm dynamics computed two independent ways, and checked.
+
+* ``arm.lagrange``: the trace-form Lagrange-Euler engine of chapter II;
+* ``arm.pinocchio``: Pinocchio's RNEA/CRBA/ABA on the arm's URDF;
+* :func:`crosscheck`: proof that the two agree.
+
+Quick start::
+
+    import manipdyn as md
+    arm = md.load("puma560")
+    tau = arm.inverse_dynamics(q, qd, qdd)        # fast path (Pinocchio)
+    D = arm.lagrange.mass_matrix(q)               # independent trace form
+    print(md.crosscheck(arm, samples=200))
+"""
+
+from .errors import ModelError, PhysicalConsistencyWarning, StateError
+from .inertia import LinkInertia
+from .kinematics import ChainJoint, DHLink, transform_inverse
+from .arm import Arm, Manipulator
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Arm", "ChainJoint", "DHLink", "LinkInertia", "Manipulator", "ModelError",
+    "PhysicalConsistencyWarning", "StateError", "transform_inverse",
+    "crosscheck", "load", "models",
+]
+
+
+def __getattr__(name):
+    # Lazy imports: pinocchio and yourdfpy load only when a function needs them.
+    if name == "crosscheck":
+        from .crosscheck import crosscheck
+        return crosscheck
+    if name in ("load", "models"):
+        from . import modelfile
+        return getattr(modelfile, name)
+    raise AttributeError(f"module 'manipdyn' has no attribute {name!r}")

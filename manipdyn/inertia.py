@@ -1,0 +1,297 @@
+"""Rigid-body inertia of one link and its pseudo-inertia matrix (eq. 2.20, 2.21).
+
+Conventions (see CONVENTIONS.md):
+
+* ``inertia`` is the inertia TENSOR about the centre of mass, in the link
+  frame's axes, with the tensor sign: ``I_xy = -integral(x y dm)``.  This is
+  what URDF's ``<inertia ixy=...>`` and most libraries mean.
+* The chapter's eq. 2.21 writes ``I_xy = +integral(x y dm)`` about the frame
+  ORIGIN.  :meth:`LinkInertia.from_chapter_terms` is the one crossing between
+  the two conventions.
+* The pseudo-inertia ``J = integral(r r^T dm)``, ``r = [x, y, z, 1]``, is a
+  symmetric 4x4 matrix ``[[S, m c], [m c^T, m]]`` with ``S`` the second moment
+  about the frame origin.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import ModelError, PhysicalConsistencyWarning
+
+__all__ = ["LinkInertia", "pseudo_inertia", "as_vector3", "as_tensor3", "spatial_transform_pseudo_inertia"]
+
+# Relative tolerance on the smallest eigenvalue of J (and on the triangle
+# inequalities) before a body is called physically impossible: a few ulps of
+# the body's own scale, so that rounding in published tables is not flagged.
+_PSD_RTOL = 1e-9
+
+
+def _readonly(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, dtype=np.float64, copy=True)
+    a.setflags(write=False)
+    return a
+
+
+def as_vector3(value, where: str, field_name: str) -> np.ndarray:
+    """Return ``value`` as a finite float 3-vector or raise ModelError naming it."""
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ModelError(
+            f"{where}: field '{field_name}' must be 3 numbers (x, y, z), got {value!r}"
+        ) from None
+    if arr.shape != (3,):
+        raise ModelError(
+            f"{where}: field '{field_name}' must have length 3 (x, y, z), got shape {arr.shape}"
+        )
+    if not np.all(np.isfinite(arr)):
+        raise ModelError(f"{where}: field '{field_name}' must be finite, got {arr.tolist()}")
+    return arr
+
+
+def as_tensor3(value, where: str, field_name: str = "inertia") -> np.ndarray:
+    """Return an inertia tensor as a symmetric 3x3 array.
+
+    Accepted forms: a 3x3 matrix, or a 3-vector ``(Ixx, Iyy, Izz)`` meaning a
+    diagonal tensor.  A 6-vector is refused on purpose: its element order is
+    ambiguous between libraries (a known source of silent errors); pass a 3x3
+    matrix instead.
+    """
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ModelError(
+            f"{where}: field '{field_name}' must be a 3x3 matrix or 3 diagonal values, got {value!r}"
+        ) from None
+    if arr.shape == (3,):
+        arr = np.diag(arr)
+    elif arr.shape == (6,):
+        raise ModelError(
+            f"{where}: field '{field_name}' got 6 values; their order is ambiguous "
+            "(ixx, iyy, izz, ixy, ixz, iyz or ixx, ixy, ixz, ...), give a 3x3 matrix"
+        )
+    elif arr.shape != (3, 3):
+        raise ModelError(
+            f"{where}: field '{field_name}' must be a 3x3 matrix or 3 diagonal values, "
+            f"got shape {arr.shape}"
+        )
+    if not np.all(np.isfinite(arr)):
+        raise ModelError(f"{where}: field '{field_name}' must be finite, got {arr.tolist()}")
+    scale = max(1e-300, float(np.max(np.abs(arr))))
+    if np.max(np.abs(arr - arr.T)) > 1e-12 * scale:
+        raise ModelError(
+            f"{where}: field '{field_name}' must be symmetric, got {arr.tolist()}"
+        )
+    return 0.5 * (arr + arr.T)
+
+
+def pseudo_inertia(mass: float, com: np.ndarray, inertia_com: np.ndarray) -> np.ndarray:
+    """Pseudo-inertia J (4x4) of eq. 2.20 from mass, COM and tensor about the COM.
+
+    ``S = trace(I_C)/2 * eye(3) - I_C + m c c^T`` (second moment about the
+    frame origin), ``J = [[S, m c], [m c^T, m]]``.
+    """
+    c = np.asarray(com, dtype=np.float64)
+    J = np.empty((4, 4))
+    J[:3, :3] = 0.5 * np.trace(inertia_com) * np.eye(3) - inertia_com + mass * np.outer(c, c)
+    J[:3, 3] = J[3, :3] = mass * c
+    J[3, 3] = mass
+    return J
+
+
+def spatial_transform_pseudo_inertia(J: np.ndarray, X: np.ndarray) -> np.ndarray:
+    """Express a pseudo-inertia in another frame: ``J' = X J X^T``.
+
+    ``X`` (4x4 homogeneous) maps a point's coordinates in J's frame to the new
+    frame.  Pseudo-inertias of bodies in one frame add: this is how bodies are
+    lumped.
+    """
+    return X @ J @ X.T
+
+
+@dataclass(frozen=True, eq=False)
+class LinkInertia:
+    """Mass properties of one rigid link, immutable once built.
+
+    Parameters
+    ----------
+    mass : float
+        Mass in kg, ``>= 0``.
+    com : (3,) array_like
+        Centre of mass in metres, in the link frame.
+    inertia : (3, 3) array_like or (3,)
+        Inertia tensor about the centre of mass, in kg m^2, link-frame axes,
+        tensor sign (``I_xy = -integral(x y dm)``).  Three values mean a
+        diagonal tensor.
+    name : str
+        Used in error messages only.
+    """
+
+    mass: float = 0.0
+    com: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    inertia: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
+    name: str = "link"
+
+    def __post_init__(self) -> None:
+        where = self.name
+        try:
+            m = float(self.mass)
+        except (TypeError, ValueError):
+            raise ModelError(f"{where}: field 'mass' must be a number in kg, got {self.mass!r}") from None
+        if not math.isfinite(m):
+            raise ModelError(f"{where}: field 'mass' must be finite, got {m}")
+        if m < 0:
+            raise ModelError(f"{where}: field 'mass' must be >= 0 kg, got {m}")
+        object.__setattr__(self, "mass", m)
+        object.__setattr__(self, "com", _readonly(as_vector3(self.com, where, "com")))
+        object.__setattr__(self, "inertia", _readonly(as_tensor3(self.inertia, where, "inertia")))
+
+    # -- conversions -------------------------------------------------------
+    @property
+    def J(self) -> np.ndarray:
+        """Pseudo-inertia of eq. 2.20/2.21, (4, 4), in the link frame (a new array)."""
+        return pseudo_inertia(self.mass, self.com, self.inertia)
+
+    def pseudo_inertia(self) -> np.ndarray:
+        """Same as :attr:`J`."""
+        return self.J
+
+    @classmethod
+    def from_pseudo_inertia(cls, J, name: str = "link") -> "LinkInertia":
+        """Build from a pseudo-inertia J (4x4, symmetric, eq. 2.20)."""
+        J = np.asarray(J, dtype=np.float64)
+        if J.shape != (4, 4):
+            raise ModelError(f"{name}: pseudo-inertia J must be 4x4, got shape {J.shape}")
+        if not np.all(np.isfinite(J)):
+            raise ModelError(f"{name}: pseudo-inertia J must be finite")
+        scale = max(1e-300, float(np.max(np.abs(J))))
+        if np.max(np.abs(J - J.T)) > 1e-12 * scale:
+            raise ModelError(f"{name}: pseudo-inertia J must be symmetric")
+        J = 0.5 * (J + J.T)
+        m = J[3, 3]
+        S = J[:3, :3]
+        if m > 0:
+            c = J[:3, 3] / m
+            S_c = S - m * np.outer(c, c)
+        else:
+            c = np.zeros(3)
+            S_c = S
+        I_c = np.trace(S_c) * np.eye(3) - S_c
+        return cls(mass=m, com=c, inertia=I_c, name=name)
+
+    @classmethod
+    def from_chapter_terms(
+        cls,
+        m: float,
+        mx: float, my: float, mz: float,
+        Ixx: float, Iyy: float, Izz: float,
+        Ixy: float, Ixz: float, Iyz: float,
+        name: str = "link",
+    ) -> "LinkInertia":
+        """Build from the terms of the chapter's eq. 2.21.
+
+        All moments are about the link frame's ORIGIN (eq. 2.20 integrates
+        ``r r^T`` with ``r`` from that origin).  ``Ixx = integral(y^2 + z^2) dm``
+        and so on; the products use the chapter's sign, ``Ixy = +integral(x y dm)``,
+        the opposite of the tensor sign.  ``mx = m * x_bar`` etc. are first moments.
+        """
+        J = np.array(
+            [
+                [(-Ixx + Iyy + Izz) / 2, Ixy, Ixz, mx],
+                [Ixy, (Ixx - Iyy + Izz) / 2, Iyz, my],
+                [Ixz, Iyz, (Ixx + Iyy - Izz) / 2, mz],
+                [mx, my, mz, m],
+            ],
+            dtype=np.float64,
+        )
+        return cls.from_pseudo_inertia(J, name=name)
+
+    def inertia_about_origin(self) -> np.ndarray:
+        """Inertia tensor (tensor sign) about the link frame's origin, (3, 3), kg m^2."""
+        c = self.com
+        return self.inertia + self.mass * (float(c @ c) * np.eye(3) - np.outer(c, c))
+
+    def transformed(self, X) -> "LinkInertia":
+        """The same body described in another frame.
+
+        ``X`` (4x4, a rigid transform) maps coordinates in this body's frame
+        to the new frame: ``c' = R c + p``, ``I_C' = R I_C R^T``.
+        """
+        X = np.asarray(X, dtype=np.float64)
+        R = X[:3, :3]
+        return LinkInertia(self.mass, R @ self.com + X[:3, 3], R @ self.inertia @ R.T, name=self.name)
+
+    # -- physical consistency ---------------------------------------------
+    def consistency_problems(self) -> list[str]:
+        """Conditions under which no real rigid body has these mass properties.
+
+        Empty when J (eq. 2.20) is positive semidefinite.  Each entry names the
+        broken condition, e.g. ``"triangle inequality Ixx + Iyy >= Izz broken"``.
+        """
+        problems: list[str] = []
+        I = self.inertia
+        scale = max(float(np.max(np.abs(I))), 1e-300)
+        if self.mass == 0.0:
+            if np.max(np.abs(I)) > 0:
+                problems.append("rotational inertia on a massless link (mass = 0, inertia != 0)")
+            return problems
+        principal = np.linalg.eigvalsh(I)
+        tol = _PSD_RTOL * scale
+        if principal[0] < -tol:
+            problems.append(f"negative principal moment of inertia {principal[0]:.6g} kg m^2")
+        names = ("Ixx", "Iyy", "Izz")
+        # Triangle inequality on the principal moments (with m > 0, equivalent to S >= 0).
+        p = np.sort(principal)
+        if p[0] + p[1] < p[2] - tol:
+            # Report in the axes the user wrote when the tensor is diagonal.
+            if np.allclose(I, np.diag(np.diag(I))):
+                d = np.diag(I)
+                for k in range(3):
+                    i, j = (k + 1) % 3, (k + 2) % 3
+                    if d[i] + d[j] < d[k] - tol:
+                        problems.append(
+                            f"triangle inequality {names[i]} + {names[j]} >= {names[k]} broken "
+                            f"({d[i]:.6g} + {d[j]:.6g} < {d[k]:.6g})"
+                        )
+            else:
+                problems.append(
+                    "triangle inequality of the principal moments broken "
+                    f"({p[0]:.6g} + {p[1]:.6g} < {p[2]:.6g})"
+                )
+        return problems
+
+    def check_physical(self, strict: bool = False, where: str | None = None) -> bool:
+        """Warn (or raise with ``strict=True``) if the body is physically impossible.
+
+        Returns True when the body is physically consistent.
+        """
+        problems = self.consistency_problems()
+        if not problems:
+            return True
+        msg = f"{where or self.name}: physically impossible inertia: " + "; ".join(problems)
+        if strict:
+            raise ModelError(msg)
+        warnings.warn(msg, PhysicalConsistencyWarning, stacklevel=3)
+        return False
+
+    def __repr__(self) -> str:
+        return (
+            f"LinkInertia(mass={self.mass!r}, com={self.com.tolist()!r}, "
+            f"inertia={self.inertia.tolist()!r}, name={self.name!r})"
+        )
+
+    def __eq__(self, other) -> bool:
+        if not isinstance(other, LinkInertia):
+            return NotImplemented
+        return (
+            self.mass == other.mass
+            and np.array_equal(self.com, other.com)
+            and np.array_equal(self.inertia, other.inertia)
+        )
+
+    __hash__ = None  # type: ignore[assignment]

@@ -1,0 +1,454 @@
+"""Kinematics of serial chains (chapter II, eq. 2.1 to 2.8).
+
+Two descriptions of a serial chain are supported:
+
+* Denavit-Hartenberg links, standard (distal, eq. 2.3/2.4) or modified (Craig);
+* a generic chain of fixed transforms and joints about arbitrary axes, which
+  is what a URDF describes.
+
+Both produce, for a batch of joint states, the link frames ``T_i`` (base
+frame, 4x4) and the joint motion generators ``Delta_j`` in the base frame,
+which is all the trace-form dynamics needs: ``dT_p/dq_j = Delta_j T_p`` for
+``j <= p`` (CONVENTIONS.md, "Computing the trace form fast").
+
+All arrays are float64; lengths in metres, angles in radians.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import ModelError
+from .inertia import LinkInertia, as_tensor3, as_vector3
+
+__all__ = [
+    "DHLink",
+    "dh_standard",
+    "dh_modified",
+    "transform_inverse",
+    "rot_x", "rot_y", "rot_z", "trans",
+    "rpy_to_matrix", "matrix_to_rpy",
+    "ChainJoint",
+]
+
+JOINT_TYPES = ("revolute", "prismatic")
+
+
+# ---------------------------------------------------------------------------
+# Elementary homogeneous transforms
+# ---------------------------------------------------------------------------
+def rot_x(a: float) -> np.ndarray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[1, 0, 0, 0], [0, c, -s, 0], [0, s, c, 0], [0, 0, 0, 1.0]])
+
+
+def rot_y(a: float) -> np.ndarray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, 0, s, 0], [0, 1, 0, 0], [-s, 0, c, 0], [0, 0, 0, 1.0]])
+
+
+def rot_z(a: float) -> np.ndarray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]])
+
+
+def trans(x: float = 0.0, y: float = 0.0, z: float = 0.0) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, 3] = (x, y, z)
+    return T
+
+
+def rpy_to_matrix(rpy) -> np.ndarray:
+    """URDF roll-pitch-yaw (fixed axes x, y, z) to a 3x3 rotation: Rz(y) Ry(p) Rx(r)."""
+    r, p, y = (float(v) for v in rpy)
+    return (rot_z(y) @ rot_y(p) @ rot_x(r))[:3, :3]
+
+
+def matrix_to_rpy(R: np.ndarray) -> tuple[float, float, float]:
+    """Inverse of :func:`rpy_to_matrix` (pitch in [-pi/2, pi/2]); exact round trip
+    to rounding, including the gimbal-lock case."""
+    R = np.asarray(R, dtype=np.float64)
+    sp = -R[2, 0]
+    sp = max(-1.0, min(1.0, sp))
+    pitch = math.asin(sp)
+    if abs(sp) < 1.0 - 1e-12:
+        roll = math.atan2(R[2, 1], R[2, 2])
+        yaw = math.atan2(R[1, 0], R[0, 0])
+    else:  # gimbal lock: only roll -/+ yaw is defined; put it all in roll
+        yaw = 0.0
+        roll = math.atan2(-R[1, 2], R[1, 1])
+        pitch = math.copysign(math.pi / 2, sp)
+    return roll, pitch, yaw
+
+
+def transform_inverse(T: np.ndarray) -> np.ndarray:
+    """Inverse of homogeneous transforms, eq. 2.2: ``[[R^T, -R^T p], [0, 1]]``.
+
+    ``T`` has shape ``(..., 4, 4)``; no general matrix inverse is used.
+    """
+    T = np.asarray(T, dtype=np.float64)
+    out = np.zeros_like(T)
+    Rt = np.swapaxes(T[..., :3, :3], -1, -2)
+    out[..., :3, :3] = Rt
+    out[..., :3, 3] = -np.einsum("...ij,...j->...i", Rt, T[..., :3, 3])
+    out[..., 3, 3] = 1.0
+    return out
+
+
+def dh_standard(theta, d, a, alpha) -> np.ndarray:
+    """Standard DH link transform, eq. 2.3: ``Rz(theta) Tz(d) Tx(a) Rx(alpha)``.
+
+    Arguments broadcast; the result has shape ``broadcast_shape + (4, 4)``.
+    Eq. 2.4 (prismatic, ``a = 0``) is the same matrix.
+    """
+    theta, d, a, alpha = np.broadcast_arrays(*(np.asarray(x, dtype=np.float64) for x in (theta, d, a, alpha)))
+    ct, st = np.cos(theta), np.sin(theta)
+    ca, sa = np.cos(alpha), np.sin(alpha)
+    A = np.zeros(theta.shape + (4, 4))
+    A[..., 0, 0] = ct
+    A[..., 0, 1] = -st * ca
+    A[..., 0, 2] = st * sa
+    A[..., 0, 3] = a * ct
+    A[..., 1, 0] = st
+    A[..., 1, 1] = ct * ca
+    A[..., 1, 2] = -ct * sa
+    A[..., 1, 3] = a * st
+    A[..., 2, 1] = sa
+    A[..., 2, 2] = ca
+    A[..., 2, 3] = d
+    A[..., 3, 3] = 1.0
+    return A
+
+
+def dh_modified(theta, d, a_prev, alpha_prev) -> np.ndarray:
+    """Modified (Craig) DH link transform: ``Rx(alpha_{n-1}) Tx(a_{n-1}) Rz(theta_n) Tz(d_n)``."""
+    theta, d, a, alpha = np.broadcast_arrays(
+        *(np.asarray(x, dtype=np.float64) for x in (theta, d, a_prev, alpha_prev))
+    )
+    ct, st = np.cos(theta), np.sin(theta)
+    ca, sa = np.cos(alpha), np.sin(alpha)
+    A = np.zeros(theta.shape + (4, 4))
+    A[..., 0, 0] = ct
+    A[..., 0, 1] = -st
+    A[..., 0, 3] = a
+    A[..., 1, 0] = st * ca
+    A[..., 1, 1] = ct * ca
+    A[..., 1, 2] = -sa
+    A[..., 1, 3] = -sa * d
+    A[..., 2, 0] = st * sa
+    A[..., 2, 1] = ct * sa
+    A[..., 2, 2] = ca
+    A[..., 2, 3] = ca * d
+    A[..., 3, 3] = 1.0
+    return A
+
+
+def _scalar(value, where: str, name: str) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ModelError(f"{where}: field '{name}' must be a number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise ModelError(f"{where}: field '{name}' must be finite, got {v}")
+    return v
+
+
+def _qlim(value, where: str):
+    if value is None:
+        return None
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ModelError(f"{where}: field 'qlim' must be (lower, upper), got {value!r}") from None
+    if arr.shape != (2,):
+        raise ModelError(f"{where}: field 'qlim' must have length 2 (lower, upper), got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ModelError(f"{where}: field 'qlim' must be finite, got {arr.tolist()}")
+    if not arr[0] < arr[1]:
+        raise ModelError(f"{where}: field 'qlim' must have lower < upper, got {arr.tolist()}")
+    return (float(arr[0]), float(arr[1]))
+
+
+def _check_actuator(where, motor_inertia, gear_ratio, friction_viscous, friction_coulomb):
+    jm = _scalar(motor_inertia, where, "motor_inertia")
+    if jm < 0:
+        raise ModelError(f"{where}: field 'motor_inertia' must be >= 0 kg m^2, got {jm}")
+    g = _scalar(gear_ratio, where, "gear_ratio")
+    if g == 0:
+        raise ModelError(f"{where}: field 'gear_ratio' must be non-zero, got {g}")
+    fv = _scalar(friction_viscous, where, "friction_viscous")
+    fc = _scalar(friction_coulomb, where, "friction_coulomb")
+    if fv < 0 or fc < 0:
+        raise ModelError(f"{where}: friction coefficients must be >= 0, got viscous={fv}, coulomb={fc}")
+    return jm, g, fv, fc
+
+
+@dataclass(frozen=True, eq=False)
+class DHLink:
+    """One Denavit-Hartenberg link with its inertia, immutable once built.
+
+    Parameters
+    ----------
+    joint : "revolute" | "prismatic"
+    a, alpha, d, theta : float
+        DH parameters (m, rad).  For the modified (Craig) convention ``a`` and
+        ``alpha`` are ``a_{n-1}`` and ``alpha_{n-1}``, the parameters written on
+        row n of a Craig table.  Fixed offsets: a revolute joint has
+        ``theta_n = q_n + theta``; a prismatic joint has ``d_n = q_n + d``.
+    mass : float
+        kg.
+    com : (3,)
+        Centre of mass in frame n (m).
+    inertia : (3, 3) or (3,)
+        Tensor about the centre of mass, frame-n axes, tensor sign (kg m^2).
+    qlim : (lower, upper) or None
+        Joint limits (rad or m).
+    motor_inertia, gear_ratio : float
+        Rotor inertia ``Jm`` (kg m^2, motor side) and gear ratio ``G``; the
+        reflected inertia ``G^2 Jm`` is added to ``D``'s diagonal.
+    friction_viscous, friction_coulomb : float
+        Joint friction ``tau_f = Fv qd + Fc sign(qd)`` (N m s/rad, N m), applied
+        outside the Lagrangian.
+    name : str
+        Optional link name, used in messages and in the URDF.
+    """
+
+    joint: str = "revolute"
+    a: float = 0.0
+    alpha: float = 0.0
+    d: float = 0.0
+    theta: float = 0.0
+    mass: float = 0.0
+    com: object = (0.0, 0.0, 0.0)
+    inertia: object = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    qlim: object = None
+    motor_inertia: float = 0.0
+    gear_ratio: float = 1.0
+    friction_viscous: float = 0.0
+    friction_coulomb: float = 0.0
+    name: str = ""
+
+    def __post_init__(self) -> None:
+        where = f"link '{self.name}'" if self.name else "DHLink"
+        if self.joint not in JOINT_TYPES:
+            raise ModelError(
+                f"{where}: field 'joint' must be 'revolute' or 'prismatic', got {self.joint!r}"
+            )
+        for f in ("a", "alpha", "d", "theta"):
+            object.__setattr__(self, f, _scalar(getattr(self, f), where, f))
+        body = LinkInertia(self.mass, self.com, self.inertia, name=where)
+        object.__setattr__(self, "mass", body.mass)
+        object.__setattr__(self, "com", body.com)
+        object.__setattr__(self, "inertia", body.inertia)
+        object.__setattr__(self, "qlim", _qlim(self.qlim, where))
+        jm, g, fv, fc = _check_actuator(
+            where, self.motor_inertia, self.gear_ratio, self.friction_viscous, self.friction_coulomb
+        )
+        object.__setattr__(self, "motor_inertia", jm)
+        object.__setattr__(self, "gear_ratio", g)
+        object.__setattr__(self, "friction_viscous", fv)
+        object.__setattr__(self, "friction_coulomb", fc)
+
+    @property
+    def body(self) -> LinkInertia:
+        """The link's mass properties as a :class:`LinkInertia` (frame n)."""
+        return LinkInertia(self.mass, self.com, self.inertia, name=self.name or "DHLink")
+
+    @property
+    def armature(self) -> float:
+        """Reflected rotor inertia ``G^2 Jm`` (kg m^2 or kg)."""
+        return self.gear_ratio**2 * self.motor_inertia
+
+    def A(self, q, convention: str = "standard") -> np.ndarray:
+        """The link transform A_n(q) (eq. 2.3/2.4, or Craig's), shape ``q.shape + (4, 4)``."""
+        q = np.asarray(q, dtype=np.float64)
+        if self.joint == "revolute":
+            th, d = q + self.theta, self.d
+        else:
+            th, d = self.theta, q + self.d
+        f = dh_standard if convention == "standard" else dh_modified
+        return f(th, d, self.a, self.alpha)
+
+    def __repr__(self) -> str:
+        parts = [f"joint={self.joint!r}", f"a={self.a!r}", f"alpha={self.alpha!r}",
+                 f"d={self.d!r}", f"theta={self.theta!r}", f"mass={self.mass!r}"]
+        if self.mass:
+            parts += [f"com={self.com.tolist()!r}", f"inertia={self.inertia.tolist()!r}"]
+        if self.qlim is not None:
+            parts.append(f"qlim={self.qlim!r}")
+        if self.motor_inertia:
+            parts += [f"motor_inertia={self.motor_inertia!r}", f"gear_ratio={self.gear_ratio!r}"]
+        if self.name:
+            parts.append(f"name={self.name!r}")
+        return "DHLink(" + ", ".join(parts) + ")"
+
+
+@dataclass(frozen=True, eq=False)
+class ChainJoint:
+    """One joint of a generic serial chain (a URDF chain).
+
+    The child link frame is ``L_j = L_{j-1} @ origin @ M(q_j)`` with ``M`` a
+    rotation about (revolute) or a translation along (prismatic) the unit
+    ``axis``, expressed in the joint frame.  ``body`` is the child link's
+    inertia in the child link frame.
+    """
+
+    name: str
+    joint: str
+    origin: np.ndarray
+    axis: np.ndarray
+    body: LinkInertia
+    qlim: tuple | None = None
+    armature: float = 0.0
+    friction_viscous: float = 0.0
+    friction_coulomb: float = 0.0
+    effort: float | None = None
+    velocity: float | None = None
+    link_name: str = ""
+
+    def __post_init__(self) -> None:
+        where = f"joint '{self.name}'"
+        if self.joint not in JOINT_TYPES:
+            raise ModelError(f"{where}: type must be 'revolute' or 'prismatic', got {self.joint!r}")
+        T = np.array(self.origin, dtype=np.float64)
+        if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+            raise ModelError(f"{where}: origin must be a finite 4x4 transform")
+        T.setflags(write=False)
+        object.__setattr__(self, "origin", T)
+        ax = as_vector3(self.axis, where, "axis")
+        nrm = float(np.linalg.norm(ax))
+        if nrm == 0:
+            raise ModelError(f"{where}: axis must be non-zero")
+        ax = ax / nrm
+        ax.setflags(write=False)
+        object.__setattr__(self, "axis", ax)
+        object.__setattr__(self, "qlim", _qlim(self.qlim, where))
+
+
+# ---------------------------------------------------------------------------
+# Batched kinematics providers used by the trace-form engine
+# ---------------------------------------------------------------------------
+def _cumulative(A: np.ndarray, base: np.ndarray | None = None) -> np.ndarray:
+    """``T_i = A_1 ... A_i`` (eq. 2.7) for A of shape (B, n, 4, 4)."""
+    T = np.empty_like(A)
+    prev = A[:, 0] if base is None else base @ A[:, 0]
+    T[:, 0] = prev
+    for i in range(1, A.shape[1]):  # sequential by nature: one matmul per joint, batched
+        prev = prev @ A[:, i]
+        T[:, i] = prev
+    return T
+
+
+def _generators(G: np.ndarray, axis: np.ndarray, revolute: np.ndarray) -> np.ndarray:
+    """Motion generators in the base frame, ``Delta_j = G_j Q_j G_j^{-1}``.
+
+    ``G`` (B, n, 4, 4) is joint j's frame (after or before its own motion: the
+    two give the same Delta), ``axis`` (n, 3) the joint axis in that frame.
+    Revolute: ``[[w^, p x w], [0, 0]]`` with ``w = R axis``; prismatic:
+    ``[[0, R axis], [0, 0]]``.
+    """
+    R = G[..., :3, :3]
+    p = G[..., :3, 3]
+    w = np.einsum("bnij,nj->bni", R, axis)
+    D = np.zeros(G.shape)
+    rev = revolute[None, :, None]
+    wr = np.where(rev, w, 0.0)
+    D[..., 0, 1] = -wr[..., 2]
+    D[..., 0, 2] = wr[..., 1]
+    D[..., 1, 0] = wr[..., 2]
+    D[..., 1, 2] = -wr[..., 0]
+    D[..., 2, 0] = -wr[..., 1]
+    D[..., 2, 1] = wr[..., 0]
+    D[..., :3, 3] = np.where(rev, np.cross(p, w), w)
+    return D
+
+
+class DHKinematics:
+    """Link frames and generators of a DH chain, computed from the A matrices."""
+
+    def __init__(self, links, convention: str):
+        self.n = len(links)
+        self.convention = convention
+        self.revolute = np.array([l.joint == "revolute" for l in links])
+        self.a = np.array([l.a for l in links])
+        self.alpha = np.array([l.alpha for l in links])
+        self.d = np.array([l.d for l in links])
+        self.theta = np.array([l.theta for l in links])
+        self.axis = np.tile([0.0, 0.0, 1.0], (self.n, 1))
+        self._eye = np.eye(4)
+
+    def A(self, q: np.ndarray) -> np.ndarray:
+        """All link transforms, (B, n, 4, 4), for q of shape (B, n)."""
+        th = np.where(self.revolute, q + self.theta, self.theta)
+        d = np.where(self.revolute, self.d, q + self.d)
+        if self.convention == "standard":
+            return dh_standard(th, d, self.a, self.alpha)
+        return dh_modified(th, d, self.a, self.alpha)
+
+    def poses(self, q: np.ndarray) -> np.ndarray:
+        """``T_1 .. T_n`` (eq. 2.7), (B, n, 4, 4)."""
+        return _cumulative(self.A(q))
+
+    def tool(self, T: np.ndarray) -> np.ndarray:
+        return T[:, -1]
+
+    def frames(self, q: np.ndarray):
+        """Return ``(T, Delta)``: link frames and base-frame generators, (B, n, 4, 4) each."""
+        T = self.poses(q)
+        if self.convention == "standard":
+            # joint j moves about z of frame j-1: Delta_j = T_{j-1} Q T_{j-1}^{-1}
+            G = np.empty_like(T)
+            G[:, 0] = self._eye
+            G[:, 1:] = T[:, :-1]
+        else:
+            # modified DH: joint j moves about z of frame j itself
+            G = T
+        return T, _generators(G, self.axis, self.revolute)
+
+
+def _axis_motion(axis: np.ndarray, revolute: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Joint motions M_j(q_j), (B, n, 4, 4): Rodrigues rotations or translations."""
+    B, n = q.shape
+    M = np.zeros((B, n, 4, 4))
+    M[..., 3, 3] = 1.0
+    qr = np.where(revolute, q, 0.0)
+    c, s = np.cos(qr), np.sin(qr)
+    x, y, z = axis[:, 0], axis[:, 1], axis[:, 2]
+    C = 1.0 - c
+    M[..., 0, 0] = c + x * x * C
+    M[..., 0, 1] = x * y * C - z * s
+    M[..., 0, 2] = x * z * C + y * s
+    M[..., 1, 0] = y * x * C + z * s
+    M[..., 1, 1] = c + y * y * C
+    M[..., 1, 2] = y * z * C - x * s
+    M[..., 2, 0] = z * x * C - y * s
+    M[..., 2, 1] = z * y * C + x * s
+    M[..., 2, 2] = c + z * z * C
+    qp = np.where(revolute, 0.0, q)
+    M[..., :3, 3] = qp[..., None] * axis
+    return M
+
+
+class ChainKinematics:
+    """Link frames and generators of a generic chain of fixed transforms and joints."""
+
+    def __init__(self, joints, tool: np.ndarray):
+        self.n = len(joints)
+        self.revolute = np.array([j.joint == "revolute" for j in joints])
+        self.axis = np.array([j.axis for j in joints])
+        self.origins = np.array([j.origin for j in joints])
+        self.tool_T = np.asarray(tool, dtype=np.float64)
+
+    def poses(self, q: np.ndarray) -> np.ndarray:
+        A = self.origins[None] @ _axis_motion(self.axis, self.revolute, q)
+        return _cumulative(A)
+
+    def tool(self, T: np.ndarray) -> np.ndarray:
+        return T[:, -1] @ self.tool_T
+
+    def frames(self, q: np.ndarray):
+        T = self.poses(q)
+        return T, _generators(T, self.axis, self.revolute)

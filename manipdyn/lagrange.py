@@ -1,0 +1,224 @@
+"""The trace-form Lagrange-Euler engine (chapter II, eq. 2.22 to 2.39).
+
+This is manipdyn's independent slow path.  It shares no code with the
+Pinocchio path: it works from the link frames ``T_p`` and the derivatives
+``dT_p/dq_j = Delta_j T_p`` and ``d2T_p/dq_j dq_k = Delta_j Delta_k T_p``
+(``j <= k <= p``), and the pseudo-inertias ``J_p`` of eq. 2.21.
+
+The sums of eq. 2.37 to 2.39 are evaluated regrouped by link index p
+(CONVENTIONS.md, "Computing the trace form fast"); they are the same sums.
+A plain-loop transcription of the equations lives in ``tests/reference.py``
+and the tests prove the two agree.
+
+Every method takes one state ``(n,)`` or a batch ``(N, n)`` and returns
+arrays with the same leading shape.  Units: SI (rad, m, kg, N m, N).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._state import as_state, same_batch
+
+__all__ = ["TraceFormEngine"]
+
+
+def _rev_cumsum(x: np.ndarray, axis: int = 1) -> np.ndarray:
+    """Tail sums ``out[k] = sum_{p >= k} x[p]`` along ``axis``."""
+    return np.flip(np.cumsum(np.flip(x, axis), axis), axis)
+
+
+class TraceFormEngine:
+    """Trace-form Lagrange-Euler dynamics of one arm.
+
+    Built by :class:`manipdyn.Manipulator`; reach it as ``arm.lagrange``.
+
+    Parameters
+    ----------
+    kinematics : object
+        Provides ``n``, ``frames(q) -> (T, Delta)`` and ``tool(T)``.
+    J : (n, 4, 4)
+        Pseudo-inertia of each link in its frame ``T_p`` (eq. 2.21).
+    gravity : (3,)
+        Acceleration of gravity in the base frame, m/s^2.
+    armature : (n,)
+        Reflected rotor inertia ``G^2 Jm`` per joint (kg m^2 or kg).
+    friction : (2, n) or None
+        Viscous and Coulomb friction coefficients per joint.
+    """
+
+    name = "lagrange"
+
+    def __init__(self, kinematics, J, gravity, armature=None, friction=None):
+        self._kin = kinematics
+        self.n = kinematics.n
+        self.J = np.asarray(J, dtype=np.float64)
+        self.J.setflags(write=False)
+        self.gravity = np.asarray(gravity, dtype=np.float64)
+        # homogeneous gravity vector g = [gx, gy, gz, 0] (eq. 2.23)
+        self._g4 = np.append(self.gravity, 0.0)
+        # m_p r_bar_p, the last column of J_p (CONVENTIONS: gravity torque)
+        self._mr = np.ascontiguousarray(self.J[:, :, 3])
+        self.armature = np.zeros(self.n) if armature is None else np.asarray(armature, dtype=np.float64)
+        self._has_armature = bool(np.any(self.armature))
+        self.friction = None if friction is None else np.asarray(friction, dtype=np.float64)
+        if self.friction is not None and not np.any(self.friction):
+            self.friction = None
+
+    # -- internals ---------------------------------------------------------
+    def _q(self, q, name="q"):
+        q = as_state(q, name, self.n)
+        return q, q.ndim == 1
+
+    @staticmethod
+    def _batch(x: np.ndarray) -> np.ndarray:
+        return x[None] if x.ndim == 1 else x
+
+    def _frames(self, qb):
+        T, Delta = self._kin.frames(qb)
+        # W_p = T_p J_p T_p^T: link p's pseudo-inertia seen from the base
+        W = T @ self.J @ np.swapaxes(T, -1, -2)
+        return T, Delta, W
+
+    def _D(self, Delta, W):
+        """D_ij = tr(Delta_j Wbar_{max(i,j)} Delta_i^T) (eq. 2.39, regrouped)."""
+        n = self.n
+        Wbar = _rev_cumsum(W)
+        idx = np.maximum.outer(np.arange(n), np.arange(n))
+        # Y[b, i, j] = Delta_j Wbar_{max(i,j)}
+        Y = Delta[:, None, :, :, :] @ Wbar[:, idx]
+        D = np.einsum("bijac,biac->bij", Y, Delta)
+        if self._has_armature:
+            D = D + np.diag(self.armature)
+        return D
+
+    def _h(self, Delta, W, qd):
+        """h_i = sum_jk D_ijk qd_j qd_k (eq. 2.39), regrouped by link p."""
+        V = Delta * qd[:, :, None, None]                       # Delta_k qd_k
+        Omega = np.cumsum(V, axis=1) - V                       # sum_{j<k} Delta_j qd_j
+        A = np.cumsum((2.0 * Omega + V) @ V, axis=1)           # A_p
+        F = _rev_cumsum(A @ W)                                 # F_i = sum_{p>=i} A_p W_p
+        return np.einsum("biac,biac->bi", F, Delta)            # tr(F_i Delta_i^T)
+
+    def _g(self, T, Delta):
+        """g_i = -sum_{p>=i} m_p g^T (dT_p/dq_i) r_bar_p (eq. 2.39, D_i)."""
+        c = np.einsum("bpij,pj->bpi", T, self._mr)             # m_p T_p r_bar_p
+        cbar = _rev_cumsum(c)
+        return -np.einsum("a,biac,bic->bi", self._g4, Delta, cbar)
+
+    def _friction(self, qd):
+        if self.friction is None:
+            return 0.0
+        return self.friction[0] * qd + self.friction[1] * np.sign(qd)
+
+    @staticmethod
+    def _out(x, single):
+        return x[0] if single else x
+
+    # -- public API ---------------------------------------------------------
+    def mass_matrix(self, q) -> np.ndarray:
+        """Inertia matrix D(q) (eq. 2.39, D_ij), (n, n) or (N, n, n), SI units."""
+        q, single = self._q(q)
+        _, Delta, W = self._frames(self._batch(q))
+        return self._out(self._D(Delta, W), single)
+
+    def coriolis_torque(self, q, qd) -> np.ndarray:
+        """Coriolis and centripetal torque h(q, qd) (eq. 2.39, D_ijk), (n,) or (N, n).
+
+        Friction, if the model has it, is not included (see :meth:`friction_torque`).
+        """
+        q, single = self._q(q)
+        qd = as_state(qd, "qd", self.n)
+        same_batch((q, "q"), (qd, "qd"))
+        _, Delta, W = self._frames(self._batch(q))
+        return self._out(self._h(Delta, W, self._batch(qd)), single)
+
+    def gravity_torque(self, q) -> np.ndarray:
+        """Gravity torque g(q) (eq. 2.39, D_i): the torque that holds the arm still."""
+        q, single = self._q(q)
+        T, Delta = self._kin.frames(self._batch(q))
+        return self._out(self._g(T, Delta), single)
+
+    def friction_torque(self, qd) -> np.ndarray:
+        """Joint friction ``Fv qd + Fc sign(qd)``, outside the Lagrangian (zero if none)."""
+        qd = as_state(qd, "qd", self.n)
+        return np.zeros_like(qd) + self._friction(qd)
+
+    def dynamics_terms(self, q, qd):
+        """``(D, h, g)`` in one pass over the kinematics (the cheap way to get all three)."""
+        q, single = self._q(q)
+        qd = as_state(qd, "qd", self.n)
+        same_batch((q, "q"), (qd, "qd"))
+        T, Delta, W = self._frames(self._batch(q))
+        D = self._D(Delta, W)
+        h = self._h(Delta, W, self._batch(qd))
+        g = self._g(T, Delta)
+        if single:
+            return D[0], h[0], g[0]
+        return D, h, g
+
+    def inverse_dynamics(self, q, qd, qdd) -> np.ndarray:
+        """Joint torques ``tau = D qdd + h + g`` (eq. 2.39), plus friction if modelled."""
+        q, single = self._q(q)
+        qd = as_state(qd, "qd", self.n)
+        qdd = as_state(qdd, "qdd", self.n)
+        same_batch((q, "q"), (qd, "qd"), (qdd, "qdd"))
+        qdb = self._batch(qd)
+        T, Delta, W = self._frames(self._batch(q))
+        tau = (
+            np.einsum("bij,bj->bi", self._D(Delta, W), self._batch(qdd))
+            + self._h(Delta, W, qdb)
+            + self._g(T, Delta)
+            + self._friction(qdb)
+        )
+        return self._out(tau, single)
+
+    def forward_dynamics(self, q, qd, tau) -> np.ndarray:
+        """Joint accelerations solving ``D qdd = tau - h - g`` (minus friction)."""
+        q, single = self._q(q)
+        qd = as_state(qd, "qd", self.n)
+        tau = as_state(tau, "tau", self.n)
+        same_batch((q, "q"), (qd, "qd"), (tau, "tau"))
+        qdb = self._batch(qd)
+        T, Delta, W = self._frames(self._batch(q))
+        rhs = self._batch(tau) - self._h(Delta, W, qdb) - self._g(T, Delta) - self._friction(qdb)
+        qdd = np.linalg.solve(self._D(Delta, W), rhs[..., None])[..., 0]
+        return self._out(qdd, single)
+
+    def kinetic_energy(self, q, qd) -> np.ndarray:
+        """Kinetic energy K (eq. 2.22, plus rotors), J; scalar or (N,).
+
+        Computed from the trace of eq. 2.22 directly, ``K = 1/2 sum_i
+        tr(Tdot_i J_i Tdot_i^T)`` with ``Tdot_i = (sum_j Delta_j qd_j) T_i``,
+        not from D, so that ``K = qd^T D qd / 2`` is a real check.
+        """
+        q, single = self._q(q)
+        qd = as_state(qd, "qd", self.n)
+        same_batch((q, "q"), (qd, "qd"))
+        qdb = self._batch(qd)
+        T, Delta = self._kin.frames(self._batch(q))
+        Omega = np.cumsum(Delta * qdb[:, :, None, None], axis=1)  # sum_{j<=i} Delta_j qd_j
+        Tdot = Omega @ T
+        K = 0.5 * np.einsum("biac,icd,biad->b", Tdot, self.J, Tdot)
+        K = K + 0.5 * (qdb**2) @ self.armature
+        return K[0] if single else K
+
+    def potential_energy(self, q) -> np.ndarray:
+        """Potential energy P = -sum_i m_i g^T T_i r_bar_i (eq. 2.24), J; scalar or (N,)."""
+        q, single = self._q(q)
+        T, _ = self._kin.frames(self._batch(q))
+        P = -np.einsum("a,bpac,pc->b", self._g4, T, self._mr)
+        return P[0] if single else P
+
+    # -- kinematics passthrough -------------------------------------------
+    def link_poses(self, q) -> np.ndarray:
+        """Link frames T_1..T_n in the base frame (eq. 2.7), (n, 4, 4) or (N, n, 4, 4)."""
+        q, single = self._q(q)
+        T = self._kin.poses(self._batch(q))
+        return self._out(T, single)
+
+    def fkine(self, q) -> np.ndarray:
+        """End pose (4, 4) or (N, 4, 4) in the base frame."""
+        q, single = self._q(q)
+        T = self._kin.tool(self._kin.poses(self._batch(q)))
+        return self._out(T, single)

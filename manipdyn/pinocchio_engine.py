@@ -1,0 +1,175 @@
+"""The fast path: Pinocchio's RNEA, CRBA and ABA on the arm's URDF.
+
+The model is built from URDF text with ``pinocchio.buildModelFromXML`` (no
+temporary files).  Each engine owns its ``pin.Data``: an engine is not meant
+to be shared between threads; batch calls use Pinocchio's own thread pool.
+
+Every method takes one state ``(n,)`` or a batch ``(N, n)`` and returns a
+new array of the same leading shape (SI units, joint order of the chain).
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pinocchio as pin
+
+from ._state import as_state, same_batch
+
+__all__ = ["PinocchioEngine", "model_from_urdf"]
+
+
+def model_from_urdf(urdf_text: str, gravity, armature=None) -> "pin.Model":
+    """Build a fixed-base ``pin.Model`` from URDF text, with the given gravity (m/s^2)."""
+    model = pin.buildModelFromXML(urdf_text)
+    model.gravity.linear = np.asarray(gravity, dtype=np.float64)
+    if armature is not None:
+        model.armature = np.asarray(armature, dtype=np.float64)
+    return model
+
+
+def _threads() -> int:
+    return max(1, min(len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1), 8))
+
+
+class PinocchioEngine:
+    """Pinocchio dynamics with the same methods and shapes as ``arm.lagrange``.
+
+    Parameters
+    ----------
+    model : pin.Model
+        A fixed-base model whose ``nq == nv == n`` (revolute and prismatic joints).
+    friction : (2, n) or None
+        Viscous and Coulomb coefficients applied outside the Lagrangian, the
+        same way as in the trace-form engine.
+    num_threads : int or None
+        Threads for batch calls (default: the CPUs available, at most 8).
+    """
+
+    name = "pinocchio"
+
+    def __init__(self, model, friction=None, num_threads=None):
+        self.model = model
+        self.data = model.createData()
+        self.n = model.nv
+        # a gravity-free twin: h(q, qd) = rnea(q, qd, 0) without gravity, one call
+        self._model0 = model.copy()
+        self._model0.gravity.linear = np.zeros(3)
+        self._data0 = self._model0.createData()
+        self._zeros = np.zeros(self.n)
+        self.friction = None
+        if friction is not None and np.any(friction):
+            self.friction = np.asarray(friction, dtype=np.float64)
+        self.num_threads = num_threads or _threads()
+        self._pool = None
+
+    @property
+    def gravity(self) -> np.ndarray:
+        return np.array(self.model.gravity.linear)
+
+    def _get_pool(self):
+        if self._pool is None:
+            self._pool = pin.ModelPool(self.model, self.num_threads)
+        return self._pool
+
+    def _friction(self, qd):
+        if self.friction is None:
+            return 0.0
+        return self.friction[0] * qd + self.friction[1] * np.sign(qd)
+
+    # -- public API ---------------------------------------------------------
+    def mass_matrix(self, q) -> np.ndarray:
+        """Inertia matrix D(q) by CRBA, (n, n) or (N, n, n); full and symmetric."""
+        q = as_state(q, "q", self.n)
+        if q.ndim == 1:
+            return pin.crba(self.model, self.data, q)
+        m, d = self.model, self.data
+        return np.array([pin.crba(m, d, qi) for qi in q]).reshape(len(q), self.n, self.n)
+
+    def coriolis_torque(self, q, qd) -> np.ndarray:
+        """Coriolis and centripetal torque h(q, qd), (n,) or (N, n) (no friction)."""
+        q = as_state(q, "q", self.n)
+        qd = as_state(qd, "qd", self.n)
+        if q.ndim == 1 and qd.ndim == 1:
+            return pin.rnea(self._model0, self._data0, q, qd, self._zeros)
+        same_batch((q, "q"), (qd, "qd"))
+        m, d, z = self._model0, self._data0, self._zeros
+        return np.array([pin.rnea(m, d, qi, vi, z) for qi, vi in zip(q, qd)]).reshape(q.shape)
+
+    def gravity_torque(self, q) -> np.ndarray:
+        """Gravity torque g(q): the torque that holds the arm still, (n,) or (N, n)."""
+        q = as_state(q, "q", self.n)
+        if q.ndim == 1:
+            return pin.computeGeneralizedGravity(self.model, self.data, q)
+        m, d = self.model, self.data
+        return np.array([pin.computeGeneralizedGravity(m, d, qi) for qi in q]).reshape(q.shape)
+
+    def friction_torque(self, qd) -> np.ndarray:
+        """Joint friction ``Fv qd + Fc sign(qd)`` (zero if none)."""
+        qd = as_state(qd, "qd", self.n)
+        return np.zeros_like(qd) + self._friction(qd)
+
+    def dynamics_terms(self, q, qd):
+        """``(D, h, g)`` for one state or a batch."""
+        return self.mass_matrix(q), self.coriolis_torque(q, qd), self.gravity_torque(q)
+
+    def inverse_dynamics(self, q, qd, qdd) -> np.ndarray:
+        """Joint torques by RNEA, ``tau = D qdd + h + g`` (+ friction), (n,) or (N, n)."""
+        q = as_state(q, "q", self.n)
+        qd = as_state(qd, "qd", self.n)
+        qdd = as_state(qdd, "qdd", self.n)
+        if q.ndim == 1 and qd.ndim == 1 and qdd.ndim == 1:
+            tau = pin.rnea(self.model, self.data, q, qd, qdd)
+        else:
+            same_batch((q, "q"), (qd, "qd"), (qdd, "qdd"))
+            tau = pin.rneaInParallel(self.num_threads, self._get_pool(), q.T, qd.T, qdd.T).T
+        if self.friction is not None:
+            tau = tau + self._friction(qd)
+        return tau
+
+    def forward_dynamics(self, q, qd, tau) -> np.ndarray:
+        """Joint accelerations by ABA, solving ``D qdd = tau - h - g`` (- friction)."""
+        q = as_state(q, "q", self.n)
+        qd = as_state(qd, "qd", self.n)
+        tau = as_state(tau, "tau", self.n)
+        if self.friction is not None:
+            tau = tau - self._friction(qd)
+        if q.ndim == 1 and qd.ndim == 1 and tau.ndim == 1:
+            return pin.aba(self.model, self.data, q, qd, tau)
+        same_batch((q, "q"), (qd, "qd"), (tau, "tau"))
+        return pin.abaInParallel(self.num_threads, self._get_pool(), q.T, qd.T, tau.T).T
+
+    def kinetic_energy(self, q, qd):
+        """Kinetic energy (J), rotors included; scalar or (N,)."""
+        q = as_state(q, "q", self.n)
+        qd = as_state(qd, "qd", self.n)
+        if q.ndim == 1:
+            return float(pin.computeKineticEnergy(self.model, self.data, q, qd))
+        same_batch((q, "q"), (qd, "qd"))
+        m, d = self.model, self.data
+        return np.array([pin.computeKineticEnergy(m, d, qi, vi) for qi, vi in zip(q, qd)])
+
+    def potential_energy(self, q):
+        """Potential energy (J), zero at the base origin height; scalar or (N,)."""
+        q = as_state(q, "q", self.n)
+        if q.ndim == 1:
+            return float(pin.computePotentialEnergy(self.model, self.data, q))
+        m, d = self.model, self.data
+        return np.array([pin.computePotentialEnergy(m, d, qi) for qi in q])
+
+    def frame_placement(self, q, frame: str) -> np.ndarray:
+        """Pose (4, 4) or (N, 4, 4) of a named URDF frame (link) in the base frame."""
+        q = as_state(q, "q", self.n)
+        fid = self.model.getFrameId(frame)
+        if fid >= self.model.nframes:
+            raise KeyError(f"frame {frame!r} is not in the Pinocchio model")
+        m, d = self.model, self.data
+
+        def one(qi):
+            pin.framesForwardKinematics(m, d, qi)
+            return d.oMf[fid].homogeneous.copy()
+
+        if q.ndim == 1:
+            return one(q)
+        return np.array([one(qi) for qi in q])
