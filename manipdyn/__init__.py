@@ -17,22 +17,26 @@ from .errors import ModelError, PhysicalConsistencyWarning, StateError
 from .inertia import LinkInertia
 from .kinematics import ChainJoint, DHLink, transform_inverse
 from .arm import Arm, Manipulator
+from .check import CrosscheckReport, crosscheck
 
 __version__ = "0.1.0"
 
 __all__ = [
     "Arm", "ChainJoint", "DHLink", "LinkInertia", "Manipulator", "ModelError",
     "PhysicalConsistencyWarning", "StateError", "transform_inverse",
-    "crosscheck", "load", "models",
+    "crosscheck", "CrosscheckReport", "load", "models",
 ]
 
 
 def __getattr__(name):
     # Lazy imports: pinocchio and yourdfpy load only when a function needs them.
-    if name == "crosscheck":
-        from .crosscheck import crosscheck
-        return crosscheck
     if name in ("load", "models"):
         from . import modelfile
         return getattr(modelfile, name)
+    if name in ("compare", "CompareReport"):
+        from . import compare as _compare
+        return getattr(_compare, name)
+    if name == "simulate":
+        from .control import simulate
+        return simulate
     raise AttributeError(f"module 'manipdyn' has no attribute {name!r}")

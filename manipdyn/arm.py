@@ -159,7 +159,7 @@ class Arm:
 
     def crosscheck(self, samples: int = 1000, seed: int = 0, **kw):
         """Shortcut for :func:`manipdyn.crosscheck` on this arm."""
-        from .crosscheck import crosscheck
+        from .check import crosscheck
 
         return crosscheck(self, samples=samples, seed=seed, **kw)
 
@@ -188,10 +188,13 @@ class Manipulator(Arm):
         (:class:`PhysicalConsistencyWarning`).
     source : str
         Citation of the data (model files require it for bundled arms).
+    sources : dict, optional
+        Citations per group of values (``kinematics``, ``inertia``,
+        ``corrections``, ...), as in model files.
     """
 
     def __init__(self, links, convention: str = "standard", gravity=(0.0, 0.0, -9.81),
-                 name: str = "", strict: bool = False, source: str = ""):
+                 name: str = "", strict: bool = False, source: str = "", sources=None):
         if convention not in ("standard", "modified"):
             raise ModelError(f"convention: must be 'standard' or 'modified', got {convention!r}")
         links = tuple(links)
@@ -205,6 +208,7 @@ class Manipulator(Arm):
         self.gravity = _gravity(gravity)
         self.name = str(name)
         self.source = str(source)
+        self.sources = dict(sources or {})
         self.strict = bool(strict)
         self.joint_types = tuple(l.joint for l in links)
         self._qlim = np.array([l.qlim if l.qlim is not None else DEFAULT_QLIM[l.joint] for l in links])
@@ -221,6 +225,7 @@ class Manipulator(Arm):
         if not isinstance(other, Manipulator):
             return NotImplemented
         return (self.convention == other.convention and self.name == other.name
+                and self.source == other.source and self.sources == other.sources
                 and np.array_equal(self.gravity, other.gravity)
                 and len(self.links) == len(other.links)
                 and all(_dh_equal(a, b) for a, b in zip(self.links, other.links)))

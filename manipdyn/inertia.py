@@ -252,7 +252,7 @@ class LinkInertia:
             if np.allclose(I, np.diag(np.diag(I))):
                 d = np.diag(I)
                 for k in range(3):
-                    i, j = (k + 1) % 3, (k + 2) % 3
+                    i, j = sorted(((k + 1) % 3, (k + 2) % 3))
                     if d[i] + d[j] < d[k] - tol:
                         problems.append(
                             f"triangle inequality {names[i]} + {names[j]} >= {names[k]} broken "

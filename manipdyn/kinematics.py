@@ -342,28 +342,84 @@ def _cumulative(A: np.ndarray, base: np.ndarray | None = None) -> np.ndarray:
     return T
 
 
-def _generators(G: np.ndarray, axis: np.ndarray, revolute: np.ndarray) -> np.ndarray:
+# Linear map from a twist (w, v) to the 4x4 generator [[w^, v], [0, 0]],
+# flattened: Delta.reshape(16) = twist @ _TWIST_TO_4X4.
+_TWIST_TO_4X4 = np.zeros((6, 16))
+for _r, _c, _k, _sgn in ((0, 1, 2, -1), (0, 2, 1, 1), (1, 0, 2, 1), (1, 2, 0, -1), (2, 0, 1, -1), (2, 1, 0, 1)):
+    _TWIST_TO_4X4[_k, 4 * _r + _c] = _sgn
+for _r in range(3):
+    _TWIST_TO_4X4[3 + _r, 4 * _r + 3] = 1.0
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross product along the last axis (cheaper than np.cross on small arrays)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a1 * b2 - a2 * b1
+    out[..., 1] = a2 * b0 - a0 * b2
+    out[..., 2] = a0 * b1 - a1 * b0
+    return out
+
+
+def _generators(G: np.ndarray, w: np.ndarray, revolute: np.ndarray) -> np.ndarray:
     """Motion generators in the base frame, ``Delta_j = G_j Q_j G_j^{-1}``.
 
-    ``G`` (B, n, 4, 4) is joint j's frame (after or before its own motion: the
-    two give the same Delta), ``axis`` (n, 3) the joint axis in that frame.
-    Revolute: ``[[w^, p x w], [0, 0]]`` with ``w = R axis``; prismatic:
-    ``[[0, R axis], [0, 0]]``.
+    ``G`` (B, n, 4, 4) is joint j's frame (before or after its own motion:
+    the two give the same Delta) and ``w`` (B, n, 3) the joint axis in base
+    coordinates, ``w = R_j axis_j``.  For a revolute joint Delta is
+    ``[[w^, p x w], [0, 0]]`` (p the origin of G_j); for a prismatic joint
+    ``[[0, w], [0, 0]]``.  Same matrix as ``G Q G^{-1}``, built without
+    inverting G.
     """
-    R = G[..., :3, :3]
-    p = G[..., :3, 3]
-    w = np.einsum("bnij,nj->bni", R, axis)
-    D = np.zeros(G.shape)
-    rev = revolute[None, :, None]
-    wr = np.where(rev, w, 0.0)
-    D[..., 0, 1] = -wr[..., 2]
-    D[..., 0, 2] = wr[..., 1]
-    D[..., 1, 0] = wr[..., 2]
-    D[..., 1, 2] = -wr[..., 0]
-    D[..., 2, 0] = -wr[..., 1]
-    D[..., 2, 1] = wr[..., 0]
-    D[..., :3, 3] = np.where(rev, np.cross(p, w), w)
-    return D
+    B, n = G.shape[:2]
+    twist = np.empty((B, n, 6))
+    rev = revolute[:, None]
+    twist[..., :3] = np.where(rev, w, 0.0)
+    twist[..., 3:] = np.where(rev, _cross(G[..., :3, 3], w), w)
+    return (twist @ _TWIST_TO_4X4).reshape(B, n, 4, 4)
+
+
+def _dh_coefficients(a, alpha, convention: str) -> np.ndarray:
+    """Constant matrices K (n, 4, 16) with ``A_n = [cos th, sin th, d, 1] @ K_n``.
+
+    Eq. 2.3 (standard) and Craig's modified transform are linear in
+    ``cos(theta_n)``, ``sin(theta_n)`` and ``d_n`` once a and alpha are fixed;
+    this writes each A matrix as that linear combination, element by element
+    as the equations print them, so all links of a batch are one matmul.
+    """
+    n = len(a)
+    K = np.zeros((n, 4, 4, 4))  # [link, coefficient (c, s, d, 1), row, col]
+    ca, sa = np.cos(alpha), np.sin(alpha)
+    C, S, Dd, One = 0, 1, 2, 3
+    if convention == "standard":
+        # [[c, -s ca, s sa, a c], [s, c ca, -c sa, a s], [0, sa, ca, d], [0, 0, 0, 1]]
+        K[:, C, 0, 0] = 1.0
+        K[:, S, 0, 1] = -ca
+        K[:, S, 0, 2] = sa
+        K[:, C, 0, 3] = a
+        K[:, S, 1, 0] = 1.0
+        K[:, C, 1, 1] = ca
+        K[:, C, 1, 2] = -sa
+        K[:, S, 1, 3] = a
+        K[:, One, 2, 1] = sa
+        K[:, One, 2, 2] = ca
+        K[:, Dd, 2, 3] = 1.0
+    else:
+        # [[c, -s, 0, a], [s ca, c ca, -sa, -sa d], [s sa, c sa, ca, ca d], [0, 0, 0, 1]]
+        K[:, C, 0, 0] = 1.0
+        K[:, S, 0, 1] = -1.0
+        K[:, One, 0, 3] = a
+        K[:, S, 1, 0] = ca
+        K[:, C, 1, 1] = ca
+        K[:, One, 1, 2] = -sa
+        K[:, Dd, 1, 3] = -sa
+        K[:, S, 2, 0] = sa
+        K[:, C, 2, 1] = sa
+        K[:, One, 2, 2] = ca
+        K[:, Dd, 2, 3] = ca
+    K[:, One, 3, 3] = 1.0
+    return K.reshape(n, 4, 16)
 
 
 class DHKinematics:
@@ -377,16 +433,19 @@ class DHKinematics:
         self.alpha = np.array([l.alpha for l in links])
         self.d = np.array([l.d for l in links])
         self.theta = np.array([l.theta for l in links])
-        self.axis = np.tile([0.0, 0.0, 1.0], (self.n, 1))
+        self._K = _dh_coefficients(self.a, self.alpha, convention)
         self._eye = np.eye(4)
 
     def A(self, q: np.ndarray) -> np.ndarray:
-        """All link transforms, (B, n, 4, 4), for q of shape (B, n)."""
+        """All link transforms A_1..A_n (eq. 2.3 or Craig's), (B, n, 4, 4), for q (B, n)."""
+        B, n = q.shape
         th = np.where(self.revolute, q + self.theta, self.theta)
-        d = np.where(self.revolute, self.d, q + self.d)
-        if self.convention == "standard":
-            return dh_standard(th, d, self.a, self.alpha)
-        return dh_modified(th, d, self.a, self.alpha)
+        coef = np.empty((B, n, 1, 4))
+        coef[..., 0, 0] = np.cos(th)
+        coef[..., 0, 1] = np.sin(th)
+        coef[..., 0, 2] = np.where(self.revolute, self.d, q + self.d)
+        coef[..., 0, 3] = 1.0
+        return (coef @ self._K).reshape(B, n, 4, 4)
 
     def poses(self, q: np.ndarray) -> np.ndarray:
         """``T_1 .. T_n`` (eq. 2.7), (B, n, 4, 4)."""
@@ -406,7 +465,7 @@ class DHKinematics:
         else:
             # modified DH: joint j moves about z of frame j itself
             G = T
-        return T, _generators(G, self.axis, self.revolute)
+        return T, _generators(G, G[..., :3, 2], self.revolute)
 
 
 def _axis_motion(axis: np.ndarray, revolute: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -451,4 +510,5 @@ class ChainKinematics:
 
     def frames(self, q: np.ndarray):
         T = self.poses(q)
-        return T, _generators(T, self.axis, self.revolute)
+        w = (T[..., :3, :3] @ self.axis[:, :, None])[..., 0]
+        return T, _generators(T, w, self.revolute)

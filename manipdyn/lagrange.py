@@ -61,6 +61,8 @@ class TraceFormEngine:
         self._mr = np.ascontiguousarray(self.J[:, :, 3])
         self.armature = np.zeros(self.n) if armature is None else np.asarray(armature, dtype=np.float64)
         self._has_armature = bool(np.any(self.armature))
+        self._armature_diag = np.diag(self.armature)
+        self._upper = np.triu(np.ones((self.n, self.n), dtype=bool))
         self.friction = None if friction is None else np.asarray(friction, dtype=np.float64)
         if self.friction is not None and not np.any(self.friction):
             self.friction = None
@@ -81,30 +83,39 @@ class TraceFormEngine:
         return T, Delta, W
 
     def _D(self, Delta, W):
-        """D_ij = tr(Delta_j Wbar_{max(i,j)} Delta_i^T) (eq. 2.39, regrouped)."""
-        n = self.n
-        Wbar = _rev_cumsum(W)
-        idx = np.maximum.outer(np.arange(n), np.arange(n))
-        # Y[b, i, j] = Delta_j Wbar_{max(i,j)}
-        Y = Delta[:, None, :, :, :] @ Wbar[:, idx]
-        D = np.einsum("bijac,biac->bij", Y, Delta)
+        """D_ij = sum_{p >= max(i,j)} tr(dT_p/dq_j J_p dT_p/dq_i^T) (eq. 2.39).
+
+        With dT_p/dq_j = Delta_j T_p this is tr(Delta_j Wbar_{max(i,j)} Delta_i^T).
+        For i <= j the tail starts at j, so with X_j = Delta_j Wbar_j the upper
+        triangle is the Frobenius product <Delta_i, X_j>; D is symmetric.
+        """
+        B, n = Delta.shape[:2]
+        X = Delta @ _rev_cumsum(W)                               # X_j = Delta_j Wbar_j
+        G = Delta.reshape(B, n, 16) @ X.reshape(B, n, 16).swapaxes(1, 2)   # <Delta_i, X_j>
+        D = np.where(self._upper, G, G.swapaxes(1, 2))
         if self._has_armature:
-            D = D + np.diag(self.armature)
+            D += self._armature_diag
         return D
 
     def _h(self, Delta, W, qd):
-        """h_i = sum_jk D_ijk qd_j qd_k (eq. 2.39), regrouped by link p."""
+        """h_i = sum_jk D_ijk qd_j qd_k (eq. 2.39), regrouped by link p.
+
+        sum_{j,k<=p} d2T_p/dq_j dq_k qd_j qd_k = A_p T_p with
+        A_p = sum_{k<=p} (2 Omega_{k-1} + Delta_k qd_k) Delta_k qd_k, so
+        h_i = tr(F_i Delta_i^T), F_i = sum_{p>=i} A_p W_p.
+        """
         V = Delta * qd[:, :, None, None]                       # Delta_k qd_k
         Omega = np.cumsum(V, axis=1) - V                       # sum_{j<k} Delta_j qd_j
         A = np.cumsum((2.0 * Omega + V) @ V, axis=1)           # A_p
-        F = _rev_cumsum(A @ W)                                 # F_i = sum_{p>=i} A_p W_p
-        return np.einsum("biac,biac->bi", F, Delta)            # tr(F_i Delta_i^T)
+        F = _rev_cumsum(A @ W)                                 # F_i
+        B, n = qd.shape
+        return (F.reshape(B, n, 1, 16) @ Delta.reshape(B, n, 16, 1))[..., 0, 0]
 
     def _g(self, T, Delta):
         """g_i = -sum_{p>=i} m_p g^T (dT_p/dq_i) r_bar_p (eq. 2.39, D_i)."""
-        c = np.einsum("bpij,pj->bpi", T, self._mr)             # m_p T_p r_bar_p
-        cbar = _rev_cumsum(c)
-        return -np.einsum("a,biac,bic->bi", self._g4, Delta, cbar)
+        c = T @ self._mr[:, :, None]                           # m_p T_p r_bar_p, (B, n, 4, 1)
+        gD = self._g4 @ Delta                                  # g^T Delta_i, (B, n, 4)
+        return -(gD[..., None, :] @ _rev_cumsum(c))[..., 0, 0]
 
     def _friction(self, qd):
         if self.friction is None:

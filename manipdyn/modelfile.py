@@ -1,0 +1,321 @@
+"""Model files: a human-editable TOML description of a DH arm, and ``md.load``.
+
+Format (``format = "manipdyn-model/1"``)::
+
+    format = "manipdyn-model/1"
+    name = "puma560"
+    convention = "standard"            # "standard" (distal, eq. 2.3) or "modified" (Craig)
+    gravity = [0.0, 0.0, -9.81]        # m/s^2, in the base frame (optional; this default)
+    source = "citation of the data"    # required for bundled models
+
+    [sources]                          # optional: citation per group of values
+    kinematics = "..."
+    inertia = "..."
+    corrections = "..."                # every change made to the published numbers, and why
+
+    [units]                            # optional; these are the defaults
+    length = "m"                       # m | cm | mm | in
+    angle = "rad"                      # rad | deg
+    mass = "kg"                        # kg | g
+                                       # inertias are in mass * length^2 of these units
+
+    [[links]]                          # one table per link, base outwards
+    name = "shoulder"                  # optional
+    joint = "revolute"                 # revolute | prismatic
+    a = 0.0                            # modified DH: a_{n-1}, alpha_{n-1} on row n
+    alpha = 90.0
+    d = 0.0
+    theta = 0.0                        # fixed offsets: theta_n = q_n + theta (revolute),
+                                       #                d_n = q_n + d (prismatic)
+    qlim = [-160.0, 160.0]             # optional
+    mass = 17.4
+    com = [-0.3638, 0.006, 0.2275]     # centre of mass in frame n
+    inertia = { ixx = 0.13, iyy = 0.524, izz = 0.539, ixy = 0.0, ixz = 0.0, iyz = 0.0 }
+                                       # tensor about the COM, frame-n axes, tensor sign
+                                       # (ixy = -integral(x y dm), as in URDF)
+    motor_inertia = 200e-6             # optional, rotor inertia Jm (motor side)
+    gear_ratio = 107.815               # optional; G^2 Jm is added to D's diagonal
+    friction_viscous = 0.0             # optional, joint side, N m s/rad (N s/m)
+    friction_coulomb = 0.0             # optional, joint side, N m (N)
+
+Every key is checked: a missing, unknown or mistyped key, or a unit that is
+not in the lists above, is a :class:`ModelError` naming the file and key.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tomllib
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from ._files import atomic_write_text
+from .arm import Manipulator
+from .errors import ModelError
+from .kinematics import DHLink
+
+__all__ = ["load", "models", "load_model_file", "parse_model", "save_model", "model_to_toml", "FORMAT"]
+
+FORMAT = "manipdyn-model/1"
+_LENGTH = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254}
+_ANGLE = {"rad": 1.0, "deg": math.pi / 180.0}
+_MASS = {"kg": 1.0, "g": 0.001}
+
+_TOP_KEYS = {"format", "name", "convention", "gravity", "source", "sources", "units", "links", "description"}
+_LINK_REQUIRED = ("joint", "a", "alpha", "d", "theta", "mass")
+_LINK_OPTIONAL = ("name", "qlim", "com", "inertia", "motor_inertia", "gear_ratio",
+                  "friction_viscous", "friction_coulomb")
+_INERTIA_KEYS = ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")
+
+
+# ---------------------------------------------------------------------------
+# Bundled models
+# ---------------------------------------------------------------------------
+def _bundled_dir():
+    return resources.files("manipdyn") / "models"
+
+
+def models() -> list[str]:
+    """Names of the bundled arm models, sorted."""
+    return sorted(p.name[:-5] for p in _bundled_dir().iterdir() if p.name.endswith(".toml"))
+
+
+def load(x, tip: str | None = None, **kw):
+    """Load an arm: a bundled model's name, a model file (.toml), or a URDF.
+
+    Parameters
+    ----------
+    x : str or PathLike
+        ``"puma560"`` (see :func:`models`), a path to a ``.toml`` model file,
+        or a path to a ``.urdf`` file (or URDF text).
+    tip : str, optional
+        URDF only: the link at the end of the chain to keep when the URDF is a
+        tree (e.g. an arm with gripper fingers).
+    **kw
+        Passed on to the loader (``strict=`` for model files).
+    """
+    if isinstance(x, (str, os.PathLike)):
+        s = os.fspath(x)
+        if isinstance(x, str) and s.lstrip().startswith("<"):
+            from .urdf_in import load_urdf
+            return load_urdf(s, tip=tip, **kw)
+        if s.lower().endswith((".urdf", ".xml")):
+            from .urdf_in import load_urdf
+            return load_urdf(s, tip=tip, **kw)
+        if tip is not None:
+            raise ModelError(f"tip: only meaningful for a URDF, not for {s!r}")
+        if s.lower().endswith(".toml") or os.sep in s or "/" in s:
+            return load_model_file(s, **kw)
+        if s in models():
+            path = _bundled_dir() / f"{s}.toml"
+            return parse_model(path.read_text(encoding="utf-8"), f"bundled model {s}", **kw)
+        if os.path.exists(s):
+            return load_model_file(s, **kw)
+        raise ModelError(f"unknown model {s!r}: not a file, and not a bundled model "
+                         f"({', '.join(models())})")
+    raise ModelError(f"load: expected a model name, a .toml model file or a URDF path, got {type(x).__name__}")
+
+
+def load_model_file(path, strict: bool = False) -> Manipulator:
+    """Read a TOML model file (format in this module's docstring)."""
+    path = os.fspath(path)
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ModelError(f"{path}: cannot read model file: {exc.strerror or exc}") from None
+    return parse_model(text, path, strict=strict)
+
+
+# ---------------------------------------------------------------------------
+# Parsing
+# ---------------------------------------------------------------------------
+def _num(value, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ModelError(f"{where}: expected a number, got {type(value).__name__} {value!r}")
+    v = float(value)
+    if not math.isfinite(v):
+        raise ModelError(f"{where}: expected a finite number, got {value!r}")
+    return v
+
+
+def _nums(value, k: int, where: str) -> list[float]:
+    if not isinstance(value, list) or len(value) != k:
+        raise ModelError(f"{where}: expected a list of {k} numbers, got {value!r}")
+    return [_num(v, f"{where}[{i}]") for i, v in enumerate(value)]
+
+
+def _str(value, where: str) -> str:
+    if not isinstance(value, str):
+        raise ModelError(f"{where}: expected a string, got {type(value).__name__} {value!r}")
+    return value
+
+
+def _unit(units: dict, key: str, table: dict, default: str, where: str) -> float:
+    u = units.get(key, default)
+    if not isinstance(u, str) or u not in table:
+        raise ModelError(f"{where}: key 'units.{key}' has unit {u!r} that manipdyn cannot read; "
+                         f"expected one of {', '.join(table)}")
+    return table[u]
+
+
+def _inertia(value, scale: float, where: str) -> np.ndarray:
+    if isinstance(value, dict):
+        unknown = set(value) - set(_INERTIA_KEYS)
+        if unknown:
+            raise ModelError(f"{where}: unknown key(s) {sorted(unknown)}; expected {', '.join(_INERTIA_KEYS)}")
+        for k in ("ixx", "iyy", "izz"):
+            if k not in value:
+                raise ModelError(f"{where}: missing key '{k}'")
+        v = {k: _num(value.get(k, 0.0), f"{where}.{k}") * scale for k in _INERTIA_KEYS}
+        return np.array([[v["ixx"], v["ixy"], v["ixz"]],
+                         [v["ixy"], v["iyy"], v["iyz"]],
+                         [v["ixz"], v["iyz"], v["izz"]]])
+    if isinstance(value, list) and len(value) == 3 and all(isinstance(r, list) for r in value):
+        return np.array([_nums(r, 3, f"{where}[{i}]") for i, r in enumerate(value)]) * scale
+    raise ModelError(f"{where}: expected a table {{ ixx = ..., iyy = ..., izz = ..., ixy = ..., ixz = ..., iyz = ... }} "
+                     f"or a 3x3 list, got {value!r}")
+
+
+def parse_model(text: str, origin: str = "<model>", strict: bool = False) -> Manipulator:
+    """Parse model-file text; ``origin`` names the file in error messages."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ModelError(f"{origin}: not valid TOML: {exc}") from None
+    unknown = set(data) - _TOP_KEYS
+    if unknown:
+        raise ModelError(f"{origin}: unknown key(s) {sorted(unknown)}; expected some of {sorted(_TOP_KEYS)}")
+    fmt = data.get("format", FORMAT)
+    if fmt != FORMAT:
+        raise ModelError(f"{origin}: key 'format' is {fmt!r}; this manipdyn reads {FORMAT!r}")
+    for key in ("name", "convention", "links"):
+        if key not in data:
+            raise ModelError(f"{origin}: missing key '{key}'")
+    name = _str(data["name"], f"{origin}: key 'name'")
+    convention = _str(data["convention"], f"{origin}: key 'convention'")
+    if convention not in ("standard", "modified"):
+        raise ModelError(f"{origin}: key 'convention' must be 'standard' or 'modified', got {convention!r}")
+    source = _str(data.get("source", ""), f"{origin}: key 'source'")
+    sources = data.get("sources", {})
+    if not isinstance(sources, dict) or not all(isinstance(v, str) for v in sources.values()):
+        raise ModelError(f"{origin}: key 'sources' must be a table of strings")
+    units = data.get("units", {})
+    if not isinstance(units, dict):
+        raise ModelError(f"{origin}: key 'units' must be a table")
+    bad_units = set(units) - {"length", "angle", "mass"}
+    if bad_units:
+        raise ModelError(f"{origin}: unknown key(s) {sorted('units.' + u for u in bad_units)}; expected units.length, units.angle, units.mass")
+    L = _unit(units, "length", _LENGTH, "m", origin)
+    A = _unit(units, "angle", _ANGLE, "rad", origin)
+    M = _unit(units, "mass", _MASS, "kg", origin)
+    gravity = _nums(data.get("gravity", [0.0, 0.0, -9.81]), 3, f"{origin}: key 'gravity'")
+
+    raw_links = data["links"]
+    if not isinstance(raw_links, list) or not raw_links or not all(isinstance(l, dict) for l in raw_links):
+        raise ModelError(f"{origin}: key 'links' must be a non-empty array of tables ([[links]])")
+    links = []
+    for i, raw in enumerate(raw_links):
+        w = f"{origin}: links[{i}]" + (f" ({raw['name']})" if isinstance(raw.get("name"), str) else "")
+        unknown = set(raw) - set(_LINK_REQUIRED) - set(_LINK_OPTIONAL)
+        if unknown:
+            raise ModelError(f"{w}: unknown key(s) {sorted(unknown)}; expected some of "
+                             f"{', '.join(_LINK_REQUIRED + _LINK_OPTIONAL)}")
+        for key in _LINK_REQUIRED:
+            if key not in raw:
+                raise ModelError(f"{w}: missing key '{key}'")
+        joint = _str(raw["joint"], f"{w}: key 'joint'")
+        if joint not in ("revolute", "prismatic"):
+            raise ModelError(f"{w}: key 'joint' must be 'revolute' or 'prismatic', got {joint!r}")
+        mass = _num(raw["mass"], f"{w}: key 'mass'") * M
+        if mass > 0:
+            for key in ("com", "inertia"):
+                if key not in raw:
+                    raise ModelError(f"{w}: missing key '{key}' (required when mass > 0)")
+        com = np.array(_nums(raw.get("com", [0.0, 0.0, 0.0]), 3, f"{w}: key 'com'")) * L
+        inertia = _inertia(raw.get("inertia", {"ixx": 0.0, "iyy": 0.0, "izz": 0.0}), M * L * L, f"{w}: key 'inertia'")
+        qlim = None
+        if "qlim" in raw:
+            qs = L if joint == "prismatic" else A
+            qlim = tuple(v * qs for v in _nums(raw["qlim"], 2, f"{w}: key 'qlim'"))
+        kw = {}
+        for key, scale in (("motor_inertia", M * L * L), ("gear_ratio", 1.0),
+                           ("friction_viscous", 1.0), ("friction_coulomb", 1.0)):
+            if key in raw:
+                kw[key] = _num(raw[key], f"{w}: key '{key}'") * scale
+        try:
+            links.append(DHLink(
+                joint=joint,
+                a=_num(raw["a"], f"{w}: key 'a'") * L,
+                alpha=_num(raw["alpha"], f"{w}: key 'alpha'") * A,
+                d=_num(raw["d"], f"{w}: key 'd'") * L,
+                theta=_num(raw["theta"], f"{w}: key 'theta'") * A,
+                mass=mass, com=com, inertia=inertia, qlim=qlim,
+                name=_str(raw.get("name", ""), f"{w}: key 'name'"), **kw,
+            ))
+        except ModelError as exc:
+            raise ModelError(f"{w}: {exc}") from None
+    return Manipulator(links, convention=convention, gravity=gravity, name=name, strict=strict,
+                       source=source, sources=sources)
+
+
+# ---------------------------------------------------------------------------
+# Writing
+# ---------------------------------------------------------------------------
+def _toml_str(s: str) -> str:
+    out = s.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n").replace("\t", "\\t")
+    return f'"{out}"'
+
+
+def _toml_num(x: float) -> str:
+    return repr(float(x))
+
+
+def _toml_list(xs) -> str:
+    return "[" + ", ".join(_toml_num(x) for x in xs) + "]"
+
+
+def model_to_toml(arm: Manipulator) -> str:
+    """Model-file text for a DH arm, in SI units (m, rad, kg), floats written exactly."""
+    if not isinstance(arm, Manipulator):
+        raise ModelError(f"save: only DH arms (Manipulator) have a model file; "
+                         f"{type(arm).__name__} {arm.name!r} can be written with write_urdf()")
+    lines = [
+        f"format = {_toml_str(FORMAT)}",
+        f"name = {_toml_str(arm.name)}",
+        f"convention = {_toml_str(arm.convention)}",
+        f"gravity = {_toml_list(arm.gravity)}",
+        f"source = {_toml_str(arm.source)}",
+    ]
+    sources = arm.sources
+    if sources:
+        lines += ["", "[sources]"] + [f"{k} = {_toml_str(v)}" for k, v in sources.items()]
+    lines += ["", "[units]", 'length = "m"', 'angle = "rad"', 'mass = "kg"']
+    for l in arm.links:
+        I = l.inertia
+        lines += [
+            "", "[[links]]",
+            *( [f"name = {_toml_str(l.name)}"] if l.name else [] ),
+            f"joint = {_toml_str(l.joint)}",
+            f"a = {_toml_num(l.a)}", f"alpha = {_toml_num(l.alpha)}",
+            f"d = {_toml_num(l.d)}", f"theta = {_toml_num(l.theta)}",
+            *( [f"qlim = {_toml_list(l.qlim)}"] if l.qlim is not None else [] ),
+            f"mass = {_toml_num(l.mass)}",
+            f"com = {_toml_list(l.com)}",
+            "inertia = { " + ", ".join(
+                f"{k} = {_toml_num(v)}" for k, v in zip(
+                    _INERTIA_KEYS, (I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]))) + " }",
+        ]
+        if l.motor_inertia or l.gear_ratio != 1.0:
+            lines += [f"motor_inertia = {_toml_num(l.motor_inertia)}", f"gear_ratio = {_toml_num(l.gear_ratio)}"]
+        if l.friction_viscous or l.friction_coulomb:
+            lines += [f"friction_viscous = {_toml_num(l.friction_viscous)}",
+                      f"friction_coulomb = {_toml_num(l.friction_coulomb)}"]
+    return "\n".join(lines) + "\n"
+
+
+def save_model(arm: Manipulator, path) -> None:
+    """Write ``arm`` as a model file, atomically."""
+    atomic_write_text(path, model_to_toml(arm))
