@@ -170,6 +170,16 @@ def _cmd_models(args) -> int:
     return EXIT_OK
 
 
+def _module_exists(modname: str) -> bool:
+    """True if ``modname`` can be imported; a missing dependency inside it still raises."""
+    try:
+        return importlib.util.find_spec(modname) is not None
+    except ModuleNotFoundError as exc:
+        if exc.name and modname.startswith(exc.name):
+            return False
+        raise
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="manipdyn",
@@ -211,7 +221,7 @@ def build_parser() -> argparse.ArgumentParser:
     # Subcommands that live beside their feature: each module exposes
     # register_cli(subparsers), which adds a parser with set_defaults(func=...).
     for modname in _PLUGIN_MODULES:
-        if importlib.util.find_spec(modname) is not None:
+        if _module_exists(modname):
             importlib.import_module(modname).register_cli(sub)
     return p
 
