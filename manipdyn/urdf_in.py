@@ -62,11 +62,11 @@ _NUMBER = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?\Z")
 # Reading the source safely
 # ---------------------------------------------------------------------------
 def _read_source(source):
-    """Return ``(data bytes, label for messages, path or None)``."""
+    """Return ``(data: bytes or str, label for messages, path or None)``."""
     if isinstance(source, (bytes, bytearray)):
         return bytes(source), "URDF text", None
     if isinstance(source, str) and source.lstrip("\ufeff \t\r\n").startswith("<"):
-        return source.encode("utf-8"), "URDF text", None
+        return source, "URDF text", None
     if isinstance(source, (str, os.PathLike)):
         path = os.fspath(source)
         label = f"URDF file {os.path.basename(path)}"
@@ -80,7 +80,18 @@ def _read_source(source):
     )
 
 
-def _decode(data: bytes, label: str) -> str:
+def _decode(data, label: str) -> str:
+    """The document as text (UTF-8 unless a BOM or the XML declaration says otherwise)."""
+    if isinstance(data, str):
+        text = data
+    else:
+        text = _decode_bytes(data, label)
+    if "\x00" in text:  # XML forbids NUL; also what UTF-16 read as UTF-8 looks like
+        raise ModelError(f"{label}: the text contains NUL characters (not XML, or UTF-16 without a BOM)")
+    return text.lstrip("\ufeff")
+
+
+def _decode_bytes(data: bytes, label: str) -> str:
     if data.startswith((b"\xff\xfe", b"\xfe\xff")):
         codec = "utf-16"
     else:
@@ -122,16 +133,23 @@ def _refuse_entities(text: str, label: str) -> None:
         )
 
 
-def _parse_xml(data: bytes, text: str, label: str):
+_XML_DECL = re.compile(r"\s*<\?xml\b[^>]*\?>")
+
+
+def _parse_xml(text: str, label: str):
     from lxml import etree
 
     _refuse_entities(text, label)
+    # lxml parses a str only without an encoding declaration; the text is already
+    # decoded, so drop the declaration (keeping its newlines: line numbers stay right).
+    m = _XML_DECL.match(text)
+    body = text if m is None else "\n" * m.group(0).count("\n") + text[m.end():]
     parser = etree.XMLParser(
         resolve_entities=False, no_network=True, load_dtd=False, huge_tree=False,
         dtd_validation=False, remove_comments=False,
     )
     try:
-        root = etree.fromstring(data, parser)
+        root = etree.fromstring(body, parser)
     except etree.XMLSyntaxError as exc:
         raise ModelError(f"{label}: not well-formed XML: {exc}") from None
     # Second line of defence, on what libxml2 actually saw.
@@ -238,7 +256,7 @@ class _Joint:
         return self.type in _MOVABLE
 
 
-def _read_link(el, label: str, strict: bool) -> _Link:
+def _read_link(el, label: str) -> _Link:
     where0 = _where(label, el, "<link>")
     name = _name(el, where0)
     where = _where(label, el, f"link '{name}'")
@@ -256,7 +274,6 @@ def _read_link(el, label: str, strict: bool) -> _Link:
         R = X[:3, :3]
         # URDF: tensor about the COM in the <inertial><origin> frame -> link frame
         body = LinkInertia(mass, X[:3, 3], R @ I @ R.T, name=wi)
-        body.check_physical(strict=strict, where=wi)
     return _Link(name=name, line=el.sourceline, body=body)
 
 
@@ -329,14 +346,14 @@ def _some(names, k: int = 12) -> str:
 
 
 class _Tree:
-    def __init__(self, root_el, label: str, strict: bool):
+    def __init__(self, root_el, label: str):
         self.label = label
         if root_el.tag != "robot":
             raise ModelError(f"{label}: the root element is <{root_el.tag}>, expected <robot>")
         self.robot_name = root_el.get("name") or ""
         self.links: dict[str, _Link] = {}
         for el in root_el.iterchildren("link"):
-            link = _read_link(el, label, strict)
+            link = _read_link(el, label)
             if link.name in self.links:
                 raise ModelError(_where(label, el, f"link '{link.name}'") + ": duplicate link name")
             self.links[link.name] = link
@@ -480,6 +497,8 @@ def _build(tree: _Tree, tip: str | None, strict: bool):
             members[owner].append(ln)
             body = tree.links[ln].body
             if body is not None:
+                # only moving bodies matter: a base link's inertia is never used
+                body.check_physical(strict=strict, where=body.name)
                 J[owner] += X @ body.J @ X.T
                 with_inertial[owner] = True
         for j in tree.children[ln]:
@@ -513,10 +532,10 @@ def _build(tree: _Tree, tip: str | None, strict: bool):
             friction_viscous=j.damping, friction_coulomb=j.friction,
             effort=j.effort, velocity=j.velocity, link_name=j.child,
         ))
-    return tip, chain, tuple(joints), tool, tuple(j.name for j in locked), members
+    return tip, tuple(joints), tool, tuple(j.name for j in locked), members
 
 
-def _pinocchio_text(root_el, chain_types, text: str) -> str:
+def _pinocchio_text(root_el, text: str) -> str:
     """The text Pinocchio reads: the original, or with ``continuous`` joints made revolute.
 
     Pinocchio represents a continuous joint by ``(cos q, sin q)`` (nq = 2,
@@ -605,6 +624,11 @@ class URDFArm(Arm):
         else:
             self.friction = None
 
+    @property
+    def tool_frame(self) -> str:
+        """Name of the frame whose pose :meth:`fkine` gives, in Pinocchio's model: the tip link."""
+        return self.tip
+
     # -- Arm interface --------------------------------------------------------
     def chain(self):
         """``(joints, tool)``: the chain joints and the fixed transform last link -> tip."""
@@ -686,12 +710,12 @@ def load_urdf(source, tip=None, *, name=None, gravity=(0.0, 0.0, -9.81), strict=
     """
     data, label, path = _read_source(source)
     text = _decode(data, label)
-    root_el = _parse_xml(data, text, label)
-    tree = _Tree(root_el, label, strict)
-    tip, chain, joints, tool, locked, members = _build(tree, tip, strict)
+    root_el = _parse_xml(text, label)
+    tree = _Tree(root_el, label)
+    tip, joints, tool, locked, members = _build(tree, tip, strict)
     if path is None and tree.robot_name:
         label = f"URDF text (robot '{tree.robot_name}')"
-    pin_text = _pinocchio_text(root_el, [j.type for j in chain], text)
+    pin_text = _pinocchio_text(root_el, text)
     return URDFArm(
         name=tree.robot_name if name is None else name, gravity=gravity, source=label,
         urdf_text=text, pin_text=pin_text, root=tree.root, tip=tip, joints=joints, tool=tool,

@@ -1,0 +1,70 @@
+"""The command line: exit codes, one-line errors, JSON, URDF output."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from manipdyn.cli import main
+
+
+def test_help_lists_commands(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    assert "check" in out and "Exit codes" in out
+
+
+def test_check_all_agrees(capsys):
+    assert main(["check", "--all", "--samples", "20", "--timing-calls", "3"]) == 0
+    out = capsys.readouterr().out
+    assert "puma560" in out and "all agree" in out and "per call" in out
+
+
+def test_check_json_and_urdf_out(tmp_path, capsys):
+    assert main(["check", "stanford", "--samples", "10", "--timing-calls", "0", "--json",
+                 "--urdf-out", str(tmp_path)]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc[0]["report"]["ok"] is True
+    assert set(doc[0]["report"]["quantities"]) >= {"D", "h", "g", "tau", "qdd", "fk"}
+    assert (tmp_path / "stanford.urdf").read_text().startswith("<?xml")
+
+
+def test_unknown_model_is_exit_2_one_line(capsys):
+    assert main(["check", "nosuch"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "unknown model 'nosuch'" in err[0] and "puma560" in err[0]
+
+
+def test_no_model_is_usage_error(capsys):
+    assert main(["check"]) == 2
+
+
+def test_bad_option_is_exit_2():
+    with pytest.raises(SystemExit) as exc:
+        main(["check", "--samples", "many"])
+    assert exc.value.code == 2
+
+
+def test_disagreement_is_exit_1(monkeypatch, capsys):
+    import manipdyn.check as check
+
+    monkeypatch.setattr(check, "TOLERANCE", -1.0)  # nothing can pass a negative tolerance
+    monkeypatch.setattr(check.QuantityError, "tolerance", -1.0, raising=False)
+    real = check._compare
+    monkeypatch.setattr(check, "_compare", lambda *a, **k: real(*a, tol=-1.0))
+    assert main(["check", "stanford", "--samples", "5", "--timing-calls", "0"]) == 1
+    assert "DISAGREE" in capsys.readouterr().out
+
+
+def test_python_dash_m(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('name = "x"\n')
+    r = subprocess.run([sys.executable, "-m", "manipdyn", "check", str(bad)], capture_output=True, text=True)
+    assert r.returncode == 2
+    assert "Traceback" not in r.stderr
+    assert "bad.toml: missing key 'convention'" in r.stderr
