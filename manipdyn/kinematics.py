@@ -342,24 +342,11 @@ def _cumulative(A: np.ndarray, base: np.ndarray | None = None) -> np.ndarray:
     return T
 
 
-# Linear map from a twist (w, v) to the 4x4 generator [[w^, v], [0, 0]],
-# flattened: Delta.reshape(16) = twist @ _TWIST_TO_4X4.
-_TWIST_TO_4X4 = np.zeros((6, 16))
+# Linear map from a rotation axis w to the flattened 4x4 [[w^, 0], [0, 0]]:
+# skew(w).reshape(16) = w @ _SKEW_4X4.
+_SKEW_4X4 = np.zeros((3, 16))
 for _r, _c, _k, _sgn in ((0, 1, 2, -1), (0, 2, 1, 1), (1, 0, 2, 1), (1, 2, 0, -1), (2, 0, 1, -1), (2, 1, 0, 1)):
-    _TWIST_TO_4X4[_k, 4 * _r + _c] = _sgn
-for _r in range(3):
-    _TWIST_TO_4X4[3 + _r, 4 * _r + 3] = 1.0
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Cross product along the last axis (cheaper than np.cross on small arrays)."""
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
-    out[..., 0] = a1 * b2 - a2 * b1
-    out[..., 1] = a2 * b0 - a0 * b2
-    out[..., 2] = a0 * b1 - a1 * b0
-    return out
+    _SKEW_4X4[_k, 4 * _r + _c] = _sgn
 
 
 def _generators(G: np.ndarray, w: np.ndarray, revolute: np.ndarray) -> np.ndarray:
@@ -368,16 +355,15 @@ def _generators(G: np.ndarray, w: np.ndarray, revolute: np.ndarray) -> np.ndarra
     ``G`` (B, n, 4, 4) is joint j's frame (before or after its own motion:
     the two give the same Delta) and ``w`` (B, n, 3) the joint axis in base
     coordinates, ``w = R_j axis_j``.  For a revolute joint Delta is
-    ``[[w^, p x w], [0, 0]]`` (p the origin of G_j); for a prismatic joint
+    ``[[w^, -w^ p], [0, 0]]`` (p the origin of G_j); for a prismatic joint
     ``[[0, w], [0, 0]]``.  Same matrix as ``G Q G^{-1}``, built without
     inverting G.
     """
     B, n = G.shape[:2]
-    twist = np.empty((B, n, 6))
     rev = revolute[:, None]
-    twist[..., :3] = np.where(rev, w, 0.0)
-    twist[..., 3:] = np.where(rev, _cross(G[..., :3, 3], w), w)
-    return (twist @ _TWIST_TO_4X4).reshape(B, n, 4, 4)
+    Delta = (np.where(rev, w, 0.0) @ _SKEW_4X4).reshape(B, n, 4, 4)
+    Delta[..., :3, 3] = np.where(rev, -(Delta[..., :3, :3] @ G[..., :3, 3:])[..., 0], w)
+    return Delta
 
 
 def _dh_coefficients(a, alpha, convention: str) -> np.ndarray:

@@ -23,9 +23,16 @@ from ._state import as_state, same_batch
 __all__ = ["TraceFormEngine"]
 
 
-def _rev_cumsum(x: np.ndarray, axis: int = 1) -> np.ndarray:
-    """Tail sums ``out[k] = sum_{p >= k} x[p]`` along ``axis``."""
-    return np.flip(np.cumsum(np.flip(x, axis), axis), axis)
+def _link_sum(S: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``out[:, k] = sum_p S[k, p] x[:, p]`` for x of shape (B, n, ...).
+
+    With S the (n, n) upper-triangular matrix of ones this is the tail sum
+    ``sum_{p >= k}`` of the chapter's formulas; with the lower one, the head
+    sum ``sum_{p <= k}``.  One matmul instead of flip/cumsum/flip, which
+    matters for small arrays.
+    """
+    B, n = x.shape[:2]
+    return (S @ x.reshape(B, n, -1)).reshape(x.shape)
 
 
 class TraceFormEngine:
@@ -63,6 +70,9 @@ class TraceFormEngine:
         self._has_armature = bool(np.any(self.armature))
         self._armature_diag = np.diag(self.armature)
         self._upper = np.triu(np.ones((self.n, self.n), dtype=bool))
+        self._tail = np.triu(np.ones((self.n, self.n)))        # sum over p >= k
+        self._head = np.tril(np.ones((self.n, self.n)))        # sum over p <= k
+        self._head_strict = np.tril(np.ones((self.n, self.n)), -1)  # sum over p < k
         self.friction = None if friction is None else np.asarray(friction, dtype=np.float64)
         if self.friction is not None and not np.any(self.friction):
             self.friction = None
@@ -90,7 +100,7 @@ class TraceFormEngine:
         triangle is the Frobenius product <Delta_i, X_j>; D is symmetric.
         """
         B, n = Delta.shape[:2]
-        X = Delta @ _rev_cumsum(W)                               # X_j = Delta_j Wbar_j
+        X = Delta @ _link_sum(self._tail, W)                     # X_j = Delta_j Wbar_j
         G = Delta.reshape(B, n, 16) @ X.reshape(B, n, 16).swapaxes(1, 2)   # <Delta_i, X_j>
         D = np.where(self._upper, G, G.swapaxes(1, 2))
         if self._has_armature:
@@ -105,9 +115,9 @@ class TraceFormEngine:
         h_i = tr(F_i Delta_i^T), F_i = sum_{p>=i} A_p W_p.
         """
         V = Delta * qd[:, :, None, None]                       # Delta_k qd_k
-        Omega = np.cumsum(V, axis=1) - V                       # sum_{j<k} Delta_j qd_j
-        A = np.cumsum((2.0 * Omega + V) @ V, axis=1)           # A_p
-        F = _rev_cumsum(A @ W)                                 # F_i
+        Omega2 = _link_sum(2.0 * self._head_strict, V)         # 2 sum_{j<k} Delta_j qd_j
+        A = _link_sum(self._head, (Omega2 + V) @ V)            # A_p
+        F = _link_sum(self._tail, A @ W)                       # F_i
         B, n = qd.shape
         return (F.reshape(B, n, 1, 16) @ Delta.reshape(B, n, 16, 1))[..., 0, 0]
 
@@ -115,7 +125,7 @@ class TraceFormEngine:
         """g_i = -sum_{p>=i} m_p g^T (dT_p/dq_i) r_bar_p (eq. 2.39, D_i)."""
         c = T @ self._mr[:, :, None]                           # m_p T_p r_bar_p, (B, n, 4, 1)
         gD = self._g4 @ Delta                                  # g^T Delta_i, (B, n, 4)
-        return -(gD[..., None, :] @ _rev_cumsum(c))[..., 0, 0]
+        return -(gD[..., None, :] @ _link_sum(self._tail, c))[..., 0, 0]
 
     def _friction(self, qd):
         if self.friction is None:
@@ -208,7 +218,7 @@ class TraceFormEngine:
         same_batch((q, "q"), (qd, "qd"))
         qdb = self._batch(qd)
         T, Delta = self._kin.frames(self._batch(q))
-        Omega = np.cumsum(Delta * qdb[:, :, None, None], axis=1)  # sum_{j<=i} Delta_j qd_j
+        Omega = _link_sum(self._head, Delta * qdb[:, :, None, None])  # sum_{j<=i} Delta_j qd_j
         Tdot = Omega @ T
         K = 0.5 * np.einsum("biac,icd,biad->b", Tdot, self.J, Tdot)
         K = K + 0.5 * (qdb**2) @ self.armature
