@@ -123,7 +123,7 @@ class PinocchioEngine:
             tau = pin.rnea(self.model, self.data, q, qd, qdd)
         else:
             same_batch((q, "q"), (qd, "qd"), (qdd, "qdd"))
-            tau = pin.rneaInParallel(self.num_threads, self._get_pool(), q.T, qd.T, qdd.T).T
+            tau = pin.rneaInParallel(self.num_threads, self._get_pool(), q.T, qd.T, qdd.T).T.reshape(q.shape)
         if self.friction is not None:
             tau = tau + self._friction(qd)
         return tau
@@ -138,7 +138,7 @@ class PinocchioEngine:
         if q.ndim == 1 and qd.ndim == 1 and tau.ndim == 1:
             return pin.aba(self.model, self.data, q, qd, tau)
         same_batch((q, "q"), (qd, "qd"), (tau, "tau"))
-        return pin.abaInParallel(self.num_threads, self._get_pool(), q.T, qd.T, tau.T).T
+        return pin.abaInParallel(self.num_threads, self._get_pool(), q.T, qd.T, tau.T).T.reshape(q.shape)
 
     def kinetic_energy(self, q, qd):
         """Kinetic energy (J), rotors included; scalar or (N,)."""
@@ -173,3 +173,19 @@ class PinocchioEngine:
         if q.ndim == 1:
             return one(q)
         return np.array([one(qi) for qi in q])
+
+    # -- Coriolis matrix (appended for issue 6) ------------------------------
+    def coriolis_matrix(self, q, qd) -> np.ndarray:
+        """Coriolis matrix ``C(q, qd)`` by ``pin.computeCoriolisMatrix``, (n, n) or (N, n, n).
+
+        ``C qd = h`` and ``dD/dt - 2C`` is skew-symmetric (armature adds nothing).
+        A copy of ``data.C`` (the next call overwrites it).
+        """
+        q = as_state(q, "q", self.n)
+        qd = as_state(qd, "qd", self.n)
+        m, d = self.model, self.data
+        if q.ndim == 1 and qd.ndim == 1:
+            return pin.computeCoriolisMatrix(m, d, q, qd).copy()
+        same_batch((q, "q"), (qd, "qd"))
+        return np.array([pin.computeCoriolisMatrix(m, d, qi, vi).copy()
+                         for qi, vi in zip(q, qd)]).reshape(len(q), self.n, self.n)

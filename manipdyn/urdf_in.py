@@ -15,6 +15,11 @@ Rules (CONVENTIONS.md for frames and inertia):
   fixed joint are lumped into the moving body they hang from by summing
   pseudo-inertias, ``J = sum X J_link X^T`` (eq. 2.20 in a common frame).
   ``floating`` and ``planar`` joints are refused.
+* Joint limits: ``<limit lower upper>`` give :attr:`Arm.qlim`; continuous
+  joints, and limits missing or written ``lower == upper`` (CAD exporters
+  write ``0, 0`` for "none"), get :data:`manipdyn.arm.DEFAULT_QLIM`.  A chain
+  joint that moves no mass at all (nothing with ``<inertial>`` from its link
+  to the tip) is warned about: the mass matrix is then singular.
 * Without ``tip`` the movable joints must form one root-to-leaf path; the tip
   is then the last movable link, followed through fixed joints as long as
   they do not branch.  With ``tip="link"`` the chain is the path from the
@@ -22,8 +27,8 @@ Rules (CONVENTIONS.md for frames and inertia):
   neutral position) and its subtree is lumped like a fixed one.
 * ``<mimic>`` couples two joint variables, which a chain of independent
   joints cannot express: a movable mimic joint in the chain, or mimicking a
-  chain joint, is refused.  A locked mimic joint whose leader is locked too is
-  consistent (both at 0) when its offset is 0.  ``<mimic>`` on a ``fixed``
+  chain joint, is refused.  A locked mimic joint (its leader then locked or
+  fixed, at 0) is consistent when its offset is 0, and refused otherwise.  ``<mimic>`` on a ``fixed``
   joint has no variable to couple and is ignored (Talos' gripper).
 * ``<dynamics damping friction>`` become viscous and Coulomb joint friction,
   applied outside the Lagrangian by both engines.  URDF has no rotor
@@ -40,12 +45,13 @@ from __future__ import annotations
 import math
 import os
 import re
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from .arm import DEFAULT_QLIM, Arm, _gravity
-from .errors import ModelError
+from .errors import ModelError, PhysicalConsistencyWarning
 from .inertia import LinkInertia
 from .kinematics import ChainJoint, ChainKinematics, rpy_to_matrix
 
@@ -453,7 +459,6 @@ def _build(tree: _Tree, tip: str | None, strict: bool):
         )
     index = {j.name: k for k, j in enumerate(chain)}
     locked = [j for j in tree.joints.values() if j.movable and j.name not in index]
-    locked_names = {j.name for j in locked}
 
     # mimic joints
     for j in tree.joints.values():
@@ -468,10 +473,10 @@ def _build(tree: _Tree, tip: str | None, strict: bool):
                 "and a chain of independent joint variables cannot express the coupling; "
                 "pass a tip= whose chain contains neither"
             )
-        if offset != 0.0 and leader in locked_names:
+        if offset != 0.0:
             raise ModelError(
                 f"{j.where}: mimic joints are not supported: '{j.name}' mimics '{leader}' with "
-                f"offset {offset}, so locking both at 0 would break the coupling"
+                f"offset {offset}; locked at 0 it would break the coupling (it should sit at {offset})"
             )
 
     # Origins relative to the previous movable link frame; fixed joints composed in.
@@ -513,6 +518,14 @@ def _build(tree: _Tree, tip: str | None, strict: bool):
             "the dynamics would be identically zero"
         )
 
+    tail = np.cumsum(J[::-1], axis=0)[::-1]  # everything joint k moves
+    for k, j in enumerate(chain):
+        if not np.any(tail[k]):
+            warnings.warn(
+                f"{j.where}: moves no mass (no <inertial> from link '{j.child}' to the tip): "
+                "the mass matrix is singular and forward dynamics undefined",
+                PhysicalConsistencyWarning, stacklevel=3,
+            )
     joints = []
     for k, j in enumerate(chain):
         Jk = 0.5 * (J[k] + J[k].T)
