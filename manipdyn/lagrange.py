@@ -16,6 +16,8 @@ arrays with the same leading shape.  Units: SI (rad, m, kg, N m, N).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ._state import as_state, same_batch
@@ -32,7 +34,7 @@ def _link_sum(S: np.ndarray, x: np.ndarray) -> np.ndarray:
     matters for small arrays.
     """
     B, n = x.shape[:2]
-    return (S @ x.reshape(B, n, -1)).reshape(x.shape)
+    return (S @ x.reshape(B, n, math.prod(x.shape[2:]))).reshape(x.shape)
 
 
 class TraceFormEngine:
@@ -243,3 +245,90 @@ class TraceFormEngine:
         q, single = self._q(q)
         T = self._kin.tool(self._kin.poses(self._batch(q)))
         return self._out(T, single)
+
+    # -- Coriolis matrix (appended for issue 6) ------------------------------
+    def christoffel_symbols(self, q) -> np.ndarray:
+        """The chapter's ``D_ijk`` (eq. 2.39), ``(n, n, n)`` or ``(N, n, n, n)``, index ``[i, j, k]``.
+
+        ``D_ijk = sum_{p >= max(i,j,k)} tr(d2T_p/dq_j dq_k J_p dT_p/dq_i^T)``.  With
+        ``d2T_p/dq_j dq_k = Delta_j Delta_k T_p`` (``j <= k <= p``) this is
+        ``<Delta_j Delta_k, Delta_i Wbar_{max(i,k)}>`` (Frobenius product) for
+        ``j <= k``, and ``D_ijk = D_ikj`` (mixed partials commute).  These are
+        the Christoffel symbols of the first kind of ``D`` (see
+        :meth:`coriolis_matrix`; ``tests/test_coriolis.py`` proves it).
+        O(n^3) small traces: for tests and analysis, not for control loops.
+        """
+        q, single = self._q(q)
+        _, Delta, W = self._frames(self._batch(q))
+        B, n = Delta.shape[:2]
+        Wbar = _link_sum(self._tail, W)
+        idx = np.arange(n)
+        m = np.maximum(idx[:, None], idx[None, :])                    # max(i, k)
+        R = (Delta[:, :, None] @ Wbar[:, m]).reshape(B, n, n, 16)    # Delta_i Wbar_max(i,k)
+        P = (Delta[:, :, None] @ Delta[:, None, :]).reshape(B, n, n, 16)  # Delta_j Delta_k
+        E = np.einsum("bjkx,bikx->bijk", P, R)
+        jk_upper = idx[:, None] <= idx[None, :]
+        out = np.where(jk_upper, E, E.swapaxes(2, 3))
+        return self._out(out, single)
+
+    def coriolis_matrix(self, q, qd) -> np.ndarray:
+        """Coriolis matrix ``C(q, qd)`` (Christoffel form), ``(n, n)`` or ``(N, n, n)``, N m s.
+
+        ``C qd = h`` (eq. 2.39) and ``dD/dt - 2C`` is skew-symmetric.
+
+        Derivation.  Differentiate ``D_ij`` (eq. 2.39) with the product rule and
+        move the transpose inside the trace (``tr(A J B^T) = tr(B J A^T)``,
+        ``J = J^T``, eq. 2.27 to 2.30)::
+
+            dD_ij/dq_k = D_ijk + D_jik.
+
+        The Christoffel symbols of the first kind of ``D`` are
+        ``c_ijk = (dD_ij/dq_k + dD_ik/dq_j - dD_jk/dq_i) / 2``.  Substituting,
+        and using ``D_ijk = D_ikj`` (``d2T_p/dq_j dq_k`` is symmetric)::
+
+            c_ijk = (D_ijk + D_jik + D_ikj + D_kij - D_jki - D_kji) / 2
+                  = (2 D_ijk + (D_jik - D_jki) + (D_kij - D_kji)) / 2 = D_ijk.
+
+        So the chapter's ``D_ijk`` ARE the Christoffel symbols (a kinetic energy
+        that is a sum of ``|r_dot|^2`` over mass points gives
+        ``c_ijk = sum <d2r/dq_j dq_k, dr/dq_i> dm``), and the Christoffel
+        Coriolis matrix is ``C_ij = sum_k D_ijk qd_k``.  Hence
+        ``C qd = sum_jk D_ijk qd_j qd_k = h`` and
+        ``(dD/dt)_ij = sum_k (D_ijk + D_jik) qd_k = C_ij + C_ji``, so
+        ``dD/dt - 2C = C^T - C`` is skew-symmetric.  The rotor inertias are
+        constant and add nothing to C.
+
+        Fast form (CONVENTIONS.md, "Computing the trace form fast").  With
+        ``S_m = sum_{k <= m} Delta_k qd_k`` (so ``T_p_dot = S_p T_p``),
+        ``sum_k d2T_p/dq_j dq_k qd_k = (S_{j-1} Delta_j + Delta_j (S_p - S_{j-1})) T_p
+        = (Delta_j_dot + Delta_j S_p) T_p`` with ``Delta_j_dot = [S_{j-1}, Delta_j]``
+        (the time derivative of ``dT_p/dq_j``).  Summing over links ``p >= max(i, j)``
+        with ``W_p = T_p J_p T_p^T``, ``Wbar_m = sum_{p >= m} W_p`` and
+        ``Ubar_m = sum_{p >= m} S_p W_p``::
+
+            C_ij = <Delta_i, Delta_j_dot Wbar_m + Delta_j Ubar_m>,  m = max(i, j),
+
+        which for ``i <= j`` is ``<Delta_i, Y_j>`` with ``Y_j`` per column, and for
+        ``i > j`` is ``<Delta_j_dot, Delta_i Wbar_i> + <Delta_j, Delta_i Ubar_i^T>``
+        per row: n^2 traces, every step batched.
+        """
+        q, single = self._q(q)
+        qd = as_state(qd, "qd", self.n)
+        same_batch((q, "q"), (qd, "qd"))
+        _, Delta, W = self._frames(self._batch(q))
+        qdb = self._batch(qd)
+        B, n = qdb.shape
+        V = Delta * qdb[:, :, None, None]                      # Delta_k qd_k
+        S = _link_sum(self._head, V)                           # S_p
+        Sprev = S - V                                          # S_{j-1}
+        Ddot = Sprev @ Delta - Delta @ Sprev                   # Delta_j_dot
+        Wbar = _link_sum(self._tail, W)
+        Ubar = _link_sum(self._tail, S @ W)
+        flat = Delta.reshape(B, n, 16)
+        Y = (Ddot @ Wbar + Delta @ Ubar).reshape(B, n, 16)     # column j, i <= j
+        upper = flat @ Y.swapaxes(1, 2)
+        rows = np.concatenate(((Delta @ Wbar).reshape(B, n, 16),
+                               (Delta @ Ubar.swapaxes(-1, -2)).reshape(B, n, 16)), axis=2)
+        cols = np.concatenate((Ddot.reshape(B, n, 16), flat), axis=2)
+        lower = rows @ cols.swapaxes(1, 2)                     # row i, i > j
+        return self._out(np.where(self._upper, upper, lower), single)
