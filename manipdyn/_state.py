@@ -36,6 +36,10 @@ def as_state(x, name: str, n: int) -> np.ndarray:
     if type(x) is _ND and x.dtype == _F64:
         arr = x
     else:
+        if np.iscomplexobj(x):
+            raise StateError(
+                f"{name}: expected a real array of shape ({n},) or (N, {n}), got complex values"
+            )
         try:
             arr = np.asarray(x, dtype=np.float64)
         except (TypeError, ValueError) as exc:

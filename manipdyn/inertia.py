@@ -248,8 +248,10 @@ class LinkInertia:
         # Triangle inequality on the principal moments (with m > 0, equivalent to S >= 0).
         p = np.sort(principal)
         if p[0] + p[1] < p[2] - tol:
-            # Report in the axes the user wrote when the tensor is diagonal.
-            if np.allclose(I, np.diag(np.diag(I))):
+            n_before = len(problems)
+            # Report in the axes the user wrote when the tensor is diagonal
+            # (to within the same relative tolerance, whatever the body's size).
+            if np.max(np.abs(I - np.diag(np.diag(I)))) <= tol:
                 d = np.diag(I)
                 for k in range(3):
                     i, j = sorted(((k + 1) % 3, (k + 2) % 3))
@@ -258,7 +260,7 @@ class LinkInertia:
                             f"triangle inequality {names[i]} + {names[j]} >= {names[k]} broken "
                             f"({d[i]:.6g} + {d[j]:.6g} < {d[k]:.6g})"
                         )
-            else:
+            if len(problems) == n_before:
                 problems.append(
                     "triangle inequality of the principal moments broken "
                     f"({p[0]:.6g} + {p[1]:.6g} < {p[2]:.6g})"

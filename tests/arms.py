@@ -177,7 +177,11 @@ def puma560_links(link1_inertia=None) -> list[md.DHLink]:
 
 
 def puma560(link1_inertia=None, **kw) -> md.Manipulator:
-    """Corke's Puma 560, standard DH; warns (PhysicalConsistencyWarning) about link 1.
+    """Corke's Puma 560, standard DH.
+
+    Warns (PhysicalConsistencyWarning) about link 1 (massless, Iyy = 0.35) and
+    link 3 (Ixx + Izz = 0.0785 < Iyy = 0.086): the published data are not
+    those of real rigid bodies.
 
     Call under ``pytest.warns`` or ``warnings.catch_warnings`` if the warning matters.
     """

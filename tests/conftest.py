@@ -24,14 +24,14 @@ import arms
 settings.register_profile(
     "ci",
     derandomize=True,
-    max_examples=12,
+    max_examples=25,
     deadline=None,
     print_blob=True,
     suppress_health_check=[HealthCheck.too_slow],
 )
 settings.register_profile(
     "dev",
-    max_examples=60,
+    max_examples=100,
     deadline=None,
     print_blob=True,
     suppress_health_check=[HealthCheck.too_slow],

@@ -1,0 +1,34 @@
+"""Path-tracking control on top of manipdyn's dynamics (the thesis' subject).
+
+* trajectories (:mod:`.trajectory`): :class:`Quintic`, :class:`ViaPoints`,
+  :class:`Sampled`, each ``trajectory(t) -> (q_d, qd_d, qdd_d)``;
+* controllers (:mod:`.controllers`), one interface ``tau = controller(t, q, qd)``:
+  :class:`PD`, :class:`PDGravity`, :class:`ComputedTorque`, :class:`SlotineLi`;
+* :class:`Regressor`: the dynamics linear in the inertial parameters;
+* :func:`simulate`: fixed-step RK4 with the torque held over each step, on the
+  arm or on a different plant (:func:`with_payload`, :func:`with_scaled_inertia`).
+
+Example::
+
+    import numpy as np, manipdyn as md
+    from manipdyn.control import Quintic, ComputedTorque
+    arm = md.load("puma560")
+    path = Quintic(np.zeros(6), np.full(6, 0.5), duration=2.0)
+    log = md.simulate(arm, ComputedTorque(arm, kp=400, kd=40), path, duration=2.5)
+    print(log.summary())
+"""
+
+from .controllers import (PD, ComputedTorque, Controller, PDGravity, SlotineLi,
+                          model_torque_limits, pd_gains)
+from .plant import with_payload, with_scaled_inertia
+from .regressor import Regressor, parameters_from_pseudo_inertia, pseudo_inertia_from_parameters
+from .simulate import SimulationDiverged, SimulationLog, simulate
+from .trajectory import PiecewisePolynomial, Quintic, Sampled, Trajectory, ViaPoints
+
+__all__ = [
+    "Trajectory", "PiecewisePolynomial", "Quintic", "ViaPoints", "Sampled",
+    "Controller", "PD", "PDGravity", "ComputedTorque", "SlotineLi", "pd_gains",
+    "model_torque_limits", "Regressor", "parameters_from_pseudo_inertia",
+    "pseudo_inertia_from_parameters", "simulate", "SimulationLog", "SimulationDiverged",
+    "with_payload", "with_scaled_inertia",
+]
