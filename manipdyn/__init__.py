@@ -34,8 +34,8 @@ def __getattr__(name):
         from . import modelfile
         return getattr(modelfile, name)
     if name in ("compare", "CompareReport"):
-        from . import compare as _compare
-        return getattr(_compare, name)
+        from . import comparison
+        return getattr(comparison, name)
     if name == "simulate":
         from .control import simulate
         return simulate

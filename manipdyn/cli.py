@@ -21,7 +21,7 @@ __all__ = ["main"]
 EXIT_OK, EXIT_DISAGREE, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
 
 #: modules that add their own subcommand (``compare``, ``track``)
-_PLUGIN_MODULES = ("manipdyn.compare", "manipdyn.control.cli")
+_PLUGIN_MODULES = ("manipdyn.comparison", "manipdyn.control.cli")
 
 
 class _Progress:
@@ -236,6 +236,13 @@ def main(argv=None) -> int:
 
     try:
         return args.func(args)
+    except BrokenPipeError:
+        # the reader went away (e.g. `manipdyn check ... | head`): not an error of ours
+        try:
+            sys.stdout = open(os.devnull, "w")
+        except OSError:
+            pass
+        return EXIT_OK
     except ModelError as exc:
         print(f"manipdyn {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_USAGE

@@ -38,7 +38,7 @@ __all__ = ["Controller", "PD", "PDGravity", "ComputedTorque", "SlotineLi",
            "model_torque_limits", "pd_gains"]
 
 
-def _gain(value, n: int, name: str, positive: bool = False) -> np.ndarray:
+def _gain(value, n: int, name: str, positive: bool = False, allow_inf: bool = False) -> np.ndarray:
     try:
         g = np.array(value, dtype=np.float64)
     except (TypeError, ValueError):
@@ -47,7 +47,7 @@ def _gain(value, n: int, name: str, positive: bool = False) -> np.ndarray:
         g = np.full(n, float(g))
     if g.shape != (n,):
         raise ValueError(f"{name}: expected a scalar or shape ({n},), got shape {g.shape}")
-    if not np.all(np.isfinite(g)):
+    if not np.all(np.isfinite(g) | (allow_inf & (g == math.inf))):
         raise ValueError(f"{name}: must be finite, got {g.tolist()}")
     if positive and np.any(g <= 0):
         raise ValueError(f"{name}: must be > 0, got {g.tolist()}")
@@ -100,7 +100,7 @@ class Controller:
         if tau_max is None:
             self.tau_max = model_torque_limits(arm)
         else:
-            lim = _gain(tau_max, self.n, "tau_max")
+            lim = _gain(tau_max, self.n, "tau_max", allow_inf=True)
             if np.any(lim <= 0):
                 raise ValueError(f"tau_max: must be > 0 (inf for no limit), got {lim.tolist()}")
             self.tau_max = None if np.all(np.isinf(lim)) else lim

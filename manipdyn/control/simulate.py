@@ -149,7 +149,7 @@ def _reference(trajectory, t: np.ndarray, n: int):
 
 
 def _name(x) -> str:
-    return getattr(x, "name", "") or type(x).__name__
+    return getattr(x, "name", "") or getattr(x, "__name__", "") or type(x).__name__
 
 
 def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, plant=None,
@@ -236,9 +236,9 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
             where += " is not finite" if why == "not finite" else f" beyond the bound {bound:g}"
         else:
             where = f": {why}"
+        kept = f"the log up to t = {(k - 1) * dt:.6g} s is in .log" if k > 0 else "nothing was logged"
         msg = (f"simulation diverged at t = {k * dt:.6g} s (step {k} of {N}, {log.controller} on "
-               f"{log.plant}){where}. The controller or the plant is unstable; the log up to "
-               f"t = {max(k - 1, 0) * dt:.6g} s is in .log")
+               f"{log.plant}){where}. The controller or the plant is unstable; {kept}")
         raise SimulationDiverged(msg, t=k * dt, step=k, joint=None if j is None else j + 1,
                                  quantity=quantity, value=None if j is None else float(values[j]),
                                  log=log.truncated(k))
@@ -253,33 +253,36 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
             if np.any(np.abs(x) > b):
                 diverged(k, name, x, b, "bound")
 
-    for k in range(N):
-        Q[k] = q
-        V[k] = qd
-        tau = np.asarray(controller(k * dt, q, qd), dtype=np.float64)
-        if tau.shape != (n,):
-            raise ValueError(f"controller: returned shape {tau.shape}, expected ({n},)")
-        if not math.isfinite(tau.dot(tau)):
-            diverged(k, "tau", tau, math.inf, "not finite")
-        TAU[k] = tau
-        try:
-            a1 = fd(q, qd, tau)
-            v2 = qd + h2 * a1
-            a2 = fd(q + h2 * qd, v2, tau)
-            v3 = qd + h2 * a2
-            a3 = fd(q + h2 * v2, v3, tau)
-            v4 = qd + h * a3
-            a4 = fd(q + h * v3, v4, tau)
-        except StateError:   # a stage went non-finite: the step blew up
-            diverged(k + 1, "state", qd, math.inf, "an intermediate Runge-Kutta stage is not finite")
-        q = q + h6 * (qd + 2.0 * (v2 + v3) + v4)
-        qd = qd + h6 * (a1 + 2.0 * (a2 + a3) + a4)
-        check_state(k + 1)
-    Q[N] = q
-    V[N] = qd
-    tau = np.asarray(controller(N * dt, q, qd), dtype=np.float64)
-    if not math.isfinite(tau.dot(tau)):
-        diverged(N, "tau", tau, math.inf, "not finite")
-    TAU[N] = tau
+    # Non-finite values are detected below and end the run with SimulationDiverged,
+    # so numpy's overflow and invalid-value warnings would only repeat it.
+    with np.errstate(over="ignore", invalid="ignore"):
+        for k in range(N):
+            Q[k] = q
+            V[k] = qd
+            tau = np.asarray(controller(k * dt, q, qd), dtype=np.float64)
+            if tau.shape != (n,):
+                raise ValueError(f"controller: returned shape {tau.shape}, expected ({n},)")
+            if not math.isfinite(tau.dot(tau)) and not np.all(np.isfinite(tau)):
+                diverged(k, "tau", tau, math.inf, "not finite")
+            TAU[k] = tau
+            try:
+                a1 = fd(q, qd, tau)
+                v2 = qd + h2 * a1
+                a2 = fd(q + h2 * qd, v2, tau)
+                v3 = qd + h2 * a2
+                a3 = fd(q + h2 * v2, v3, tau)
+                v4 = qd + h * a3
+                a4 = fd(q + h * v3, v4, tau)
+            except StateError:   # a stage went non-finite: the step blew up
+                diverged(k + 1, "state", qd, math.inf, "an intermediate Runge-Kutta stage is not finite")
+            q = q + h6 * (qd + 2.0 * (v2 + v3) + v4)
+            qd = qd + h6 * (a1 + 2.0 * (a2 + a3) + a4)
+            check_state(k + 1)
+        Q[N] = q
+        V[N] = qd
+        tau = np.asarray(controller(N * dt, q, qd), dtype=np.float64)
+        if not math.isfinite(tau.dot(tau)) and not np.all(np.isfinite(tau)):
+            diverged(N, "tau", tau, math.inf, "not finite")
+        TAU[N] = tau
     log.wall_time = time.perf_counter() - t_wall
     return log
