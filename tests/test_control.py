@@ -20,10 +20,10 @@ import pytest
 
 import manipdyn as md
 from manipdyn.control import (PD, ComputedTorque, PDGravity, Quintic, Regressor, Sampled,
-                              SimulationDiverged, SlotineLi, ViaPoints, model_torque_limits,
+                              SimulationDiverged, SlotineLi, ViaPoints, adaptation_gains, model_torque_limits,
                               parameters_from_pseudo_inertia, pseudo_inertia_from_parameters,
                               simulate, with_payload, with_scaled_inertia)
-from manipdyn.control.cli import demo_path, make_controller
+from manipdyn.control.cli import DEFAULT_GAMMA, demo_path, make_controller
 
 import arms
 
@@ -272,6 +272,45 @@ def test_controller_laws_and_saturation(puma):
     assert PD(puma, 1.0, 1.0).tau_max is None
 
 
+TWO_LINK_URDF = """<?xml version="1.0"?>
+<robot name="two">
+  <link name="base"/>
+  <link name="l1"><inertial><origin xyz="0.25 0 0"/><mass value="1"/>
+    <inertia ixx="0.01" iyy="0.02" izz="0.02" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="l2"><inertial><origin xyz="0.2 0 0"/><mass value="0.5"/>
+    <inertia ixx="0.005" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/><axis xyz="0 1 0"/>
+    <limit lower="-3" upper="3" effort="5" velocity="2"/></joint>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/>
+    <origin xyz="0.5 0 0"/><axis xyz="0 1 0"/><limit lower="-3" upper="3" effort="2" velocity="2"/></joint>
+</robot>
+"""
+
+
+def test_urdf_effort_limits_are_honoured():
+    """A URDF arm's <limit effort> are the controllers' default tau_max."""
+    from manipdyn.urdf_in import load_urdf
+
+    arm = load_urdf(TWO_LINK_URDF)
+    np.testing.assert_array_equal(model_torque_limits(arm), [5.0, 2.0])
+    tr = Quintic([0.0, 0.0], [1.5, -1.5], 0.5)
+    ct = ComputedTorque(arm, 400.0, 40.0)
+    log = simulate(arm, ct, tr, duration=1.0)
+    assert np.all(np.abs(log.tau) <= [5.0, 2.0])
+    assert np.any(np.abs(log.tau[:, 0]) == 5.0)          # the limit was reached, and held
+    assert ComputedTorque(arm, tau_max=np.inf).tau_max is None   # explicit: no limits
+
+
+def test_adaptation_gains_follow_joint_inertias(puma, puma_friction):
+    q = np.mean(puma.qlim, axis=1)
+    d = np.diag(puma.mass_matrix(q))
+    G = adaptation_gains(puma, 2.0)
+    assert G.shape == (Regressor(puma).p,) == (66,)
+    np.testing.assert_allclose(G[:60].reshape(6, 10), 2.0 * np.minimum.accumulate(d)[:, None] * np.ones(10))
+    np.testing.assert_allclose(G[60:], 2.0 * d)                  # armature of joint j: D_jj
+    assert adaptation_gains(puma_friction, 1.0).shape == (Regressor(puma_friction).p,) == (78,)
+
+
 def test_controller_errors(puma):
     with pytest.raises(ValueError, match="no trajectory"):
         PD(puma, 1.0, 1.0)(0.0, np.zeros(6), np.zeros(6))
@@ -345,21 +384,23 @@ def test_computed_torque_perfect_model_tracks_quintic(puma):
 
 def test_payload_study(puma, record_property):
     """Acceptance: a 2 kg payload 0.1 m out along z of the last link's frame, unknown
-    to the controllers; the 6 s demo path (cli.demo_path); all controllers tuned to
-    a 10 rad/s bandwidth, critically damped (cli.make_controller); Slotine-Li with
-    Gamma = 1 for every parameter.  The adaptive controller's RMS error over the
-    final second must be at most 1/5 of computed torque's with the wrong model.
-    (Measured: about 1/17.)  The same controller with Gamma = 0 must do about as
-    badly as computed torque: the gain comes from the adaptation."""
+    to the controllers; the 6 s demo path (cli.demo_path: every joint swinging
+    out of step with the others, up to 0.6 rad); all controllers tuned to a
+    10 rad/s bandwidth, critically damped, and Slotine-Li with the demo's
+    adaptation gain (cli.make_controller, DEFAULT_GAMMA, adaptation_gains).  The
+    adaptive controller's RMS error over the final second (all joints) must be
+    at most 1/5 of computed torque's with the wrong model (measured: about
+    1/27).  The same controller with Gamma = 0 must do about as badly as
+    computed torque: the gain comes from the adaptation."""
     T = 6.0
     plant = with_payload(puma, 2.0, com=(0.0, 0.0, 0.1))
     path = demo_path(puma, T)
     final = {}
     report = []
-    for kind, gamma in (("pdg", None), ("ct", None), ("adaptive", 1.0), ("adaptive", 0.0)):
-        ctrl = make_controller(kind, puma, gamma=gamma if gamma is not None else 1.0)
+    for key, kind, gamma in (("PD + gravity", "pdg", None), ("computed torque", "ct", None),
+                             ("adaptive", "adaptive", DEFAULT_GAMMA), ("adaptive, Gamma = 0", "adaptive", 0.0)):
+        ctrl = make_controller(kind, puma, gamma=DEFAULT_GAMMA if gamma is None else gamma)
         log = simulate(puma, ctrl, path, duration=T, plant=plant)
-        key = kind if gamma in (None, 1.0) else "adaptive, Gamma = 0"
         last = log.e[log.t >= T - 1.0]
         final[key] = float(np.sqrt(np.mean(last**2)))
         report.append(f"{key:<22} RMS {np.sqrt(np.mean(log.e**2)):.3e}  final second "
@@ -367,9 +408,9 @@ def test_payload_study(puma, record_property):
                       f"peak torque {log.peak_torque().max():.1f} N m")
         record_property(f"rms_final_second[{key}]", final[key])
     print("\n" + "\n".join(report))
-    assert final["adaptive"] <= final["ct"] / 5
-    assert final["ct"] < final["pdg"]
-    assert final["adaptive, Gamma = 0"] > final["ct"] / 2
+    assert final["adaptive"] <= final["computed torque"] / 5
+    assert final["computed torque"] < final["PD + gravity"]
+    assert final["adaptive, Gamma = 0"] > final["computed torque"] / 2
 
 
 def test_unstable_loop_raises_diverged_not_nan(puma):

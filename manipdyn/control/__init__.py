@@ -19,7 +19,7 @@ Example::
 """
 
 from .controllers import (PD, ComputedTorque, Controller, PDGravity, SlotineLi,
-                          model_torque_limits, pd_gains)
+                          adaptation_gains, model_torque_limits, pd_gains)
 from .plant import with_payload, with_scaled_inertia
 from .regressor import Regressor, parameters_from_pseudo_inertia, pseudo_inertia_from_parameters
 from .simulate import SimulationDiverged, SimulationLog, simulate
@@ -27,7 +27,7 @@ from .trajectory import PiecewisePolynomial, Quintic, Sampled, Trajectory, ViaPo
 
 __all__ = [
     "Trajectory", "PiecewisePolynomial", "Quintic", "ViaPoints", "Sampled",
-    "Controller", "PD", "PDGravity", "ComputedTorque", "SlotineLi", "pd_gains",
+    "Controller", "PD", "PDGravity", "ComputedTorque", "SlotineLi", "pd_gains", "adaptation_gains",
     "model_torque_limits", "Regressor", "parameters_from_pseudo_inertia",
     "pseudo_inertia_from_parameters", "simulate", "SimulationLog", "SimulationDiverged",
     "with_payload", "with_scaled_inertia",

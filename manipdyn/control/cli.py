@@ -15,11 +15,11 @@ from __future__ import annotations
 
 import os
 import sys
-import tempfile
 
 import numpy as np
 
 from ..errors import ModelError
+from .._files import atomic_write
 
 __all__ = ["register_cli", "demo_path", "make_controller", "CONTROLLERS", "DEFAULT_BANDWIDTH",
            "DEFAULT_GAMMA", "DEFAULT_PAYLOAD_COM"]
@@ -29,11 +29,13 @@ CONTROLLERS = {"pd": "PD", "pdg": "PD + gravity", "ct": "computed torque", "adap
 
 #: closed-loop bandwidth of every demo controller, rad/s (critically damped)
 DEFAULT_BANDWIDTH = 10.0
-#: adaptation gain Gamma of the demo (same for every parameter).  Tuned on the
-#: Puma 560 with a 2 kg payload at 1 kHz: Gamma = 0 behaves like computed
-#: torque with the wrong model; 0.3 to 3 cut the error ~20x; 100 is unstable
-#: at this sampling rate (the Euler-discretised adaptation law).
-DEFAULT_GAMMA = 1.0
+#: adaptation gain of the demo: Gamma = adaptation_gains(arm, DEFAULT_GAMMA), each
+#: parameter's gain scaled by the joint inertias it acts on.  Tuned on the
+#: bundled arms with a 2 kg payload at 1 kHz (tests/test_control.py): 0 behaves
+#: like computed torque with the wrong model; 3 to 30 cut the final-second error
+#: 6x (Stanford) to 50x (UR10); 100 still runs; an unscaled Gamma = 1 I
+#: diverges on the UR5 and UR10.
+DEFAULT_GAMMA = 10.0
 #: where --payload puts the mass: 0.1 m along z of the last link's frame
 DEFAULT_PAYLOAD_COM = (0.0, 0.0, 0.1)
 
@@ -70,11 +72,12 @@ def make_controller(kind: str, arm, wn: float = DEFAULT_BANDWIDTH, gamma: float 
 
     * ``pd``, ``pdg``: ``Kp = wn^2 D_ii``, ``Kd = 2 wn D_ii`` (:func:`pd_gains`);
     * ``ct``: ``Kp = wn^2``, ``Kd = 2 wn``;
-    * ``adaptive``: ``Lambda = wn``, ``K_D = wn D_ii``, ``Gamma = gamma``: the
-      poles of ``(s + Lambda)(D_ii s + K_D)`` are those of the others.
+    * ``adaptive``: ``Lambda = wn``, ``K_D = wn D_ii``, and
+      ``Gamma = adaptation_gains(arm, gamma)``: the poles of
+      ``(s + Lambda)(D_ii s + K_D)`` are those of the others.
     ``D_ii`` is the model's mass matrix at the middle of the joint limits.
     """
-    from .controllers import PD, ComputedTorque, PDGravity, SlotineLi, pd_gains
+    from .controllers import PD, ComputedTorque, PDGravity, SlotineLi, adaptation_gains, pd_gains
 
     kp, kd = pd_gains(arm, wn)
     if kind == "pd":
@@ -84,7 +87,7 @@ def make_controller(kind: str, arm, wn: float = DEFAULT_BANDWIDTH, gamma: float 
     if kind == "ct":
         return ComputedTorque(arm, wn**2, 2 * wn, tau_max=tau_max)
     if kind == "adaptive":
-        return SlotineLi(arm, lam=wn, kd=kd / 2, gamma=gamma, tau_max=tau_max)
+        return SlotineLi(arm, lam=wn, kd=kd / 2, gamma=adaptation_gains(arm, gamma), tau_max=tau_max)
     raise ModelError(f"--controller: expected one of {', '.join(CONTROLLERS)}, got {kind!r}")
 
 
@@ -102,23 +105,9 @@ def _pyplot():
 
 
 def _save_atomic(fig, path: str) -> None:
-    """``fig.savefig`` to a temporary file beside ``path``, then rename over it."""
-    path = os.fspath(path)
-    folder = os.path.dirname(os.path.abspath(path))
-    ext = os.path.splitext(path)[1].lstrip(".").lower() or "png"
-    fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(path) + ".", suffix=".tmp", dir=folder)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fig.savefig(fh, format=ext, dpi=120)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+    """``fig.savefig`` to ``path`` atomically (no partial figure on failure)."""
+    ext = os.path.splitext(os.fspath(path))[1].lstrip(".").lower() or "png"
+    atomic_write(path, lambda fh: fig.savefig(fh, format=ext, dpi=120), binary=True)
 
 
 def _units(arm):

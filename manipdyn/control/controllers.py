@@ -12,8 +12,8 @@ Torque limits: every controller saturates its output joint by joint,
 joint, scalar or ``(n,)``; ``inf`` for no limit) comes from the controller's
 argument; when it is not given, from the model's own limits where it has
 them (a URDF's ``<limit effort>``), else none.  Saturation is applied after
-the control law, so the law's internal state (the adaptive estimate) is
-computed from the unsaturated command.
+the control law and does not feed back into it: the adaptive estimate keeps
+adapting while the torque is saturated (no anti-windup).
 
 * :class:`PD`: ``tau = Kp e + Kd e_dot``.
 * :class:`PDGravity`: ``tau = Kp e + Kd e_dot + g(q)``.
@@ -35,7 +35,7 @@ from .._state import as_state
 from .regressor import Regressor
 
 __all__ = ["Controller", "PD", "PDGravity", "ComputedTorque", "SlotineLi",
-           "model_torque_limits", "pd_gains"]
+           "model_torque_limits", "pd_gains", "adaptation_gains"]
 
 
 def _gain(value, n: int, name: str, positive: bool = False, allow_inf: bool = False) -> np.ndarray:
@@ -76,6 +76,33 @@ def pd_gains(arm, wn: float, zeta: float = 1.0, q=None):
     q = np.mean(arm.qlim, axis=1) if q is None else as_state(q, "q", arm.n)
     d = np.diag(arm.mass_matrix(q))
     return wn**2 * d, 2.0 * zeta * wn * d
+
+
+def adaptation_gains(arm, gamma: float, regressor=None, q=None) -> np.ndarray:
+    """A diagonal adaptation gain ``Gamma`` (p,) for :class:`SlotineLi`, scaled to the arm.
+
+    ``Gamma_k = gamma * min_{j <= i} D_jj(q)`` for the 10 parameters of link i
+    (the smallest joint inertia among the joints that link's parameters act
+    on), and ``gamma * D_jj`` for joint j's armature and friction parameters.
+
+    Why: a parameter error drives joint j through ``D_jj s_j_dot ~ -Y_jk pi_tilde_k``
+    while the law feeds back ``pi_tilde_k_dot = -Gamma_k Y_jk s_j``: an oscillator
+    with ``omega^2 ~ Gamma_k Y_jk^2 / D_jj``.  A single Gamma for every parameter
+    makes the light wrist joints of an arm adapt far faster than its heavy base
+    (and the Euler-discretised update unstable at 1 kHz on a UR5); scaling by
+    D_jj gives every joint the same adaptation rate, whatever the arm's size.
+    ``q`` defaults to the middle of the joint limits; ``regressor`` to
+    ``Regressor(arm)``.
+    """
+    reg = Regressor(arm) if regressor is None else regressor
+    q = np.mean(arm.qlim, axis=1) if q is None else as_state(q, "q", arm.n)
+    d = np.diag(arm.mass_matrix(q))
+    parts = [np.repeat(np.minimum.accumulate(d), 10)]
+    if reg.armature:
+        parts.append(d)
+    if reg.friction:
+        parts += [d, d]
+    return float(gamma) * np.concatenate(parts)
 
 
 class Controller:
@@ -209,7 +236,8 @@ class SlotineLi(Controller):
     kd : float or (n,)
         ``K_D``, N m s/rad (N s/m).
     gamma : float, (p,) or (p, p)
-        Adaptation gain ``Gamma`` (positive; a vector is a diagonal).
+        Adaptation gain ``Gamma`` (positive; a vector is a diagonal; a scalar
+        is ``gamma * I``).  :func:`adaptation_gains` scales a diagonal to the arm.
     pi0 : (p,), optional
         Initial estimate; default the model's :meth:`Regressor.parameters`.
 

@@ -229,7 +229,6 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
         bad = ~np.isfinite(values) if why == "not finite" else np.abs(values) > bound
         j = int(np.argmax(bad)) if bad.any() else None
         unit = {"q": ("rad", "m"), "qd": ("rad/s", "m/s"), "tau": ("N m", "N")}.get(quantity, ("", ""))
-        where = ""
         if j is not None:
             u = unit[1] if plant.joint_types[j] == "prismatic" else unit[0]
             where = f": joint {j + 1} {quantity} = {values[j]:.6g} {u}"
