@@ -463,7 +463,7 @@ def test_cli_track_prints_summary(capsys):
 
 
 def test_cli_track_compare_plot(tmp_path, capsys):
-    pytest.importorskip("matplotlib")
+    pytest.importorskip("matplotlib", reason="matplotlib (the plot extra) is not installed: the figure is not tested")
     from manipdyn.cli import main
 
     png = tmp_path / "cmp.png"
