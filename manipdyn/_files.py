@@ -16,6 +16,11 @@ def atomic_write(path, write, binary: bool = False, encoding: str = "utf-8") -> 
     folder = os.path.dirname(os.path.abspath(path))
     fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(path) + ".", suffix=".tmp", dir=folder)
     try:
+        # mkstemp makes the file owner-only; give it the permissions a plain
+        # open() would (0o666 less the umask)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.fchmod(fd, 0o666 & ~umask)
         mode = "wb" if binary else "w"
         kw = {} if binary else {"encoding": encoding, "newline": "\n"}
         with os.fdopen(fd, mode, **kw) as fh:

@@ -28,9 +28,9 @@ def as_state(x, name: str, n: int) -> np.ndarray:
     microsecond: this sits in control loops.
     """
     if type(x) is _ND and x.dtype is _F64 and x.shape == (n,):
-        # NaN and inf propagate through a dot product; only when it is not
-        # finite (or overflows) do we pay for the element-wise check.
-        if not _isfinite(x.dot(x)):
+        # NaN and inf propagate through a sum; only when it is not finite (or
+        # overflows) do we pay for the element-wise check.
+        if not _isfinite(sum(x.tolist())):
             check_finite(x, name)
         return x
     if type(x) is _ND and x.dtype == _F64:
@@ -52,8 +52,9 @@ def as_state(x, name: str, n: int) -> np.ndarray:
         raise StateError(
             f"{name}: got shape {shape}, expected ({n},) or (N, {n})"
         )
-    flat = arr.reshape(-1)
-    if not _isfinite(flat.dot(flat)):
+    # np.add.reduce, not a dot product: BLAS would start threads on large
+    # batches and compete with Pinocchio's own.
+    if not _isfinite(np.add.reduce(arr.reshape(-1))):
         check_finite(arr, name)
     return arr
 
@@ -64,7 +65,7 @@ def check_finite(arr: np.ndarray, name: str) -> None:
     if bad.any():
         idx = tuple(int(i) for i in np.argwhere(bad)[0])
         raise StateError(
-            f"{name}: entry {idx if len(idx) > 1 else idx[0]} is {arr[idx]!r}; "
+            f"{name}: entry {idx if len(idx) > 1 else idx[0]} is {float(arr[idx])!r}; "
             "states must be finite"
         )
 

@@ -45,6 +45,10 @@ def _gravity(value, where="gravity") -> np.ndarray:
     return g
 
 
+#: the calls that go to Pinocchio when made on the arm itself
+_FAST_PATH = ("mass_matrix", "coriolis_torque", "gravity_torque", "inverse_dynamics", "forward_dynamics")
+
+
 class Arm:
     """Common behaviour of every arm (DH or URDF).  Do not build directly.
 
@@ -100,7 +104,13 @@ class Arm:
         """The Pinocchio engine (RNEA, CRBA, ABA) on this arm's URDF."""
         from .pinocchio_engine import PinocchioEngine
 
-        return PinocchioEngine(self._pinocchio_model(), friction=self.friction)
+        eng = PinocchioEngine(self._pinocchio_model(), friction=self.friction)
+        # Bind the fast path straight to the engine: arm.inverse_dynamics(...)
+        # then costs one call, not two (the instance attribute shadows the
+        # delegating method below, which only runs on the first call).
+        for name in _FAST_PATH:
+            self.__dict__[name] = getattr(eng, name)
+        return eng
 
     # -- the fast path --------------------------------------------------------
     def mass_matrix(self, q):

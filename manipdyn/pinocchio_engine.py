@@ -10,6 +10,7 @@ new array of the same leading shape (SI units, joint order of the chain).
 
 from __future__ import annotations
 
+import math
 import os
 
 import numpy as np
@@ -17,7 +18,32 @@ import pinocchio as pin
 
 from ._state import as_state, same_batch
 
-__all__ = ["PinocchioEngine", "model_from_urdf"]
+_isfinite = math.isfinite
+_crba, _rnea, _aba, _gravity = pin.crba, pin.rnea, pin.aba, pin.computeGeneralizedGravity
+
+#: below this many states a batch runs on one thread (thread start-up costs
+#: more than it saves on small batches)
+PARALLEL_MIN_STATES = 2048
+
+
+def _finite_vector(x) -> bool:
+    """True for a 1-D array of finite numbers (the control-loop case), cheaply.
+
+    ``sum(x.tolist())`` is the cheapest test for a few numbers: NaN and inf
+    propagate through the sum; a sum that overflows just sends the call down
+    the general path, which checks element by element.
+    """
+    return x.ndim == 1 and _isfinite(sum(x.tolist()))
+
+
+# The single-state fast paths below call Pinocchio first and check its answer:
+# Pinocchio itself rejects wrong sizes and types (and the general path then
+# explains the error), and a NaN or inf anywhere in (q, qd, qdd) or (q, qd, tau)
+# propagates into every RNEA/ABA output, because each joint's transform
+# multiplies everything after it.  A non-finite answer sends the call down the
+# general path, which names the offending argument.  CRBA and the gravity
+# torque do not depend on q_1 at all, so there q is checked before the call.
+_FAST_ERRORS = (AttributeError, TypeError, ValueError)
 
 
 def model_from_urdf(urdf_text: str, gravity, armature=None) -> "pin.Model":
@@ -61,17 +87,34 @@ class PinocchioEngine:
         self.friction = None
         if friction is not None and np.any(friction):
             self.friction = np.asarray(friction, dtype=np.float64)
-        self.num_threads = num_threads or _threads()
+        self._num_threads = num_threads or _threads()
         self._pool = None
 
     @property
     def gravity(self) -> np.ndarray:
         return np.array(self.model.gravity.linear)
 
+    @property
+    def num_threads(self) -> int:
+        """Threads used by batch calls (``rneaInParallel``, ``abaInParallel``)."""
+        return self._num_threads
+
+    @num_threads.setter
+    def num_threads(self, value: int) -> None:
+        value = int(value)
+        if value < 1:
+            raise ValueError(f"num_threads: expected a positive integer, got {value}")
+        if value != self._num_threads:
+            self._num_threads = value
+            self._pool = None  # the pool holds one Data per thread: rebuild it
+
     def _get_pool(self):
         if self._pool is None:
-            self._pool = pin.ModelPool(self.model, self.num_threads)
+            self._pool = pin.ModelPool(self.model, self._num_threads)
         return self._pool
+
+    def _batch_threads(self, N: int) -> int:
+        return self._num_threads if N >= PARALLEL_MIN_STATES else 1
 
     def _friction(self, qd):
         if self.friction is None:
@@ -81,27 +124,44 @@ class PinocchioEngine:
     # -- public API ---------------------------------------------------------
     def mass_matrix(self, q) -> np.ndarray:
         """Inertia matrix D(q) by CRBA, (n, n) or (N, n, n); full and symmetric."""
+        try:
+            if _finite_vector(q):
+                return _crba(self.model, self.data, q)
+        except _FAST_ERRORS:
+            pass
         q = as_state(q, "q", self.n)
         if q.ndim == 1:
-            return pin.crba(self.model, self.data, q)
+            return _crba(self.model, self.data, q)
         m, d = self.model, self.data
         return np.array([pin.crba(m, d, qi) for qi in q]).reshape(len(q), self.n, self.n)
 
     def coriolis_torque(self, q, qd) -> np.ndarray:
         """Coriolis and centripetal torque h(q, qd), (n,) or (N, n) (no friction)."""
+        try:
+            if q.ndim == 1 and qd.ndim == 1:
+                h = _rnea(self._model0, self._data0, q, qd, self._zeros)
+                if _isfinite(sum(h.tolist())):
+                    return h
+        except _FAST_ERRORS:
+            pass
         q = as_state(q, "q", self.n)
         qd = as_state(qd, "qd", self.n)
         if q.ndim == 1 and qd.ndim == 1:
-            return pin.rnea(self._model0, self._data0, q, qd, self._zeros)
+            return _rnea(self._model0, self._data0, q, qd, self._zeros)
         same_batch((q, "q"), (qd, "qd"))
         m, d, z = self._model0, self._data0, self._zeros
         return np.array([pin.rnea(m, d, qi, vi, z) for qi, vi in zip(q, qd)]).reshape(q.shape)
 
     def gravity_torque(self, q) -> np.ndarray:
         """Gravity torque g(q): the torque that holds the arm still, (n,) or (N, n)."""
+        try:
+            if _finite_vector(q):
+                return _gravity(self.model, self.data, q)
+        except _FAST_ERRORS:
+            pass
         q = as_state(q, "q", self.n)
         if q.ndim == 1:
-            return pin.computeGeneralizedGravity(self.model, self.data, q)
+            return _gravity(self.model, self.data, q)
         m, d = self.model, self.data
         return np.array([pin.computeGeneralizedGravity(m, d, qi) for qi in q]).reshape(q.shape)
 
@@ -116,29 +176,47 @@ class PinocchioEngine:
 
     def inverse_dynamics(self, q, qd, qdd) -> np.ndarray:
         """Joint torques by RNEA, ``tau = D qdd + h + g`` (+ friction), (n,) or (N, n)."""
+        if self.friction is None:
+            try:
+                if q.ndim == 1 and qd.ndim == 1 and qdd.ndim == 1:
+                    tau = _rnea(self.model, self.data, q, qd, qdd)
+                    if _isfinite(sum(tau.tolist())):
+                        return tau
+            except _FAST_ERRORS:
+                pass
         q = as_state(q, "q", self.n)
         qd = as_state(qd, "qd", self.n)
         qdd = as_state(qdd, "qdd", self.n)
         if q.ndim == 1 and qd.ndim == 1 and qdd.ndim == 1:
-            tau = pin.rnea(self.model, self.data, q, qd, qdd)
+            tau = _rnea(self.model, self.data, q, qd, qdd)
         else:
             same_batch((q, "q"), (qd, "qd"), (qdd, "qdd"))
-            tau = pin.rneaInParallel(self.num_threads, self._get_pool(), q.T, qd.T, qdd.T).T.reshape(q.shape)
+            tau = pin.rneaInParallel(self._batch_threads(len(q)), self._get_pool(),
+                                     q.T, qd.T, qdd.T).T.reshape(q.shape)
         if self.friction is not None:
             tau = tau + self._friction(qd)
         return tau
 
     def forward_dynamics(self, q, qd, tau) -> np.ndarray:
         """Joint accelerations by ABA, solving ``D qdd = tau - h - g`` (- friction)."""
+        if self.friction is None:
+            try:
+                if q.ndim == 1 and qd.ndim == 1 and tau.ndim == 1:
+                    qdd = _aba(self.model, self.data, q, qd, tau)
+                    if _isfinite(sum(qdd.tolist())):
+                        return qdd
+            except _FAST_ERRORS:
+                pass
         q = as_state(q, "q", self.n)
         qd = as_state(qd, "qd", self.n)
         tau = as_state(tau, "tau", self.n)
         if self.friction is not None:
             tau = tau - self._friction(qd)
         if q.ndim == 1 and qd.ndim == 1 and tau.ndim == 1:
-            return pin.aba(self.model, self.data, q, qd, tau)
+            return _aba(self.model, self.data, q, qd, tau)
         same_batch((q, "q"), (qd, "qd"), (tau, "tau"))
-        return pin.abaInParallel(self.num_threads, self._get_pool(), q.T, qd.T, tau.T).T.reshape(q.shape)
+        return pin.abaInParallel(self._batch_threads(len(q)), self._get_pool(),
+                                 q.T, qd.T, tau.T).T.reshape(q.shape)
 
     def kinetic_energy(self, q, qd):
         """Kinetic energy (J), rotors included; scalar or (N,)."""

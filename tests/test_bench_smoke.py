@@ -134,3 +134,21 @@ def test_without_toolbox_rows_are_skipped_with_a_reason(tmp_path, monkeypatch):
     skipped = {t["id"]: t for t in res["targets"] if t["status"] == "skipped"}
     assert {"T3", "T4", "T5"} <= set(skipped)
     assert "not importable" in skipped["T3"]["reason"]
+
+
+def test_a_wrong_answer_aborts_its_row_and_fails_the_run(tmp_path, monkeypatch, capsys):
+    """A fast path that answers wrong is caught by the referee before it is timed."""
+    from manipdyn.arm import Arm
+
+    right = Arm.gravity_torque
+    monkeypatch.setattr(Arm, "gravity_torque", lambda self, q: right(self, q) + 1.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        code = run.main(["--smoke", "--out", str(tmp_path), "--no-rtb", "--skip", "batch", "scaling"])
+    assert code == 2
+    assert "WRONG ANSWER (manipdyn fast path) puma560 gravity_torque" in capsys.readouterr().err
+    res = json.loads((tmp_path / "latest.json").read_text())
+    assert res["checks"]["passed"] is False
+    assert {(r["impl"], r["op"]) for r in res["aborted_rows"]} == {("manipdyn", "gravity_torque")}
+    assert not any(r["impl"] == "manipdyn" and r["op"] == "gravity_torque" for r in res["per_call"])
+    assert "ABORTED" in (tmp_path / "latest.md").read_text()
