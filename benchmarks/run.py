@@ -650,18 +650,16 @@ TARGETS = [
 #: what the profile has shown when these targets were missed, and what would close them
 #: (written from the profiles in benchmarks/README.md; shown only when a target is missed)
 ANALYSIS = {
-    "T1": ("Own time outside pin.rnea is manipdyn's argument handling: three as_state calls, each "
-           "paying ~0.5 us for its ndarray.dot finiteness test, plus the ndim tests, the friction "
-           "branch and the Arm -> PinocchioEngine hop (together ~3-5 us around a ~1.5-2.5 us rnea).  "
-           "What closes it: a fast path for the common case (three float64 1-D ndarrays, no friction) "
-           "that calls pin.rnea directly (Pinocchio checks the sizes itself) and tests finiteness "
-           "cheaply (math.isfinite(sum(x.tolist())) is ~0.3 us, or the result once: every input "
-           "reaches tau in RNEA), falling back to the full validation, which names the bad argument, "
-           "only when the call raises or the test fails.  A prototype measured 1.4x raw (README)."),
-    "T2": ("Same overhead with one argument: as_state's ndarray.dot test and the Arm -> engine hop "
-           "around pin.crba.  Same fix, but the test must stay on q, not on the result: D does not "
-           "depend on q1 and Pinocchio's CRBA returns a finite D for a NaN in q1.  A prototype "
-           "measured 1.5x raw (README)."),
+    "T1": ("The fast path already calls pin.rnea first and checks only its answer "
+           "(math.isfinite(sum(tau.tolist())), ~0.35 us; every input reaches tau in RNEA), after "
+           "three ndim tests; what is left is that test, the Python method call and the attribute "
+           "lookups, ~0.6-1 us around a ~1.5-2.5 us rnea.  It is the floor of a checked call from "
+           "Python: closing the rest means dropping the NaN/inf guarantee (callers who want that "
+           "can call pin.rnea on arm.pinocchio.model/data directly) or moving the check into C."),
+    "T2": ("Same floor with one argument around a ~1 us crba: the test must stay on q, not on "
+           "the result, because D does not depend on q1 and Pinocchio's CRBA returns a finite D "
+           "for a NaN in q1.  ~0.6 us of test, call and lookups on ~1.1 us is ~1.55x; only "
+           "dropping the NaN/inf guarantee or a C-level check closes it."),
     "T3": ("The Toolbox's rne is ~20-35 us per call (its C extension plus Python argument "
            "handling); 7x needs the fast path at <= ~3-5 us, i.e. the T1 fix (a prototype at ~2.3 us "
            "gives ~12x)."),

@@ -26,23 +26,15 @@ _crba, _rnea, _aba, _gravity = pin.crba, pin.rnea, pin.aba, pin.computeGeneraliz
 PARALLEL_MIN_STATES = 2048
 
 
-def _finite_vector(x) -> bool:
-    """True for a 1-D array of finite numbers (the control-loop case), cheaply.
-
-    ``sum(x.tolist())`` is the cheapest test for a few numbers: NaN and inf
-    propagate through the sum; a sum that overflows just sends the call down
-    the general path, which checks element by element.
-    """
-    return x.ndim == 1 and _isfinite(sum(x.tolist()))
-
-
 # The single-state fast paths below call Pinocchio first and check its answer:
 # Pinocchio itself rejects wrong sizes and types (and the general path then
 # explains the error), and a NaN or inf anywhere in (q, qd, qdd) or (q, qd, tau)
 # propagates into every RNEA/ABA output, because each joint's transform
 # multiplies everything after it.  A non-finite answer sends the call down the
 # general path, which names the offending argument.  CRBA and the gravity
-# torque do not depend on q_1 at all, so there q is checked before the call.
+# torque do not depend on q_1 at all, so there q is checked before the call,
+# with ``sum(q.tolist())``: the cheapest finiteness test for a few numbers (a
+# sum that overflows only sends the call down the general path).
 _FAST_ERRORS = (AttributeError, TypeError, ValueError)
 
 
@@ -125,7 +117,7 @@ class PinocchioEngine:
     def mass_matrix(self, q) -> np.ndarray:
         """Inertia matrix D(q) by CRBA, (n, n) or (N, n, n); full and symmetric."""
         try:
-            if _finite_vector(q):
+            if q.ndim == 1 and _isfinite(sum(q.tolist())):  # inline: a call costs ~0.1 us
                 return _crba(self.model, self.data, q)
         except _FAST_ERRORS:
             pass
@@ -155,7 +147,7 @@ class PinocchioEngine:
     def gravity_torque(self, q) -> np.ndarray:
         """Gravity torque g(q): the torque that holds the arm still, (n,) or (N, n)."""
         try:
-            if _finite_vector(q):
+            if q.ndim == 1 and _isfinite(sum(q.tolist())):
                 return _gravity(self.model, self.data, q)
         except _FAST_ERRORS:
             pass
