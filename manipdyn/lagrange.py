@@ -22,7 +22,10 @@ import numpy as np
 
 from ._state import as_state, same_batch
 
-__all__ = ["TraceFormEngine"]
+__all__ = ["TraceFormEngine", "CHUNK"]
+
+#: states per block in batch calls (see :meth:`TraceFormEngine._run`)
+CHUNK = 128
 
 
 def _link_sum(S: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -80,14 +83,6 @@ class TraceFormEngine:
             self.friction = None
 
     # -- internals ---------------------------------------------------------
-    def _q(self, q, name="q"):
-        q = as_state(q, name, self.n)
-        return q, q.ndim == 1
-
-    @staticmethod
-    def _batch(x: np.ndarray) -> np.ndarray:
-        return x[None] if x.ndim == 1 else x
-
     def _frames(self, qb):
         T, Delta = self._kin.frames(qb)
         # W_p = T_p J_p T_p^T: link p's pseudo-inertia seen from the base
@@ -134,33 +129,90 @@ class TraceFormEngine:
             return 0.0
         return self.friction[0] * qd + self.friction[1] * np.sign(qd)
 
-    @staticmethod
-    def _out(x, single):
-        return x[0] if single else x
+    # -- batching ------------------------------------------------------------
+    def _run(self, kernel, single, *arrays):
+        """Apply a batch kernel to (B, n) arrays, :data:`CHUNK` states at a time.
+
+        Small blocks keep every temporary (B * n * 16 doubles) in reused heap
+        memory instead of fresh pages: on a batch of 1000 states this is about
+        twice as fast as one pass.  ``single`` strips the batch axis again.
+        """
+        B = arrays[0].shape[0]
+        if B <= CHUNK:
+            out = kernel(*arrays)
+        else:
+            parts = [kernel(*(a[k:k + CHUNK] for a in arrays)) for k in range(0, B, CHUNK)]
+            if isinstance(parts[0], tuple):
+                out = tuple(np.concatenate(p) for p in zip(*parts))
+            else:
+                out = np.concatenate(parts)
+        if single:
+            return tuple(x[0] for x in out) if isinstance(out, tuple) else out[0]
+        return out
+
+    def _states(self, **named):
+        """Validate named states; return ``(single, [batch arrays])`` in order."""
+        arrays = [as_state(v, k, self.n) for k, v in named.items()]
+        if len(arrays) > 1:
+            same_batch(*zip(arrays, named))
+        return arrays[0].ndim == 1, [a[None] if a.ndim == 1 else a for a in arrays]
+
+    # -- batch kernels (B, n) -> (B, ...) ---------------------------------------
+    def _k_mass(self, q):
+        _, Delta, W = self._frames(q)
+        return self._D(Delta, W)
+
+    def _k_coriolis(self, q, qd):
+        _, Delta, W = self._frames(q)
+        return self._h(Delta, W, qd)
+
+    def _k_gravity(self, q):
+        T, Delta = self._kin.frames(q)
+        return self._g(T, Delta)
+
+    def _k_terms(self, q, qd):
+        T, Delta, W = self._frames(q)
+        return self._D(Delta, W), self._h(Delta, W, qd), self._g(T, Delta)
+
+    def _k_inverse(self, q, qd, qdd):
+        T, Delta, W = self._frames(q)
+        return ((self._D(Delta, W) @ qdd[:, :, None])[..., 0]
+                + self._h(Delta, W, qd) + self._g(T, Delta) + self._friction(qd))
+
+    def _k_forward(self, q, qd, tau):
+        T, Delta, W = self._frames(q)
+        rhs = tau - self._h(Delta, W, qd) - self._g(T, Delta) - self._friction(qd)
+        return np.linalg.solve(self._D(Delta, W), rhs[..., None])[..., 0]
+
+    def _k_kinetic(self, q, qd):
+        T, Delta = self._kin.frames(q)
+        Omega = _link_sum(self._head, Delta * qd[:, :, None, None])  # sum_{j<=i} Delta_j qd_j
+        Tdot = Omega @ T                                              # dT_i/dt (eq. 2.13)
+        K = 0.5 * np.einsum("biac,icd,biad->b", Tdot, self.J, Tdot)  # eq. 2.22
+        return K + 0.5 * (qd**2) @ self.armature                     # rotors
+
+    def _k_potential(self, q):
+        T, _ = self._kin.frames(q)
+        return -np.einsum("a,bpac,pc->b", self._g4, T, self._mr)     # eq. 2.24
 
     # -- public API ---------------------------------------------------------
     def mass_matrix(self, q) -> np.ndarray:
         """Inertia matrix D(q) (eq. 2.39, D_ij), (n, n) or (N, n, n), SI units."""
-        q, single = self._q(q)
-        _, Delta, W = self._frames(self._batch(q))
-        return self._out(self._D(Delta, W), single)
+        single, (qb,) = self._states(q=q)
+        return self._run(self._k_mass, single, qb)
 
     def coriolis_torque(self, q, qd) -> np.ndarray:
         """Coriolis and centripetal torque h(q, qd) (eq. 2.39, D_ijk), (n,) or (N, n).
 
         Friction, if the model has it, is not included (see :meth:`friction_torque`).
         """
-        q, single = self._q(q)
-        qd = as_state(qd, "qd", self.n)
-        same_batch((q, "q"), (qd, "qd"))
-        _, Delta, W = self._frames(self._batch(q))
-        return self._out(self._h(Delta, W, self._batch(qd)), single)
+        single, arrays = self._states(q=q, qd=qd)
+        return self._run(self._k_coriolis, single, *arrays)
 
     def gravity_torque(self, q) -> np.ndarray:
         """Gravity torque g(q) (eq. 2.39, D_i): the torque that holds the arm still."""
-        q, single = self._q(q)
-        T, Delta = self._kin.frames(self._batch(q))
-        return self._out(self._g(T, Delta), single)
+        single, (qb,) = self._states(q=q)
+        return self._run(self._k_gravity, single, qb)
 
     def friction_torque(self, qd) -> np.ndarray:
         """Joint friction ``Fv qd + Fc sign(qd)``, outside the Lagrangian (zero if none)."""
@@ -169,44 +221,18 @@ class TraceFormEngine:
 
     def dynamics_terms(self, q, qd):
         """``(D, h, g)`` in one pass over the kinematics (the cheap way to get all three)."""
-        q, single = self._q(q)
-        qd = as_state(qd, "qd", self.n)
-        same_batch((q, "q"), (qd, "qd"))
-        T, Delta, W = self._frames(self._batch(q))
-        D = self._D(Delta, W)
-        h = self._h(Delta, W, self._batch(qd))
-        g = self._g(T, Delta)
-        if single:
-            return D[0], h[0], g[0]
-        return D, h, g
+        single, arrays = self._states(q=q, qd=qd)
+        return self._run(self._k_terms, single, *arrays)
 
     def inverse_dynamics(self, q, qd, qdd) -> np.ndarray:
         """Joint torques ``tau = D qdd + h + g`` (eq. 2.39), plus friction if modelled."""
-        q, single = self._q(q)
-        qd = as_state(qd, "qd", self.n)
-        qdd = as_state(qdd, "qdd", self.n)
-        same_batch((q, "q"), (qd, "qd"), (qdd, "qdd"))
-        qdb = self._batch(qd)
-        T, Delta, W = self._frames(self._batch(q))
-        tau = (
-            np.einsum("bij,bj->bi", self._D(Delta, W), self._batch(qdd))
-            + self._h(Delta, W, qdb)
-            + self._g(T, Delta)
-            + self._friction(qdb)
-        )
-        return self._out(tau, single)
+        single, arrays = self._states(q=q, qd=qd, qdd=qdd)
+        return self._run(self._k_inverse, single, *arrays)
 
     def forward_dynamics(self, q, qd, tau) -> np.ndarray:
         """Joint accelerations solving ``D qdd = tau - h - g`` (minus friction)."""
-        q, single = self._q(q)
-        qd = as_state(qd, "qd", self.n)
-        tau = as_state(tau, "tau", self.n)
-        same_batch((q, "q"), (qd, "qd"), (tau, "tau"))
-        qdb = self._batch(qd)
-        T, Delta, W = self._frames(self._batch(q))
-        rhs = self._batch(tau) - self._h(Delta, W, qdb) - self._g(T, Delta) - self._friction(qdb)
-        qdd = np.linalg.solve(self._D(Delta, W), rhs[..., None])[..., 0]
-        return self._out(qdd, single)
+        single, arrays = self._states(q=q, qd=qd, tau=tau)
+        return self._run(self._k_forward, single, *arrays)
 
     def kinetic_energy(self, q, qd) -> np.ndarray:
         """Kinetic energy K (eq. 2.22, plus rotors), J; scalar or (N,).
@@ -215,36 +241,24 @@ class TraceFormEngine:
         tr(Tdot_i J_i Tdot_i^T)`` with ``Tdot_i = (sum_j Delta_j qd_j) T_i``,
         not from D, so that ``K = qd^T D qd / 2`` is a real check.
         """
-        q, single = self._q(q)
-        qd = as_state(qd, "qd", self.n)
-        same_batch((q, "q"), (qd, "qd"))
-        qdb = self._batch(qd)
-        T, Delta = self._kin.frames(self._batch(q))
-        Omega = _link_sum(self._head, Delta * qdb[:, :, None, None])  # sum_{j<=i} Delta_j qd_j
-        Tdot = Omega @ T
-        K = 0.5 * np.einsum("biac,icd,biad->b", Tdot, self.J, Tdot)
-        K = K + 0.5 * (qdb**2) @ self.armature
-        return K[0] if single else K
+        single, arrays = self._states(q=q, qd=qd)
+        return self._run(self._k_kinetic, single, *arrays)
 
     def potential_energy(self, q) -> np.ndarray:
         """Potential energy P = -sum_i m_i g^T T_i r_bar_i (eq. 2.24), J; scalar or (N,)."""
-        q, single = self._q(q)
-        T, _ = self._kin.frames(self._batch(q))
-        P = -np.einsum("a,bpac,pc->b", self._g4, T, self._mr)
-        return P[0] if single else P
+        single, (qb,) = self._states(q=q)
+        return self._run(self._k_potential, single, qb)
 
     # -- kinematics passthrough -------------------------------------------
     def link_poses(self, q) -> np.ndarray:
         """Link frames T_1..T_n in the base frame (eq. 2.7), (n, 4, 4) or (N, n, 4, 4)."""
-        q, single = self._q(q)
-        T = self._kin.poses(self._batch(q))
-        return self._out(T, single)
+        single, (qb,) = self._states(q=q)
+        return self._run(self._kin.poses, single, qb)
 
     def fkine(self, q) -> np.ndarray:
         """End pose (4, 4) or (N, 4, 4) in the base frame."""
-        q, single = self._q(q)
-        T = self._kin.tool(self._kin.poses(self._batch(q)))
-        return self._out(T, single)
+        single, (qb,) = self._states(q=q)
+        return self._run(lambda x: self._kin.tool(self._kin.poses(x)), single, qb)
 
     # -- Coriolis matrix (appended for issue 6) ------------------------------
     def christoffel_symbols(self, q) -> np.ndarray:
@@ -258,8 +272,11 @@ class TraceFormEngine:
         :meth:`coriolis_matrix`; ``tests/test_coriolis.py`` proves it).
         O(n^3) small traces: for tests and analysis, not for control loops.
         """
-        q, single = self._q(q)
-        _, Delta, W = self._frames(self._batch(q))
+        single, (qb,) = self._states(q=q)
+        return self._run(self._k_christoffel, single, qb)
+
+    def _k_christoffel(self, q):
+        _, Delta, W = self._frames(q)
         B, n = Delta.shape[:2]
         Wbar = _link_sum(self._tail, W)
         idx = np.arange(n)
@@ -268,8 +285,7 @@ class TraceFormEngine:
         P = (Delta[:, :, None] @ Delta[:, None, :]).reshape(B, n, n, 16)  # Delta_j Delta_k
         E = np.einsum("bjkx,bikx->bijk", P, R)
         jk_upper = idx[:, None] <= idx[None, :]
-        out = np.where(jk_upper, E, E.swapaxes(2, 3))
-        return self._out(out, single)
+        return np.where(jk_upper, E, E.swapaxes(2, 3))
 
     def coriolis_matrix(self, q, qd) -> np.ndarray:
         """Coriolis matrix ``C(q, qd)`` (Christoffel form), ``(n, n)`` or ``(N, n, n)``, N m s.
@@ -312,11 +328,11 @@ class TraceFormEngine:
         ``i > j`` is ``<Delta_j_dot, Delta_i Wbar_i> + <Delta_j, Delta_i Ubar_i^T>``
         per row: n^2 traces, every step batched.
         """
-        q, single = self._q(q)
-        qd = as_state(qd, "qd", self.n)
-        same_batch((q, "q"), (qd, "qd"))
-        _, Delta, W = self._frames(self._batch(q))
-        qdb = self._batch(qd)
+        single, arrays = self._states(q=q, qd=qd)
+        return self._run(self._k_coriolis_matrix, single, *arrays)
+
+    def _k_coriolis_matrix(self, q, qdb):
+        _, Delta, W = self._frames(q)
         B, n = qdb.shape
         V = Delta * qdb[:, :, None, None]                      # Delta_k qd_k
         S = _link_sum(self._head, V)                           # S_p
@@ -331,4 +347,4 @@ class TraceFormEngine:
                                (Delta @ Ubar.swapaxes(-1, -2)).reshape(B, n, 16)), axis=2)
         cols = np.concatenate((Ddot.reshape(B, n, 16), flat), axis=2)
         lower = rows @ cols.swapaxes(1, 2)                     # row i, i > j
-        return self._out(np.where(self._upper, upper, lower), single)
+        return np.where(self._upper, upper, lower)
