@@ -142,6 +142,20 @@ class Arm:
         """End (tool) pose in the base frame: (4, 4) or (N, 4, 4)."""
         return self.lagrange.fkine(q)
 
+    def point_in_base(self, q, point, link: int | None = None) -> np.ndarray:
+        """A point given in link frame ``link`` (1..n, default n), in the base frame (eq. 2.8).
+
+        ``point`` is (3,) in metres; the result is (3,) or (N, 3) for a batch of q.
+        """
+        p = np.asarray(point, dtype=np.float64)
+        if p.shape != (3,) or not np.all(np.isfinite(p)):
+            raise ValueError(f"point: expected 3 finite numbers (x, y, z) in metres, got {point!r}")
+        k = self.n if link is None else int(link)
+        if not 1 <= k <= self.n:
+            raise ValueError(f"link: expected 1..{self.n}, got {link!r}")
+        T = self.link_poses(q)[..., k - 1, :, :]
+        return T[..., :3, :3] @ p + T[..., :3, 3]          # r = T_k [p, 1] (eq. 2.8)
+
     def random_state(self, rng, size=None):
         """Joint positions drawn uniformly within :attr:`qlim`: (n,) or (size, n)."""
         lo, hi = self.qlim[:, 0], self.qlim[:, 1]

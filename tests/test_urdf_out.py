@@ -128,3 +128,17 @@ def test_urdf_loads_in_pinocchio_with_joint_order():
     model = pin.buildModelFromXML(arm.to_urdf())
     assert list(model.names)[1:] == ["joint1", "joint2", "joint3", "joint4"]
     assert model.nq == model.nv == 4
+
+
+def test_point_in_base_is_eq_2_8():
+    arm = _arm("standard")
+    q = np.array([0.3, 0.1, -0.4, 0.9])
+    p = np.array([0.1, -0.2, 0.3])
+    T = arm.link_poses(q)
+    for k in range(1, 5):
+        np.testing.assert_allclose(arm.point_in_base(q, p, link=k), (T[k - 1] @ np.append(p, 1.0))[:3], atol=1e-15)
+    # the origin of the last frame is the end position
+    np.testing.assert_allclose(arm.point_in_base(q, np.zeros(3)), arm.fkine(q)[:3, 3], atol=1e-15)
+    assert arm.point_in_base(np.tile(q, (5, 1)), p).shape == (5, 3)
+    with pytest.raises(ValueError, match="link: expected 1..4"):
+        arm.point_in_base(q, p, link=5)
