@@ -79,12 +79,12 @@ from __future__ import annotations
 import json
 import math
 import sys
-import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .errors import ModelError
+from .kinematics import rot_x, rot_z, trans, transform_inverse
 
 __all__ = ["compare", "CompareReport", "QuantityDiff", "register_cli", "KIN_TOLERANCE"]
 
@@ -104,38 +104,9 @@ _FLIP = np.diag([1.0, -1.0, -1.0, 1.0])  # Rx(pi)
 
 
 # ---------------------------------------------------------------------------
-# Small SE(3) helpers
+# Small SE(3) helpers (the elementary transforms are kinematics.py's)
 # ---------------------------------------------------------------------------
-def _rz(a: float) -> np.ndarray:
-    c, s = math.cos(a), math.sin(a)
-    T = np.eye(4)
-    T[:2, :2] = [[c, -s], [s, c]]
-    return T
-
-
-def _rx(a: float) -> np.ndarray:
-    c, s = math.cos(a), math.sin(a)
-    T = np.eye(4)
-    T[1:3, 1:3] = [[c, -s], [s, c]]
-    return T
-
-
-def _tr(x=0.0, y=0.0, z=0.0) -> np.ndarray:
-    T = np.eye(4)
-    T[:3, 3] = (x, y, z)
-    return T
-
-
-def _inv(T: np.ndarray) -> np.ndarray:
-    """Eq. 2.2: ``[[R^T, -R^T p], [0, 1]]`` (any leading batch shape)."""
-    out = np.zeros_like(T)
-    Rt = np.swapaxes(T[..., :3, :3], -1, -2)
-    out[..., :3, :3] = Rt
-    out[..., :3, 3] = -(Rt @ T[..., :3, 3:4])[..., 0]
-    out[..., 3, 3] = 1.0
-    return out
-
-
+_rz, _rx, _tr, _inv = rot_z, rot_x, trans, transform_inverse
 def _joint(revolute: bool, q: float) -> np.ndarray:
     return _rz(q) if revolute else _tr(0.0, 0.0, q)
 
@@ -786,21 +757,6 @@ def compare(a, b, samples: int = 200, seed: int = 0) -> CompareReport:
 # ---------------------------------------------------------------------------
 # Command line: manipdyn compare A B
 # ---------------------------------------------------------------------------
-def _load_with_notes(spec, tip, notes):
-    from .errors import PhysicalConsistencyWarning
-    from .modelfile import load
-
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", PhysicalConsistencyWarning)
-        arm = load(spec, tip=tip) if tip else load(spec)
-    for w in caught:
-        if issubclass(w.category, PhysicalConsistencyWarning):
-            notes.append(str(w.message))
-        else:
-            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-    return arm
-
-
 def _cmd_compare(args) -> int:
     import sys
 
@@ -808,8 +764,10 @@ def _cmd_compare(args) -> int:
         print(f"manipdyn compare: error: --samples must be >= 1, got {args.samples}", file=sys.stderr)
         return 2
     load_notes: list[str] = []
-    a = _load_with_notes(args.a, args.tip_a, load_notes)
-    b = _load_with_notes(args.b, args.tip_b, load_notes)
+    from .cli import _load_quiet
+
+    a = _load_quiet(args.a, args.tip_a, load_notes)
+    b = _load_quiet(args.b, args.tip_b, load_notes)
     report = compare(a, b, samples=args.samples, seed=args.seed)
     if args.json:
         d = report.to_dict()
