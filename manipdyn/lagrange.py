@@ -86,7 +86,8 @@ class TraceFormEngine:
     def _frames(self, qb):
         T, Delta = self._kin.frames(qb)
         # W_p = T_p J_p T_p^T: link p's pseudo-inertia seen from the base
-        W = T @ self.J @ np.swapaxes(T, -1, -2)
+        # (numpy's batched matmul is about twice as fast on a contiguous T^T)
+        W = (T @ self.J) @ np.swapaxes(T, -1, -2).copy()
         return T, Delta, W
 
     def _D(self, Delta, W):
@@ -344,7 +345,7 @@ class TraceFormEngine:
         Y = (Ddot @ Wbar + Delta @ Ubar).reshape(B, n, 16)     # column j, i <= j
         upper = flat @ Y.swapaxes(1, 2)
         rows = np.concatenate(((Delta @ Wbar).reshape(B, n, 16),
-                               (Delta @ Ubar.swapaxes(-1, -2)).reshape(B, n, 16)), axis=2)
+                               (Delta @ Ubar.swapaxes(-1, -2).copy()).reshape(B, n, 16)), axis=2)
         cols = np.concatenate((Ddot.reshape(B, n, 16), flat), axis=2)
         lower = rows @ cols.swapaxes(1, 2)                     # row i, i > j
         return np.where(self._upper, upper, lower)
