@@ -1,7 +1,8 @@
 """The cross-check: the trace-form engine against the Pinocchio engine.
 
 For seeded random states within the joint limits, every quantity is computed
-by both engines and compared.  The error of one state is
+by both engines and compared: D, h, C (the Coriolis matrix), g, tau, the
+forward dynamics of those torques, the end pose and both energies.  The error of one state is
 
     err = max_k |pinocchio_k - lagrange_k| / max(1, max_k |lagrange_k|)
 
@@ -31,6 +32,7 @@ TOLERANCE = 1e-9
 QUANTITIES = {
     "D": "mass matrix D(q)",
     "h": "Coriolis/centripetal torque h(q, qd)",
+    "C": "Coriolis matrix C(q, qd) (Christoffel form)",
     "g": "gravity torque g(q)",
     "tau": "inverse dynamics tau",
     "qdd": "forward dynamics qdd",
@@ -185,8 +187,7 @@ def crosscheck(arm, samples: int = 1000, seed: int = 0, chunk: int = 500, progre
         add("fk", L.fkine(qs), P.frame_placement(qs, tool_frame))
         add("K", L.kinetic_energy(qs, qds)[:, None], np.asarray(P.kinetic_energy(qs, qds))[:, None])
         add("P", L.potential_energy(qs)[:, None], np.asarray(P.potential_energy(qs))[:, None])
-        if hasattr(L, "coriolis_matrix") and hasattr(P, "coriolis_matrix"):
-            add("C", L.coriolis_matrix(qs, qds), P.coriolis_matrix(qs, qds))
+        add("C", L.coriolis_matrix(qs, qds), P.coriolis_matrix(qs, qds))
         if progress is not None:
             progress(sl.stop, samples)
 
