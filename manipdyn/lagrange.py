@@ -261,7 +261,7 @@ class TraceFormEngine:
         single, (qb,) = self._states(q=q)
         return self._run(lambda x: self._kin.tool(self._kin.poses(x)), single, qb)
 
-    # -- Coriolis matrix (appended for issue 6) ------------------------------
+    # -- Coriolis matrix ---------------------------------------------------------
     def christoffel_symbols(self, q) -> np.ndarray:
         """The chapter's ``D_ijk`` (eq. 2.39), ``(n, n, n)`` or ``(N, n, n, n)``, index ``[i, j, k]``.
 

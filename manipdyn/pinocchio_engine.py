@@ -244,7 +244,7 @@ class PinocchioEngine:
             return one(q)
         return np.array([one(qi) for qi in q])
 
-    # -- Coriolis matrix (appended for issue 6) ------------------------------
+    # -- Coriolis matrix ---------------------------------------------------------
     def coriolis_matrix(self, q, qd) -> np.ndarray:
         """Coriolis matrix ``C(q, qd)`` by ``pin.computeCoriolisMatrix``, (n, n) or (N, n, n).
 

@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-run = pytest.importorskip("benchmarks.run")
+from benchmarks import run  # noqa: E402  (the repository root is on sys.path above)
 
 
 RESULTS = ROOT / "benchmarks" / "results"

@@ -25,30 +25,17 @@ import arms
 import manipdyn as md
 from manipdyn import cli
 from manipdyn.comparison import KIN_TOLERANCE, CompareReport, _chain, compare
+from manipdyn.erd import robots_dir
 from manipdyn.kinematics import matrix_to_rpy, rot_x, rot_y, rot_z, trans
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _erd_robots() -> Path | None:
-    try:
-        import cmeel
-
-        base = Path(cmeel.__file__).resolve().parent
-    except Exception:  # noqa: BLE001
-        base = None
-    import site
-
-    roots = [Path(p) for p in site.getsitepackages()] + ([base.parent] if base else [])
-    for r in roots:
-        p = r / "cmeel.prefix" / "share" / "example-robot-data" / "robots"
-        if p.is_dir():
-            return p
-    return None
+ERD = robots_dir()  # a declared dependency: a broken install fails, it is not skipped
 
 
-ERD = _erd_robots()
-needs_erd = pytest.mark.skipif(ERD is None, reason="example-robot-data is not installed")
+def needs_erd(f):
+    return f
 
 
 def load(spec, **kw):

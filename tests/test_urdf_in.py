@@ -30,7 +30,6 @@ sums of a handful of 4x4 products: ``LUMP_TOL = 1e-12``.
 
 from __future__ import annotations
 
-import importlib.metadata
 import math
 import os
 import subprocess
@@ -44,9 +43,10 @@ import pytest
 import manipdyn as md
 from manipdyn import ModelError
 from manipdyn.arm import DEFAULT_QLIM
+from manipdyn.erd import robots_dir
 from manipdyn.urdf_in import URDFArm, load_urdf
 
-pin = pytest.importorskip("pinocchio")
+import pinocchio as pin  # noqa: E402
 
 TOL = 1e-9        # see the module docstring
 LUMP_TOL = 1e-12  # see the module docstring
@@ -56,22 +56,11 @@ SAMPLES = 200
 # ---------------------------------------------------------------------------
 # example-robot-data
 # ---------------------------------------------------------------------------
-def _erd_dir():
-    """The ``robots`` folder of example-robot-data (found from its installed files)."""
-    try:
-        dist = importlib.metadata.distribution("example-robot-data")
-    except importlib.metadata.PackageNotFoundError:
-        return None
-    for f in dist.files or ():
-        parts = f.parts
-        if "robots" in parts and parts[-1].endswith(".urdf"):
-            i = parts.index("robots")
-            return dist.locate_file(os.path.join(*parts[: i + 1]))
-    return None
+ERD = robots_dir()  # a declared dependency: a broken install fails, it is not skipped
 
 
-ERD = _erd_dir()
-needs_erd = pytest.mark.skipif(ERD is None, reason="example-robot-data is not installed")
+def needs_erd(f):
+    return f
 
 # (id, file under robots/, tip, expected joints).  tip=None: the file's movable
 # joints are serial.  Panda's gripper fingers branch (two prismatic joints, one

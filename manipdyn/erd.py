@@ -1,0 +1,49 @@
+"""The URDFs shipped by example-robot-data, found from its installed files.
+
+example-robot-data 5 and later ship URDF files only (under the package's
+``cmeel.prefix/share/example-robot-data/robots/``), no Python loader::
+
+    import manipdyn as md
+    from manipdyn.erd import urdf_path
+    arm = md.load(urdf_path("ur5_robot"))
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib.metadata
+from pathlib import Path
+
+from .errors import ModelError
+
+__all__ = ["robots_dir", "urdf_path", "urdf_names"]
+
+
+@functools.lru_cache(maxsize=1)
+def robots_dir() -> Path:
+    """The ``robots`` folder of the installed example-robot-data."""
+    try:
+        dist = importlib.metadata.distribution("example-robot-data")
+    except importlib.metadata.PackageNotFoundError:
+        raise ModelError("example-robot-data is not installed (pip install example-robot-data)") from None
+    for f in dist.files or ():
+        parts = f.parts
+        if "robots" in parts and parts[-1].endswith(".urdf"):
+            i = parts.index("robots")
+            return Path(dist.locate_file(Path(*parts[: i + 1])))
+    raise ModelError("example-robot-data is installed but ships no URDF files")
+
+
+def urdf_names() -> list[str]:
+    """Names (file stems) of every URDF in example-robot-data, sorted."""
+    return sorted(p.stem for p in robots_dir().rglob("*.urdf"))
+
+
+def urdf_path(name: str) -> Path:
+    """Path of ``<name>.urdf`` in example-robot-data, e.g. ``urdf_path("ur5_robot")``."""
+    hits = sorted(robots_dir().rglob(f"{name}.urdf"))
+    if not hits:
+        names = urdf_names()
+        close = [n for n in names if name.split("_")[0] in n][:8] or names[:8]
+        raise ModelError(f"example-robot-data has no URDF named {name!r}; e.g. {', '.join(close)}")
+    return hits[0]
