@@ -215,10 +215,13 @@ class Manipulator(Arm):
     sources : dict, optional
         Citations per group of values (``kinematics``, ``inertia``,
         ``corrections``, ...), as in model files.
+    description : str
+        Free text, kept by model files.
     """
 
     def __init__(self, links, convention: str = "standard", gravity=(0.0, 0.0, -9.81),
-                 name: str = "", strict: bool = False, source: str = "", sources=None):
+                 name: str = "", strict: bool = False, source: str = "", sources=None,
+                 description: str = ""):
         if convention not in ("standard", "modified"):
             raise ModelError(f"convention: must be 'standard' or 'modified', got {convention!r}")
         links = tuple(links)
@@ -233,6 +236,7 @@ class Manipulator(Arm):
         self.name = str(name)
         self.source = str(source)
         self.sources = dict(sources or {})
+        self.description = str(description)
         self.strict = bool(strict)
         self.joint_types = tuple(l.joint for l in links)
         self._qlim = np.array([l.qlim if l.qlim is not None else DEFAULT_QLIM[l.joint] for l in links])
@@ -250,6 +254,7 @@ class Manipulator(Arm):
             return NotImplemented
         return (self.convention == other.convention and self.name == other.name
                 and self.source == other.source and self.sources == other.sources
+                and self.description == other.description
                 and np.array_equal(self.gravity, other.gravity)
                 and len(self.links) == len(other.links)
                 and all(_dh_equal(a, b) for a, b in zip(self.links, other.links)))

@@ -178,6 +178,11 @@ class LinkInertia:
         if m > 0:
             c = J[:3, 3] / m
             S_c = S - m * np.outer(c, c)
+        elif np.any(J[:3, 3]):
+            raise ModelError(
+                f"{name}: pseudo-inertia J has first moments m*c = {J[:3, 3].tolist()} "
+                "but mass 0; no body has that"
+            )
         else:
             c = np.zeros(3)
             S_c = S

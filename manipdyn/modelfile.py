@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import tomllib
 from importlib import resources
 from pathlib import Path
@@ -257,8 +258,9 @@ def parse_model(text: str, origin: str = "<model>", strict: bool = False) -> Man
             ))
         except ModelError as exc:
             raise ModelError(f"{w}: {exc}") from None
+    description = _str(data.get("description", ""), f"{origin}: key 'description'")
     return Manipulator(links, convention=convention, gravity=gravity, name=name, strict=strict,
-                       source=source, sources=sources)
+                       source=source, sources=sources, description=description)
 
 
 # ---------------------------------------------------------------------------
@@ -267,6 +269,11 @@ def parse_model(text: str, origin: str = "<model>", strict: bool = False) -> Man
 def _toml_str(s: str) -> str:
     out = s.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n").replace("\t", "\\t")
     return f'"{out}"'
+
+
+def _toml_key(k: str) -> str:
+    """A TOML key: bare when it can be, quoted otherwise."""
+    return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else _toml_str(k)
 
 
 def _toml_num(x: float) -> str:
@@ -289,9 +296,11 @@ def model_to_toml(arm: Manipulator) -> str:
         f"gravity = {_toml_list(arm.gravity)}",
         f"source = {_toml_str(arm.source)}",
     ]
+    if arm.description:
+        lines.append(f"description = {_toml_str(arm.description)}")
     sources = arm.sources
     if sources:
-        lines += ["", "[sources]"] + [f"{k} = {_toml_str(v)}" for k, v in sources.items()]
+        lines += ["", "[sources]"] + [f"{_toml_key(k)} = {_toml_str(v)}" for k, v in sources.items()]
     lines += ["", "[units]", 'length = "m"', 'angle = "rad"', 'mass = "kg"']
     for l in arm.links:
         I = l.inertia

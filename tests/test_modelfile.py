@@ -158,3 +158,19 @@ def test_save_refuses_nothing_half_written(tmp_path):
     finally:
         mf.model_to_toml = real
     assert target.read_text() == "previous"
+
+
+def test_round_trip_keeps_description_and_quotes_odd_source_keys(tmp_path):
+    arm = parse_model(GOOD.replace('source = "made up for the test"',
+                                   'source = "made up for the test"\ndescription = "two links"'), "g.toml")
+    assert arm.description == "two links"
+    odd = md.Manipulator(arm.links, convention=arm.convention, name="odd", source="s",
+                         sources={"data sheet": "p. 3", "x.y": "z"}, description="d")
+    odd.save(tmp_path / "odd.toml")
+    back = md.load(str(tmp_path / "odd.toml"))
+    assert back == odd and back.sources == {"data sheet": "p. 3", "x.y": "z"}
+
+
+def test_massless_first_moment_is_refused():
+    with pytest.raises(md.ModelError, match=r"first moments .* but mass 0"):
+        md.LinkInertia.from_chapter_terms(0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
