@@ -14,7 +14,12 @@ def atomic_write(path, write, binary: bool = False, encoding: str = "utf-8") -> 
     """
     path = os.fspath(path)
     folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(path) + ".", suffix=".tmp", dir=folder)
+    if os.path.isdir(path):
+        raise IsADirectoryError(21, "Is a directory, expected a file path", path)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(path) + ".", suffix=".tmp", dir=folder)
+    except OSError as exc:  # name the file asked for, not the temporary one
+        raise type(exc)(exc.errno, exc.strerror, path) from None
     try:
         # mkstemp makes the file owner-only; give it the permissions a plain
         # open() would (0o666 less the umask)
@@ -28,11 +33,13 @@ def atomic_write(path, write, binary: bool = False, encoding: str = "utf-8") -> 
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         try:
             os.unlink(tmp)
         except OSError:
             pass
+        if isinstance(exc, OSError) and exc.filename == tmp:
+            raise type(exc)(exc.errno, exc.strerror, path) from None
         raise
 
 

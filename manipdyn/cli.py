@@ -12,9 +12,12 @@ import importlib
 import importlib.util
 import json
 import os
+import re
 import sys
 import time
 import warnings
+
+from .errors import ModelError
 
 __all__ = ["main"]
 
@@ -72,6 +75,27 @@ def _timings(arm, calls: int = 200) -> dict:
     return out
 
 
+def _urdf_target(outdir: str, arm, seen: dict, option: str) -> str:
+    """``outdir/<name>.urdf`` for an arm, with the name made a safe file name.
+
+    Refuses two arms that would write the same file.
+    """
+    stem = re.sub(r"[^A-Za-z0-9_.-]+", "_", arm.name or "arm").strip("._") or "arm"
+    if stem in seen:
+        raise ModelError(f"{option}: {seen[stem]!r} and {arm.name!r} would both be written to {stem}.urdf")
+    seen[stem] = arm.name
+    return os.path.join(outdir, f"{stem}.urdf")
+
+
+def _outdir(path: str, option: str) -> str:
+    """Create the output folder, or say in one line why it cannot be."""
+    try:
+        os.makedirs(path, exist_ok=True)
+    except OSError as exc:
+        raise ModelError(f"{option} {path}: cannot create the folder: {exc.strerror}") from None
+    return path
+
+
 def _load_quiet(spec: str, tip, notes: list):
     """Load an arm, turning physical-consistency warnings into printed notes."""
     import manipdyn as md
@@ -92,7 +116,8 @@ def _cmd_check(args) -> int:
 
     specs = list(args.models)
     if args.all:
-        specs = md.models() + [s for s in specs if s not in md.models()]
+        specs = md.models() + specs
+    specs = list(dict.fromkeys(specs))  # each arm once, in order
     if not specs:
         print("manipdyn check: error: name at least one model or file, or pass --all", file=sys.stderr)
         return EXIT_USAGE
@@ -100,7 +125,8 @@ def _cmd_check(args) -> int:
         print(f"manipdyn check: error: --samples must be >= 1, got {args.samples}", file=sys.stderr)
         return EXIT_USAGE
     if args.urdf_out:
-        os.makedirs(args.urdf_out, exist_ok=True)
+        _outdir(args.urdf_out, "--urdf-out")
+    seen: dict = {}
     show_progress = args.progress or (args.progress is None and sys.stderr.isatty())
     results, worst = [], EXIT_OK
     for spec in specs:
@@ -108,7 +134,7 @@ def _cmd_check(args) -> int:
         arm = _load_quiet(spec, args.tip, notes)
         urdf_path = None
         if args.urdf_out:
-            urdf_path = os.path.join(args.urdf_out, f"{arm.name or 'arm'}.urdf")
+            urdf_path = _urdf_target(args.urdf_out, arm, seen, "--urdf-out")
             arm.write_urdf(urdf_path)
         report = md.crosscheck(arm, samples=args.samples, seed=args.seed,
                                progress=_Progress(arm.name or spec, show_progress))
@@ -149,10 +175,11 @@ def _cmd_urdf(args) -> int:
     if not specs:
         print("manipdyn urdf: error: name at least one model or pass --all", file=sys.stderr)
         return EXIT_USAGE
-    os.makedirs(args.outdir, exist_ok=True)
-    for spec in specs:
+    _outdir(args.outdir, "OUTDIR")
+    seen: dict = {}
+    for spec in dict.fromkeys(specs):  # each spec once, in order
         arm = _load_quiet(spec, None, [])
-        path = os.path.join(args.outdir, f"{arm.name}.urdf")
+        path = _urdf_target(args.outdir, arm, seen, "OUTDIR")
         arm.write_urdf(path)
         print(f"wrote {path}")
     return EXIT_OK
@@ -232,8 +259,6 @@ def main(argv=None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return EXIT_USAGE
-    from .errors import ModelError
-
     try:
         return args.func(args)
     except BrokenPipeError:

@@ -68,3 +68,34 @@ def test_python_dash_m(tmp_path):
     assert r.returncode == 2
     assert "Traceback" not in r.stderr
     assert "bad.toml: missing key 'convention'" in r.stderr
+
+
+def _arm_named(tmp_path, name):
+    import manipdyn as md
+
+    links = [md.DHLink(a=0.3, mass=1.0, com=(-0.15, 0, 0), inertia=[0.001, 0.01, 0.01])]
+    path = tmp_path / f"m{abs(hash(name))}.toml"
+    md.Manipulator(links, convention="standard", name=name, source="test").save(path)
+    return str(path)
+
+
+def test_urdf_names_are_made_safe_and_never_collide(tmp_path, capsys):
+    out = tmp_path / "out"
+    escaping = _arm_named(tmp_path, "../escaped")
+    assert main(["urdf", escaping, str(out)]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["escaped.urdf"]
+    assert not (tmp_path / "escaped.urdf").exists()
+    empty = _arm_named(tmp_path, "")
+    assert main(["urdf", empty, str(out)]) == 0
+    assert (out / "arm.urdf").exists()
+    twin = _arm_named(tmp_path, "../escaped/")   # same safe name as the first
+    assert main(["urdf", escaping, twin, str(out)]) == 2
+    assert "would both be written to escaped.urdf" in capsys.readouterr().err
+
+
+def test_urdf_outdir_that_is_a_file_is_one_line(tmp_path, capsys):
+    f = tmp_path / "plain"
+    f.write_text("x")
+    assert main(["urdf", "stanford", str(f)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "OUTDIR" in err[0] and "cannot create the folder" in err[0]
