@@ -13,7 +13,7 @@ Quick start::
     print(md.crosscheck(arm, samples=200))
 """
 
-from .errors import ModelError, PhysicalConsistencyWarning, StateError
+from .errors import ModelError, PhysicalConsistencyWarning, SingularMassMatrixError, StateError
 from .inertia import LinkInertia
 from .kinematics import ChainJoint, DHLink, transform_inverse
 from .arm import Arm, Manipulator
@@ -23,7 +23,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Arm", "ChainJoint", "DHLink", "LinkInertia", "Manipulator", "ModelError",
-    "PhysicalConsistencyWarning", "StateError", "transform_inverse",
+    "PhysicalConsistencyWarning", "SingularMassMatrixError", "StateError", "transform_inverse",
     "crosscheck", "CrosscheckReport", "load", "models",
 ]
 

@@ -6,7 +6,7 @@ either ``manipdyn.ModelError`` or plain ``ValueError``.
 
 from __future__ import annotations
 
-__all__ = ["ModelError", "PhysicalConsistencyWarning", "StateError"]
+__all__ = ["ModelError", "PhysicalConsistencyWarning", "SingularMassMatrixError", "StateError"]
 
 
 class ModelError(ValueError):
@@ -25,4 +25,12 @@ class PhysicalConsistencyWarning(UserWarning):
     """A well-formed link inertia that no real rigid body can have.
 
     Raised as an error instead when the model is built with ``strict=True``.
+    """
+
+
+class SingularMassMatrixError(ValueError):
+    """Forward dynamics asked of an arm whose mass matrix D(q) is singular.
+
+    This happens when a joint moves no mass and no rotor inertia (a massless
+    distal link, say): its acceleration is then undefined.
     """

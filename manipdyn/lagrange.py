@@ -21,11 +21,23 @@ import math
 import numpy as np
 
 from ._state import as_state, same_batch
+from .errors import SingularMassMatrixError
 
 __all__ = ["TraceFormEngine", "CHUNK"]
 
 #: states per block in batch calls (see :meth:`TraceFormEngine._run`)
 CHUNK = 128
+
+
+def _singular(D: np.ndarray) -> SingularMassMatrixError:
+    """The error for a singular D (B, n, n), naming joints with no inertia."""
+    diag = np.abs(np.diagonal(D, axis1=-2, axis2=-1)).min(axis=0)
+    idle = [int(j) + 1 for j in np.flatnonzero(diag <= 1e-12 * max(1.0, float(diag.max())))]
+    which = f": joint(s) {idle} move no mass" if idle else ""
+    return SingularMassMatrixError(
+        f"forward dynamics: the mass matrix D(q) is singular{which}; give the links after "
+        "them mass or the joints rotor inertia"
+    )
 
 
 def _link_sum(S: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -183,7 +195,11 @@ class TraceFormEngine:
     def _k_forward(self, q, qd, tau):
         T, Delta, W = self._frames(q)
         rhs = tau - self._h(Delta, W, qd) - self._g(T, Delta) - self._friction(qd)
-        return np.linalg.solve(self._D(Delta, W), rhs[..., None])[..., 0]
+        D = self._D(Delta, W)
+        try:
+            return np.linalg.solve(D, rhs[..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            raise _singular(D) from None
 
     def _k_kinetic(self, q, qd):
         T, Delta = self._kin.frames(q)

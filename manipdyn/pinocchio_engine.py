@@ -205,10 +205,18 @@ class PinocchioEngine:
         if self.friction is not None:
             tau = tau - self._friction(qd)
         if q.ndim == 1 and qd.ndim == 1 and tau.ndim == 1:
-            return _aba(self.model, self.data, q, qd, tau)
-        same_batch((q, "q"), (qd, "qd"), (tau, "tau"))
-        return pin.abaInParallel(self._batch_threads(len(q)), self._get_pool(),
-                                 q.T, qd.T, tau.T).T.reshape(q.shape)
+            qdd = _aba(self.model, self.data, q, qd, tau)
+        else:
+            same_batch((q, "q"), (qd, "qd"), (tau, "tau"))
+            qdd = pin.abaInParallel(self._batch_threads(len(q)), self._get_pool(),
+                                    q.T, qd.T, tau.T).T.reshape(q.shape)
+        if not _isfinite(np.add.reduce(qdd.reshape(-1))):
+            # finite inputs, non-finite accelerations: ABA divided by a zero
+            # articulated inertia, i.e. D(q) is singular
+            from .lagrange import _singular
+
+            raise _singular(self.mass_matrix(q if q.ndim == 2 else q[None]))
+        return qdd
 
     def kinetic_energy(self, q, qd):
         """Kinetic energy (J), rotors included; scalar or (N,)."""

@@ -99,3 +99,33 @@ def test_urdf_outdir_that_is_a_file_is_one_line(tmp_path, capsys):
     assert main(["urdf", "stanford", str(f)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "OUTDIR" in err[0] and "cannot create the folder" in err[0]
+
+
+NOMASS = """<robot name="nomass">
+  <link name="base"/>
+  <link name="l1"><inertial><origin xyz="0.1 0 0"/><mass value="1"/>
+    <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="l2"/>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/><axis xyz="0 0 1"/>
+    <limit effort="1" velocity="1" lower="-1" upper="1"/></joint>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0.2 0 0"/>
+    <axis xyz="0 0 1"/><limit effort="1" velocity="1" lower="-1" upper="1"/></joint>
+</robot>
+"""
+
+
+def test_singular_mass_matrix_is_named_not_a_crash(tmp_path, capsys):
+    """A joint that moves no mass: D is singular, forward dynamics is undefined."""
+    import numpy as np
+    import manipdyn as md
+
+    path = tmp_path / "nomass.urdf"
+    path.write_text(NOMASS)
+    assert main(["check", str(path), "--samples", "10", "--timing-calls", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "qdd not compared" in out and "joint(s) [2] move no mass" in out
+    with pytest.warns(md.PhysicalConsistencyWarning, match="moves no mass"):
+        arm = md.load(str(path))
+    for eng in (arm.pinocchio, arm.lagrange, arm):
+        with pytest.raises(md.SingularMassMatrixError, match=r"joint\(s\) \[2\] move no mass"):
+            eng.forward_dynamics(np.zeros(2), np.zeros(2), np.ones(2))
