@@ -502,3 +502,19 @@ def test_cli_track_bad_input_and_divergence(capsys, monkeypatch):
     assert main(["track", "puma560", "--plot", "x.png"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "install manipdyn[plot]" in err[0]
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--duration", "inf"], "--duration: must be a finite number"),
+    (["--gamma", "-1"], "--gamma: must be >= 0"),
+    (["--bandwidth", "nan"], "--bandwidth: must be a finite number"),
+    (["--duration", "1e9", "--dt", "1e-9"], "--duration: must be > 0 s and at most 300 s"),
+    (["--duration", "100", "--dt", "1e-5"], "more than 2e+06 steps"),
+    (["--plot", "/nonexistent-folder/x.png"], "--plot /nonexistent-folder/x.png: expected a writable file path"),
+])
+def test_cli_track_bad_options_are_one_line(argv, message, capsys):
+    from manipdyn.cli import main
+
+    assert main(["track", "puma560", *argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0]

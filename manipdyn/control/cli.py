@@ -13,6 +13,7 @@ unstable (reported, the other runs of ``--compare`` still shown), 2 bad input.
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 
@@ -190,21 +191,37 @@ def _compare_table(logs: dict, final: float) -> str:
     return "\n".join(rows)
 
 
+#: bounds on a demo run: the via-point spline of the demo path is solved densely
+#: (its cost grows with the square of the duration) and the log is in memory
+MAX_DURATION = 300.0
+MAX_STEPS = 2e6
+
+
 def _cmd_track(args) -> int:
     from ..cli import _load_quiet
     from .plant import with_payload
     from .simulate import SimulationDiverged, simulate
 
-    if not (args.duration > 0):
-        raise ModelError(f"--duration: must be > 0 s, got {args.duration}")
+    for opt in ("duration", "dt", "payload", "bandwidth", "gamma"):
+        if not math.isfinite(getattr(args, opt)):
+            raise ModelError(f"--{opt}: must be a finite number, got {getattr(args, opt)}")
+    if not (0 < args.duration <= MAX_DURATION):
+        raise ModelError(f"--duration: must be > 0 s and at most {MAX_DURATION:g} s, got {args.duration}")
     if not (args.dt > 0) or args.dt > args.duration:
         raise ModelError(f"--dt: must be > 0 s and at most --duration, got {args.dt}")
+    if args.duration / args.dt > MAX_STEPS:
+        raise ModelError(f"--dt: {args.duration:g} s at dt = {args.dt:g} s is more than {MAX_STEPS:g} steps")
     if not (args.payload >= 0):
         raise ModelError(f"--payload: must be >= 0 kg, got {args.payload}")
     if not (args.bandwidth > 0):
         raise ModelError(f"--bandwidth: must be > 0 rad/s, got {args.bandwidth}")
-    if args.plot:
-        _pyplot()  # fail before a long run if matplotlib is missing
+    if not (args.gamma >= 0):
+        raise ModelError(f"--gamma: must be >= 0, got {args.gamma}")
+    if args.plot:  # fail before a long run, not after it
+        folder = os.path.dirname(os.path.abspath(args.plot))
+        if os.path.isdir(args.plot) or not os.path.isdir(folder) or not os.access(folder, os.W_OK):
+            raise ModelError(f"--plot {args.plot}: expected a writable file path (its folder must exist)")
+        _pyplot()  # matplotlib installed?
     notes: list[str] = []
     arm = _load_quiet(args.model, None, notes)
     plant = arm
