@@ -211,11 +211,15 @@ class PinocchioEngine:
             qdd = pin.abaInParallel(self._batch_threads(len(q)), self._get_pool(),
                                     q.T, qd.T, tau.T).T.reshape(q.shape)
         if not _isfinite(np.add.reduce(qdd.reshape(-1))):
-            # finite inputs, non-finite accelerations: ABA divided by a zero
-            # articulated inertia, i.e. D(q) is singular
+            # finite inputs, non-finite accelerations: either ABA divided by a
+            # zero articulated inertia (D(q) singular: say so), or the inputs
+            # were large enough to overflow (return it: the caller decides)
             from .lagrange import _singular
 
-            raise _singular(self.mass_matrix(q if q.ndim == 2 else q[None]))
+            D = self.mass_matrix(q if q.ndim == 2 else q[None])
+            w = np.linalg.eigvalsh(D)
+            if np.any(w[:, 0] <= 1e-12 * np.maximum(1.0, np.abs(w[:, -1]))):
+                raise _singular(D)
         return qdd
 
     def kinetic_energy(self, q, qd):
