@@ -89,7 +89,7 @@ class TraceFormEngine:
         self._upper = np.triu(np.ones((self.n, self.n), dtype=bool))
         self._tail = np.triu(np.ones((self.n, self.n)))        # sum over p >= k
         self._head = np.tril(np.ones((self.n, self.n)))        # sum over p <= k
-        self._head_strict = np.tril(np.ones((self.n, self.n)), -1)  # sum over p < k
+        self._head_strict2 = 2.0 * np.tril(np.ones((self.n, self.n)), -1)  # 2 * sum over p < k
         self.friction = None if friction is None else np.asarray(friction, dtype=np.float64)
         if self.friction is not None and not np.any(self.friction):
             self.friction = None
@@ -102,40 +102,56 @@ class TraceFormEngine:
         W = (T @ self.J) @ np.swapaxes(T, -1, -2).copy()
         return T, Delta, W
 
-    def _D(self, Delta, W):
+    def _D(self, Delta, Wbar):
         """D_ij = sum_{p >= max(i,j)} tr(dT_p/dq_j J_p dT_p/dq_i^T) (eq. 2.39).
 
-        With dT_p/dq_j = Delta_j T_p this is tr(Delta_j Wbar_{max(i,j)} Delta_i^T).
-        For i <= j the tail starts at j, so with X_j = Delta_j Wbar_j the upper
-        triangle is the Frobenius product <Delta_i, X_j>; D is symmetric.
+        With dT_p/dq_j = Delta_j T_p this is tr(Delta_j Wbar_{max(i,j)} Delta_i^T),
+        ``Wbar_k = sum_{p >= k} W_p``.  For i <= j the tail starts at j, so with
+        X_j = Delta_j Wbar_j the upper triangle is the Frobenius product
+        <Delta_i, X_j>; D is symmetric.  Rotor inertias add to the diagonal.
         """
         B, n = Delta.shape[:2]
-        X = Delta @ _link_sum(self._tail, W)                     # X_j = Delta_j Wbar_j
+        X = Delta @ Wbar                                         # X_j = Delta_j Wbar_j
         G = Delta.reshape(B, n, 16) @ X.reshape(B, n, 16).swapaxes(1, 2)   # <Delta_i, X_j>
         D = np.where(self._upper, G, G.swapaxes(1, 2))
         if self._has_armature:
             D += self._armature_diag
         return D
 
-    def _h(self, Delta, W, qd):
+    def _h(self, Delta, W, qd, qdd=None):
         """h_i = sum_jk D_ijk qd_j qd_k (eq. 2.39), regrouped by link p.
 
         sum_{j,k<=p} d2T_p/dq_j dq_k qd_j qd_k = A_p T_p with
         A_p = sum_{k<=p} (2 Omega_{k-1} + Delta_k qd_k) Delta_k qd_k, so
         h_i = tr(F_i Delta_i^T), F_i = sum_{p>=i} A_p W_p.
+
+        With ``qdd`` given, ``sum_{j<=p} Delta_j qdd_j`` joins A_p, and the
+        same trace is ``(D qdd)_i + h_i`` without the rotor term (the
+        ``sum_j D_ij qdd_j`` of eq. 2.37, in the same pass).
         """
         V = Delta * qd[:, :, None, None]                       # Delta_k qd_k
-        Omega2 = _link_sum(2.0 * self._head_strict, V)         # 2 sum_{j<k} Delta_j qd_j
-        A = _link_sum(self._head, (Omega2 + V) @ V)            # A_p
+        Omega2 = _link_sum(self._head_strict2, V)              # 2 sum_{j<k} Delta_j qd_j
+        X = (Omega2 + V) @ V
+        if qdd is not None:
+            X += Delta * qdd[:, :, None, None]                 # Delta_k qdd_k
+        A = _link_sum(self._head, X)                           # A_p
         F = _link_sum(self._tail, A @ W)                       # F_i
         B, n = qd.shape
         return (F.reshape(B, n, 1, 16) @ Delta.reshape(B, n, 16, 1))[..., 0, 0]
 
-    def _g(self, T, Delta):
-        """g_i = -sum_{p>=i} m_p g^T (dT_p/dq_i) r_bar_p (eq. 2.39, D_i)."""
-        c = T @ self._mr[:, :, None]                           # m_p T_p r_bar_p, (B, n, 4, 1)
+    def _g(self, Delta, cbar):
+        """g_i = -sum_{p>=i} m_p g^T (dT_p/dq_i) r_bar_p (eq. 2.39, D_i).
+
+        ``cbar`` (B, n, 4, 1) holds the tail sums ``sum_{p>=i} m_p T_p r_bar_p``:
+        the last column of ``Wbar_i`` (``W_p e4 = T_p J_p e4``, since
+        ``T_p^T e4 = e4``), or :meth:`_cbar` when W is not at hand.
+        """
         gD = self._g4 @ Delta                                  # g^T Delta_i, (B, n, 4)
-        return -(gD[..., None, :] @ _link_sum(self._tail, c))[..., 0, 0]
+        return -(gD[..., None, :] @ cbar)[..., 0, 0]
+
+    def _cbar(self, T):
+        """Tail sums of m_p T_p r_bar_p (the last column of J_p is m_p r_bar_p), (B, n, 4, 1)."""
+        return _link_sum(self._tail, T @ self._mr[:, :, None])
 
     def _friction(self, qd):
         if self.friction is None:
@@ -173,7 +189,7 @@ class TraceFormEngine:
     # -- batch kernels (B, n) -> (B, ...) ---------------------------------------
     def _k_mass(self, q):
         _, Delta, W = self._frames(q)
-        return self._D(Delta, W)
+        return self._D(Delta, _link_sum(self._tail, W))
 
     def _k_coriolis(self, q, qd):
         _, Delta, W = self._frames(q)
@@ -181,21 +197,27 @@ class TraceFormEngine:
 
     def _k_gravity(self, q):
         T, Delta = self._kin.frames(q)
-        return self._g(T, Delta)
+        return self._g(Delta, self._cbar(T))
 
     def _k_terms(self, q, qd):
-        T, Delta, W = self._frames(q)
-        return self._D(Delta, W), self._h(Delta, W, qd), self._g(T, Delta)
+        _, Delta, W = self._frames(q)
+        Wbar = _link_sum(self._tail, W)
+        return self._D(Delta, Wbar), self._h(Delta, W, qd), self._g(Delta, Wbar[..., 3:])
 
     def _k_inverse(self, q, qd, qdd):
-        T, Delta, W = self._frames(q)
-        return ((self._D(Delta, W) @ qdd[:, :, None])[..., 0]
-                + self._h(Delta, W, qd) + self._g(T, Delta) + self._friction(qd))
+        # tau = D qdd + h + g (eq. 2.39): D qdd and h in one pass (see _h)
+        _, Delta, W = self._frames(q)
+        Wbar3 = _link_sum(self._tail, W[..., 3:])
+        tau = self._h(Delta, W, qd, qdd) + self._g(Delta, Wbar3) + self._friction(qd)
+        if self._has_armature:
+            tau += self.armature * qdd
+        return tau
 
     def _k_forward(self, q, qd, tau):
-        T, Delta, W = self._frames(q)
-        rhs = tau - self._h(Delta, W, qd) - self._g(T, Delta) - self._friction(qd)
-        D = self._D(Delta, W)
+        _, Delta, W = self._frames(q)
+        Wbar = _link_sum(self._tail, W)
+        rhs = tau - self._h(Delta, W, qd) - self._g(Delta, Wbar[..., 3:]) - self._friction(qd)
+        D = self._D(Delta, Wbar)
         try:
             return np.linalg.solve(D, rhs[..., None])[..., 0]
         except np.linalg.LinAlgError:
