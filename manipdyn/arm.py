@@ -45,6 +45,11 @@ def _gravity(value, where="gravity") -> np.ndarray:
     return g
 
 
+def joint_letters(joint_types) -> str:
+    """``("revolute", "prismatic")`` -> ``"RP"``."""
+    return "".join("R" if t == "revolute" else "P" for t in joint_types)
+
+
 #: the calls that go to Pinocchio when made on the arm itself
 _FAST_PATH = ("mass_matrix", "coriolis_torque", "gravity_torque", "inverse_dynamics", "forward_dynamics")
 
@@ -85,6 +90,11 @@ class Arm:
     def n(self) -> int:
         """Number of joints (degrees of freedom)."""
         return len(self.joint_types)
+
+    @property
+    def joint_letters(self) -> str:
+        """The joint types as letters, e.g. ``"RRPRRR"`` (R revolute, P prismatic)."""
+        return joint_letters(self.joint_types)
 
     @property
     def qlim(self) -> np.ndarray:
@@ -188,7 +198,7 @@ class Arm:
         return crosscheck(self, samples=samples, seed=seed, **kw)
 
     def __repr__(self) -> str:
-        return f"<{type(self).__name__} {self.name!r}: {self.n} joints {''.join('R' if t == 'revolute' else 'P' for t in self.joint_types)}>"
+        return f"<{type(self).__name__} {self.name!r}: {self.n} joints {self.joint_letters}>"
 
 
 class Manipulator(Arm):
@@ -282,13 +292,13 @@ class Manipulator(Arm):
         joints = []
         prev_S = np.eye(4)
         names = self.link_names()
+        offsets = self.urdf_link_offsets()
         for i, l in enumerate(self.links):
+            S = offsets[i]
             if self.convention == "standard":
                 origin = prev_S @ rot_z(l.theta) @ trans(0, 0, l.d)
-                S = trans(l.a, 0, 0) @ rot_x(l.alpha)
             else:
                 origin = rot_x(l.alpha) @ trans(l.a, 0, 0) @ rot_z(l.theta) @ trans(0, 0, l.d)
-                S = np.eye(4)
             body = l.body.transformed(S)  # frame-i data into the URDF link frame
             joints.append(ChainJoint(
                 name=f"joint{i + 1}", joint=l.joint, origin=origin, axis=(0.0, 0.0, 1.0),

@@ -194,7 +194,7 @@ def _cmd_models(args) -> int:
     for name in md.models():
         notes: list[str] = []
         arm = _load_quiet(name, None, notes)
-        kinds = "".join("R" if t == "revolute" else "P" for t in arm.joint_types)
+        kinds = arm.joint_letters
         verdict = "consistent" if not notes else f"{len(notes)} inconsistent link(s)"
         print(f"{name:<12} {arm.n} DOF {kinds:<8} {arm.convention:<9} {verdict}")
     return EXIT_OK

@@ -84,6 +84,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import ModelError
+from .arm import joint_letters
 from .kinematics import rot_x, rot_z, trans, transform_inverse
 
 __all__ = ["compare", "CompareReport", "QuantityDiff", "register_cli", "KIN_TOLERANCE"]
@@ -515,7 +516,7 @@ class CompareReport:
                 f"rpy = ({rpy[0]:.6g}, {rpy[1]:.6g}, {rpy[2]:.6g}) deg")
 
     def __str__(self) -> str:
-        kinds = "".join("R" if t == "revolute" else "P" for t in self.joint_types)
+        kinds = joint_letters(self.joint_types)
         verdict = ("SAME ARM (kinematics agree within "
                    f"{KIN_TOLERANCE:g} m)" if self.same_kinematics else "DIFFERENT kinematics")
         lines = [
@@ -635,7 +636,8 @@ def compare(a, b, samples: int = 200, seed: int = 0) -> CompareReport:
     b = _as_arm(b, "b")
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
         raise ValueError(f"samples: expected a positive integer, got {samples!r}")
-    kinds = lambda arm: "".join("R" if t == "revolute" else "P" for t in arm.joint_types)  # noqa: E731
+    def kinds(arm):
+        return arm.joint_letters
     if a.n != b.n:
         raise ModelError(f"compare: {a.name!r} has {a.n} joints ({kinds(a)}) and {b.name!r} has "
                          f"{b.n} ({kinds(b)}): not the same arm")

@@ -264,6 +264,8 @@ class DHLink:
 
     def A(self, q, convention: str = "standard") -> np.ndarray:
         """The link transform A_n(q) (eq. 2.3/2.4, or Craig's), shape ``q.shape + (4, 4)``."""
+        if convention not in ("standard", "modified"):
+            raise ModelError(f"convention: must be 'standard' or 'modified', got {convention!r}")
         q = np.asarray(q, dtype=np.float64)
         if self.joint == "revolute":
             th, d = q + self.theta, self.d
@@ -331,10 +333,10 @@ class ChainJoint:
 # ---------------------------------------------------------------------------
 # Batched kinematics providers used by the trace-form engine
 # ---------------------------------------------------------------------------
-def _cumulative(A: np.ndarray, base: np.ndarray | None = None) -> np.ndarray:
+def _cumulative(A: np.ndarray) -> np.ndarray:
     """``T_i = A_1 ... A_i`` (eq. 2.7) for A of shape (B, n, 4, 4)."""
     T = np.empty_like(A)
-    prev = A[:, 0] if base is None else base @ A[:, 0]
+    prev = A[:, 0]
     T[:, 0] = prev
     for i in range(1, A.shape[1]):  # sequential by nature: one matmul per joint, batched
         prev = prev @ A[:, i]

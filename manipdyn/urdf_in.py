@@ -50,9 +50,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .arm import DEFAULT_QLIM, Arm, _gravity
+from .arm import DEFAULT_QLIM, Arm, _gravity, joint_letters
 from .errors import ModelError, PhysicalConsistencyWarning
-from .inertia import LinkInertia
+from .inertia import LinkInertia, spatial_transform_pseudo_inertia
 from .kinematics import ChainJoint, ChainKinematics, rpy_to_matrix
 
 __all__ = ["load_urdf", "URDFArm"]
@@ -504,7 +504,7 @@ def _build(tree: _Tree, tip: str | None, strict: bool):
             if body is not None:
                 # only moving bodies matter: a base link's inertia is never used
                 body.check_physical(strict=strict, where=body.name)
-                J[owner] += X @ body.J @ X.T
+                J[owner] += spatial_transform_pseudo_inertia(body.J, X)
                 with_inertial[owner] = True
         for j in tree.children[ln]:
             if j.name in index:
@@ -688,7 +688,7 @@ class URDFArm(Arm):
     __hash__ = None  # type: ignore[assignment]
 
     def __repr__(self) -> str:
-        kinds = "".join("R" if t == "revolute" else "P" for t in self.joint_types)
+        kinds = joint_letters(self.joint_types)
         s = f"<URDFArm {self.name!r}: {self.n} joints {kinds}, {self.root!r} -> {self.tip!r}"
         if self.locked_joints:
             s += f", {len(self.locked_joints)} locked"
