@@ -14,11 +14,9 @@ from __future__ import annotations
 
 import functools
 import math
-import warnings
 
 import numpy as np
 
-from ._state import as_state
 from .errors import ModelError
 from .kinematics import ChainJoint, DHKinematics, DHLink, rot_x, rot_z, trans
 

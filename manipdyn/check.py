@@ -20,7 +20,6 @@ for prismatic joints); qdd uniform in +-5 rad/s^2 (+-2 m/s^2).
 from __future__ import annotations
 
 import json
-import math
 from dataclasses import dataclass, field
 
 import numpy as np

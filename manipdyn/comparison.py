@@ -760,7 +760,6 @@ def compare(a, b, samples: int = 200, seed: int = 0) -> CompareReport:
 # Command line: manipdyn compare A B
 # ---------------------------------------------------------------------------
 def _cmd_compare(args) -> int:
-    import sys
 
     if args.samples < 1:
         print(f"manipdyn compare: error: --samples must be >= 1, got {args.samples}", file=sys.stderr)

@@ -17,12 +17,12 @@ All arrays are float64; lengths in metres, angles in radians.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from .errors import ModelError
-from .inertia import LinkInertia, as_tensor3, as_vector3
+from .inertia import LinkInertia, as_vector3
 
 __all__ = [
     "DHLink",

@@ -21,10 +21,8 @@ Tolerances, stated once (each test says which it uses):
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
-import pytest
 from hypothesis import example, given
 from hypothesis import strategies as st
 

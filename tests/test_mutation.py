@@ -8,10 +8,8 @@ the ways converters have been known to go wrong, and asserts that
 from __future__ import annotations
 
 import math
-import re
 
 import numpy as np
-import pytest
 from lxml import etree
 
 import manipdyn as md

@@ -31,7 +31,6 @@ sums of a handful of 4x4 products: ``LUMP_TOL = 1e-12``.
 from __future__ import annotations
 
 import math
-import os
 import subprocess
 import sys
 import time
