@@ -224,7 +224,7 @@ def _flat(x):
 # 1. checks
 # ---------------------------------------------------------------------------
 def _referee_values(ref, st):
-    q, qd, qdd, tau = st["q"], st["qd"], st["qdd"], st["tau"]
+    q, qd, qdd = st["q"], st["qd"], st["qdd"]
     D = ref.mass_matrix(q)
     h = ref.coriolis_torque(q, qd)
     g = ref.gravity_torque(q)
