@@ -214,7 +214,7 @@ def markdown(res):
         L += _md_table(["series", "what", "e (all n)", "e (n >= 8)", f"n={sc['n'][0]} (us)",
                         f"n={sc['n'][-1]} (us)"], body)
         L.append("")
-        L.append(f"Plot: `{_rel(sc['plot'])}`" if sc.get("plot") else f"Plot skipped: {sc.get('plot_skipped')}")
+        L.append(f"Plot: `{sc['plot']}` beside this file" if sc.get("plot") else f"Plot skipped: {sc.get('plot_skipped')}")
         L.append("")
 
     ch = res["checks"]
@@ -264,12 +264,3 @@ def _e(x):
 
 def _load(x):
     return "-" if not x else "/".join(f"{v:.1f}" for v in x)
-
-
-def _rel(path):
-    import os
-
-    try:
-        return os.path.relpath(path, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-    except ValueError:
-        return path

@@ -24,7 +24,6 @@ import math
 import os
 import platform
 import sys
-import tempfile
 import time
 import warnings
 from dataclasses import dataclass
@@ -32,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 import manipdyn as md
+from manipdyn._files import atomic_write, atomic_write_text
 
 from . import arm_set as bench_arms_mod
 from . import rtb_adapter
@@ -614,18 +614,11 @@ def _plot(ns, series, exps, out_dir):
     ax.legend(fontsize=7)
     fig.tight_layout()
     path = os.path.join(out_dir, "scaling.png")
-    fd, tmp = tempfile.mkstemp(prefix=".scaling.", suffix=".png", dir=out_dir)
-    os.close(fd)
     try:
-        fig.savefig(tmp, dpi=110)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+        atomic_write(path, lambda fh: fig.savefig(fh, format="png", dpi=110), binary=True)
     finally:
         plt.close(fig)
-    return path, None
+    return "scaling.png", None  # relative to the results folder: no machine paths in results
 
 
 # ---------------------------------------------------------------------------
@@ -840,8 +833,6 @@ def main(argv=None):
 
     text_table = report.console(results)
     log(text_table)
-    from manipdyn._files import atomic_write_text
-
     atomic_write_text(os.path.join(out_dir, "latest.json"), json.dumps(_clean(results), indent=1) + "\n")
     atomic_write_text(os.path.join(out_dir, "latest.md"), report.markdown(results))
     log(f"wrote {os.path.join(out_dir, 'latest.json')} and latest.md in {results['duration_s']} s")
