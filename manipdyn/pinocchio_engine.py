@@ -80,7 +80,7 @@ class PinocchioEngine:
         if friction is not None and np.any(friction):
             self.friction = np.asarray(friction, dtype=np.float64)
         self._num_threads = num_threads or _threads()
-        self._pool = None
+        self._pool = self._pool0 = None
 
     @property
     def gravity(self) -> np.ndarray:
@@ -98,12 +98,21 @@ class PinocchioEngine:
             raise ValueError(f"num_threads: expected a positive integer, got {value}")
         if value != self._num_threads:
             self._num_threads = value
-            self._pool = None  # the pool holds one Data per thread: rebuild it
+            self._pool = self._pool0 = None  # a pool holds one Data per thread: rebuild
 
     def _get_pool(self):
         if self._pool is None:
             self._pool = pin.ModelPool(self.model, self._num_threads)
         return self._pool
+
+    def _get_pool0(self):
+        """Pool of the gravity-free twin model (batch h = rnea(q, qd, 0) without gravity)."""
+        if self._pool0 is None:
+            self._pool0 = pin.ModelPool(self._model0, self._num_threads)
+        return self._pool0
+
+    def _rnea_batch(self, pool, q, qd, qdd) -> np.ndarray:
+        return pin.rneaInParallel(self._batch_threads(len(q)), pool, q.T, qd.T, qdd.T).T.reshape(q.shape)
 
     def _batch_threads(self, N: int) -> int:
         return self._num_threads if N >= PARALLEL_MIN_STATES else 1
@@ -141,8 +150,7 @@ class PinocchioEngine:
         if q.ndim == 1 and qd.ndim == 1:
             return _rnea(self._model0, self._data0, q, qd, self._zeros)
         same_batch((q, "q"), (qd, "qd"))
-        m, d, z = self._model0, self._data0, self._zeros
-        return np.array([pin.rnea(m, d, qi, vi, z) for qi, vi in zip(q, qd)]).reshape(q.shape)
+        return self._rnea_batch(self._get_pool0(), q, qd, np.zeros(q.shape))
 
     def gravity_torque(self, q) -> np.ndarray:
         """Gravity torque g(q): the torque that holds the arm still, (n,) or (N, n)."""
@@ -154,8 +162,8 @@ class PinocchioEngine:
         q = as_state(q, "q", self.n)
         if q.ndim == 1:
             return _gravity(self.model, self.data, q)
-        m, d = self.model, self.data
-        return np.array([pin.computeGeneralizedGravity(m, d, qi) for qi in q]).reshape(q.shape)
+        zeros = np.zeros(q.shape)
+        return self._rnea_batch(self._get_pool(), q, zeros, zeros)  # g(q) = rnea(q, 0, 0)
 
     def friction_torque(self, qd) -> np.ndarray:
         """Joint friction ``Fv qd + Fc sign(qd)`` (zero if none)."""
@@ -183,8 +191,7 @@ class PinocchioEngine:
             tau = _rnea(self.model, self.data, q, qd, qdd)
         else:
             same_batch((q, "q"), (qd, "qd"), (qdd, "qdd"))
-            tau = pin.rneaInParallel(self._batch_threads(len(q)), self._get_pool(),
-                                     q.T, qd.T, qdd.T).T.reshape(q.shape)
+            tau = self._rnea_batch(self._get_pool(), q, qd, qdd)
         if self.friction is not None:
             tau = tau + self._friction(qd)
         return tau
