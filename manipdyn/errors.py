@@ -34,3 +34,16 @@ class SingularMassMatrixError(ValueError):
     This happens when a joint moves no mass and no rotor inertia (a massless
     distal link, say): its acceleration is then undefined.
     """
+
+    @classmethod
+    def for_mass_matrix(cls, D) -> "SingularMassMatrixError":
+        """The error for singular mass matrices D (B, n, n), naming joints with no inertia."""
+        import numpy as np
+
+        diag = np.abs(np.diagonal(D, axis1=-2, axis2=-1)).min(axis=0)
+        idle = [int(j) + 1 for j in np.flatnonzero(diag <= 1e-12 * max(1.0, float(diag.max())))]
+        which = f": joint(s) {idle} move no mass" if idle else ""
+        return cls(
+            f"forward dynamics: the mass matrix D(q) is singular{which}; give the links after "
+            "them mass or the joints rotor inertia"
+        )

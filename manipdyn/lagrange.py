@@ -29,17 +29,6 @@ __all__ = ["TraceFormEngine", "CHUNK"]
 CHUNK = 128
 
 
-def _singular(D: np.ndarray) -> SingularMassMatrixError:
-    """The error for a singular D (B, n, n), naming joints with no inertia."""
-    diag = np.abs(np.diagonal(D, axis1=-2, axis2=-1)).min(axis=0)
-    idle = [int(j) + 1 for j in np.flatnonzero(diag <= 1e-12 * max(1.0, float(diag.max())))]
-    which = f": joint(s) {idle} move no mass" if idle else ""
-    return SingularMassMatrixError(
-        f"forward dynamics: the mass matrix D(q) is singular{which}; give the links after "
-        "them mass or the joints rotor inertia"
-    )
-
-
 def _link_sum(S: np.ndarray, x: np.ndarray) -> np.ndarray:
     """``out[:, k] = sum_p S[k, p] x[:, p]`` for x of shape (B, n, ...).
 
@@ -221,7 +210,7 @@ class TraceFormEngine:
         try:
             return np.linalg.solve(D, rhs[..., None])[..., 0]
         except np.linalg.LinAlgError:
-            raise _singular(D) from None
+            raise SingularMassMatrixError.for_mass_matrix(D) from None
 
     def _k_kinetic(self, q, qd):
         T, Delta = self._kin.frames(q)

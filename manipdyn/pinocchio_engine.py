@@ -17,6 +17,7 @@ import numpy as np
 import pinocchio as pin
 
 from ._state import as_state, same_batch
+from .errors import SingularMassMatrixError
 
 _isfinite = math.isfinite
 _crba, _rnea, _aba, _gravity = pin.crba, pin.rnea, pin.aba, pin.computeGeneralizedGravity
@@ -221,12 +222,10 @@ class PinocchioEngine:
             # finite inputs, non-finite accelerations: either ABA divided by a
             # zero articulated inertia (D(q) singular: say so), or the inputs
             # were large enough to overflow (return it: the caller decides)
-            from .lagrange import _singular
-
             D = self.mass_matrix(q if q.ndim == 2 else q[None])
             w = np.linalg.eigvalsh(D)
             if np.any(w[:, 0] <= 1e-12 * np.maximum(1.0, np.abs(w[:, -1]))):
-                raise _singular(D)
+                raise SingularMassMatrixError.for_mass_matrix(D)
         return qdd
 
     def kinetic_energy(self, q, qd):
