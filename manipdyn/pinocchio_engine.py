@@ -232,9 +232,9 @@ class PinocchioEngine:
         """Kinetic energy (J), rotors included; scalar or (N,)."""
         q = as_state(q, "q", self.n)
         qd = as_state(qd, "qd", self.n)
+        same_batch((q, "q"), (qd, "qd"))
         if q.ndim == 1:
             return float(pin.computeKineticEnergy(self.model, self.data, q, qd))
-        same_batch((q, "q"), (qd, "qd"))
         m, d = self.model, self.data
         return np.array([pin.computeKineticEnergy(m, d, qi, vi) for qi, vi in zip(q, qd)])
 

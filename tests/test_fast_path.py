@@ -113,3 +113,12 @@ def test_friction_goes_down_the_general_path():
     expect = arm.lagrange.inverse_dynamics(q, qd, qdd)
     np.testing.assert_allclose(tau, expect, rtol=0, atol=1e-12)
     np.testing.assert_allclose(arm.forward_dynamics(q, qd, tau), qdd, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("method", ["kinetic_energy", "coriolis_torque", "inverse_dynamics"])
+def test_mixed_single_and_batch_states_name_the_argument(arm, method):
+    """One state for q and a batch for the others is a shape error in both engines."""
+    args = [np.zeros(6)] + [np.zeros((3, 6))] * (2 if method == "inverse_dynamics" else 1)
+    for eng in (arm.pinocchio, arm.lagrange):
+        with pytest.raises(ValueError, match=r"^qd: got shape \(3, 6\), expected \(6,\) to match q"):
+            getattr(eng, method)(*args)
