@@ -52,7 +52,7 @@ import numpy as np
 
 from .arm import DEFAULT_QLIM, Arm, _gravity, joint_letters
 from .errors import ModelError, PhysicalConsistencyWarning
-from .inertia import LinkInertia, spatial_transform_pseudo_inertia
+from .inertia import LinkInertia, transform_pseudo_inertia
 from .kinematics import ChainJoint, ChainKinematics, rpy_to_matrix
 
 __all__ = ["load_urdf", "URDFArm"]
@@ -504,7 +504,7 @@ def _build(tree: _Tree, tip: str | None, strict: bool):
             if body is not None:
                 # only moving bodies matter: a base link's inertia is never used
                 body.check_physical(strict=strict, where=body.name)
-                J[owner] += spatial_transform_pseudo_inertia(body.J, X)
+                J[owner] += transform_pseudo_inertia(body.J, X)
                 with_inertial[owner] = True
         for j in tree.children[ln]:
             if j.name in index:
