@@ -94,6 +94,20 @@ class Arm:
         """The joint types as letters, e.g. ``"RRPRRR"`` (R revolute, P prismatic)."""
         return joint_letters(self.joint_types)
 
+    def urdf_link_offsets(self) -> np.ndarray:
+        """``S_i`` (n, 4, 4): trace-form frame i = URDF link i frame @ S_i (identity here)."""
+        return np.tile(np.eye(4), (self.n, 1, 1))
+
+    def parameters(self, armature: bool = False, friction: bool = False) -> np.ndarray:
+        """The inertial parameter vector ``pi`` with ``regressor(q, qd, qdd) @ pi = tau``.
+
+        10 per link (Pinocchio's order, about the URDF link frame's origin), then
+        armature and friction when asked for: see :mod:`manipdyn.parameters`.
+        """
+        from .parameters import arm_parameters
+
+        return arm_parameters(self, armature=armature, friction=friction)
+
     @property
     def qlim(self) -> np.ndarray:
         """Joint limits (n, 2), rad or m; defaults of :data:`DEFAULT_QLIM` where none given."""
@@ -105,7 +119,8 @@ class Arm:
         from .lagrange import TraceFormEngine
 
         kin, J, arm, fr = self._lagrange_parts()
-        return TraceFormEngine(kin, J, self.gravity, armature=arm, friction=fr)
+        return TraceFormEngine(kin, J, self.gravity, armature=arm, friction=fr,
+                               link_offsets=self.urdf_link_offsets())
 
     @functools.cached_property
     def pinocchio(self):
