@@ -52,7 +52,7 @@ def measure(arm, traj, rng, tau_noise: float = 0.01, q_noise: float = 1e-4, peak
     """Noisy measurements of ``arm`` along ``traj`` (an :class:`Excitation`).
 
     Returns ``(data, tau_raw, peak)``: :class:`Measurements` after the identify
-    pipeline (qd, qdd derived from the noisy q, tau filtered alike), the raw
+    pipeline (qd, qdd derived from the noisy q, ends trimmed), the measured
     noisy torques at the same samples, and the per-joint peak |tau| that set
     the noise (``tau_noise * peak`` standard deviation).
     """
@@ -99,11 +99,11 @@ def run_demo(name: str = "ur5", seed: int = 0, iterations: int = 15, plot: str |
               f"physically consistent: {r.consistent}", file=out)
         print("            held-out RMS / noise per joint: "
               + " ".join(f"{x:.3f}" for x in rms / sigma), file=out)
-    # poorly exciting data: 2 s of one slow harmonic
-    t = np.arange(400) / 200.0
+    # poorly exciting data: 4 s of one slow harmonic
+    t = np.arange(800) / 200.0
     a = 0.05 * np.random.default_rng(seed + 7).standard_normal((prior.n, 1))
     q0 = prior.qlim.mean(axis=1)
-    poor = Excitation(q0, a, np.zeros_like(a), 2.0, t, *fourier_trajectory(t, q0, a, 0 * a, 2.0), 0.0, 0)
+    poor = Excitation(q0, a, np.zeros_like(a), 4.0, t, *fourier_trajectory(t, q0, a, 0 * a, 4.0), 0.0, 0)
     pdata, _, _ = measure(truth, poor, rng, peak=peak)
     figures["poor"] = {}
     for method in ("ols", "consistent"):

@@ -7,9 +7,12 @@ Only the base parameters ``beta = K pi`` (:mod:`.base`) are identifiable:
 
 * ``ols``: ordinary least squares on beta;
 * ``wls``: weighted least squares, each joint's rows divided by its noise
-  level ``sigma_j``, estimated from the OLS residuals (Gautier's practice):
-  ``sigma_j^2 = ||rho_j||^2 / (N - r / n)``, ``rho_j`` joint j's residuals,
-  N samples, r base parameters;
+  level ``sigma_j``, estimated from OLS residuals the way Gautier does it:
+  joint j's equations alone, ``tau_j = Y_b,j beta``, are solved by OLS
+  over the ``r_j`` base parameters that appear in them, and
+  ``sigma_j^2 = ||rho_j||^2 / (N - r_j)``.  (The residuals of the pooled
+  OLS fit would not do: that fit is dominated by the large proximal torques
+  and leaves misfit, not noise, in the small wrist torques.)
 * ``consistent``: the same weighted objective over the full parameters
   subject to ``J_i >= 0`` for every link (:mod:`.sdp`).
 
@@ -60,7 +63,7 @@ class FitResult:
     residuals : (N, n)
         Measured minus predicted torque on the fit data, N m or N.
     sigma : (n,)
-        Per-joint noise level from the OLS residuals (N m or N).
+        Per-joint noise level from each joint's own OLS residuals (N m or N).
     method : str
     condition_number : float
         Of the base regressor stacked over the data.
@@ -99,6 +102,20 @@ def _known_torque(prior, qd, qdd, armature, friction):
     if not friction and prior.friction is not None:
         out = out + prior.lagrange.friction_torque(qd)
     return out
+
+
+def _joint_noise(Yb, y) -> np.ndarray:
+    """Per-joint noise level from each joint's own OLS fit (module docstring), (n,)."""
+    N, n, _ = Yb.shape
+    sigma = np.empty(n)
+    for j in range(n):
+        A = Yb[:, j, :]
+        norms = np.linalg.norm(A, axis=0)
+        A = A[:, norms > 1e-12 * max(norms.max(), 1e-300)]
+        sol, _, rank, _ = np.linalg.lstsq(A, y[:, j], rcond=None)
+        rho = y[:, j] - A @ sol
+        sigma[j] = np.sqrt(np.sum(rho**2) / max(1, N - rank))
+    return sigma
 
 
 def _check(q, qd, qdd, tau, n):
@@ -158,8 +175,7 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     cond = float(s[0] / s[-1]) if s[-1] > 0 else float("inf")
 
     beta_ols = np.linalg.lstsq(A, y.reshape(-1), rcond=None)[0]
-    rho = y - Yb @ beta_ols
-    sigma = np.sqrt(np.sum(rho**2, axis=0) / max(1.0, N - r / n))
+    sigma = _joint_noise(Yb, y)
     floor = 1e-12 * max(1.0, float(np.abs(y).max()))
     sigma = np.maximum(sigma, floor)
     prior = arm_parameters(arm, armature, friction)

@@ -203,9 +203,11 @@ def excitation(arm, duration: float = 10.0, harmonics: int = 5, rate: float = 10
         if progress is not None:
             progress(min(done[0], iterations), iterations)
 
-    res = optimize.minimize(objective, x0, method="L-BFGS-B", callback=callback,
-                            options={"maxiter": int(iterations)})
-    x = res.x if objective(res.x) <= objective(x0) else x0
+    x = x0
+    if iterations > 0:
+        res = optimize.minimize(objective, x0, method="L-BFGS-B", callback=callback,
+                                options={"maxiter": int(iterations)})
+        x = res.x if objective(res.x) <= objective(x0) else x0
     a, b = unpack(x)
     if progress is not None:
         progress(iterations, iterations)
