@@ -1,5 +1,7 @@
 """Rigid-body inertia of one link and its pseudo-inertia matrix (eq. 2.20, 2.21).
 
+Layer: 2 (inertia with J): every conversion between inertia conventions lives here.
+
 Conventions (see CONVENTIONS.md):
 
 * ``inertia`` is the inertia TENSOR about the centre of mass, in the link

@@ -1,5 +1,7 @@
 """URDF to arm: read a serial chain out of a URDF file, safely.
 
+Layer: model loaders (URDF): chain extraction and lumping of fixed bodies.
+
 :func:`load_urdf` parses the URDF itself (lxml with entity resolution, DTD
 loading and network access off) into a chain of :class:`ChainJoint`; the
 trace-form engine runs on that chain and shares no code with the Pinocchio
