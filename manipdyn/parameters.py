@@ -1,5 +1,7 @@
 """The arm's inertial parameter vector: the ``pi`` of ``tau = Y(q, qd, qdd) pi``.
 
+Layer 3 (the model): the parameters are a view of the model's link inertias.
+
 Layout, shared by both engines' ``regressor`` methods, by
 :class:`manipdyn.control.regressor.Regressor` and by
 :mod:`manipdyn.identification`:
@@ -24,17 +26,11 @@ through :func:`manipdyn.inertia.parameters_from_pseudo_inertia` and
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 
-from .errors import ModelError
-from .inertia import (LINK_PARAMETERS, LinkInertia, parameters_from_pseudo_inertia,
-                      pseudo_inertia_from_parameters, transform_pseudo_inertia)
-from .kinematics import transform_inverse
+from .inertia import LINK_PARAMETERS, parameters_from_pseudo_inertia, pseudo_inertia_from_parameters
 
-__all__ = ["parameter_names", "parameter_count", "arm_parameters", "extra_columns",
-           "arm_with_parameters", "PARAMETER_BASIS"]
+__all__ = ["parameter_names", "parameter_count", "arm_parameters", "extra_columns", "PARAMETER_BASIS"]
 
 #: ``PARAMETER_BASIS[k]`` (4, 4) is the pseudo-inertia of the unit vector e_k of
 #: the 10 parameters: J = sum_k p_k PARAMETER_BASIS[k] (the map is linear).
@@ -89,67 +85,3 @@ def extra_columns(qd: np.ndarray, qdd: np.ndarray, armature: bool, friction: boo
     if not blocks:
         return np.zeros(qd.shape + (0,))
     return np.concatenate(blocks, axis=-1)
-
-
-def arm_with_parameters(arm, pi, armature: bool = False, friction: bool = False,
-                        name: str | None = None, strict: bool = False):
-    """A copy of the DH arm ``arm`` whose links carry the parameters ``pi``.
-
-    Parameters
-    ----------
-    arm : manipdyn.Manipulator
-        Gives the kinematics, limits, gear ratios and everything not in ``pi``.
-    pi : (p,)
-        Parameter vector in the layout of this module (URDF link frames).
-    armature, friction : bool
-        Whether ``pi`` holds armature (set as ``motor_inertia = armature / G^2``
-        with the prior's gear ratio G) and friction entries; when False the
-        prior's values are kept.
-    name : str, optional
-        Name of the new arm (default: the prior's).
-    strict : bool
-        Passed to :class:`Manipulator` (a physically impossible link raises).
-
-    Raises :class:`ModelError` if a link's mass is negative or a massless
-    link has first moments (no file can hold that), naming the link.
-    """
-    from .arm import Manipulator
-
-    if not isinstance(arm, Manipulator):
-        raise ModelError(f"arm: writing identified parameters needs a DH arm (a Manipulator), "
-                         f"got {type(arm).__name__} {arm.name!r}")
-    n = arm.n
-    pi = np.asarray(pi, dtype=np.float64)
-    expect = parameter_count(n, armature, friction)
-    if pi.shape != (expect,):
-        raise ValueError(f"pi: expected shape ({expect},) for {n} joints "
-                         f"(armature={armature}, friction={friction}), got {pi.shape}")
-    J_urdf = pseudo_inertia_from_parameters(pi[:10 * n].reshape(n, 10))
-    S = arm.urdf_link_offsets()
-    S_inv = np.array([transform_inverse(s) for s in S])
-    J_dh = transform_pseudo_inertia(J_urdf, S_inv)      # URDF link frame -> DH frame i
-    col = 10 * n
-    arm_vals = fv = fc = None
-    if armature:
-        arm_vals, col = pi[col:col + n], col + n
-    if friction:
-        fv, fc = pi[col:col + n], pi[col + n:col + 2 * n]
-    links = []
-    for i, l in enumerate(arm.links):
-        label = f"link {i + 1}" + (f" ({l.name})" if l.name else "")
-        if J_dh[i, 3, 3] < 0:
-            raise ModelError(f"{label}: identified mass {J_dh[i, 3, 3]:.6g} kg is negative; "
-                             "no model file can hold it (use the 'consistent' method)")
-        J = 0.5 * (J_dh[i] + J_dh[i].T)
-        if J[3, 3] == 0.0:
-            J[:3, 3] = J[3, :3] = 0.0
-        body = LinkInertia.from_pseudo_inertia(J, name=label)
-        kw = dict(mass=body.mass, com=body.com, inertia=body.inertia)
-        if armature:
-            kw["motor_inertia"] = float(arm_vals[i]) / l.gear_ratio**2
-        if friction:
-            kw["friction_viscous"], kw["friction_coulomb"] = float(fv[i]), float(fc[i])
-        links.append(dataclasses.replace(l, **kw))
-    return Manipulator(links, convention=arm.convention, gravity=arm.gravity,
-                       name=arm.name if name is None else name, strict=strict,
-                       source=arm.source, sources=arm.sources, description=arm.description)

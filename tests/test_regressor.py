@@ -20,7 +20,8 @@ import pytest
 
 import arms
 import manipdyn as md
-from manipdyn.parameters import arm_parameters, arm_with_parameters, parameter_names
+from manipdyn.identification.model import arm_with_parameters
+from manipdyn.parameters import arm_parameters, parameter_names
 
 TOL = 1e-9
 

@@ -1,5 +1,7 @@
 """Identification of an arm's inertial parameters from its own joint data.
 
+Layer: application (identification).
+
 * :func:`base_parameters`: the identifiable combinations (QR with pivoting);
 * :func:`excitation`: an optimised Fourier-series excitation trajectory;
 * :func:`fit`: ``ols``, ``wls`` and the physically consistent ``consistent``

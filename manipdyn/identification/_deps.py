@@ -1,5 +1,7 @@
 """The optional ``identify`` extra (scipy, cvxpy with the Clarabel and SCS solvers).
 
+Layer: application (identification).
+
 :func:`require` imports one of its modules or raises :class:`MissingExtraError`
 with the install command, never a bare ``ImportError`` traceback.
 """

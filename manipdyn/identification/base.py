@@ -1,5 +1,7 @@
 """Base parameters: the combinations of the standard parameters that the torques see.
 
+Layer: application (identification).
+
 Many parameter combinations never change the joint torques (link 1's inertia
 about axes other than its joint axis, for one).  The torques depend on the
 full parameter vector ``pi`` (:mod:`manipdyn.parameters`) only through

@@ -1,5 +1,7 @@
 """Identification data as CSV: reading, writing, and derivatives of q.
 
+Layer: application (identification).
+
 Files
 -----
 * trajectory (``manipdyn excite``): header ``t,q1..qn,qd1..qdn,qdd1..qddn``;

@@ -1,5 +1,7 @@
 """Identification on data no one tuned to: ``python -m manipdyn.identification.demo``.
 
+Layer: application (identification).
+
 A "true" arm differs from the prior (masses +-20 %, centres of mass moved by
 up to 2 cm, viscous and Coulomb friction added).  Its torques along an
 optimised excitation trajectory, sampled at 200 Hz, get measurement noise:
@@ -26,6 +28,10 @@ import warnings
 
 import numpy as np
 
+from ..arm import Manipulator
+from ..errors import PhysicalConsistencyWarning
+from ..loading import load
+
 __all__ = ["true_arm", "measure", "run_demo"]
 
 
@@ -33,8 +39,6 @@ def true_arm(prior, seed: int = 0, mass: float = 0.2, com: float = 0.02, frictio
     """The prior with masses scaled by U(1 - mass, 1 + mass), COMs moved by U(+-com) m
     per axis (DH frame), and friction ``fv = fc = friction * peak |g_j|`` added
     (``fv`` per rad/s), ``peak |g_j|`` over 200 random states."""
-    import manipdyn as md
-
     rng = np.random.default_rng(seed)
     peak = np.abs(prior.gravity_torque(prior.random_state(rng, 200))).max(axis=0) + 0.1
     links = []
@@ -43,8 +47,8 @@ def true_arm(prior, seed: int = 0, mass: float = 0.2, com: float = 0.02, frictio
             l, mass=l.mass * rng.uniform(1 - mass, 1 + mass), com=l.com + rng.uniform(-com, com, 3),
             friction_viscous=friction * peak[i], friction_coulomb=friction * peak[i]))
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", md.PhysicalConsistencyWarning)
-        return md.Manipulator(links, convention=prior.convention, gravity=prior.gravity,
+        warnings.simplefilter("ignore", PhysicalConsistencyWarning)
+        return Manipulator(links, convention=prior.convention, gravity=prior.gravity,
                               name=f"{prior.name}_true", source=prior.source)
 
 
@@ -71,11 +75,10 @@ def measure(arm, traj, rng, tau_noise: float = 0.01, q_noise: float = 1e-4, peak
 def run_demo(name: str = "ur5", seed: int = 0, iterations: int = 15, plot: str | None = None,
              out=sys.stdout) -> dict:
     """Run the demo; print the figures to ``out`` and return them as a dict."""
-    import manipdyn as md
     from . import excitation, fit
     from .trajectory import fourier_trajectory, Excitation
 
-    prior = md.load(name)
+    prior = load(name)
     truth = true_arm(prior, seed)
     rng = np.random.default_rng(seed)
     kw = dict(duration=10.0, harmonics=5, rate=200.0, iterations=iterations, friction=True)

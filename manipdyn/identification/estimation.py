@@ -1,5 +1,7 @@
 """Estimation of the inertial parameters from joint data: ``fit``.
 
+Layer: application (identification).
+
 Model: ``tau = Y(q, qd, qdd) pi + e`` with the regressor of
 :meth:`TraceFormEngine.regressor` and the layout of :mod:`manipdyn.parameters`.
 Only the base parameters ``beta = K pi`` (:mod:`.base`) are identifiable:
@@ -31,7 +33,8 @@ import numpy as np
 
 from ..errors import ModelError
 from ..inertia import pseudo_inertia_from_parameters
-from ..parameters import arm_parameters, arm_with_parameters
+from ..parameters import arm_parameters
+from .model import arm_with_parameters
 from .base import BaseParameters, base_parameters
 from .sdp import Bounds, consistent_fit
 

@@ -1,4 +1,7 @@
-"""Identification report: the figures of ``manipdyn identify --json`` and a text table."""
+"""Identification report: the figures of ``manipdyn identify --json`` and a text table.
+
+Layer: application (identification).
+"""
 
 from __future__ import annotations
 

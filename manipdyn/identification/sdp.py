@@ -1,5 +1,7 @@
 """The physically consistent fit: semidefinite programs solved with cvxpy.
 
+Layer: application (identification).
+
 Physical consistency of a link is exactly ``J_i >= 0`` (its 4x4
 pseudo-inertia positive semidefinite; Wensing, Kim and Slotine 2017).  J is
 linear in the ten parameters (``J = sum_k pi_k E_k``,

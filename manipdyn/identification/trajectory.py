@@ -1,5 +1,7 @@
 """Excitation trajectories: finite Fourier series optimised for identification.
 
+Layer: application (identification).
+
 Each joint follows the series of Swevers, Ganseman, Tukel, De Schutter and
 Van Brussel (1997), period ``T = duration``, ``w = 2 pi / T``::
 

@@ -1,5 +1,7 @@
 """``manipdyn identify MODEL DATA.csv -o OUT.toml|OUT.urdf``: identify an arm's parameters.
 
+Layer: CLI.
+
 MODEL gives the kinematics and the prior; DATA.csv has ``t,q1..qn,tau1..taun``
 and optionally ``qd*``, ``qdd*`` (otherwise derived from q by zero-phase
 filtering, :mod:`manipdyn.identification.data`).  The written model loads
@@ -16,15 +18,18 @@ import json
 import os
 
 from ..errors import ModelError
-from ._cli_common import EXIT_FAILED, EXIT_OK, load_model, usage_error
-from ._deps import MissingExtraError
+from ..identification import MissingExtraError
+from ..io import save, write_urdf
+from ..loading import load_with_notes
+from .common import EXIT_DISAGREE as EXIT_FAILED
+from .common import EXIT_OK, usage_error
 
-__all__ = ["register", "register_cli", "run"]
+__all__ = ["register", "run"]
 
 
 def register(subparsers) -> None:
     """Add ``manipdyn identify`` to the command line."""
-    from .estimation import METHODS
+    from ..identification import METHODS
 
     p = subparsers.add_parser(
         "identify", help="identify inertial parameters from joint data",
@@ -45,19 +50,15 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
-register_cli = register
-
 
 def run(args) -> int:
-    from .data import read_measurements
-    from .estimation import fit
-    from .report import format_report
+    from ..identification import fit, format_report, read_measurements
 
     out = args.output
     if not out.lower().endswith((".toml", ".urdf")):
         return usage_error("identify", f"-o: expected a file name ending in .toml or .urdf, got {out!r}")
     try:
-        arm, _ = load_model(args.model)
+        arm, _ = load_with_notes(args.model)
         data = read_measurements(args.data, arm.n, cutoff=args.cutoff)
         name = os.path.splitext(os.path.basename(out))[0] or arm.name
         result = fit(arm, data.q, data.qd, data.qdd, data.tau, method=args.method,
@@ -73,9 +74,9 @@ def run(args) -> int:
     else:
         try:
             if out.lower().endswith(".toml"):
-                result.arm.save(out)
+                save(result.arm, out)
             else:
-                result.arm.write_urdf(out)
+                write_urdf(result.arm, out)
             rep["output"] = out
         except OSError as exc:
             return usage_error("identify", f"{out}: cannot write: {exc.strerror or exc}")

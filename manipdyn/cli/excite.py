@@ -1,5 +1,7 @@
 """``manipdyn excite MODEL -o traj.csv``: an optimised excitation trajectory.
 
+Layer: CLI.
+
 Writes ``t,q1..qn,qd1..qdn,qdd1..qddn`` (SI units) and reports the condition
 number of the stacked base regressor.  Exit codes: 0 written, 2 usage or
 model error (one line on stderr).
@@ -11,15 +13,16 @@ import json
 import sys
 
 from ..errors import ModelError
-from ._cli_common import EXIT_OK, load_model, progress_bar, usage_error
-from ._deps import MissingExtraError
+from ..identification import MissingExtraError
+from ..loading import load_with_notes
+from .common import EXIT_OK, Progress, usage_error
 
-__all__ = ["register", "register_cli", "run"]
+__all__ = ["register", "run"]
 
 
 def register(subparsers) -> None:
     """Add ``manipdyn excite`` to the command line."""
-    from .trajectory import DEFAULT_AMAX, DEFAULT_VMAX
+    from ..identification.trajectory import DEFAULT_AMAX, DEFAULT_VMAX
 
     p = subparsers.add_parser(
         "excite", help="design an excitation trajectory for identification",
@@ -49,16 +52,14 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
-register_cli = register
-
 
 def run(args) -> int:
-    from .trajectory import excitation
+    from ..identification import excitation
 
     if args.iterations < 0:
         return usage_error("excite", f"--iterations: expected >= 0, got {args.iterations}")
     try:
-        arm, _ = load_model(args.model)
+        arm, _ = load_with_notes(args.model)
         vmax = None if args.vmax is None else (args.vmax[0] if len(args.vmax) == 1 else args.vmax)
         amax = None if args.amax is None else (args.amax[0] if len(args.amax) == 1 else args.amax)
         if vmax is not None and not isinstance(vmax, float) and len(vmax) != arm.n:
@@ -67,7 +68,8 @@ def run(args) -> int:
             raise ModelError(f"--amax: expected 1 or {arm.n} values, got {len(amax)}")
         ex = excitation(arm, duration=args.duration, harmonics=args.harmonics, rate=args.rate,
                         seed=args.seed, vmax=vmax, amax=amax, iterations=args.iterations,
-                        friction=args.friction, progress=progress_bar("optimising", args.progress))
+                        friction=args.friction, progress=Progress("optimising", sys.stderr.isatty() if args.progress is None
+                                                  else args.progress, unit="iterations"))
         ex.to_csv(args.output)
     except (ModelError, MissingExtraError) as exc:
         return usage_error("excite", str(exc))
