@@ -305,7 +305,8 @@ class TraceFormEngine:
         basis matrices :data:`manipdyn.parameters.PARAMETER_BASIS`, J of a unit
         parameter) in link p's URDF frame ``L_p = T_p S_p^-1`` gives
 
-            dtau_i / dpi_pk = <M_ip, L_p E_k L_p^T>   (p >= i; 0 for p < i),
+            dtau_i / dpi_pk = <M_ip, L_p E_k L_p^T> = <L_p^T M_ip L_p, E_k>
+                              (p >= i; 0 for p < i),
 
         no finite differences.  Parameters: :mod:`manipdyn.parameters` (10 per
         link, Pinocchio's order, about the URDF link frame's origin), then
@@ -330,12 +331,12 @@ class TraceFormEngine:
         X = (Omega2 + V) @ V + Delta * qdd[:, :, None, None]
         A = _link_sum(self._head, X)                               # A_p, (B, n, 4, 4)
         L = T if self._S_inv is None else T @ self._S_inv          # URDF link frames L_p
-        # G_pk = L_p E_k L_p^T, (B, n, 10, 16)
-        G = (L[:, :, None] @ PARAMETER_BASIS @ np.swapaxes(L, -1, -2)[:, :, None]).reshape(B, n, 10, 16)
         # M_ip = A_p^T Delta_i - (Delta_i^T g) e_4^T, indexed [b, p, i]
         M = np.swapaxes(A, -1, -2)[:, :, None] @ Delta[:, None, :]
         M[..., 3] -= (self._g4 @ Delta)[:, None, :, :]
-        Yp = M.reshape(B, n, n, 16) @ G.swapaxes(-1, -2)           # [b, p, i, k]
+        # <M_ip, L_p E_k L_p^T> = <L_p^T M_ip L_p, E_k>: one product with the constant basis
+        N = np.swapaxes(L, -1, -2)[:, :, None] @ M @ L[:, :, None]
+        Yp = N.reshape(B, n, n, 16) @ PARAMETER_BASIS.reshape(10, 16).T   # [b, p, i, k]
         Yp *= self._upper.T[None, :, :, None]                      # only p >= i
         return Yp.transpose(0, 2, 1, 3).reshape(B, n, 10 * n)
 

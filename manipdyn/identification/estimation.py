@@ -107,6 +107,18 @@ def _known_torque(prior, qd, qdd, armature, friction):
     return out
 
 
+def _reduce(A, y):
+    """``(R, c, rho0)`` with ``||A b - y||^2 = ||R b - c||^2 + rho0^2`` for every b.
+
+    One QR of ``[A | y]`` (R only, no Q): R (r, r), c (r,), rho0 the part of y
+    outside A's column space.  Cheaper than lstsq or SVD on the tall A.
+    """
+    r = A.shape[1]
+    Ra = np.linalg.qr(np.column_stack([A, y]), mode="r")
+    rho0 = abs(float(Ra[r, r])) if Ra.shape[0] > r else 0.0
+    return Ra[:r, :r], Ra[:r, r], rho0
+
+
 def _joint_noise(Yb, y) -> np.ndarray:
     """Per-joint noise level from each joint's own OLS fit (module docstring), (n,)."""
     N, n, _ = Yb.shape
@@ -115,9 +127,9 @@ def _joint_noise(Yb, y) -> np.ndarray:
         A = Yb[:, j, :]
         norms = np.linalg.norm(A, axis=0)
         A = A[:, norms > 1e-12 * max(norms.max(), 1e-300)]
-        sol, _, rank, _ = np.linalg.lstsq(A, y[:, j], rcond=None)
-        rho = y[:, j] - A @ sol
-        sigma[j] = np.sqrt(np.sum(rho**2) / max(1, N - rank))
+        R, c, rho0 = _reduce(A, y[:, j])
+        sol, _, rank, _ = np.linalg.lstsq(R, c, rcond=None)
+        sigma[j] = np.sqrt((np.sum((R @ sol - c) ** 2) + rho0**2) / max(1, N - rank))
     return sigma
 
 
@@ -173,11 +185,9 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         raise ModelError(f"data: {N} samples give {N * n} equations for {r} base parameters")
     Yb = base.regressor(arm.lagrange.regressor(q, qd, qdd, armature=armature, friction=friction))
     y = tau - _known_torque(arm, qd, qdd, armature, friction)
-    A = Yb.reshape(-1, r)
-    s = np.linalg.svd(A, compute_uv=False)
+    R0, c0, _ = _reduce(Yb.reshape(-1, r), y.reshape(-1))
+    s = np.linalg.svd(R0, compute_uv=False)              # the singular values of the stacked Y_b
     cond = float(s[0] / s[-1]) if s[-1] > 0 else float("inf")
-
-    beta_ols = np.linalg.lstsq(A, y.reshape(-1), rcond=None)[0]
     sigma = _joint_noise(Yb, y)
     floor = 1e-12 * max(1.0, float(np.abs(y).max()))
     sigma = np.maximum(sigma, floor)
@@ -185,15 +195,12 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
 
     cov = None
     if method == "ols":
-        beta = beta_ols
+        beta = np.linalg.lstsq(R0, c0, rcond=None)[0]
         pi = base.full_closest_to(beta, prior)
         solver = "lstsq"
     else:
         w = 1.0 / sigma
-        Aw = (Yb * w[None, :, None]).reshape(-1, r)
-        yw = (y * w).reshape(-1)
-        Q, R = np.linalg.qr(Aw)
-        c = Q.T @ yw
+        R, c, _ = _reduce((Yb * w[None, :, None]).reshape(-1, r), (y * w).reshape(-1))
         if method == "wls":
             beta = np.linalg.lstsq(R, c, rcond=None)[0]
             pi = base.full_closest_to(beta, prior)
