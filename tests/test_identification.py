@@ -293,6 +293,15 @@ def test_cli_excite_then_identify(tmp_path, capsys):
     urdf = tmp_path / "ident.urdf"
     assert main(["identify", "ur5", str(data), "-o", str(urdf), "--method", "wls"]) == 0
     assert md.load(str(urdf)).n == 6
+    bounded = tmp_path / "bounded.toml"
+    assert main(["identify", "ur5", str(data), "-o", str(bounded), "--friction",
+                 "--mass-bound", "0.3", "--com-bound", "0.05"]) == 0
+    prior_m = np.array([l.body.mass for l in _load("ur5").links])
+    m = np.array([l.body.mass for l in md.load(str(bounded)).links])
+    assert np.all(np.abs(m - prior_m) <= 0.3 * prior_m + 1e-6)
+    capsys.readouterr()
+    assert main(["identify", str(urdf), str(data), "-o", str(tmp_path / "u.toml")]) == 2
+    assert "URDF priors" in capsys.readouterr().err
 
 
 def test_cli_identify_usage_errors(tmp_path, capsys):

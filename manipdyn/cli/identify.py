@@ -44,6 +44,10 @@ def register(subparsers) -> None:
                    help="ols, wls (weighted by per-joint noise), consistent (J_i >= 0; default)")
     p.add_argument("--friction", action="store_true", help="identify viscous and Coulomb friction")
     p.add_argument("--armature", action="store_true", help="identify armature (reflected rotor inertia)")
+    p.add_argument("--mass-bound", type=float, default=None, metavar="FRAC",
+                   help="consistent only: each link's mass within +-FRAC of the prior's (e.g. 0.3)")
+    p.add_argument("--com-bound", type=float, default=None, metavar="M",
+                   help="consistent only: each COM within +-M metres of the prior's, per axis")
     p.add_argument("--cutoff", type=float, default=None, metavar="HZ",
                    help="low-pass cut-off when qd/qdd are derived from q (default 5 Hz)")
     p.add_argument("--json", action="store_true", help="print a JSON object instead of text")
@@ -52,17 +56,32 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
-    from ..identification import fit, format_report, read_measurements
+    from ..arm import Manipulator
+    from ..identification import Bounds, fit, format_report, read_measurements
 
     out = args.output
     if not out.lower().endswith((".toml", ".urdf")):
         return usage_error("identify", f"-o: expected a file name ending in .toml or .urdf, got {out!r}")
+    bounds = None
+    if args.mass_bound is not None or args.com_bound is not None:
+        if args.method != "consistent":
+            return usage_error("identify", "--mass-bound/--com-bound: only with --method consistent")
+        for opt, v in (("--mass-bound", args.mass_bound), ("--com-bound", args.com_bound)):
+            if v is not None and not (0 <= v < float("inf")):
+                return usage_error("identify", f"{opt}: expected a finite number >= 0, got {v}")
     try:
         arm, _ = load_with_notes(args.model)
+        if not isinstance(arm, Manipulator):
+            raise ModelError(f"MODEL {args.model}: identify writes a DH model; give a bundled model "
+                             "name or a .toml model file as the prior (URDF priors are not supported)")
+        if args.mass_bound is not None or args.com_bound is not None:
+            b = Bounds.around(arm, mass=args.mass_bound or 0.0, com=args.com_bound or 0.0)
+            bounds = Bounds(mass=None if args.mass_bound is None else b.mass,
+                            com=None if args.com_bound is None else b.com)
         data = read_measurements(args.data, arm.n, cutoff=args.cutoff)
         name = os.path.splitext(os.path.basename(out))[0] or arm.name
         result = fit(arm, data.q, data.qd, data.qdd, data.tau, method=args.method,
-                     friction=args.friction, armature=args.armature, name=name)
+                     friction=args.friction, armature=args.armature, bounds=bounds, name=name)
     except (ModelError, MissingExtraError) as exc:
         return usage_error("identify", str(exc))
     rep = dict(result.report)
