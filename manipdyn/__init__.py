@@ -18,6 +18,9 @@ from .inertia import LinkInertia
 from .kinematics import ChainJoint, DHLink, transform_inverse
 from .arm import Arm, Manipulator
 from .check import CrosscheckReport, crosscheck
+# ``compare`` is the function; the package of the same name is manipdyn/compare/
+# (binding the name here, after the import, makes md.compare the function)
+from .compare import CompareReport, compare
 
 __version__ = "0.1.0"
 
@@ -33,9 +36,6 @@ def __getattr__(name):
     if name in ("load", "models"):
         from . import modelfile
         return getattr(modelfile, name)
-    if name in ("compare", "CompareReport"):
-        from . import comparison
-        return getattr(comparison, name)
     if name == "simulate":
         from .control import simulate
         return simulate

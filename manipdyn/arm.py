@@ -78,6 +78,15 @@ class Arm:
         """``(kinematics, J (n,4,4), armature (n,), friction (2,n))`` for the trace form."""
         raise NotImplementedError
 
+    def trace_form_parts(self):
+        """What the trace-form engine is built from: ``(kinematics, J, armature, friction)``.
+
+        ``J`` (n, 4, 4) are the links' pseudo-inertias (eq. 2.20) in the
+        frames of :meth:`link_poses`, ``armature`` (n,) the rotor inertias
+        ``G^2 Jm`` and ``friction`` (2, n) or None (viscous, Coulomb).
+        """
+        return self._lagrange_parts()
+
     def _pinocchio_model(self):
         from .pinocchio_engine import model_from_urdf
 

@@ -58,7 +58,7 @@ from .arm import Manipulator
 from .errors import ModelError
 from .kinematics import DHLink
 
-__all__ = ["load", "models", "load_model_file", "parse_model", "save_model", "model_to_toml", "FORMAT"]
+__all__ = ["load", "load_with_notes", "models", "load_model_file", "parse_model", "save_model", "model_to_toml", "FORMAT"]
 
 FORMAT = "manipdyn-model/1"
 _LENGTH = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254}
@@ -118,6 +118,31 @@ def load(x, tip: str | None = None, **kw):
         raise ModelError(f"unknown model {s!r}: not a file, and not a bundled model "
                          f"({', '.join(models())})")
     raise ModelError(f"load: expected a model name, a .toml model file or a URDF path, got {type(x).__name__}")
+
+
+def load_with_notes(spec, tip: str | None = None, **kw):
+    """:func:`load`, with the physical-consistency notes returned instead of warned.
+
+    Returns ``(arm, notes)``: ``notes`` is a list of one-line strings, one
+    per :class:`~manipdyn.PhysicalConsistencyWarning` the load raised (a
+    physically impossible link inertia, a link that moves no mass, ...).
+    Other warnings pass through unchanged.  For command lines and reports
+    that print the notes themselves.
+    """
+    import warnings
+
+    from .errors import PhysicalConsistencyWarning
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", PhysicalConsistencyWarning)
+        arm = load(spec, tip=tip, **kw)
+    notes = []
+    for w in caught:
+        if issubclass(w.category, PhysicalConsistencyWarning):
+            notes.append(str(w.message))
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    return arm, notes
 
 
 def load_model_file(path, strict: bool = False) -> Manipulator:
