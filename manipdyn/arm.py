@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from .errors import ModelError
+from .errors import ModelError, PhysicalConsistencyWarning, warn_notes
 from .kinematics import ChainJoint, DHKinematics, DHLink, rot_x, rot_z, trans
 
 __all__ = ["Arm", "Manipulator"]
@@ -62,6 +62,9 @@ class Arm:
     name: str
     gravity: np.ndarray
     source: str = ""
+    #: one line per thing worth the user's attention in the description (a
+    #: physically impossible link inertia, a value in a suspicious unit, ...)
+    notes: tuple = ()
 
     # -- to be provided by subclasses -------------------------------------
     def chain(self):
@@ -262,9 +265,18 @@ class Manipulator(Arm):
         self.armature.setflags(write=False)
         fr = np.array([[l.friction_viscous for l in links], [l.friction_coulomb for l in links]])
         self.friction = fr if np.any(fr) else None
+        notes = []
         for i, l in enumerate(links):
             label = f"link {i + 1}" + (f" ({l.name})" if l.name else "")
-            l.body.check_physical(strict=self.strict, where=f"{self.name or 'arm'}: {label}")
+            _refuse_negative_moment(l.body.inertia, f"{self.name or 'arm'}: {label}")
+            try:
+                l.body.check_physical(strict=True, where=f"{self.name or 'arm'}: {label}")
+            except ModelError as exc:
+                if self.strict:
+                    raise
+                notes.append(str(exc))
+        self.notes = tuple(notes)
+        warn_notes(self.name or "arm", notes, PhysicalConsistencyWarning)
 
     def __eq__(self, other):
         if not isinstance(other, Manipulator):
@@ -321,6 +333,18 @@ class Manipulator(Arm):
         if self.convention == "modified":
             return np.tile(np.eye(4), (self.n, 1, 1))
         return np.array([trans(l.a, 0, 0) @ rot_x(l.alpha) for l in self.links])
+
+
+def _refuse_negative_moment(I: np.ndarray, where: str) -> None:
+    """A DH link (model file or Python) with a clearly negative principal moment is refused,
+    as a negative mass is.  (URDF files keep loading with a note: vendors publish such
+    bodies, e.g. Tiago's antenna link, and the files are used as they are.)"""
+    if not np.any(I):
+        return
+    low = float(np.linalg.eigvalsh(I)[0])
+    if low < -1e-9 * float(np.max(np.abs(I))):   # the tolerance of LinkInertia.consistency_problems
+        raise ModelError(f"{where}: field 'inertia' has a negative principal moment of inertia "
+                         f"{low:.6g} kg m^2; no body has one, as no body has a negative mass")
 
 
 def _dh_equal(a: DHLink, b: DHLink) -> bool:

@@ -6,7 +6,14 @@ either ``manipdyn.ModelError`` or plain ``ValueError``.
 
 from __future__ import annotations
 
-__all__ = ["ModelError", "PhysicalConsistencyWarning", "SingularMassMatrixError", "StateError"]
+import os
+import sys
+import warnings
+
+_PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__)) + os.sep
+
+__all__ = ["ModelError", "ModelNoteWarning", "PhysicalConsistencyWarning", "SuspiciousValueWarning",
+           "SingularMassMatrixError", "StateError", "warn_at_caller", "warn_notes"]
 
 
 class ModelError(ValueError):
@@ -21,11 +28,47 @@ class StateError(ValueError):
     """A joint state (q, qd, qdd, tau) has the wrong shape or is not finite."""
 
 
-class PhysicalConsistencyWarning(UserWarning):
+class ModelNoteWarning(UserWarning):
+    """A model was built, but something in it deserves the user's attention.
+
+    The arm keeps the same notes in ``arm.notes`` (one line each), so reports
+    can show them; catch this class to silence both kinds below.
+    """
+
+
+class PhysicalConsistencyWarning(ModelNoteWarning):
     """A well-formed link inertia that no real rigid body can have.
 
     Raised as an error instead when the model is built with ``strict=True``.
     """
+
+
+class SuspiciousValueWarning(ModelNoteWarning):
+    """A value that is probably in the wrong unit (an angle of 90 in a file in radians,
+    lengths that look like millimetres in a file in metres).
+
+    Raised as an error instead when the model is loaded with ``strict=True``.
+    """
+
+
+def warn_at_caller(message: str, category=ModelNoteWarning) -> None:
+    """``warnings.warn`` pointed at the first frame outside manipdyn: the user's own call."""
+    frame, level = sys._getframe(0), 1
+    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(_PACKAGE_DIR):
+        frame, level = frame.f_back, level + 1
+    warnings.warn(message, category, stacklevel=level)
+
+
+def warn_notes(label: str, notes, category=ModelNoteWarning) -> None:
+    """One warning for a model's notes (one line each), pointed at the user's call."""
+    notes = list(notes)
+    if not notes:
+        return
+    if len(notes) == 1:
+        message = notes[0]
+    else:
+        message = f"{label}: {len(notes)} notes:\n  " + "\n  ".join(notes)
+    warn_at_caller(message, category)
 
 
 class SingularMassMatrixError(ValueError):
