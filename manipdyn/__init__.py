@@ -13,7 +13,8 @@ Quick start::
     print(md.crosscheck(arm, samples=200))
 """
 
-from .errors import ModelError, PhysicalConsistencyWarning, SingularMassMatrixError, StateError
+from .errors import (ModelError, ModelNoteWarning, PhysicalConsistencyWarning, SingularMassMatrixError,
+                     StateError, SuspiciousValueWarning)
 from .inertia import LinkInertia
 from .kinematics import ChainJoint, DHLink, transform_inverse
 from .arm import Arm, Manipulator
@@ -25,18 +26,26 @@ from .compare import CompareReport, compare
 __version__ = "0.1.0"
 
 __all__ = [
-    "Arm", "ChainJoint", "DHLink", "LinkInertia", "Manipulator", "ModelError",
-    "PhysicalConsistencyWarning", "SingularMassMatrixError", "StateError", "transform_inverse",
-    "crosscheck", "CrosscheckReport", "load", "models",
+    "Arm", "ChainJoint", "DHLink", "LinkInertia", "Manipulator", "ModelError", "ModelNoteWarning",
+    "PhysicalConsistencyWarning", "SuspiciousValueWarning", "SingularMassMatrixError", "StateError",
+    "transform_inverse", "crosscheck", "CrosscheckReport", "compare", "CompareReport",
+    "load", "load_with_notes", "models", "simulate",
 ]
+
+#: names resolved on first use (pinocchio and yourdfpy load only when a function needs them)
+_LAZY = {"load": "modelfile", "load_with_notes": "modelfile", "models": "modelfile"}
 
 
 def __getattr__(name):
-    # Lazy imports: pinocchio and yourdfpy load only when a function needs them.
-    if name in ("load", "models"):
-        from . import modelfile
-        return getattr(modelfile, name)
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
     if name == "simulate":
         from .control import simulate
         return simulate
     raise AttributeError(f"module 'manipdyn' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))
