@@ -11,40 +11,57 @@ Quick start::
     tau = arm.inverse_dynamics(q, qd, qdd)        # fast path (Pinocchio)
     D = arm.lagrange.mass_matrix(q)               # independent trace form
     print(md.crosscheck(arm, samples=200))
+
+The package reads in layers (ARCHITECTURE.md): kinematics, inertia, the
+model and its loaders, the two engines, the cross-check, the applications.
+Importing it imports both engines, which register themselves with the model.
 """
 
 from .errors import (ModelError, ModelNoteWarning, PhysicalConsistencyWarning, SingularMassMatrixError,
                      StateError, SuspiciousValueWarning)
 from .inertia import LinkInertia
-from .kinematics import ChainJoint, DHLink, transform_inverse
-from .arm import Arm, Manipulator
+from .kinematics import transform_inverse
+from .links import ChainJoint, DHLink
+from .arm import Arm, Convention, Manipulator, URDFArm
+from .loading import load, load_with_notes, models
+from .io import save, to_toml, to_urdf, write_urdf
+from .engine import DynamicsEngine
+from .arm import register_engine
+from .lagrange import trace_form_engine
 from .check import CrosscheckReport, crosscheck
 # ``compare`` is the function; the package of the same name is manipdyn/compare/
 # (binding the name here, after the import, makes md.compare the function)
 from .compare import CompareReport, compare
 
-__version__ = "0.1.0"
 
-__all__ = [
-    "Arm", "ChainJoint", "DHLink", "LinkInertia", "Manipulator", "ModelError", "ModelNoteWarning",
-    "PhysicalConsistencyWarning", "SuspiciousValueWarning", "SingularMassMatrixError", "StateError",
-    "transform_inverse", "crosscheck", "CrosscheckReport", "compare", "CompareReport",
-    "load", "load_with_notes", "models", "simulate",
-]
+def _pinocchio_engine(arm):
+    # Pinocchio is imported on first use only: the trace-form path runs without it.
+    from .pinocchio_engine import pinocchio_engine
 
-#: names resolved on first use (pinocchio and yourdfpy load only when a function needs them)
-_LAZY = {"load": "modelfile", "load_with_notes": "modelfile", "models": "modelfile"}
+    return pinocchio_engine(arm)
+
+
+# The engines plug into the model here, at the top of the package.
+register_engine("lagrange", trace_form_engine)
+register_engine("pinocchio", _pinocchio_engine)
 
 
 def __getattr__(name):
-    if name in _LAZY:
-        import importlib
+    if name == "simulate":  # the control package imports Pinocchio (its regressor)
+        from .control.simulate import simulate
 
-        return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
-    if name == "simulate":
-        from .control import simulate
         return simulate
     raise AttributeError(f"module 'manipdyn' has no attribute {name!r}")
+
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Arm", "ChainJoint", "Convention", "CompareReport", "CrosscheckReport", "DHLink", "DynamicsEngine",
+    "LinkInertia", "Manipulator", "ModelError", "ModelNoteWarning", "PhysicalConsistencyWarning", "SingularMassMatrixError",
+    "StateError", "SuspiciousValueWarning", "URDFArm", "compare", "crosscheck", "load", "load_with_notes", "models", "save",
+    "simulate", "to_toml", "to_urdf", "transform_inverse", "write_urdf",
+]
 
 
 def __dir__():

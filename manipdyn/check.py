@@ -24,6 +24,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .arm import register_service
+from .engine import DynamicsEngine
 from .errors import SingularMassMatrixError
 
 __all__ = ["crosscheck", "CrosscheckReport", "QuantityError", "TOLERANCE", "draw_states"]
@@ -168,8 +170,8 @@ def crosscheck(arm, samples: int = 1000, seed: int = 0, chunk: int = 500, progre
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
         raise ValueError(f"samples: expected a positive integer, got {samples!r}")
     q, qd, qdd = draw_states(arm, int(samples), seed)
-    L, P = arm.lagrange, arm.pinocchio
-    tool_frame = getattr(arm, "tool_frame", "tool")
+    L: DynamicsEngine = arm.lagrange
+    P: DynamicsEngine = arm.pinocchio
     parts: dict[str, list] = {}
     skipped: dict[str, str] = {}
 
@@ -194,7 +196,7 @@ def crosscheck(arm, samples: int = 1000, seed: int = 0, chunk: int = 500, progre
             except SingularMassMatrixError as exc:
                 skipped["qdd"] = f"qdd not compared: {exc}"
                 parts.pop("qdd", None)
-        add("fk", L.fkine(qs), P.frame_placement(qs, tool_frame))
+        add("fk", L.fkine(qs), P.fkine(qs))
         add("K", L.kinetic_energy(qs, qds)[:, None], np.asarray(P.kinetic_energy(qs, qds))[:, None])
         add("P", L.potential_energy(qs)[:, None], np.asarray(P.potential_energy(qs))[:, None])
         add("C", L.coriolis_matrix(qs, qds), P.coriolis_matrix(qs, qds))
@@ -207,3 +209,6 @@ def crosscheck(arm, samples: int = 1000, seed: int = 0, chunk: int = 500, progre
     for key, (ra, rb) in parts.items():
         report.quantities[key] = _compare(key, np.concatenate(ra), np.concatenate(rb), states)
     return report
+
+
+register_service("crosscheck", crosscheck)

@@ -1,6 +1,6 @@
 """The trace-form Lagrange-Euler engine (chapter II, eq. 2.22 to 2.39).
 
-This is manipdyn's independent slow path.  It shares no code with the
+Layer 4 (engines).  This is manipdyn's independent slow path.  It shares no code with the
 Pinocchio path: it works from the link frames ``T_p`` and the derivatives
 ``dT_p/dq_j = Delta_j T_p`` and ``d2T_p/dq_j dq_k = Delta_j Delta_k T_p``
 (``j <= k <= p``), and the pseudo-inertias ``J_p`` of eq. 2.21.
@@ -23,7 +23,7 @@ import numpy as np
 from ._state import as_state, same_batch
 from .errors import SingularMassMatrixError
 
-__all__ = ["TraceFormEngine", "CHUNK"]
+__all__ = ["TraceFormEngine", "trace_form_engine", "CHUNK"]
 
 #: states per block in batch calls (see :meth:`TraceFormEngine._run`)
 CHUNK = 128
@@ -376,3 +376,10 @@ class TraceFormEngine:
         cols = np.concatenate((Ddot.reshape(B, n, 16), flat), axis=2)
         lower = rows @ cols.swapaxes(1, 2)                     # row i, i > j
         return np.where(self._upper, upper, lower)
+
+
+def trace_form_engine(arm) -> TraceFormEngine:
+    """The trace-form engine of ``arm`` (the factory behind ``arm.lagrange``)."""
+    kin, J, armature, friction = arm.trace_form_data()
+    return TraceFormEngine(kin, J, arm.gravity, armature=armature, friction=friction)
+

@@ -53,7 +53,7 @@ def _as_arm(x, which: str):
     if isinstance(x, Arm):
         return x, None
     if isinstance(x, str) or hasattr(x, "__fspath__"):
-        from ..modelfile import load
+        from ..loading import load
 
         return load(x), x
     raise ModelError(f"compare: argument {which} must be an arm or a model name/file, got {type(x).__name__}")

@@ -42,7 +42,8 @@ def rigid_engine(arm, gravity, J=None):
     """
     from ..lagrange import TraceFormEngine
 
-    kin, J_arm, _armature, _friction = arm.trace_form_parts()
+    data = arm.trace_form_data()
+    kin, J_arm = data.kinematics, data.J
     return TraceFormEngine(kin, J_arm if J is None else J, gravity)
 
 
@@ -118,8 +119,8 @@ def rotor_diff(a, b) -> QuantityDiff | None:
 
 def _bodies_in_b(a, b, alignment):
     """a's and b's pseudo-inertias (n, 4, 4), both in b's link frames, and the link poses."""
-    Ja = a.trace_form_parts()[1]
-    Jb = b.trace_form_parts()[1]
+    Ja = a.trace_form_data().J
+    Jb = b.trace_form_data().J
     Pa = alignment.base @ a.link_poses(alignment.offsets)   # a's link frames at b's q = 0, in b's base
     Pb = b.link_poses(np.zeros(b.n))
     X = np.array([transform_inverse(Pb[k]) @ Pa[k] for k in range(b.n)])

@@ -1,22 +1,23 @@
-"""``manipdyn compare A B``: the command-line face of :func:`manipdyn.compare`."""
+"""``manipdyn compare A B``: are two descriptions the same arm?
+
+Layer: CLI.
+"""
 
 from __future__ import annotations
 
 import json
-import sys
 
-from .report import DYN_TOLERANCE, KIN_TOLERANCE, display_names
+from ..compare import DYN_TOLERANCE, KIN_TOLERANCE, compare
+from ..compare.report import display_names
+from ..loading import load_with_notes
+from .common import EXIT_DISAGREE, EXIT_OK, usage_error
 
-__all__ = ["register_cli"]
+__all__ = ["register", "run"]
 
 
-def _cmd_compare(args) -> int:
-    from ..modelfile import load_with_notes
-    from . import compare
-
+def run(args) -> int:
     if args.samples < 1:
-        print(f"manipdyn compare: error: --samples must be >= 1, got {args.samples}", file=sys.stderr)
-        return 2
+        return usage_error("compare", f"--samples must be >= 1, got {args.samples}")
     a, notes_a = load_with_notes(args.a, tip=args.tip_a)
     b, notes_b = load_with_notes(args.b, tip=args.tip_b)
     names = display_names(a.name, b.name, args.a, args.b)
@@ -30,10 +31,10 @@ def _cmd_compare(args) -> int:
         print(report)
         for note in load_notes:
             print(f"note: {note}")
-    return 0 if report.same_arm else 1
+    return EXIT_OK if report.same_arm else EXIT_DISAGREE
 
 
-def register_cli(subparsers) -> None:
+def register(subparsers) -> None:
     """Add ``manipdyn compare A B [--samples N] [--seed S] [--json] [--tip-a L] [--tip-b L]``."""
     p = subparsers.add_parser(
         "compare", help="are two descriptions the same arm? (e.g. a DH table and a URDF)",
@@ -55,4 +56,4 @@ def register_cli(subparsers) -> None:
                    help="A is a tree URDF: the link at the end of the chain to compare")
     p.add_argument("--tip-b", default=None, metavar="LINK",
                    help="B is a tree URDF: the link at the end of the chain to compare")
-    p.set_defaults(func=_cmd_compare)
+    p.set_defaults(func=run)
