@@ -12,7 +12,7 @@ import warnings
 
 _PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__)) + os.sep
 
-__all__ = ["ModelError", "ModelNoteWarning", "PhysicalConsistencyWarning", "SuspiciousValueWarning",
+__all__ = ["ModelError", "TipError", "ModelNoteWarning", "PhysicalConsistencyWarning", "SuspiciousValueWarning",
            "SingularMassMatrixError", "StateError", "warn_at_caller", "warn_notes"]
 
 
@@ -22,6 +22,40 @@ class ModelError(ValueError):
     The message always names the place: the link, the field, the file and key
     or URDF element, and the form that was expected.
     """
+
+
+class TipError(ModelError):
+    """A URDF tree needs a tip link (or got one it does not have).
+
+    Attributes: ``source`` (the file, for messages), ``problem`` (what is
+    wrong, one sentence), ``leaves`` (leaf links that end a chain of movable
+    joints: the candidates), ``links`` (every link of the file) and
+    ``suggestions`` (close spellings of an unknown tip).  :meth:`for_option`
+    phrases the message for the way the tip was given: ``"tip="`` in
+    Python (the default message), ``"--tip"`` on the command line.
+    """
+
+    def __init__(self, source: str, problem: str, leaves=(), links=(), suggestions=(), option: str = "tip="):
+        self.source, self.problem = source, problem
+        self.leaves, self.links, self.suggestions = tuple(leaves), tuple(links), tuple(suggestions)
+        super().__init__(self._text(option))
+
+    def _text(self, option: str) -> str:
+        how = f"{option}'<link name>'" if option.endswith("=") else f"{option} LINK"
+        parts = [f"{self.source}: {self.problem}"]
+        if self.suggestions:
+            first, *rest = self.suggestions
+            parts.append(f"did you mean {first!r}" + (f" (or {', '.join(map(repr, rest))})" if rest else ""))
+        if self.leaves:
+            parts.append(f"choose the chain with {how}; the leaf links are "
+                         + ", ".join(repr(n) for n in self.leaves))
+        if self.links and set(self.links) != set(self.leaves):
+            parts.append(f"all {len(self.links)} links: " + ", ".join(repr(n) for n in self.links))
+        return "; ".join(parts)
+
+    def for_option(self, option: str) -> "TipError":
+        """The same error, its message naming ``option`` (e.g. ``"--tip"``, ``"--tip-a"``)."""
+        return TipError(self.source, self.problem, self.leaves, self.links, self.suggestions, option)
 
 
 class StateError(ValueError):
