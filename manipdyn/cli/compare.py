@@ -9,8 +9,7 @@ import json
 
 from ..compare import DYN_TOLERANCE, KIN_TOLERANCE, compare
 from ..compare.report import display_names
-from ..loading import load_with_notes
-from .common import EXIT_DISAGREE, EXIT_OK, usage_error
+from .common import EXIT_DISAGREE, EXIT_OK, TIP_HELP, load_arm, usage_error
 
 __all__ = ["register", "run"]
 
@@ -18,8 +17,8 @@ __all__ = ["register", "run"]
 def run(args) -> int:
     if args.samples < 1:
         return usage_error("compare", f"--samples must be >= 1, got {args.samples}")
-    a, notes_a = load_with_notes(args.a, tip=args.tip_a)
-    b, notes_b = load_with_notes(args.b, tip=args.tip_b)
+    a, notes_a = load_arm(args.a, args.tip_a, "--tip-a")
+    b, notes_b = load_arm(args.b, args.tip_b, "--tip-b")
     names = display_names(a.name, b.name, args.a, args.b)
     report = compare(a, b, samples=args.samples, seed=args.seed, names=names)
     load_notes = notes_a + notes_b          # each names its arm and link
@@ -52,8 +51,6 @@ def register(subparsers) -> None:
     p.add_argument("--samples", type=int, default=200, help="random states of B (default 200)")
     p.add_argument("--seed", type=int, default=0, help="seed of the random states (default 0)")
     p.add_argument("--json", action="store_true", help="print one JSON document")
-    p.add_argument("--tip-a", default=None, metavar="LINK",
-                   help="A is a tree URDF: the link at the end of the chain to compare")
-    p.add_argument("--tip-b", default=None, metavar="LINK",
-                   help="B is a tree URDF: the link at the end of the chain to compare")
+    p.add_argument("--tip-a", default=None, metavar="LINK", help="the --tip of A: " + TIP_HELP)
+    p.add_argument("--tip-b", default=None, metavar="LINK", help="the --tip of B (one per side)")
     p.set_defaults(func=run)
