@@ -1,5 +1,7 @@
 """Alignment and fitting: joint signs and offsets, base and tool (steps 2, 4, 5).
 
+Layer: application (compare).
+
 Flipping joint i's sign is ``J(-q) = F J(q) F`` with ``F = Rx(pi)``, and an
 offset is ``J(q + o) = J(o) J(q)``.  Two canonical forms
 (:mod:`manipdyn.compare.canonical`) give the same forward kinematics exactly

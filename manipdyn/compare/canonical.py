@@ -1,5 +1,7 @@
 """The canonical form of a serial chain, and the normal form of one link.
 
+Layer: application (compare).
+
 Step 1 of :func:`manipdyn.compare.compare`: every arm is brought to one form,
 
     T(q) = W_0 J(q_1) W_1 J(q_2) ... J(q_n) W_n,

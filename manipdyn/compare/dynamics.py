@@ -1,5 +1,7 @@
 """The dynamics half of :func:`manipdyn.compare.compare`.
 
+Layer: application (compare).
+
 At ``q`` (arm b) the matched state of arm a is ``q' = sign*q + offset``,
 ``qd' = sign*qd``.  D and h are coordinate-free given the joint variables,
 so they do not depend on the base transform: ``D_b`` is compared with

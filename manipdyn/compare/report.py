@@ -1,5 +1,7 @@
 """The result of :func:`manipdyn.compare.compare`: verdicts, differences, text and JSON.
 
+Layer: application (compare).
+
 Two verdicts, one per question a user asks before swapping one description
 for the other in a controller:
 
