@@ -24,7 +24,7 @@ import numpy as np
 
 from .errors import ModelError, PhysicalConsistencyWarning, warn_notes
 from .kinematics import ChainKinematics, DHKinematics, rot_x, rot_z, trans
-from .links import ChainJoint, DHLink
+from .links import ChainJoint, DHLink, physical_note
 
 __all__ = ["Arm", "Manipulator", "URDFArm", "Convention", "TraceFormData", "register_engine",
            "register_service", "DEFAULT_QLIM", "joint_letters", "as_gravity"]
@@ -114,9 +114,7 @@ class Arm:
     name: str
     gravity: np.ndarray
     source: str = ""
-    #: one line per thing worth the user's attention in the description (a
-    #: physically impossible link inertia, a value in a suspicious unit, ...)
-    notes: tuple = ()
+    notes: tuple = ()  #: one line per physically impossible link, suspicious unit, ...
 
     def __init__(self) -> None:
         self._engines: dict = {}
@@ -328,18 +326,10 @@ class Manipulator(Arm):
         self.armature.setflags(write=False)
         fr = np.array([[l.friction_viscous for l in links], [l.friction_coulomb for l in links]])
         self.friction = fr if np.any(fr) else None
-        notes = []
-        for i, l in enumerate(links):
-            label = f"link {i + 1}" + (f" ({l.name})" if l.name else "")
-            _refuse_negative_moment(l.body.inertia, f"{self.name or 'arm'}: {label}")
-            try:
-                l.body.check_physical(strict=True, where=f"{self.name or 'arm'}: {label}")
-            except ModelError as exc:
-                if self.strict:
-                    raise
-                notes.append(str(exc))
-        self.notes = tuple(notes)
-        warn_notes(self.name or "arm", notes, PhysicalConsistencyWarning)
+        notes = (physical_note(l.body, f"{self.name or 'arm'}: link {i + 1}" + (f" ({l.name})" if l.name else ""),
+                               self.strict) for i, l in enumerate(links))
+        self.notes = tuple(n for n in notes if n)
+        warn_notes(self.name or "arm", self.notes, PhysicalConsistencyWarning)
 
     def __eq__(self, other):
         if not isinstance(other, Manipulator):
@@ -493,18 +483,6 @@ class URDFArm(Arm):
         if self.locked_joints:
             s += f", {len(self.locked_joints)} locked"
         return s + f" ({self.source})>"
-
-
-def _refuse_negative_moment(I: np.ndarray, where: str) -> None:
-    """A DH link (model file or Python) with a clearly negative principal moment is refused,
-    as a negative mass is.  (URDF files keep loading with a note: vendors publish such
-    bodies, e.g. Tiago's antenna link, and the files are used as they are.)"""
-    if not np.any(I):
-        return
-    low = float(np.linalg.eigvalsh(I)[0])
-    if low < -1e-9 * float(np.max(np.abs(I))):   # the tolerance of LinkInertia.consistency_problems
-        raise ModelError(f"{where}: field 'inertia' has a negative principal moment of inertia "
-                         f"{low:.6g} kg m^2; no body has one, as no body has a negative mass")
 
 
 def _dh_equal(a: DHLink, b: DHLink) -> bool:
