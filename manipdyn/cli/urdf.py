@@ -37,12 +37,13 @@ def run(args) -> int:
 def register(sub) -> None:
     """Add ``manipdyn urdf``."""
     u = sub.add_parser("urdf", help="write the URDF of arms",
+                       usage="manipdyn urdf [-h] [--all] [--tip LINK] [MODEL_OR_FILE ...] OUTDIR  (options first)",
                        description="Write <name>.urdf for each arm into OUTDIR (created if needed). "
                                    "The URDF carries the arm's joint limits and says in a comment which "
                                    "values are manipdyn's defaults. Exit 0 written, 2 usage or model error.")
     u.add_argument("models", nargs="*", metavar="MODEL_OR_FILE",
-                   help="bundled model name, .toml model file, or .urdf file (several allowed)")
+                   help="bundled model name, .toml model file or .urdf file (several allowed)")
+    u.add_argument("outdir", metavar="OUTDIR", help="the folder to write the .urdf files into")
     u.add_argument("--all", action="store_true", help="every bundled model")
     u.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
-    u.add_argument("outdir", metavar="OUTDIR", help="folder to write the .urdf files into")
     u.set_defaults(func=run)
