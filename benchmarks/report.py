@@ -1,4 +1,4 @@
-"""Console table and Markdown summary of a benchmark run (the dict written to latest.json)."""
+"""Console table and Markdown summary of a benchmark run (the dict written to results.json)."""
 
 from __future__ import annotations
 
@@ -102,6 +102,14 @@ def _md_table(head, body):
     return out
 
 
+def _pools(pools) -> str:
+    if not isinstance(pools, list):
+        return str(pools)
+    return "; ".join(f"{p.get('internal_api')} {p.get('version') or ''} ({p.get('user_api')}, "
+                     f"{p.get('num_threads')} threads"
+                     + (f", {p['architecture']}" if p.get("architecture") else "") + ")" for p in pools)
+
+
 def markdown(res):
     m = res["machine"]
     L = [f"# manipdyn benchmark: {res['mode']} run, {res['started']}", ""]
@@ -110,7 +118,9 @@ def markdown(res):
              f"numpy {m['numpy']} ({m.get('blas')}), pinocchio {m['pinocchio']}, "
              f"roboticstoolbox-python {m['roboticstoolbox'] or 'not installed'}; "
              f"OPENBLAS_CORETYPE={m.get('OPENBLAS_CORETYPE')}; load average "
-             f"{_load(m.get('loadavg_start'))} at the start, {_load(m.get('loadavg_end'))} at the end.")
+             f"{_load(m.get('loadavg_start'))} at the start, {_load(m.get('loadavg_end'))} at the end.  ")
+    L.append(f"BLAS and OpenMP thread pools (threadpoolctl): {_pools(m.get('blas_config'))}; "
+             f"OPENBLAS_L2_SIZE={m.get('OPENBLAS_L2_SIZE')}.")
     L.append("")
     L.append("Times are medians over interleaved rounds (every candidate timed in every round); "
              "ratios are medians of the per-round ratios.  Arms are built without rotors and friction.")
