@@ -270,3 +270,12 @@ def test_generated_urdf_says_where_limits_came_from():
     assert "effort 1000, velocity 10: manipdyn's placeholders" in text
     back = md.load(text)                           # comments do not disturb the readers
     np.testing.assert_allclose(back.qlim, arm.qlim)
+
+
+def test_suspicious_unit_is_a_note_by_default_and_fails_check_strict(tmp_path, capsys):
+    path = tmp_path / "degrees.toml"
+    path.write_text(model_text(alpha=90.0))
+    args = ["check", str(path), "--samples", "5", "--timing-calls", "0"]
+    assert main(args) == 0
+    assert "key 'alpha' = 90.0 is more than 2 pi" in capsys.readouterr().out
+    assert main(args + ["--strict"]) == 1
