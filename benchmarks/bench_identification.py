@@ -15,9 +15,11 @@ Run, with OpenBLAS's tuning variables unset in that command alone::
    included) per method, median of ``--repeats`` runs, and the ratio to ``ols``
    measured in the same rounds.
 
-The BLAS configuration (threadpoolctl) and the load average are recorded;
-results go to ``benchmarks/results/identification.json`` (atomically) and
-are printed.
+The BLAS configuration (threadpoolctl) and the load average are recorded.
+Results are printed and written, atomically, to
+``benchmarks/results/runs/<UTC time>-identification/results.json`` (ignored by
+git; or ``--out DIR``); ``--publish`` also rewrites the committed reference
+``benchmarks/results/identification_reference.json``.
 """
 
 from __future__ import annotations
@@ -39,7 +41,8 @@ from benchmarks.timing import interleaved, paired_ratio
 from manipdyn.identification import excitation, fit
 from manipdyn.identification.demo import measure, true_arm
 
-RESULTS = Path(__file__).resolve().parent / "results" / "identification.json"
+RESULTS = Path(__file__).resolve().parent / "results"
+REFERENCE = RESULTS / "identification_reference.json"
 
 
 def _load(name):
@@ -133,6 +136,9 @@ def main(argv=None) -> int:
     p.add_argument("--fit-arm", default="panda")
     p.add_argument("--samples", type=int, default=10_000)
     p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--out", default=None, metavar="DIR",
+                   help="folder of results.json (default benchmarks/results/runs/<UTC time>-identification)")
+    p.add_argument("--publish", action="store_true", help="also rewrite the committed reference results")
     p.add_argument("--no-write", action="store_true", help="print only")
     args = p.parse_args(argv)
     env = environment()
@@ -152,8 +158,14 @@ def main(argv=None) -> int:
               f"(consistent: {v['consistent']}, {v['solver']})")
     print(f"BLAS: {env['blas']}; load average {env['loadavg_start']} -> {env['loadavg_end']}")
     if not args.no_write:
-        _write(RESULTS, json.dumps(result, indent=2) + "\n")
-        print(f"wrote {RESULTS.relative_to(RESULTS.parents[2])}")
+        stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
+        out = Path(args.out) if args.out else RESULTS / "runs" / f"{stamp}-identification"
+        text = json.dumps(result, indent=2) + "\n"
+        _write(out / "results.json", text)
+        print(f"wrote {out / 'results.json'}")
+        if args.publish:
+            _write(REFERENCE, text)
+            print(f"wrote {REFERENCE}")
     return 0
 
 

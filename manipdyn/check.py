@@ -83,7 +83,8 @@ class CrosscheckReport:
     samples: int
     seed: int
     quantities: dict = field(default_factory=dict)
-    #: quantities that could not be compared, and why (e.g. a singular D)
+    #: the arm's own notes (arm.notes: physically impossible links, suspicious units),
+    #: then quantities that could not be compared, and why (e.g. a singular D)
     notes: list = field(default_factory=list)
 
     @property
@@ -209,7 +210,7 @@ def crosscheck(arm, samples: int = 1000, seed: int = 0, chunk: int = 500, progre
 
     states = {"q": q, "qd": qd, "qdd": qdd}
     report = CrosscheckReport(arm=arm.name or "arm", n=arm.n, samples=int(samples), seed=int(seed),
-                              notes=list(skipped.values()))
+                              notes=list(getattr(arm, "notes", ())) + list(skipped.values()))
     for key, (ra, rb) in parts.items():
         report.quantities[key] = _compare(key, np.concatenate(ra), np.concatenate(rb), states)
     return report

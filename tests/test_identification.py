@@ -291,8 +291,16 @@ def test_cli_excite_then_identify(tmp_path, capsys):
     assert main(["check", str(out), "--samples", "50", "--timing-calls", "0"]) == 0
     capsys.readouterr()
     urdf = tmp_path / "ident.urdf"
-    assert main(["identify", "ur5", str(data), "-o", str(urdf), "--method", "wls"]) == 0
+    assert main(["identify", "ur5", str(data), "-o", str(urdf), "--friction"]) == 0
     assert md.load(str(urdf)).n == 6
+    # wls: written when its full parameters are a physical arm, else exit 1 and nothing written
+    capsys.readouterr()
+    code = main(["identify", "ur5", str(data), "-o", str(tmp_path / "wls.toml"), "--method", "wls", "--json"])
+    rep = json.loads(capsys.readouterr().out)
+    if code == 1:
+        assert rep["output"] is None and rep["arm_error"] and not (tmp_path / "wls.toml").exists()
+    else:
+        assert code == 0 and md.load(str(tmp_path / "wls.toml")).n == 6
     bounded = tmp_path / "bounded.toml"
     assert main(["identify", "ur5", str(data), "-o", str(bounded), "--friction",
                  "--mass-bound", "0.3", "--com-bound", "0.05"]) == 0

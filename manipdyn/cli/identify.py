@@ -108,5 +108,6 @@ def run(args) -> int:
     if code == EXIT_FAILED:
         import sys
 
-        print(f"manipdyn identify: {result.arm_error}", file=sys.stderr)
+        print(f"manipdyn identify: the {args.method} parameters are not a physical arm, nothing written: "
+              f"{result.arm_error}; --method consistent always gives one", file=sys.stderr)
     return code
