@@ -322,3 +322,17 @@ def test_cli_identify_usage_errors(tmp_path, capsys):
     assert "missing column" in err and len(err.strip().splitlines()) == 1
     assert main(["identify", "ur5", str(data), "-o", str(tmp_path / "x.txt")]) == 2
     assert ".toml or .urdf" in capsys.readouterr().err
+
+
+def test_consistent_from_an_impossible_prior():
+    """The bundled Puma 560 (a massless link with inertia, a broken triangle inequality)
+    as prior and as the source of the data: the consistent fit is physical anyway."""
+    prior = _load("puma560")
+    assert np.any(link_min_eigenvalues(prior.parameters(), prior.n) < 0)
+    traj = excitation(prior, duration=8.0, harmonics=4, rate=100.0, iterations=0, seed=3)
+    rng = np.random.default_rng(5)
+    tau = prior.inverse_dynamics(traj.q, traj.qd, traj.qdd)
+    tau += 0.01 * np.abs(tau).max(axis=0) * rng.standard_normal(tau.shape)
+    r = fit(prior, traj.q, traj.qd, traj.qdd, tau, method="consistent")
+    assert r.consistent and np.all(link_min_eigenvalues(r.parameters, prior.n) > 0)
+    assert md.crosscheck(r.arm, samples=30).ok
