@@ -13,7 +13,8 @@ Run, with OpenBLAS's tuning variables unset in that command alone::
 2. Identifying a 7-DOF arm (Panda prior, perturbed true arm, friction on) from
    10^4 samples with 1 % torque noise: wall time of ``fit`` (base parameters
    included) per method, median of ``--repeats`` runs, and the ratio to ``ols``
-   measured in the same rounds.
+   measured in the same rounds; each with the BLAS thread pools as found and
+   limited to one thread (threadpoolctl), in interleaved rounds.
 
 The BLAS configuration (threadpoolctl) and the load average are recorded.
 Results are printed and written, atomically, to
@@ -102,21 +103,33 @@ def bench_fit(name: str, samples: int, repeats: int) -> dict:
     duration = (samples + trim) / rate
     traj = excitation(prior, duration=duration, harmonics=5, rate=rate, iterations=0, friction=True)
     data, _, _ = measure(truth, traj, np.random.default_rng(0))
-    times = {m: [] for m in ("ols", "wls", "consistent")}
+    from threadpoolctl import threadpool_limits
+
+    methods = ("ols", "wls", "consistent")
+    # each method with the BLAS thread pools as they are, and limited to one thread
+    # (on a loaded machine multi-threaded OpenBLAS can be many times slower)
+    cases = [(m, t) for t in ("default", "1") for m in methods]
+    times = {c: [] for c in cases}
     info = {}
     for r in range(repeats):
-        order = list(times)[r % 3:] + list(times)[:r % 3]
-        for m in order:
-            t0 = time.perf_counter()
-            res = fit(prior, data.q, data.qd, data.qdd, data.tau, method=m, friction=True)
-            times[m].append(time.perf_counter() - t0)
+        order = cases[r % len(cases):] + cases[:r % len(cases)]
+        for m, threads in order:
+            with threadpool_limits(None if threads == "default" else 1):
+                t0 = time.perf_counter()
+                res = fit(prior, data.q, data.qd, data.qdd, data.tau, method=m, friction=True)
+                times[(m, threads)].append(time.perf_counter() - t0)
             info[m] = {"consistent": res.consistent, "n_base": res.base.count,
                        "solver": res.report["solver"]}
-    ref = np.array(times["ols"])
-    return {"arm": name, "n": prior.n, "samples": len(data), "repeats": repeats,
-            "methods": {m: {"median_s": float(np.median(v)),
-                            "ratio_to_ols": float(np.median(np.array(v) / ref)), **info[m]}
-                        for m, v in times.items()}}
+    out = {"arm": name, "n": prior.n, "samples": len(data), "repeats": repeats, "methods": {}}
+    for m in methods:
+        row = dict(info[m])
+        for threads in ("default", "1"):
+            v = np.array(times[(m, threads)])
+            ref = np.array(times[("ols", threads)])
+            row[f"blas_threads_{threads}"] = {"median_s": float(np.median(v)),
+                                              "ratio_to_ols": float(np.median(v / ref))}
+        out["methods"][m] = row
+    return out
 
 
 def _write(path: Path, text: str) -> None:
@@ -154,8 +167,9 @@ def main(argv=None) -> int:
     print(f"identify {fits['arm']} ({fits['n']} DOF) from {fits['samples']} samples, friction on, "
           f"median of {fits['repeats']}:")
     for m, v in fits["methods"].items():
-        print(f"  {m:<11} {v['median_s']:7.3f} s   x{v['ratio_to_ols']:.2f} of ols   "
-              f"(consistent: {v['consistent']}, {v['solver']})")
+        d, o = v["blas_threads_default"], v["blas_threads_1"]
+        print(f"  {m:<11} {d['median_s']:7.3f} s (x{d['ratio_to_ols']:.2f} of ols)   one BLAS thread "
+              f"{o['median_s']:7.3f} s (x{o['ratio_to_ols']:.2f})   (consistent: {v['consistent']}, {v['solver']})")
     print(f"BLAS: {env['blas']}; load average {env['loadavg_start']} -> {env['loadavg_end']}")
     if not args.no_write:
         stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
