@@ -16,8 +16,8 @@ import warnings
 import numpy as np
 import pytest
 
-import arms
 import manipdyn as md
+from manipdyn import random_arms as arms
 from manipdyn.identification import (Bounds, MissingExtraError, base_parameters, excitation, fit,
                                      read_measurements, write_measurements_csv)
 from manipdyn.identification.base import stacked_regressor

@@ -17,9 +17,11 @@ import warnings
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
-import arms
 import manipdyn as md
+from manipdyn import random_arms as arms
 from manipdyn.identification.model import arm_with_parameters
 from manipdyn.parameters import arm_parameters, parameter_names
 
@@ -119,6 +121,18 @@ def test_random_arm_with_rotors_and_friction_Y_pi_is_tau():
     for eng in (arm.lagrange, arm.pinocchio):
         Y = eng.regressor(q, qd, qdd, armature=True, friction=True)
         assert _rel(Y @ pi, arm.lagrange.inverse_dynamics(q, qd, qdd)) <= TOL
+
+
+@given(seed=st.integers(0, 2**32 - 1))
+def test_regressors_agree_on_any_random_arm(seed):
+    """Seeded random arms: 1 to 8 joints, either convention, revolute and prismatic,
+    random gravity direction, with or without rotors; a batch and one state."""
+    arm = arms.random_arm(seed)
+    q, qd, qdd = arms.random_state(np.random.default_rng(seed), arm, size=4)
+    YL, YP = arm.lagrange.regressor(q, qd, qdd, armature=True), arm.pinocchio.regressor(q, qd, qdd, armature=True)
+    assert max(_rel(a, b) for a, b in zip(YL, YP)) <= TOL
+    assert _rel(arm.lagrange.regressor(q[1], qd[1], qdd[1], armature=True), YP[1]) <= TOL
+    assert _rel(YL @ arm.parameters(armature=True), arm.lagrange.inverse_dynamics(q, qd, qdd)) <= TOL
 
 
 def test_control_regressor_shares_the_layout():
