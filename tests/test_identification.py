@@ -336,3 +336,23 @@ def test_consistent_from_an_impossible_prior():
     r = fit(prior, traj.q, traj.qd, traj.qdd, tau, method="consistent")
     assert r.consistent and np.all(link_min_eigenvalues(r.parameters, prior.n) > 0)
     assert md.crosscheck(r.arm, samples=30).ok
+
+
+def test_cli_without_the_extra_names_the_install_command(monkeypatch, tmp_path, capsys):
+    import importlib
+
+    from manipdyn.cli import main
+    from manipdyn.identification import _deps
+
+    real = importlib.import_module
+
+    def fake(name, *a, **k):
+        if name.startswith("scipy"):
+            raise ImportError(f"No module named {name!r}")
+        return real(name, *a, **k)
+
+    monkeypatch.setattr(_deps.importlib, "import_module", fake)
+    assert main(["excite", "ur5", "-o", str(tmp_path / "t.csv"), "--iterations", "0"]) == 2
+    err = capsys.readouterr().err
+    assert "pip install 'manipdyn[identify]'" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "t.csv").exists()
