@@ -14,7 +14,9 @@ Only the base parameters ``beta = K pi`` (:mod:`.base`) are identifiable:
   over the ``r_j`` base parameters that appear in them, and
   ``sigma_j^2 = ||rho_j||^2 / (N - r_j)``.  (The residuals of the pooled
   OLS fit would not do: that fit is dominated by the large proximal torques
-  and leaves misfit, not noise, in the small wrist torques.)
+  and leaves misfit, not noise, in the small wrist torques.)  A noise level
+  below ``1e-6`` of the largest joint's RMS torque is raised to that floor
+  (exact data then weigh the joints equally);
 * ``consistent``: the same weighted objective over the full parameters
   subject to ``J_i >= 0`` for every link (:mod:`.sdp`).
 
@@ -189,7 +191,10 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     s = np.linalg.svd(R0, compute_uv=False)              # the singular values of the stacked Y_b
     cond = float(s[0] / s[-1]) if s[-1] > 0 else float("inf")
     sigma = _joint_noise(Yb, y)
-    floor = 1e-12 * max(1.0, float(np.abs(y).max()))
+    # noise below 1e-6 of the largest joint's RMS torque is rounding, not noise:
+    # flooring it keeps the weights (and the semidefinite program) well scaled
+    # on exact data, where every sigma_j would otherwise be ~1e-12 and arbitrary
+    floor = 1e-6 * max(float(np.sqrt(np.mean(y**2, axis=0)).max()), 1e-300)
     sigma = np.maximum(sigma, floor)
     prior = arm_parameters(arm, armature, friction)
 

@@ -7,7 +7,7 @@ pseudo-inertia positive semidefinite; Wensing, Kim and Slotine 2017).  J is
 linear in the ten parameters (``J = sum_k pi_k E_k``,
 :data:`manipdyn.parameters.PARAMETER_BASIS`), so both steps are convex:
 
-1. ``min ||R (K pi) - c||^2`` subject to ``J_i(pi) >= eps I`` for every link
+1. ``min ||R (K pi) - c||`` subject to ``J_i(pi) >= eps I`` for every link
    (plus armature and friction >= 0, plus optional :class:`Bounds`), where
    ``R``, ``c`` are the QR-reduced weighted least-squares problem of the base
    parameters (:mod:`.estimation`);
@@ -35,6 +35,8 @@ __all__ = ["Bounds", "consistent_fit", "EPS"]
 
 #: margin of the PSD constraints, J_i >= EPS * I (see the module docstring)
 EPS = 1e-8
+#: weight of step 1's pull towards the prior (see :func:`consistent_fit`)
+REG = 1e-7
 
 
 @dataclass(frozen=True)
@@ -134,9 +136,16 @@ def consistent_fit(R, c, K, n, prior, extra: bool, bounds: Bounds | None = None)
     cp = require("cvxpy", "the consistent fit")
     p = K.shape[1]
     x = cp.Variable(p)
-    scale = max(1.0, float(np.linalg.norm(c)))
-    # step 1: the best fit among physical arms (scaled objective: better solver accuracy)
-    step1 = cp.Problem(cp.Minimize(cp.sum_squares(R @ (K @ x) - c) / scale**2),
+    scale = max(1e-300, float(np.linalg.norm(c)))
+    # step 1: the best fit among physical arms.  The norm, not its square: a
+    # conic solver then resolves the residual to its tolerance (~1e-8 of |c|)
+    # rather than to the square root of it, which matters on exact data.
+    # The unidentifiable directions leave a whole face of minimisers; a pull of
+    # weight REG towards the prior makes the minimiser unique (interior-point
+    # solvers report "inaccurate" on unbounded optimal faces) and moves the fit
+    # by ~REG relative.  Step 2 then picks the full parameters.
+    pscale = max(1.0, float(np.linalg.norm(prior)))
+    step1 = cp.Problem(cp.Minimize(cp.norm(R @ (K @ x) - c) / scale + REG * cp.norm(x - prior) / pscale),
                        _constraints(cp, x, n, extra, bounds))
     solver = _solve(cp, step1, "step 1 (fit)")
     x1 = np.asarray(x.value, dtype=np.float64)
