@@ -12,7 +12,9 @@ linear in the ten parameters (``J = sum_k pi_k E_k``,
    ``R``, ``c`` are the QR-reduced weighted least-squares problem of the base
    parameters (:mod:`.estimation`);
 2. among the ``pi`` with the same base parameters ``K pi = beta*``, the one
-   closest to the prior (least-squares deviation), with the same constraints.
+   closest to the prior (least-squares deviation), with the same constraints
+   (margin ``EPS / 2``).  The equality holds to the solver's accuracy, ~1e-9;
+   if Clarabel cannot solve step 2, step 1's answer is kept.
 
 ``eps = 1e-8`` (kg m^2, kg m, kg) keeps every identified body strictly
 physical after the solver's rounding (the Schur complement of J, the
@@ -64,13 +66,13 @@ class Bounds:
                    com=np.stack([c - com, c + com], axis=1))
 
 
-def _solve(cp, problem, what):
+def _solve(cp, problem, what, solvers=("CLARABEL", "SCS")):
     """Solve with Clarabel, else SCS; an inaccurate answer is accepted only from the last."""
     import warnings
 
     errors = []
     fallback = None
-    for solver in ("CLARABEL", "SCS"):
+    for solver in solvers:
         if solver not in cp.installed_solvers():
             errors.append(f"{solver} not installed")
             continue
@@ -95,12 +97,12 @@ def _solve(cp, problem, what):
                      + ("; the bounds may be infeasible" if "infeasible" in " ".join(errors) else ""))
 
 
-def _constraints(cp, x, n, extra, bounds):
+def _constraints(cp, x, n, extra, bounds, eps=EPS):
     E = PARAMETER_BASIS
     cons = []
     for i in range(n):
         J = sum(x[10 * i + k] * E[k] for k in range(10))
-        cons.append(J - EPS * np.eye(4) >> 0)
+        cons.append(J - eps * np.eye(4) >> 0)
     if extra:
         cons.append(x[10 * n:] >= 0)           # armature, viscous and Coulomb friction
     if bounds is not None:
@@ -149,17 +151,18 @@ def consistent_fit(R, c, K, n, prior, extra: bool, bounds: Bounds | None = None)
                        _constraints(cp, x, n, extra, bounds))
     solver = _solve(cp, step1, "step 1 (fit)")
     x1 = np.asarray(x.value, dtype=np.float64)
-    # step 2: closest to the prior with the same base parameters.  pi = x1 + N z
-    # with N a basis of K's null space keeps K pi = beta exactly (to rounding).
-    N = require("scipy.linalg", "the consistent fit").null_space(K)
-    if N.shape[1] == 0:
-        return x1, solver
-    z = cp.Variable(N.shape[1])
-    x2 = x1 + N @ z
-    step2 = cp.Problem(cp.Minimize(cp.sum_squares(x2 - prior)), _constraints(cp, x2, n, extra, bounds))
+    # step 2: closest to the prior with the same base parameters, K pi = K x1
+    # (an equality the interior-point solver keeps to ~1e-9).  Margin EPS / 2:
+    # step 1's answer, often on the EPS boundary, is then strictly feasible.
+    x2 = cp.Variable(p)
+    step2 = cp.Problem(cp.Minimize(cp.sum_squares((x2 - prior) / pscale)),
+                       [K @ x2 == K @ x1] + _constraints(cp, x2, n, extra, bounds, eps=EPS / 2))
     try:
-        _solve(cp, step2, "step 2 (closest to the prior)")
-        pi = x1 + N @ z.value
+        _solve(cp, step2, "step 2 (closest to the prior)", solvers=("CLARABEL",))
+        pi = np.asarray(x2.value, dtype=np.float64)
+        beta1 = K @ x1
+        if np.linalg.norm(K @ pi - beta1) > 1e-7 * max(float(np.linalg.norm(beta1)), 1e-300):
+            pi = x1   # an inaccurate step 2 moved the base parameters: keep step 1's
     except ModelError:
         pi = x1   # step 1's answer has the same base parameters and is physical
     return project_physical(pi, n), solver
