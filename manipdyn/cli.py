@@ -24,7 +24,7 @@ __all__ = ["main"]
 EXIT_OK, EXIT_DISAGREE, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
 
 #: modules that add their own subcommand (``compare``, ``track``)
-_PLUGIN_MODULES = ("manipdyn.comparison", "manipdyn.control.cli")
+_PLUGIN_MODULES = ("manipdyn.comparison", "manipdyn.control.cli", "manipdyn.montecarlo.cli")
 
 
 class _Progress:
