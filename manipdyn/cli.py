@@ -139,8 +139,7 @@ def _cmd_check(args) -> int:
         if args.urdf_out:
             urdf_path = _urdf_target(args.urdf_out, arm, seen, "--urdf-out")
             arm.write_urdf(urdf_path)
-        report = md.crosscheck(arm, samples=args.samples, seed=args.seed,
-                               progress=_Progress(arm.name or spec, show_progress))
+        report = _crosscheck(md, arm, args, _Progress(arm.name or spec, show_progress))
         timing = _timings(arm, calls=args.timing_calls) if args.timing_calls > 0 else {}
         if not report.ok:
             worst = EXIT_DISAGREE
@@ -167,6 +166,22 @@ def _cmd_check(args) -> int:
         print(f"{len(results) - len(bad)}/{len(results)} arms agree"
               + (f"; DISAGREEMENT: {', '.join(bad)}" if bad else ""))
     return worst
+
+
+def _crosscheck(md, arm, args, progress):
+    """``md.crosscheck`` here, or spread over Dask workers with ``--scheduler``/``--workers``."""
+    from .scale import MissingExtraError
+
+    scheduler = args.scheduler
+    if scheduler is None and args.workers is not None:
+        scheduler = "local"
+    if args.workers is not None and args.workers < 1:
+        raise ModelError(f"--workers: must be >= 1, got {args.workers}")
+    try:
+        return md.crosscheck(arm, samples=args.samples, seed=args.seed, progress=progress,
+                             scheduler=scheduler, workers=args.workers)
+    except MissingExtraError as exc:
+        raise ModelError(str(exc)) from None
 
 
 def _cmd_urdf(args) -> int:
@@ -231,6 +246,11 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--tip", default=None, help="URDF files: the tip link of the chain to keep")
     c.add_argument("--json", action="store_true", help="print one JSON document instead of tables")
     c.add_argument("--urdf-out", metavar="DIR", default=None, help="also write each arm's URDF into DIR")
+    c.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
+                   help="spread the states over this Dask cluster ('local': a cluster of this "
+                        "machine's cores); the report is the same as a local run's")
+    c.add_argument("--workers", type=int, default=None,
+                   help="with --scheduler local (implied): worker processes (default one per core)")
     c.add_argument("--timing-calls", type=int, default=200,
                    help="calls per engine for the per-call timing (0 to skip; default 200)")
     prog = c.add_mutually_exclusive_group()

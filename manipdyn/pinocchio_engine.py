@@ -272,7 +272,7 @@ def _install_fast_path(eng: PinocchioEngine) -> None:
     """
     cls = type(eng)
     model, data, model0, data0, zeros = eng.model, eng.data, eng._model0, eng._data0, eng._zeros
-    ND, F64, isf, errors, shp = _ND, _F64, _isfinite, _FAST_ERRORS, (eng.n,)
+    ND, F64, isf, errors = _ND, _F64, _isfinite, _FAST_ERRORS
     crba, rnea, aba, grav = _crba, _rnea, _aba, _gravity
     g_mass, g_cor, g_grav, g_id, g_fd = (getattr(cls, nm).__get__(eng) for nm in (
         "mass_matrix", "coriolis_torque", "gravity_torque", "inverse_dynamics", "forward_dynamics"))

@@ -19,13 +19,12 @@ from __future__ import annotations
 
 import functools
 import math
-import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..control.controllers import Controller
-from ..errors import ModelError, PhysicalConsistencyWarning
+from ..scale import arm_from_text, model_text
 from .distributions import Distributions, draw
 from .plant import Plant, make_plant
 
@@ -33,40 +32,6 @@ __all__ = ["Study", "RunSetup", "TorqueNoise", "run_chunk", "CONTROLLER_KEYS", "
 
 #: controller keys of a study, in report order (those of ``manipdyn track``)
 CONTROLLER_KEYS = ("pd", "pdg", "ct", "adaptive")
-
-
-def model_text(arm) -> tuple:
-    """``(kind, text, tip, name, gravity)``: the arm as text a worker can rebuild it from.
-
-    DH arms (:class:`manipdyn.Manipulator`) travel as their model file
-    (floats written exactly, so the rebuilt arm is equal); URDF arms as their
-    URDF text with the tip link, name and gravity.
-    """
-    from ..arm import Manipulator
-
-    if isinstance(arm, Manipulator):
-        from ..modelfile import model_to_toml
-
-        return ("toml", model_to_toml(arm), None, arm.name, None)
-    text = getattr(arm, "urdf_text", None)
-    if text is None:
-        raise ModelError(f"montecarlo: cannot send {type(arm).__name__} {arm.name!r} to workers "
-                         "as text (expected a DH arm or a URDF arm)")
-    return ("urdf", text, arm.tip, arm.name, tuple(float(g) for g in arm.gravity))
-
-
-@functools.lru_cache(maxsize=8)
-def _arm_from_text(kind: str, text: str, tip, name, gravity):
-    """Rebuild (once per process) the arm of a study."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", PhysicalConsistencyWarning)
-        if kind == "toml":
-            from ..modelfile import parse_model
-
-            return parse_model(text, f"model text of {name!r}")
-        from ..urdf_in import load_urdf
-
-        return load_urdf(text, tip=tip, name=name, gravity=gravity)
 
 
 class TorqueNoise(Controller):
@@ -179,7 +144,7 @@ class Study:
     @property
     def arm(self):
         """The nominal arm, rebuilt from :attr:`model` (once per process)."""
-        return _arm_from_text(*self.model)
+        return arm_from_text(*self.model)
 
     @property
     def steps(self) -> int:
@@ -245,7 +210,7 @@ class Study:
 def _path(model: tuple, duration: float):
     from ..control.cli import demo_path
 
-    return demo_path(_arm_from_text(*model), duration)
+    return demo_path(arm_from_text(*model), duration)
 
 
 # -- one run, and a chunk of runs ------------------------------------------------------
