@@ -3,7 +3,7 @@
 The cluster tests start ``dask scheduler`` and two ``dask worker`` processes
 on 127.0.0.1 (tests/dask_cluster.py) and compare what they return with runs
 in this process: bit for bit (JSON text), except the ``"timing"`` entry.
-Runs are short (1 s simulated at 1 kHz) to keep the suite quick.
+Runs are short (0.5 to 1 s simulated at 1 kHz) to keep the suite quick.
 """
 
 from __future__ import annotations
@@ -224,26 +224,26 @@ def test_crosscheck_in_parts_reports_what_a_local_run_reports():
 
 # -- a real Dask cluster ---------------------------------------------------------------------
 def test_study_on_a_dask_cluster_is_bit_identical_to_a_local_run(tmp_path, capsys):
-    argv = ["montecarlo", "puma560", "--runs", "40", "--seed", "11", "--duration", str(DURATION),
-            "--json", "--no-progress"]
+    argv = ["montecarlo", "puma560", "--runs", "40", "--seed", "11", "--duration", "0.5",
+            "--controllers", "pd,ct", "--json", "--no-progress"]
     assert main(argv + ["--scheduler", "sync"]) == 0
     local = capsys.readouterr().out
     with dask_cluster(2) as (address, _):
         assert main(argv + ["--scheduler", address, "--chunk-size", "3"]) == 0
         remote = capsys.readouterr().out
-        rc = main(["check", "ur5", "--samples", "3000", "--scheduler", address, "--json",
+        rc = main(["check", "ur5", "--samples", "1500", "--scheduler", address, "--json",
                    "--timing-calls", "0", "--no-progress"])
         check_remote = capsys.readouterr().out
     assert _without_timing(remote) == _without_timing(local)
     timing = json.loads(remote)["timing"]
     assert timing["workers"] == 2 and timing["chunks"] == 14 and len(timing["chunks_by_process"]) == 2
-    assert rc == 0 and main(["check", "ur5", "--samples", "3000", "--json", "--timing-calls", "0",
+    assert rc == 0 and main(["check", "ur5", "--samples", "1500", "--json", "--timing-calls", "0",
                              "--no-progress"]) == 0
     assert check_remote == capsys.readouterr().out
 
 
 def test_a_worker_killed_mid_study_loses_no_run_and_counts_none_twice(puma):
-    s = mc.study(puma, runs=40, seed=5, duration=DURATION, controllers=("pd", "ct"))
+    s = mc.study(puma, runs=40, seed=5, duration=0.5, controllers=("pd", "ct"))
     local = mc.run(s, scheduler="sync")
     seen = []
     with dask_cluster(2) as (address, workers):
