@@ -34,7 +34,7 @@ import warnings
 import numpy as np
 
 import manipdyn as md
-from manipdyn.control.cli import demo_path, make_controller
+from manipdyn.control.demo import demo_path, make_controller
 
 TARGET_S = 2.0          # for 10 s of computed torque at 1 kHz
 CT_MAX_ERROR = 1e-3     # rad, perfect model, bandwidth 10 rad/s (module docstring)

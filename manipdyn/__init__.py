@@ -1,5 +1,7 @@
 """manipdyn: serial-arm dynamics computed two independent ways, and checked.
 
+Layer: the package top: wires the engines into the model and exports the public names.
+
 * ``arm.lagrange``: the trace-form Lagrange-Euler engine of chapter II;
 * ``arm.pinocchio``: Pinocchio's RNEA/CRBA/ABA on the arm's URDF;
 * :func:`crosscheck`: proof that the two agree.
@@ -11,32 +13,54 @@ Quick start::
     tau = arm.inverse_dynamics(q, qd, qdd)        # fast path (Pinocchio)
     D = arm.lagrange.mass_matrix(q)               # independent trace form
     print(md.crosscheck(arm, samples=200))
+
+The package reads in layers (ARCHITECTURE.md): kinematics, inertia, the
+model and its loaders, the two engines, the cross-check, the applications.
+Importing it imports both engines, which register themselves with the model.
 """
 
 from .errors import ModelError, PhysicalConsistencyWarning, SingularMassMatrixError, StateError
 from .inertia import LinkInertia
-from .kinematics import ChainJoint, DHLink, transform_inverse
-from .arm import Arm, Manipulator
+from .kinematics import transform_inverse
+from .links import ChainJoint, DHLink
+from .arm import Arm, Convention, Manipulator, URDFArm
+from .loading import load, load_with_notes, models
+from .io import save, to_toml, to_urdf, write_urdf
+from .engine import DynamicsEngine
+from .arm import register_engine
+from .lagrange import trace_form_engine
 from .check import CrosscheckReport, crosscheck
+from .comparison import CompareReport, compare
+
+
+def _pinocchio_engine(arm):
+    # Pinocchio is imported on first use only: the trace-form path runs without it.
+    from .pinocchio_engine import pinocchio_engine
+
+    return pinocchio_engine(arm)
+
+
+# The engines plug into the model here, at the top of the package.
+register_engine("lagrange", trace_form_engine)
+register_engine("pinocchio", _pinocchio_engine)
+
+
+def __getattr__(name):
+    if name == "simulate":  # the control package imports Pinocchio (its regressor)
+        from .control.simulate import simulate
+
+        return simulate
+    raise AttributeError(f"module 'manipdyn' has no attribute {name!r}")
 
 __version__ = "0.1.0"
 
 __all__ = [
-    "Arm", "ChainJoint", "DHLink", "LinkInertia", "Manipulator", "ModelError",
-    "PhysicalConsistencyWarning", "SingularMassMatrixError", "StateError", "transform_inverse",
-    "crosscheck", "CrosscheckReport", "load", "models",
+    "Arm", "ChainJoint", "Convention", "CompareReport", "CrosscheckReport", "DHLink", "DynamicsEngine",
+    "LinkInertia", "Manipulator", "ModelError", "PhysicalConsistencyWarning", "SingularMassMatrixError",
+    "StateError", "URDFArm", "compare", "crosscheck", "load", "load_with_notes", "models", "save",
+    "simulate", "to_toml", "to_urdf", "transform_inverse", "write_urdf",
 ]
 
 
-def __getattr__(name):
-    # Lazy imports: pinocchio and yourdfpy load only when a function needs them.
-    if name in ("load", "models"):
-        from . import modelfile
-        return getattr(modelfile, name)
-    if name in ("compare", "CompareReport"):
-        from . import comparison
-        return getattr(comparison, name)
-    if name == "simulate":
-        from .control import simulate
-        return simulate
-    raise AttributeError(f"module 'manipdyn' has no attribute {name!r}")
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

@@ -1,8 +1,12 @@
-"""The arm: an immutable description of a serial manipulator and its two engines.
+"""The arm: an immutable description of a serial manipulator.
 
-``Arm`` is the common base; :class:`Manipulator` is an arm described by a DH
-table (the user-facing constructor), and :class:`manipdyn.urdf_in.URDFArm`
-an arm read from a URDF chain.  Both expose
+Layer 3 (the model).  ``Arm`` is the common base; :class:`Manipulator` is an
+arm described by a DH table (the user-facing constructor), and
+:class:`URDFArm` an arm read from a URDF chain (built by
+:func:`manipdyn.urdf_in.load_urdf`).  The model knows nothing of files, of how
+an engine is built, of the cross-check or of the CLI.  Engines plug in from
+above through :func:`register_engine`; each arm builds each engine lazily, on
+first use, and keeps it:
 
 * ``arm.lagrange``: the trace-form Lagrange-Euler engine (slow, independent);
 * ``arm.pinocchio``: the Pinocchio engine on the arm's URDF (fast);
@@ -12,22 +16,70 @@ an arm read from a URDF chain.  Both expose
 
 from __future__ import annotations
 
-import functools
 import math
+import warnings
+from typing import Callable, Literal, NamedTuple, get_args
 
 import numpy as np
 
 from .errors import ModelError
-from .kinematics import ChainJoint, DHKinematics, DHLink, rot_x, rot_z, trans
+from .kinematics import ChainKinematics, DHKinematics, rot_x, rot_z, trans
+from .links import ChainJoint, DHLink
 
-__all__ = ["Arm", "Manipulator"]
+__all__ = ["Arm", "Manipulator", "URDFArm", "Convention", "TraceFormData", "register_engine",
+           "register_service", "DEFAULT_QLIM", "joint_letters", "as_gravity"]
+
+#: the two DH conventions; there is no default (see :class:`Manipulator`)
+Convention = Literal["standard", "modified"]
+CONVENTIONS = get_args(Convention)
+_REQUIRED: Convention = "<required>"  # type: ignore[assignment]  # sentinel: convention not given
+
+#: engine factories by name (``"lagrange"``, ``"pinocchio"``), registered by
+#: the engine modules when they are imported (``import manipdyn`` imports them)
+_ENGINES: dict[str, Callable] = {}
+#: functions of the layers above that the deprecated convenience methods call
+#: (``"save"``, ``"write_urdf"``, ``"to_urdf"``, ``"crosscheck"``)
+_SERVICES: dict[str, Callable] = {}
+
+
+def register_engine(name: str, factory: Callable) -> None:
+    """Make ``arm.<name>`` build an engine with ``factory(arm)`` on first use.
+
+    This is how an engine plugs into the model without the model importing it.
+    """
+    _ENGINES[name] = factory
+
+
+def register_service(name: str, fn: Callable) -> None:
+    """Back a deprecated convenience method (``arm.save`` ...) with ``fn(arm, ...)``."""
+    _SERVICES[name] = fn
+
+
+class TraceFormData(NamedTuple):
+    """What the trace-form engine needs of an arm (:meth:`Arm.trace_form_data`).
+
+    kinematics : DHKinematics or ChainKinematics
+        Link frames T_i and joint generators, batched.
+    J : (n, 4, 4)
+        Pseudo-inertias (eq. 2.21) in the frames ``kinematics`` produces.
+    armature : (n,)
+        Reflected rotor inertias, kg m^2 (kg for prismatic joints).
+    friction : (2, n) or None
+        Viscous and Coulomb coefficients.
+    """
+
+    kinematics: object
+    J: np.ndarray
+    armature: np.ndarray
+    friction: np.ndarray | None
 
 #: joint-limit defaults used when a link has no ``qlim``: revolute +-pi rad,
 #: prismatic +-1 m.  They bound the states the cross-check draws.
 DEFAULT_QLIM = {"revolute": (-math.pi, math.pi), "prismatic": (-1.0, 1.0)}
 
 
-def _gravity(value, where="gravity") -> np.ndarray:
+def as_gravity(value, where="gravity") -> np.ndarray:
+    """Gravity as a read-only (3,) float array (m/s^2); the chapter's [gx, gy, gz, 0] accepted."""
     try:
         g = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
@@ -56,12 +108,15 @@ class Arm:
     """Common behaviour of every arm (DH or URDF).  Do not build directly.
 
     Subclasses set ``name``, ``gravity``, ``source`` and implement
-    :meth:`chain` and :meth:`_lagrange_parts`.
+    :meth:`chain` and :meth:`trace_form_data`.
     """
 
     name: str
     gravity: np.ndarray
     source: str = ""
+
+    def __init__(self) -> None:
+        self._engines: dict = {}
 
     # -- to be provided by subclasses -------------------------------------
     def chain(self):
@@ -74,14 +129,47 @@ class Arm:
         """
         raise NotImplementedError
 
-    def _lagrange_parts(self):
-        """``(kinematics, J (n,4,4), armature (n,), friction (2,n))`` for the trace form."""
+    def trace_form_data(self) -> TraceFormData:
+        """The kinematics, pseudo-inertias, armature and friction the trace form runs on."""
         raise NotImplementedError
 
-    def _pinocchio_model(self):
-        from .pinocchio_engine import model_from_urdf
+    #: URDF text for Pinocchio when the arm came from a file (None: generate it from :meth:`chain`)
+    source_urdf: str | None = None
+    #: movable joints of the source URDF held at 0 (their subtrees lumped into the chain)
+    locked_joints: tuple = ()
 
-        return model_from_urdf(self.to_urdf(), self.gravity, self.armature)
+    # -- engines ---------------------------------------------------------------
+    def engine(self, name: str):
+        """The engine ``name`` of this arm (built on first use, then kept)."""
+        try:
+            return self._engines[name]
+        except KeyError:
+            pass
+        try:
+            factory = _ENGINES[name]
+        except KeyError:
+            raise ModelError(f"engine: no engine {name!r} is registered "
+                             f"(registered: {', '.join(sorted(_ENGINES)) or 'none'}); import manipdyn") from None
+        eng = self._engines[name] = factory(self)
+        return eng
+
+    def set_engine(self, name: str, engine) -> None:
+        """Use ``engine`` as this arm's engine ``name`` from now on.
+
+        For an engine built by hand: a custom Pinocchio model, or a planted
+        bug in a mutation test.  It must answer :class:`manipdyn.DynamicsEngine`.
+        """
+        self._engines[name] = engine
+
+    @property
+    def lagrange(self):
+        """The trace-form Lagrange-Euler engine (chapter II)."""
+        return self.engine("lagrange")
+
+    @property
+    def pinocchio(self):
+        """The Pinocchio engine (RNEA, CRBA, ABA) on this arm's URDF."""
+        return self.engine("pinocchio")
 
     # -- derived properties ---------------------------------------------------
     @property
@@ -99,47 +187,31 @@ class Arm:
         """Joint limits (n, 2), rad or m; defaults of :data:`DEFAULT_QLIM` where none given."""
         return self._qlim
 
-    @functools.cached_property
-    def lagrange(self):
-        """The trace-form Lagrange-Euler engine (chapter II)."""
-        from .lagrange import TraceFormEngine
-
-        kin, J, arm, fr = self._lagrange_parts()
-        return TraceFormEngine(kin, J, self.gravity, armature=arm, friction=fr)
-
-    @functools.cached_property
-    def pinocchio(self):
-        """The Pinocchio engine (RNEA, CRBA, ABA) on this arm's URDF."""
-        from .pinocchio_engine import PinocchioEngine
-
-        eng = PinocchioEngine(self._pinocchio_model(), friction=self.friction)
-        # Bind the fast path straight to the engine: arm.inverse_dynamics(...)
-        # then costs one call, not two (the instance attribute shadows the
-        # delegating method below, which only runs on the first call).
-        for name in _FAST_PATH:
-            self.__dict__[name] = getattr(eng, name)
-        return eng
-
     # -- the fast path --------------------------------------------------------
     def mass_matrix(self, q):
         """D(q), (n, n) or (N, n, n), kg m^2: Pinocchio's CRBA."""
-        return self.pinocchio.mass_matrix(q)
+        eng = self._engines.get("pinocchio") or self.engine("pinocchio")
+        return eng.mass_matrix(q)
 
     def coriolis_torque(self, q, qd):
         """h(q, qd), (n,) or (N, n), N m: Coriolis and centripetal torque."""
-        return self.pinocchio.coriolis_torque(q, qd)
+        eng = self._engines.get("pinocchio") or self.engine("pinocchio")
+        return eng.coriolis_torque(q, qd)
 
     def gravity_torque(self, q):
         """g(q), (n,) or (N, n), N m: the torque that holds the arm still."""
-        return self.pinocchio.gravity_torque(q)
+        eng = self._engines.get("pinocchio") or self.engine("pinocchio")
+        return eng.gravity_torque(q)
 
     def inverse_dynamics(self, q, qd, qdd):
         """tau = D qdd + h + g (+ friction), (n,) or (N, n): Pinocchio's RNEA."""
-        return self.pinocchio.inverse_dynamics(q, qd, qdd)
+        eng = self._engines.get("pinocchio") or self.engine("pinocchio")
+        return eng.inverse_dynamics(q, qd, qdd)
 
     def forward_dynamics(self, q, qd, tau):
         """qdd solving D qdd = tau - h - g (- friction), (n,) or (N, n): Pinocchio's ABA."""
-        return self.pinocchio.forward_dynamics(q, qd, tau)
+        eng = self._engines.get("pinocchio") or self.engine("pinocchio")
+        return eng.forward_dynamics(q, qd, tau)
 
     # -- kinematics ---------------------------------------------------------
     def link_poses(self, q) -> np.ndarray:
@@ -170,30 +242,26 @@ class Arm:
         shape = (self.n,) if size is None else (size, self.n)
         return lo + (hi - lo) * rng.random(shape)
 
-    # -- conversion and files -------------------------------------------------
-    def to_urdf(self) -> str:
-        """This arm as URDF text (built through yourdfpy's objects)."""
-        from .urdf_out import arm_to_urdf
+    # -- deprecated conveniences (the model knows nothing of files) -------------
+    def _service(self, name: str, replacement: str):
+        warnings.warn(f"arm.{name}(...) is deprecated; use {replacement}", DeprecationWarning, stacklevel=3)
+        return _SERVICES[name]
 
-        return arm_to_urdf(self)
+    def to_urdf(self) -> str:
+        """Deprecated: use :func:`manipdyn.to_urdf` (``md.to_urdf(arm)``)."""
+        return self._service("to_urdf", "md.to_urdf(arm)")(self)
 
     def write_urdf(self, path) -> None:
-        """Write :meth:`to_urdf` to ``path`` atomically (no partial file on failure)."""
-        from ._files import atomic_write_text
-
-        atomic_write_text(path, self.to_urdf())
+        """Deprecated: use :func:`manipdyn.write_urdf` (``md.write_urdf(arm, path)``)."""
+        return self._service("write_urdf", "md.write_urdf(arm, path)")(self, path)
 
     def save(self, path) -> None:
-        """Write a model file (TOML) that :func:`manipdyn.load` reads back unchanged."""
-        from .modelfile import save_model
-
-        save_model(self, path)
+        """Deprecated: use :func:`manipdyn.save` (``md.save(arm, path)``)."""
+        return self._service("save", "md.save(arm, path)")(self, path)
 
     def crosscheck(self, samples: int = 1000, seed: int = 0, **kw):
-        """Shortcut for :func:`manipdyn.crosscheck` on this arm."""
-        from .check import crosscheck
-
-        return crosscheck(self, samples=samples, seed=seed, **kw)
+        """Deprecated: use :func:`manipdyn.crosscheck` (``md.crosscheck(arm, ...)``)."""
+        return self._service("crosscheck", "md.crosscheck(arm, ...)")(self, samples=samples, seed=seed, **kw)
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {self.name!r}: {self.n} joints {self.joint_letters}>"
@@ -207,8 +275,8 @@ class Manipulator(Arm):
     links : sequence of :class:`DHLink`
         From the base outwards; link i's inertia is given in DH frame i.
     convention : "standard" | "modified"
-        Standard (distal, eq. 2.3) or modified (Craig) DH.  Required to be
-        one of the two; there is no silent guess.
+        Standard (distal, eq. 2.3) or modified (Craig) DH.  Required: there
+        is no silent guess, and leaving it out raises ``TypeError``.
     gravity : (3,)
         Acceleration of gravity in the base frame (m/s^2); the chapter's
         homogeneous ``[gx, gy, gz, 0]`` is accepted too.
@@ -227,10 +295,14 @@ class Manipulator(Arm):
         Free text, kept by model files.
     """
 
-    def __init__(self, links, convention: str = "standard", gravity=(0.0, 0.0, -9.81),
+    def __init__(self, links, convention: Convention = _REQUIRED, gravity=(0.0, 0.0, -9.81),
                  name: str = "", strict: bool = False, source: str = "", sources=None,
                  description: str = ""):
-        if convention not in ("standard", "modified"):
+        super().__init__()
+        if convention is _REQUIRED:
+            raise TypeError("Manipulator: the argument 'convention' is required: 'standard' (distal DH, "
+                            "eq. 2.3) or 'modified' (Craig's proximal DH); there is no default")
+        if convention not in CONVENTIONS:
             raise ModelError(f"convention: must be 'standard' or 'modified', got {convention!r}")
         links = tuple(links)
         if not links:
@@ -240,7 +312,7 @@ class Manipulator(Arm):
                 raise ModelError(f"links[{i}]: expected a DHLink, got {type(l).__name__}")
         self.links = links
         self.convention = convention
-        self.gravity = _gravity(gravity)
+        self.gravity = as_gravity(gravity)
         self.name = str(name)
         self.source = str(source)
         self.sources = dict(sources or {})
@@ -269,10 +341,16 @@ class Manipulator(Arm):
 
     __hash__ = None  # type: ignore[assignment]
 
-    def _lagrange_parts(self):
+    def trace_form_data(self) -> TraceFormData:
+        """DH kinematics (eq. 2.3 or Craig's) and each link's J in its DH frame (eq. 2.21)."""
         kin = DHKinematics(self.links, self.convention)
         J = np.array([l.body.J for l in self.links])
-        return kin, J, self.armature, self.friction
+        return TraceFormData(kin, J, self.armature, self.friction)
+
+    @property
+    def joint_names(self) -> tuple:
+        """Joint names in the generated URDF: ``joint1 .. jointn``."""
+        return tuple(f"joint{i + 1}" for i in range(self.n))
 
     def link_names(self) -> list[str]:
         return [l.name or f"link{i + 1}" for i, l in enumerate(self.links)]
@@ -312,6 +390,97 @@ class Manipulator(Arm):
         if self.convention == "modified":
             return np.tile(np.eye(4), (self.n, 1, 1))
         return np.array([trans(l.a, 0, 0) @ rot_x(l.alpha) for l in self.links])
+
+
+class URDFArm(Arm):
+    """A serial arm read from a URDF file; build it with :func:`manipdyn.urdf_in.load_urdf`.
+
+    Attributes
+    ----------
+    name, gravity, source : as for every :class:`Arm`
+    joint_names : tuple of str
+        Chain joints, root to tip (the order of q).
+    joint_types : tuple of "revolute" | "prismatic"
+        ``continuous`` joints are revolute joints without limits.
+    link_names : tuple of str
+        The child link of each chain joint.
+    root, tip : str
+        Root link (the fixed base frame) and the link whose pose :meth:`fkine` gives.
+    locked_joints : tuple of str
+        Movable joints off the chain, held at 0 (their subtrees are lumped).
+    urdf_text : str
+        The original text.
+    source_urdf : str
+        The text Pinocchio reads: the original, with ``continuous`` joints
+        written as revolute (:func:`manipdyn.urdf_in.pinocchio_text`).
+    armature : (n,) zeros
+        URDF has no rotor inertia.
+    friction : (2, n) or None
+        Viscous (``damping``) and Coulomb (``friction``) coefficients of ``<dynamics>``.
+    """
+
+    def __init__(self, *, name, gravity, source, urdf_text, pin_text, root, tip, joints, tool,
+                 locked, members, path=None):
+        super().__init__()
+        self.name = str(name)
+        self.gravity = as_gravity(gravity)
+        self.source = source
+        self.urdf_text = urdf_text
+        self.source_urdf = pin_text
+        self.path = path
+        self.root = root
+        self.tip = tip
+        self._joints = joints
+        tool = np.array(tool, dtype=np.float64)
+        tool.setflags(write=False)
+        self._tool = tool
+        self.locked_joints = tuple(locked)
+        self.lumped_links = tuple(tuple(m) for m in members)
+        self.joint_names = tuple(j.name for j in joints)
+        self.link_names = tuple(j.link_name for j in joints)
+        self.joint_types = tuple(j.joint for j in joints)
+        self._qlim = np.array([j.qlim for j in joints], dtype=np.float64)
+        self._qlim.setflags(write=False)
+        self.armature = np.zeros(len(joints))
+        self.armature.setflags(write=False)
+        fr = np.array([[j.friction_viscous for j in joints], [j.friction_coulomb for j in joints]])
+        if np.any(fr):
+            fr.setflags(write=False)
+            self.friction = fr
+        else:
+            self.friction = None
+
+    @property
+    def tool_frame(self) -> str:
+        """Name of the frame whose pose :meth:`fkine` gives, in Pinocchio's model: the tip link."""
+        return self.tip
+
+    # -- Arm interface --------------------------------------------------------
+    def chain(self):
+        """``(joints, tool)``: the chain joints and the fixed transform last link -> tip."""
+        return self._joints, self._tool.copy()
+
+    def trace_form_data(self) -> TraceFormData:
+        """The chain's kinematics (any axes) and each body's J in its URDF link frame."""
+        kin = ChainKinematics(self._joints, self._tool)
+        J = np.array([j.body.J for j in self._joints])
+        return TraceFormData(kin, J, self.armature, self.friction)
+
+    # -- comparison and display -------------------------------------------------
+    def __eq__(self, other):
+        if not isinstance(other, URDFArm):
+            return NotImplemented
+        return (self.urdf_text == other.urdf_text and self.tip == other.tip
+                and self.name == other.name and np.array_equal(self.gravity, other.gravity))
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        kinds = joint_letters(self.joint_types)
+        s = f"<URDFArm {self.name!r}: {self.n} joints {kinds}, {self.root!r} -> {self.tip!r}"
+        if self.locked_joints:
+            s += f", {len(self.locked_joints)} locked"
+        return s + f" ({self.source})>"
 
 
 def _dh_equal(a: DHLink, b: DHLink) -> bool:

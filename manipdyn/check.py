@@ -1,5 +1,7 @@
 """The cross-check: the trace-form engine against the Pinocchio engine.
 
+Layer: 5 (the cross-check): talks to the two engines only through :class:`manipdyn.engine.DynamicsEngine`.
+
 For seeded random states within the joint limits, every quantity is computed
 by both engines and compared: D, h, C (the Coriolis matrix), g, tau, the
 forward dynamics of those torques, the end pose and both energies.  The error of one state is
@@ -25,6 +27,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .arm import register_service
+from .engine import DynamicsEngine
 from .errors import SingularMassMatrixError
 
 __all__ = ["crosscheck", "CrosscheckReport", "QuantityError", "TOLERANCE", "draw_states"]
@@ -196,8 +200,8 @@ def _crosscheck_states(arm, samples, seed, chunk, progress, first, stop) -> Cros
     """The cross-check of rows ``first:stop`` of the states (worst indices global)."""
     q, qd, qdd = draw_states(arm, samples, seed, first, stop)
     samples_all, samples = samples, stop - first
-    L, P = arm.lagrange, arm.pinocchio
-    tool_frame = getattr(arm, "tool_frame", "tool")
+    L: DynamicsEngine = arm.lagrange
+    P: DynamicsEngine = arm.pinocchio
     parts: dict[str, list] = {}
     skipped: dict[str, str] = {}
 
@@ -222,7 +226,7 @@ def _crosscheck_states(arm, samples, seed, chunk, progress, first, stop) -> Cros
             except SingularMassMatrixError as exc:
                 skipped["qdd"] = f"qdd not compared: {exc}"
                 parts.pop("qdd", None)
-        add("fk", L.fkine(qs), P.frame_placement(qs, tool_frame))
+        add("fk", L.fkine(qs), P.fkine(qs))
         add("K", L.kinetic_energy(qs, qds)[:, None], np.asarray(P.kinetic_energy(qs, qds))[:, None])
         add("P", L.potential_energy(qs)[:, None], np.asarray(P.potential_energy(qs))[:, None])
         add("C", L.coriolis_matrix(qs, qds), P.coriolis_matrix(qs, qds))
@@ -277,3 +281,6 @@ def _crosscheck_distributed(arm, samples, seed, chunk, progress, scheduler, work
         worst = max(parts_q, key=lambda e: e.max_rel)   # the first part holding the largest error
         merged.quantities[key] = dataclasses.replace(worst, max_abs=max(e.max_abs for e in parts_q))
     return merged
+
+
+register_service("crosscheck", crosscheck)

@@ -1,5 +1,7 @@
 """Are two descriptions the same arm?  (``md.compare(a, b)``, ``manipdyn compare A B``)
 
+Layer: application (compare).
+
 Typical use: a datasheet DH table against the vendor's URDF.  The two
 descriptions may put the base and tool frames elsewhere, count a joint the
 other way round, or start it from another zero.  :func:`compare` finds, in
@@ -78,7 +80,6 @@ from __future__ import annotations
 
 import json
 import math
-import sys
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -87,7 +88,7 @@ from .errors import ModelError
 from .arm import joint_letters
 from .kinematics import rot_x, rot_z, trans, transform_inverse
 
-__all__ = ["compare", "CompareReport", "QuantityDiff", "register_cli", "KIN_TOLERANCE"]
+__all__ = ["compare", "CompareReport", "QuantityDiff", "KIN_TOLERANCE"]
 
 #: max tool position error (m) under which two descriptions are called the same arm
 KIN_TOLERANCE = 1e-6
@@ -570,7 +571,7 @@ def _as_arm(x, which: str):
     if isinstance(x, Arm):
         return x
     if isinstance(x, str) or hasattr(x, "__fspath__"):
-        from .modelfile import load
+        from .loading import load
 
         return load(x)
     raise ModelError(f"compare: argument {which} must be an arm or a model name/file, got {type(x).__name__}")
@@ -580,7 +581,7 @@ def _rigid_engine(arm, gravity):
     """A trace-form engine of ``arm`` with the given gravity, no rotors, no friction."""
     from .lagrange import TraceFormEngine
 
-    kin, J, _arm, _fr = arm._lagrange_parts()
+    kin, J, _arm, _fr = arm.trace_form_data()
     return TraceFormEngine(kin, J, gravity)
 
 
@@ -728,8 +729,8 @@ def compare(a, b, samples: int = 200, seed: int = 0) -> CompareReport:
     # -- masses, and where each link's centre of mass sits ------------------------
     ja, _ = a.chain()
     jb, _ = b.chain()
-    _, Ja, _, _ = a._lagrange_parts()
-    _, Jb, _, _ = b._lagrange_parts()
+    Ja = a.trace_form_data().J
+    Jb = b.trace_form_data().J
     Pa = best.base @ a.link_poses(best.offsets)
     Pb = b.link_poses(np.zeros(n))
     masses = []
@@ -754,46 +755,3 @@ def compare(a, b, samples: int = 200, seed: int = 0) -> CompareReport:
         gravity_a=np.array(a.gravity, dtype=np.float64), gravity_used_a=g_in_a,
         candidates=len(cands), notes=notes,
     )
-
-
-# ---------------------------------------------------------------------------
-# Command line: manipdyn compare A B
-# ---------------------------------------------------------------------------
-def _cmd_compare(args) -> int:
-
-    if args.samples < 1:
-        print(f"manipdyn compare: error: --samples must be >= 1, got {args.samples}", file=sys.stderr)
-        return 2
-    load_notes: list[str] = []
-    from .cli import _load_quiet
-
-    a = _load_quiet(args.a, args.tip_a, load_notes)
-    b = _load_quiet(args.b, args.tip_b, load_notes)
-    report = compare(a, b, samples=args.samples, seed=args.seed)
-    if args.json:
-        d = report.to_dict()
-        d["load_notes"] = load_notes
-        print(json.dumps(d, indent=2))
-    else:
-        print(report)
-        for note in load_notes:
-            print(f"note: {note}")
-    return 0 if report.same_kinematics else 1
-
-
-def register_cli(subparsers) -> None:
-    """Add ``manipdyn compare A B [--samples N] [--seed S] [--json]``."""
-    p = subparsers.add_parser(
-        "compare", help="are two descriptions the same arm? (e.g. a DH table and a URDF)",
-        description="Align the forward kinematics of two arm descriptions (joint signs and offsets, "
-                    "base and tool transforms, in closed form) and compare their dynamics at matched "
-                    "states. Exit 0 when the kinematics agree within "
-                    f"{KIN_TOLERANCE:g} m, 1 when they do not, 2 on a usage or model error.")
-    p.add_argument("a", metavar="A", help="bundled model name, .toml model file, or .urdf file")
-    p.add_argument("b", metavar="B", help="the other description")
-    p.add_argument("--samples", type=int, default=200, help="random states of B (default 200)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the random states (default 0)")
-    p.add_argument("--json", action="store_true", help="print one JSON document")
-    p.add_argument("--tip-a", default=None, metavar="LINK", help="A is a URDF: the tip link of its chain")
-    p.add_argument("--tip-b", default=None, metavar="LINK", help="B is a URDF: the tip link of its chain")
-    p.set_defaults(func=_cmd_compare)

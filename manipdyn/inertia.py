@@ -1,13 +1,16 @@
 """Rigid-body inertia of one link and its pseudo-inertia matrix (eq. 2.20, 2.21).
 
+Layer: 2 (inertia with J): every conversion between inertia conventions lives here.
+
 Conventions (see CONVENTIONS.md):
 
 * ``inertia`` is the inertia TENSOR about the centre of mass, in the link
   frame's axes, with the tensor sign: ``I_xy = -integral(x y dm)``.  This is
   what URDF's ``<inertia ixy=...>`` and most libraries mean.
 * The chapter's eq. 2.21 writes ``I_xy = +integral(x y dm)`` about the frame
-  ORIGIN.  :meth:`LinkInertia.from_chapter_terms` is the one crossing between
-  the two conventions.
+  ORIGIN.  :func:`pseudo_inertia_from_chapter_terms` (and
+  :meth:`LinkInertia.from_chapter_terms`, which calls it) is the one door
+  between the two conventions.
 * The pseudo-inertia ``J = integral(r r^T dm)``, ``r = [x, y, z, 1]``, is a
   symmetric 4x4 matrix ``[[S, m c], [m c^T, m]]`` with ``S`` the second moment
   about the frame origin.
@@ -23,7 +26,14 @@ import numpy as np
 
 from .errors import ModelError, PhysicalConsistencyWarning
 
-__all__ = ["LinkInertia", "pseudo_inertia", "as_vector3", "as_tensor3", "spatial_transform_pseudo_inertia"]
+__all__ = [
+    "LinkInertia", "as_vector3", "as_tensor3", "LINK_PARAMETERS",
+    "tensor_from_second_moment", "second_moment_from_tensor",
+    "inertia_about_origin_from_com", "inertia_about_com_from_origin",
+    "pseudo_inertia_from_tensor", "tensor_from_pseudo_inertia",
+    "pseudo_inertia_from_chapter_terms", "chapter_terms_from_pseudo_inertia",
+    "transform_pseudo_inertia", "parameters_from_pseudo_inertia", "pseudo_inertia_from_parameters",
+]
 
 # Relative tolerance on the smallest eigenvalue of J (and on the triangle
 # inequalities) before a body is called physically impossible: a few ulps of
@@ -37,14 +47,17 @@ def _readonly(a: np.ndarray) -> np.ndarray:
     return a
 
 
+def _as_float_array(value, where: str, field_name: str, expected: str) -> np.ndarray:
+    """``value`` as a float array, or a ModelError naming the field and the ``expected`` form."""
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ModelError(f"{where}: field '{field_name}' must be {expected}, got {value!r}") from None
+
+
 def as_vector3(value, where: str, field_name: str) -> np.ndarray:
     """Return ``value`` as a finite float 3-vector or raise ModelError naming it."""
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ModelError(
-            f"{where}: field '{field_name}' must be 3 numbers (x, y, z), got {value!r}"
-        ) from None
+    arr = _as_float_array(value, where, field_name, "3 numbers (x, y, z)")
     if arr.shape != (3,):
         raise ModelError(
             f"{where}: field '{field_name}' must have length 3 (x, y, z), got shape {arr.shape}"
@@ -62,12 +75,7 @@ def as_tensor3(value, where: str, field_name: str = "inertia") -> np.ndarray:
     ambiguous between libraries (a known source of silent errors); pass a 3x3
     matrix instead.
     """
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ModelError(
-            f"{where}: field '{field_name}' must be a 3x3 matrix or 3 diagonal values, got {value!r}"
-        ) from None
+    arr = _as_float_array(value, where, field_name, "a 3x3 matrix or 3 diagonal values")
     if arr.shape == (3,):
         arr = np.diag(arr)
     elif arr.shape == (6,):
@@ -90,28 +98,173 @@ def as_tensor3(value, where: str, field_name: str = "inertia") -> np.ndarray:
     return 0.5 * (arr + arr.T)
 
 
-def pseudo_inertia(mass: float, com: np.ndarray, inertia_com: np.ndarray) -> np.ndarray:
-    """Pseudo-inertia J (4x4) of eq. 2.20 from mass, COM and tensor about the COM.
+# -- the crossings between conventions: one function each ------------------
+#
+# Every conversion between the tensor form and the pseudo-inertia J, between
+# the chapter's product-of-inertia sign and the tensor sign, between moments
+# about the centre of mass and about the frame origin, between frames, and
+# between J and the 10 standard parameters lives here and nowhere else.  The
+# two primitives are the pair of linear maps between a second moment S and an
+# inertia tensor I about the same point: I = tr(S) E - S, S = tr(I)/2 E - I.
 
-    ``S = trace(I_C)/2 * eye(3) - I_C + m c c^T`` (second moment about the
-    frame origin), ``J = [[S, m c], [m c^T, m]]``.
+def tensor_from_second_moment(S) -> np.ndarray:
+    """Inertia tensor about a point from the second moment about it: ``I = tr(S) E - S``.
+
+    ``S = integral(r r^T dm)`` (3, 3) or (..., 3, 3), kg m^2; the tensor has the
+    tensor sign (``I_xy = -integral(x y dm)``).
+    """
+    S = np.asarray(S, dtype=np.float64)
+    tr = np.trace(S, axis1=-2, axis2=-1)[..., None, None]
+    return tr * np.eye(3) - S
+
+
+def second_moment_from_tensor(I) -> np.ndarray:
+    """Second moment ``S = integral(r r^T dm)`` from an inertia tensor about the same point.
+
+    ``S = tr(I)/2 E - I``: the inverse of :func:`tensor_from_second_moment`.
+    (3, 3) or (..., 3, 3), kg m^2.
+    """
+    I = np.asarray(I, dtype=np.float64)
+    tr = np.trace(I, axis1=-2, axis2=-1)[..., None, None]
+    return 0.5 * tr * np.eye(3) - I
+
+
+def inertia_about_origin_from_com(mass: float, com, inertia_com) -> np.ndarray:
+    """Tensor about the frame origin from the tensor about the COM (parallel axis), (3, 3), kg m^2.
+
+    ``I_O = I_C + m (c^T c E - c c^T)``, ``com`` in metres in the same frame.
+    """
+    c = np.asarray(com, dtype=np.float64)
+    return np.asarray(inertia_com, dtype=np.float64) + mass * (float(c @ c) * np.eye(3) - np.outer(c, c))
+
+
+def inertia_about_com_from_origin(mass: float, com, inertia_origin) -> np.ndarray:
+    """Tensor about the COM from the tensor about the frame origin: the inverse of
+    :func:`inertia_about_origin_from_com`, (3, 3), kg m^2."""
+    c = np.asarray(com, dtype=np.float64)
+    return np.asarray(inertia_origin, dtype=np.float64) - mass * (float(c @ c) * np.eye(3) - np.outer(c, c))
+
+
+def pseudo_inertia_from_tensor(mass: float, com, inertia_com) -> np.ndarray:
+    """Pseudo-inertia J (4, 4) of eq. 2.20 from mass (kg), COM (m) and tensor about the COM.
+
+    ``J = [[S_O, m c], [m c^T, m]]`` with ``S_O`` the second moment about the
+    frame origin: ``S_O = S_C + m c c^T`` and ``S_C`` from the tensor by
+    :func:`second_moment_from_tensor`.
     """
     c = np.asarray(com, dtype=np.float64)
     J = np.empty((4, 4))
-    J[:3, :3] = 0.5 * np.trace(inertia_com) * np.eye(3) - inertia_com + mass * np.outer(c, c)
+    J[:3, :3] = second_moment_from_tensor(inertia_com) + mass * np.outer(c, c)
     J[:3, 3] = J[3, :3] = mass * c
     J[3, 3] = mass
     return J
 
 
-def spatial_transform_pseudo_inertia(J: np.ndarray, X: np.ndarray) -> np.ndarray:
-    """Express a pseudo-inertia in another frame: ``J' = X J X^T``.
+def tensor_from_pseudo_inertia(J, name: str = "link"):
+    """``(mass, com, inertia_com)`` from a pseudo-inertia J (4, 4): the inverse of
+    :func:`pseudo_inertia_from_tensor`.
+
+    A massless J must have no first moments (no body has them); a massless J
+    with second moments is returned as mass 0 with that inertia (it is then
+    flagged by :meth:`LinkInertia.consistency_problems`).
+    """
+    J = np.asarray(J, dtype=np.float64)
+    m = float(J[3, 3])
+    S = J[:3, :3]
+    if m > 0:
+        c = J[:3, 3] / m
+        S_c = S - m * np.outer(c, c)
+    elif np.any(J[:3, 3]):
+        raise ModelError(
+            f"{name}: pseudo-inertia J has first moments m*c = {J[:3, 3].tolist()} "
+            "but mass 0; no body has that"
+        )
+    else:
+        c = np.zeros(3)
+        S_c = S
+    return m, c, tensor_from_second_moment(S_c)
+
+
+def pseudo_inertia_from_chapter_terms(m, mx, my, mz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz) -> np.ndarray:
+    """J (4, 4) from the terms of the chapter's eq. 2.21 (all about the frame ORIGIN).
+
+    ``Ixx = integral(y^2 + z^2) dm`` etc.; the products use the chapter's sign,
+    ``Ixy = +integral(x y dm)`` (the opposite of the tensor sign); ``mx = m x_bar``.
+    """
+    return np.array(
+        [
+            [(-Ixx + Iyy + Izz) / 2, Ixy, Ixz, mx],
+            [Ixy, (Ixx - Iyy + Izz) / 2, Iyz, my],
+            [Ixz, Iyz, (Ixx + Iyy - Izz) / 2, mz],
+            [mx, my, mz, m],
+        ],
+        dtype=np.float64,
+    )
+
+
+def chapter_terms_from_pseudo_inertia(J) -> dict:
+    """The ten terms of eq. 2.21 (chapter sign, about the frame origin) from J (4, 4).
+
+    Returns a dict with keys ``m, mx, my, mz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz``;
+    the inverse of :func:`pseudo_inertia_from_chapter_terms`.
+    """
+    J = np.asarray(J, dtype=np.float64)
+    S = J[:3, :3]
+    d = np.diag(tensor_from_second_moment(S))
+    return {"m": float(J[3, 3]), "mx": float(J[0, 3]), "my": float(J[1, 3]), "mz": float(J[2, 3]),
+            "Ixx": float(d[0]), "Iyy": float(d[1]), "Izz": float(d[2]),
+            "Ixy": float(S[0, 1]), "Ixz": float(S[0, 2]), "Iyz": float(S[1, 2])}
+
+
+def transform_pseudo_inertia(J, X) -> np.ndarray:
+    """Express a pseudo-inertia in another frame: ``J' = X J X^T`` (4, 4) or (..., 4, 4).
 
     ``X`` (4x4 homogeneous) maps a point's coordinates in J's frame to the new
     frame.  Pseudo-inertias of bodies in one frame add: this is how bodies are
     lumped.
     """
-    return X @ J @ X.T
+    X = np.asarray(X, dtype=np.float64)
+    return X @ np.asarray(J, dtype=np.float64) @ np.swapaxes(X, -1, -2)
+
+
+#: deprecated name of :func:`transform_pseudo_inertia`
+spatial_transform_pseudo_inertia = transform_pseudo_inertia
+
+#: names of the 10 standard parameters of one body, in Pinocchio's order
+#: (``pin.Inertia.toDynamicParameters``)
+LINK_PARAMETERS = ("m", "mcx", "mcy", "mcz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
+
+
+def parameters_from_pseudo_inertia(J) -> np.ndarray:
+    """The 10 standard parameters (Pinocchio's order) of J: (4, 4) -> (10,), (..., 4, 4) -> (..., 10).
+
+    ``[m, m c_x, m c_y, m c_z, I_xx, I_xy, I_yy, I_xz, I_yz, I_zz]`` with the
+    tensor ``I`` (tensor sign) about the ORIGIN of J's frame:
+    ``I = tensor_from_second_moment(J[:3, :3])``.
+    """
+    J = np.asarray(J, dtype=np.float64)
+    I = tensor_from_second_moment(J[..., :3, :3])
+    return np.stack([J[..., 3, 3], J[..., 0, 3], J[..., 1, 3], J[..., 2, 3],
+                     I[..., 0, 0], I[..., 0, 1], I[..., 1, 1], I[..., 0, 2], I[..., 1, 2], I[..., 2, 2]],
+                    axis=-1)
+
+
+def pseudo_inertia_from_parameters(p) -> np.ndarray:
+    """J from the 10 standard parameters: (10,) -> (4, 4), (..., 10) -> (..., 4, 4).
+
+    The inverse of :func:`parameters_from_pseudo_inertia`.
+    """
+    p = np.asarray(p, dtype=np.float64)
+    if p.shape[-1:] != (10,):
+        raise ValueError(f"p: expected 10 parameters per body (last axis), got shape {p.shape}")
+    ixx, ixy, iyy, ixz, iyz, izz = (p[..., k] for k in range(4, 10))
+    I = np.stack([np.stack([ixx, ixy, ixz], -1), np.stack([ixy, iyy, iyz], -1),
+                  np.stack([ixz, iyz, izz], -1)], -2)
+    J = np.empty(p.shape[:-1] + (4, 4))
+    J[..., :3, :3] = second_moment_from_tensor(I)
+    J[..., :3, 3] = J[..., 3, :3] = p[..., 1:4]
+    J[..., 3, 3] = p[..., 0]
+    return J
 
 
 @dataclass(frozen=True, eq=False)
@@ -155,11 +308,7 @@ class LinkInertia:
     @property
     def J(self) -> np.ndarray:
         """Pseudo-inertia of eq. 2.20/2.21, (4, 4), in the link frame (a new array)."""
-        return pseudo_inertia(self.mass, self.com, self.inertia)
-
-    def pseudo_inertia(self) -> np.ndarray:
-        """Same as :attr:`J`."""
-        return self.J
+        return pseudo_inertia_from_tensor(self.mass, self.com, self.inertia)
 
     @classmethod
     def from_pseudo_inertia(cls, J, name: str = "link") -> "LinkInertia":
@@ -173,20 +322,7 @@ class LinkInertia:
         if np.max(np.abs(J - J.T)) > 1e-12 * scale:
             raise ModelError(f"{name}: pseudo-inertia J must be symmetric")
         J = 0.5 * (J + J.T)
-        m = J[3, 3]
-        S = J[:3, :3]
-        if m > 0:
-            c = J[:3, 3] / m
-            S_c = S - m * np.outer(c, c)
-        elif np.any(J[:3, 3]):
-            raise ModelError(
-                f"{name}: pseudo-inertia J has first moments m*c = {J[:3, 3].tolist()} "
-                "but mass 0; no body has that"
-            )
-        else:
-            c = np.zeros(3)
-            S_c = S
-        I_c = np.trace(S_c) * np.eye(3) - S_c
+        m, c, I_c = tensor_from_pseudo_inertia(J, name)
         return cls(mass=m, com=c, inertia=I_c, name=name)
 
     @classmethod
@@ -205,21 +341,12 @@ class LinkInertia:
         and so on; the products use the chapter's sign, ``Ixy = +integral(x y dm)``,
         the opposite of the tensor sign.  ``mx = m * x_bar`` etc. are first moments.
         """
-        J = np.array(
-            [
-                [(-Ixx + Iyy + Izz) / 2, Ixy, Ixz, mx],
-                [Ixy, (Ixx - Iyy + Izz) / 2, Iyz, my],
-                [Ixz, Iyz, (Ixx + Iyy - Izz) / 2, mz],
-                [mx, my, mz, m],
-            ],
-            dtype=np.float64,
-        )
+        J = pseudo_inertia_from_chapter_terms(m, mx, my, mz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz)
         return cls.from_pseudo_inertia(J, name=name)
 
     def inertia_about_origin(self) -> np.ndarray:
         """Inertia tensor (tensor sign) about the link frame's origin, (3, 3), kg m^2."""
-        c = self.com
-        return self.inertia + self.mass * (float(c @ c) * np.eye(3) - np.outer(c, c))
+        return inertia_about_origin_from_com(self.mass, self.com, self.inertia)
 
     def transformed(self, X) -> "LinkInertia":
         """The same body described in another frame.

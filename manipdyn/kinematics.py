@@ -1,5 +1,7 @@
 """Kinematics of serial chains (chapter II, eq. 2.1 to 2.8).
 
+Layer 1 (kinematics): imports nothing of manipdyn but the errors.
+
 Two descriptions of a serial chain are supported:
 
 * Denavit-Hartenberg links, standard (distal, eq. 2.3/2.4) or modified (Craig);
@@ -17,21 +19,17 @@ All arrays are float64; lengths in metres, angles in radians.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import ModelError
-from .inertia import LinkInertia, as_vector3
 
 __all__ = [
-    "DHLink",
     "dh_standard",
     "dh_modified",
     "transform_inverse",
     "rot_x", "rot_y", "rot_z", "trans",
     "rpy_to_matrix", "matrix_to_rpy",
-    "ChainJoint",
+    "DHKinematics", "ChainKinematics", "JOINT_TYPES",
 ]
 
 JOINT_TYPES = ("revolute", "prismatic")
@@ -144,190 +142,6 @@ def dh_modified(theta, d, a_prev, alpha_prev) -> np.ndarray:
     A[..., 2, 3] = ca * d
     A[..., 3, 3] = 1.0
     return A
-
-
-def _scalar(value, where: str, name: str) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ModelError(f"{where}: field '{name}' must be a number, got {value!r}") from None
-    if not math.isfinite(v):
-        raise ModelError(f"{where}: field '{name}' must be finite, got {v}")
-    return v
-
-
-def _qlim(value, where: str):
-    if value is None:
-        return None
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ModelError(f"{where}: field 'qlim' must be (lower, upper), got {value!r}") from None
-    if arr.shape != (2,):
-        raise ModelError(f"{where}: field 'qlim' must have length 2 (lower, upper), got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ModelError(f"{where}: field 'qlim' must be finite, got {arr.tolist()}")
-    if not arr[0] < arr[1]:
-        raise ModelError(f"{where}: field 'qlim' must have lower < upper, got {arr.tolist()}")
-    return (float(arr[0]), float(arr[1]))
-
-
-def _check_actuator(where, motor_inertia, gear_ratio, friction_viscous, friction_coulomb):
-    jm = _scalar(motor_inertia, where, "motor_inertia")
-    if jm < 0:
-        raise ModelError(f"{where}: field 'motor_inertia' must be >= 0 kg m^2, got {jm}")
-    g = _scalar(gear_ratio, where, "gear_ratio")
-    if g == 0:
-        raise ModelError(f"{where}: field 'gear_ratio' must be non-zero, got {g}")
-    fv = _scalar(friction_viscous, where, "friction_viscous")
-    fc = _scalar(friction_coulomb, where, "friction_coulomb")
-    if fv < 0 or fc < 0:
-        raise ModelError(f"{where}: friction coefficients must be >= 0, got viscous={fv}, coulomb={fc}")
-    return jm, g, fv, fc
-
-
-@dataclass(frozen=True, eq=False)
-class DHLink:
-    """One Denavit-Hartenberg link with its inertia, immutable once built.
-
-    Parameters
-    ----------
-    joint : "revolute" | "prismatic"
-    a, alpha, d, theta : float
-        DH parameters (m, rad).  For the modified (Craig) convention ``a`` and
-        ``alpha`` are ``a_{n-1}`` and ``alpha_{n-1}``, the parameters written on
-        row n of a Craig table.  Fixed offsets: a revolute joint has
-        ``theta_n = q_n + theta``; a prismatic joint has ``d_n = q_n + d``.
-    mass : float
-        kg.
-    com : (3,)
-        Centre of mass in frame n (m).
-    inertia : (3, 3) or (3,)
-        Tensor about the centre of mass, frame-n axes, tensor sign (kg m^2).
-    qlim : (lower, upper) or None
-        Joint limits (rad or m).
-    motor_inertia, gear_ratio : float
-        Rotor inertia ``Jm`` (kg m^2, motor side) and gear ratio ``G``; the
-        reflected inertia ``G^2 Jm`` is added to ``D``'s diagonal.
-    friction_viscous, friction_coulomb : float
-        Joint friction ``tau_f = Fv qd + Fc sign(qd)`` (N m s/rad, N m), applied
-        outside the Lagrangian.
-    name : str
-        Optional link name, used in messages and in the URDF.
-    """
-
-    joint: str = "revolute"
-    a: float = 0.0
-    alpha: float = 0.0
-    d: float = 0.0
-    theta: float = 0.0
-    mass: float = 0.0
-    com: object = (0.0, 0.0, 0.0)
-    inertia: object = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
-    qlim: object = None
-    motor_inertia: float = 0.0
-    gear_ratio: float = 1.0
-    friction_viscous: float = 0.0
-    friction_coulomb: float = 0.0
-    name: str = ""
-
-    def __post_init__(self) -> None:
-        where = f"link '{self.name}'" if self.name else "DHLink"
-        if self.joint not in JOINT_TYPES:
-            raise ModelError(
-                f"{where}: field 'joint' must be 'revolute' or 'prismatic', got {self.joint!r}"
-            )
-        for f in ("a", "alpha", "d", "theta"):
-            object.__setattr__(self, f, _scalar(getattr(self, f), where, f))
-        body = LinkInertia(self.mass, self.com, self.inertia, name=where)
-        object.__setattr__(self, "mass", body.mass)
-        object.__setattr__(self, "com", body.com)
-        object.__setattr__(self, "inertia", body.inertia)
-        object.__setattr__(self, "qlim", _qlim(self.qlim, where))
-        jm, g, fv, fc = _check_actuator(
-            where, self.motor_inertia, self.gear_ratio, self.friction_viscous, self.friction_coulomb
-        )
-        object.__setattr__(self, "motor_inertia", jm)
-        object.__setattr__(self, "gear_ratio", g)
-        object.__setattr__(self, "friction_viscous", fv)
-        object.__setattr__(self, "friction_coulomb", fc)
-
-    @property
-    def body(self) -> LinkInertia:
-        """The link's mass properties as a :class:`LinkInertia` (frame n)."""
-        return LinkInertia(self.mass, self.com, self.inertia, name=self.name or "DHLink")
-
-    @property
-    def armature(self) -> float:
-        """Reflected rotor inertia ``G^2 Jm`` (kg m^2 or kg)."""
-        return self.gear_ratio**2 * self.motor_inertia
-
-    def A(self, q, convention: str = "standard") -> np.ndarray:
-        """The link transform A_n(q) (eq. 2.3/2.4, or Craig's), shape ``q.shape + (4, 4)``."""
-        if convention not in ("standard", "modified"):
-            raise ModelError(f"convention: must be 'standard' or 'modified', got {convention!r}")
-        q = np.asarray(q, dtype=np.float64)
-        if self.joint == "revolute":
-            th, d = q + self.theta, self.d
-        else:
-            th, d = self.theta, q + self.d
-        f = dh_standard if convention == "standard" else dh_modified
-        return f(th, d, self.a, self.alpha)
-
-    def __repr__(self) -> str:
-        parts = [f"joint={self.joint!r}", f"a={self.a!r}", f"alpha={self.alpha!r}",
-                 f"d={self.d!r}", f"theta={self.theta!r}", f"mass={self.mass!r}"]
-        if self.mass:
-            parts += [f"com={self.com.tolist()!r}", f"inertia={self.inertia.tolist()!r}"]
-        if self.qlim is not None:
-            parts.append(f"qlim={self.qlim!r}")
-        if self.motor_inertia:
-            parts += [f"motor_inertia={self.motor_inertia!r}", f"gear_ratio={self.gear_ratio!r}"]
-        if self.name:
-            parts.append(f"name={self.name!r}")
-        return "DHLink(" + ", ".join(parts) + ")"
-
-
-@dataclass(frozen=True, eq=False)
-class ChainJoint:
-    """One joint of a generic serial chain (a URDF chain).
-
-    The child link frame is ``L_j = L_{j-1} @ origin @ M(q_j)`` with ``M`` a
-    rotation about (revolute) or a translation along (prismatic) the unit
-    ``axis``, expressed in the joint frame.  ``body`` is the child link's
-    inertia in the child link frame.
-    """
-
-    name: str
-    joint: str
-    origin: np.ndarray
-    axis: np.ndarray
-    body: LinkInertia
-    qlim: tuple | None = None
-    armature: float = 0.0
-    friction_viscous: float = 0.0
-    friction_coulomb: float = 0.0
-    effort: float | None = None
-    velocity: float | None = None
-    link_name: str = ""
-
-    def __post_init__(self) -> None:
-        where = f"joint '{self.name}'"
-        if self.joint not in JOINT_TYPES:
-            raise ModelError(f"{where}: type must be 'revolute' or 'prismatic', got {self.joint!r}")
-        T = np.array(self.origin, dtype=np.float64)
-        if T.shape != (4, 4) or not np.all(np.isfinite(T)):
-            raise ModelError(f"{where}: origin must be a finite 4x4 transform")
-        T.setflags(write=False)
-        object.__setattr__(self, "origin", T)
-        ax = as_vector3(self.axis, where, "axis")
-        nrm = float(np.linalg.norm(ax))
-        if nrm == 0:
-            raise ModelError(f"{where}: axis must be non-zero")
-        ax = ax / nrm
-        ax.setflags(write=False)
-        object.__setattr__(self, "axis", ax)
-        object.__setattr__(self, "qlim", _qlim(self.qlim, where))
 
 
 # ---------------------------------------------------------------------------

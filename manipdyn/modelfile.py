@@ -1,5 +1,7 @@
 """Model files: a human-editable TOML description of a DH arm, and ``md.load``.
 
+Layer: model loaders and writers (TOML model files).
+
 Format (``format = "manipdyn-model/1"``)::
 
     format = "manipdyn-model/1"
@@ -56,9 +58,9 @@ import numpy as np
 from ._files import atomic_write_text
 from .arm import Manipulator
 from .errors import ModelError
-from .kinematics import DHLink
+from .links import DHLink
 
-__all__ = ["load", "models", "load_model_file", "parse_model", "save_model", "model_to_toml", "FORMAT"]
+__all__ = ["models", "load_bundled", "load_model_file", "parse_model", "save_model", "model_to_toml", "FORMAT"]
 
 FORMAT = "manipdyn-model/1"
 _LENGTH = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254}
@@ -84,40 +86,12 @@ def models() -> list[str]:
     return sorted(p.name[:-5] for p in _bundled_dir().iterdir() if p.name.endswith(".toml"))
 
 
-def load(x, tip: str | None = None, **kw):
-    """Load an arm: a bundled model's name, a model file (.toml), or a URDF.
-
-    Parameters
-    ----------
-    x : str or PathLike
-        ``"puma560"`` (see :func:`models`), a path to a ``.toml`` model file,
-        or a path to a ``.urdf`` file (or URDF text).
-    tip : str, optional
-        URDF only: the link at the end of the chain to keep when the URDF is a
-        tree (e.g. an arm with gripper fingers).
-    **kw
-        Passed on to the loader (``strict=`` for model files).
-    """
-    if isinstance(x, (str, os.PathLike)):
-        s = os.fspath(x)
-        if isinstance(x, str) and s.lstrip().startswith("<"):
-            from .urdf_in import load_urdf
-            return load_urdf(s, tip=tip, **kw)
-        if s.lower().endswith((".urdf", ".xml")):
-            from .urdf_in import load_urdf
-            return load_urdf(s, tip=tip, **kw)
-        if tip is not None:
-            raise ModelError(f"tip: only meaningful for a URDF, not for {s!r}")
-        if s.lower().endswith(".toml") or os.sep in s or "/" in s:
-            return load_model_file(s, **kw)
-        if s in models():
-            path = _bundled_dir() / f"{s}.toml"
-            return parse_model(path.read_text(encoding="utf-8"), f"bundled model {s}", **kw)
-        if os.path.exists(s):
-            return load_model_file(s, **kw)
-        raise ModelError(f"unknown model {s!r}: not a file, and not a bundled model "
-                         f"({', '.join(models())})")
-    raise ModelError(f"load: expected a model name, a .toml model file or a URDF path, got {type(x).__name__}")
+def load_bundled(name: str, strict: bool = False) -> Manipulator:
+    """A bundled model by name (see :func:`models`)."""
+    if name not in models():
+        raise ModelError(f"unknown model {name!r}: not a bundled model ({', '.join(models())})")
+    path = _bundled_dir() / f"{name}.toml"
+    return parse_model(path.read_text(encoding="utf-8"), f"bundled model {name}", strict=strict)
 
 
 def load_model_file(path, strict: bool = False) -> Manipulator:

@@ -1,5 +1,7 @@
 """The fast path: Pinocchio's RNEA, CRBA and ABA on the arm's URDF.
 
+Layer 4 (engines).  Shares no code with the trace form (:mod:`manipdyn.lagrange`).
+
 The model is built from URDF text with ``pinocchio.buildModelFromXML`` (no
 temporary files).  Each engine owns its ``pin.Data``: an engine is not meant
 to be shared between threads; batch calls use Pinocchio's own thread pool.
@@ -18,7 +20,8 @@ import numpy as np
 import pinocchio as pin
 
 from ._state import as_state, same_batch
-from .errors import SingularMassMatrixError
+from .errors import ModelError, SingularMassMatrixError
+from .urdf_out import TOOL_LINK, arm_to_urdf
 
 _isfinite = math.isfinite
 _crba, _rnea, _aba, _gravity = pin.crba, pin.rnea, pin.aba, pin.computeGeneralizedGravity
@@ -63,6 +66,40 @@ def model_from_urdf(urdf_text: str, gravity, armature=None) -> "pin.Model":
     return model
 
 
+def model_for_arm(arm) -> "pin.Model":
+    """Pinocchio's model of ``arm``: from the original URDF text when the arm came
+    from a file (reduced by locking its off-chain joints at ``pin.neutral``, 0),
+    otherwise from the URDF generated from the arm's chain."""
+    if arm.source_urdf is None:
+        return model_from_urdf(arm_to_urdf(arm), arm.gravity, arm.armature)
+    where = getattr(arm, "source", "") or arm.name
+    model = pin.buildModelFromXML(arm.source_urdf)
+    if arm.locked_joints:
+        ids = []
+        for nm in arm.locked_joints:
+            if not model.existJointName(nm):
+                raise ModelError(f"{where}: Pinocchio's model has no joint {nm!r} to lock")
+            ids.append(model.getJointId(nm))
+        model = pin.buildReducedModel(model, ids, pin.neutral(model))
+    names = tuple(model.names)[1:]
+    if names != tuple(arm.joint_names):
+        raise ModelError(
+            f"{where}: Pinocchio's joint order {list(names)} differs from the chain's "
+            f"root-to-tip order {list(arm.joint_names)}"
+        )
+    if not (model.nq == model.nv == arm.n):
+        raise ModelError(f"{where}: Pinocchio's model has nq={model.nq}, nv={model.nv}; expected {arm.n}")
+    model.gravity.linear = np.array(arm.gravity)
+    model.armature = np.array(arm.armature)
+    return model
+
+
+def pinocchio_engine(arm) -> "PinocchioEngine":
+    """The Pinocchio engine of ``arm`` (the factory behind ``arm.pinocchio``)."""
+    tool = arm.tool_frame if arm.source_urdf is not None else TOOL_LINK
+    return PinocchioEngine(model_for_arm(arm), friction=arm.friction, tool_frame=tool)
+
+
 def _threads() -> int:
     return max(1, min(len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1), 8))
 
@@ -79,12 +116,15 @@ class PinocchioEngine:
         same way as in the trace-form engine.
     num_threads : int or None
         Threads for batch calls (default: the CPUs available, at most 8).
+    tool_frame : str or None
+        The URDF frame whose pose :meth:`fkine` gives (default: the last frame of the model).
     """
 
     name = "pinocchio"
 
-    def __init__(self, model, friction=None, num_threads=None):
+    def __init__(self, model, friction=None, num_threads=None, tool_frame: str | None = None):
         self.model = model
+        self.tool_frame = tool_frame
         self.data = model.createData()
         self.n = model.nv
         # a gravity-free twin: h(q, qd) = rnea(q, qd, 0) without gravity, one call
@@ -245,6 +285,11 @@ class PinocchioEngine:
         if q.ndim == 1:
             return one(q)
         return np.array([one(qi) for qi in q])
+
+    def fkine(self, q) -> np.ndarray:
+        """The tool frame's pose in the base frame: (4, 4) or (N, 4, 4)."""
+        frame = self.tool_frame if self.tool_frame is not None else self.model.frames[self.model.nframes - 1].name
+        return self.frame_placement(q, frame)
 
     # -- Coriolis matrix ---------------------------------------------------------
     def coriolis_matrix(self, q, qd) -> np.ndarray:

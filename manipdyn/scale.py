@@ -1,5 +1,7 @@
 """The Dask engine shared by Monte-Carlo studies and big cross-checks.
 
+Layer: 4 (beside the loaders: arms travel as their model text and are rebuilt by them).
+
 Work is cut into *parts* (index ranges); :func:`map_chunks` runs a pure
 function on every part, in this process (``scheduler="sync"``), on a Dask
 ``LocalCluster`` of this machine's cores (``scheduler=None``), or on an

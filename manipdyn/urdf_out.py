@@ -1,5 +1,7 @@
 """Arm to URDF, built through yourdfpy's objects (not string templates).
 
+Layer: model writers (below the engines: the Pinocchio engine reads this URDF).
+
 Structure: a ``base_link``; one link and one joint per arm joint; a fixed
 ``tool`` (flange) link at the end frame.  Joint positions in the URDF are the
 arm's joint variables q: fixed DH offsets live in the joint origins.
@@ -18,7 +20,10 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["arm_to_urdf", "DEFAULT_EFFORT", "DEFAULT_VELOCITY"]
+__all__ = ["arm_to_urdf", "DEFAULT_EFFORT", "DEFAULT_VELOCITY", "TOOL_LINK"]
+
+#: name of the fixed flange link at the end frame T_n
+TOOL_LINK = "tool"
 
 DEFAULT_EFFORT = 1000.0
 DEFAULT_VELOCITY = 10.0
@@ -38,7 +43,7 @@ def arm_to_urdf(arm) -> str:
     links = [yourdfpy.Link(name="base_link")]
     ujoints = []
     parent = "base_link"
-    used = {"base_link", "tool"}
+    used = {"base_link", TOOL_LINK}
     for j in joints:
         lname = j.link_name or f"{j.name}_link"
         if lname in used:
@@ -69,8 +74,8 @@ def arm_to_urdf(arm) -> str:
             axis=np.array(j.axis, dtype=np.float64), limit=limit, dynamics=dyn,
         ))
         parent = lname
-    links.append(yourdfpy.Link(name="tool"))
-    ujoints.append(yourdfpy.Joint(name="tool_joint", type="fixed", parent=parent, child="tool",
+    links.append(yourdfpy.Link(name=TOOL_LINK))
+    ujoints.append(yourdfpy.Joint(name="tool_joint", type="fixed", parent=parent, child=TOOL_LINK,
                                   origin=np.array(tool, dtype=np.float64)))
     robot = yourdfpy.Robot(name=arm.name or "arm", links=links, joints=ujoints)
     urdf = yourdfpy.URDF(robot=robot, build_scene_graph=False, load_meshes=False)

@@ -10,7 +10,7 @@
   and Gaz et al.'s published gravity model of the Panda;
 * rotor inertia ``G^2 Jm`` adds to D's diagonal and to the kinetic energy in
   both engines;
-* ``urdf/<name>.urdf`` is exactly what ``arm.to_urdf()`` writes today, loads
+* ``urdf/<name>.urdf`` is exactly what ``md.to_urdf(arm)`` writes today, loads
   in Pinocchio, yourdfpy and (if installed) MuJoCo, names the arm and cites
   its source.
 """
@@ -251,7 +251,7 @@ def test_urdf_file_is_current(name):
     stale = f"urdf/{name}.urdf is stale: run `manipdyn urdf --all urdf/`"
     if not path.exists():
         pytest.fail(stale + " (the file is missing)")
-    if path.read_bytes() != load(name).to_urdf().encode("utf-8"):
+    if path.read_bytes() != md.to_urdf(load(name)).encode("utf-8"):
         pytest.fail(stale)
 
 

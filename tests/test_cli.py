@@ -73,7 +73,7 @@ def _arm_named(tmp_path, name):
 
     links = [md.DHLink(a=0.3, mass=1.0, com=(-0.15, 0, 0), inertia=[0.001, 0.01, 0.01])]
     path = tmp_path / f"m{abs(hash(name))}.toml"
-    md.Manipulator(links, convention="standard", name=name, source="test").save(path)
+    md.save(md.Manipulator(links, convention="standard", name=name, source="test"), path)
     return str(path)
 
 

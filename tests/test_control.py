@@ -23,7 +23,7 @@ from manipdyn.control import (PD, ComputedTorque, PDGravity, Quintic, Regressor,
                               SimulationDiverged, SlotineLi, ViaPoints, adaptation_gains, model_torque_limits,
                               parameters_from_pseudo_inertia, pseudo_inertia_from_parameters,
                               simulate, with_payload, with_scaled_inertia)
-from manipdyn.control.cli import DEFAULT_GAMMA, demo_path, make_controller
+from manipdyn.control.demo import DEFAULT_GAMMA, demo_path, make_controller
 
 import arms
 

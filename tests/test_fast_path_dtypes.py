@@ -34,7 +34,7 @@ def _arms():
         warnings.simplefilter("ignore", md.PhysicalConsistencyWarning)
         puma = md.load("puma560")
         stanford = md.load("stanford")                  # a prismatic joint
-        urdf = md.load(md.load("ur5").to_urdf())        # read back from URDF text
+        urdf = md.load(md.to_urdf(md.load("ur5")))        # read back from URDF text
     return {"puma560": puma, "stanford": stanford, "ur5-urdf": urdf, "random-P": arms.random_arm(3, n=6)}
 
 

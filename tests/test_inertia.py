@@ -241,13 +241,13 @@ def test_bad_convention_raises_model_error(convention):
 
 def test_bad_manipulator_arguments():
     with pytest.raises(md.ModelError, match=r"^links: an arm needs at least one DHLink, got none$"):
-        md.Manipulator([])
+        md.Manipulator([], convention="standard")
     with pytest.raises(md.ModelError, match=r"^links\[1\]: expected a DHLink, got dict$"):
-        md.Manipulator([md.DHLink(**GOOD), dict(GOOD)])
+        md.Manipulator([md.DHLink(**GOOD), dict(GOOD)], convention="standard")
     with pytest.raises(md.ModelError, match=r"^gravity: expected 3 numbers \(gx, gy, gz\) in m/s\^2, got shape \(2,\)$"):
-        md.Manipulator([md.DHLink(**GOOD)], gravity=(0, -9.81))
+        md.Manipulator([md.DHLink(**GOOD)], convention="standard", gravity=(0, -9.81))
     with pytest.raises(md.ModelError, match=r"^gravity: must be finite"):
-        md.Manipulator([md.DHLink(**GOOD)], gravity=(0, 0, NAN))
+        md.Manipulator([md.DHLink(**GOOD)], convention="standard", gravity=(0, 0, NAN))
 
 
 # ---------------------------------------------------------------------------
@@ -258,7 +258,7 @@ def test_bad_manipulator_arguments():
 def _arm_with_second_link(mass, inertia, strict=False, name="L2"):
     links = [md.DHLink(**GOOD, name="L1"),
              md.DHLink("revolute", a=0.2, mass=mass, com=(0.1, 0, 0), inertia=inertia, name=name)]
-    return md.Manipulator(links, name="testarm", strict=strict)
+    return md.Manipulator(links, convention="standard", name="testarm", strict=strict)
 
 
 def test_broken_triangle_inequality_warns_naming_link_and_condition():

@@ -69,7 +69,7 @@ def test_units_are_converted_to_si():
 def test_save_load_round_trip_is_exact(tmp_path):
     arm = parse_model(GOOD, "good.toml")
     path = tmp_path / "two.toml"
-    arm.save(path)
+    md.save(arm, path)
     back = md.load(str(path))
     assert back == arm
     for a, b in zip(arm.links, back.links):
@@ -80,7 +80,7 @@ def test_save_load_round_trip_is_exact(tmp_path):
 @pytest.mark.parametrize("name", ["puma560", "stanford"])
 def test_bundled_round_trip(tmp_path, name):
     arm = md.load(name)
-    arm.save(tmp_path / "m.toml")
+    md.save(arm, tmp_path / "m.toml")
     assert md.load(str(tmp_path / "m.toml")) == arm
     assert model_to_toml(md.load(str(tmp_path / "m.toml"))) == model_to_toml(arm)
 
@@ -153,7 +153,7 @@ def test_save_refuses_nothing_half_written(tmp_path):
     mf.model_to_toml = boom
     try:
         with pytest.raises(md.ModelError):
-            arm.save(target)
+            md.save(arm, target)
     finally:
         mf.model_to_toml = real
     assert target.read_text() == "previous"
@@ -165,7 +165,7 @@ def test_round_trip_keeps_description_and_quotes_odd_source_keys(tmp_path):
     assert arm.description == "two links"
     odd = md.Manipulator(arm.links, convention=arm.convention, name="odd", source="s",
                          sources={"data sheet": "p. 3", "x.y": "z"}, description="d")
-    odd.save(tmp_path / "odd.toml")
+    md.save(odd, tmp_path / "odd.toml")
     back = md.load(str(tmp_path / "odd.toml"))
     assert back == odd and back.sources == {"data sheet": "p. 3", "x.y": "z"}
 

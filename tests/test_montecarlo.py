@@ -94,7 +94,7 @@ def test_plant_is_the_dh_arm_with_payload_and_scaled_links(puma):
 def test_urdf_arm_plant_matches_the_dh_arm():
     """A URDF arm travels as URDF text; its payload sits in the tip frame, the DH frame n."""
     dh = md.load("ur5")                       # no rotor inertia: its URDF is the same arm
-    urdf_arm = md.load(dh.to_urdf())
+    urdf_arm = md.load(md.to_urdf(dh))
     su = mc.study(urdf_arm, runs=3, seed=9, duration=DURATION)
     sd = mc.study(dh, runs=3, seed=9, duration=DURATION)
     assert su.model[0] == "urdf" and sd.model[0] == "toml"
@@ -201,7 +201,7 @@ def test_help_documents_the_default_distributions(capsys):
 def test_plot_is_written(small_report, tmp_path):
     pytest.importorskip("matplotlib", reason="the plot extra is not installed")
     path = tmp_path / "cdf.png"
-    small_report.plot(str(path))
+    mc.plot_report(small_report, str(path))
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import manipdyn as md
-from manipdyn.control.cli import demo_path, make_controller
+from manipdyn.control.demo import demo_path, make_controller
 
 
 @pytest.fixture(scope="module")

@@ -13,7 +13,7 @@ What is checked, and against what:
 * seeded random URDF trees (fixed joints with rotations, unaligned and
   non-unit axes, prismatic and continuous joints, locked side branches) against
   Pinocchio with the side branches made ``fixed``: an independent lumping;
-* ``arm.to_urdf()`` read back by Pinocchio and by ``load_urdf``;
+* ``md.to_urdf(arm)`` read back by Pinocchio and by ``load_urdf``;
 * malformed or hostile input raises :class:`ModelError` naming file and element.
 
 Tolerance: ``TOL = 1e-9`` relative to ``max(1, max|reference|)`` (the
@@ -306,9 +306,9 @@ def test_text_path_and_equality():
 @needs_erd
 @pytest.mark.parametrize("rid", ["ur5", "panda-hand", "kinova", "finger_edu", "talos-full-left-arm"])
 def test_to_urdf_round_trip(rid):
-    """arm.to_urdf() (the generic writer on arm.chain()) read back by Pinocchio and by load_urdf."""
+    """md.to_urdf(arm) (the generic writer on arm.chain()) read back by Pinocchio and by load_urdf."""
     arm = robot(rid)
-    text = arm.to_urdf()
+    text = md.to_urdf(arm)
     model = pin.buildModelFromXML(text)
     model.gravity.linear = np.array(arm.gravity)
     assert model.nq == model.nv == arm.n

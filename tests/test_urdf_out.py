@@ -35,7 +35,7 @@ def _arm(convention):
 @pytest.mark.parametrize("convention", ["standard", "modified"])
 def test_structure_and_full_precision_floats(convention):
     arm = _arm(convention)
-    text = arm.to_urdf()
+    text = md.to_urdf(arm)
     assert "np.float64" not in text
     robot = yourdfpy.URDF.load(io.BytesIO(text.encode()), build_scene_graph=False, load_meshes=False).robot
     assert [l.name for l in robot.links] == ["base_link", "link1", "link2", "link3", "wrist", "tool"]
@@ -60,7 +60,7 @@ def test_yourdfpy_fk_matches_link_poses(convention):
     times the fixed S_i of arm.urdf_link_offsets() (identity for modified DH).
     """
     arm = _arm(convention)
-    urdf = yourdfpy.URDF.load(io.BytesIO(arm.to_urdf().encode()), build_scene_graph=True, load_meshes=False)
+    urdf = yourdfpy.URDF.load(io.BytesIO(md.to_urdf(arm).encode()), build_scene_graph=True, load_meshes=False)
     S = arm.urdf_link_offsets()
     rng = np.random.default_rng(3)
     names = ["link1", "link2", "link3", "wrist"]
@@ -76,7 +76,7 @@ def test_yourdfpy_fk_matches_link_poses(convention):
 def test_inertial_is_transformed_into_urdf_link_frame():
     """The body read back from the URDF, moved into DH frame i, is the link's own."""
     arm = _arm("standard")
-    robot = yourdfpy.URDF.load(io.BytesIO(arm.to_urdf().encode()), build_scene_graph=False, load_meshes=False).robot
+    robot = yourdfpy.URDF.load(io.BytesIO(md.to_urdf(arm).encode()), build_scene_graph=False, load_meshes=False).robot
     S = arm.urdf_link_offsets()
     for i, l in enumerate(arm.links):
         inert = robot.links[i + 1].inertial
@@ -100,24 +100,24 @@ def test_write_urdf_is_atomic(tmp_path, monkeypatch):
 
     monkeypatch.setattr(files.os, "replace", boom)
     with pytest.raises(OSError, match="disk full"):
-        arm.write_urdf(path)
+        md.write_urdf(arm, path)
     assert path.read_text() == "old content"          # old file untouched
     assert sorted(os.listdir(tmp_path)) == ["arm.urdf"]  # no temp file left behind
     monkeypatch.setattr(files.os, "replace", real_replace)
-    arm.write_urdf(path)
-    assert path.read_text() == arm.to_urdf()
+    md.write_urdf(arm, path)
+    assert path.read_text() == md.to_urdf(arm)
 
 
 def test_write_urdf_conversion_failure_leaves_no_file(tmp_path, monkeypatch):
     arm = _arm("standard")
-    import manipdyn.urdf_out as uo
+    import manipdyn.io as uo
 
     def fail(_arm):
         raise md.ModelError("conversion failed")
 
     monkeypatch.setattr(uo, "arm_to_urdf", fail)
     with pytest.raises(md.ModelError, match="conversion failed"):
-        arm.write_urdf(tmp_path / "x.urdf")
+        md.write_urdf(arm, tmp_path / "x.urdf")
     assert os.listdir(tmp_path) == []
 
 
@@ -125,7 +125,7 @@ def test_urdf_loads_in_pinocchio_with_joint_order():
     import pinocchio as pin
 
     arm = _arm("modified")
-    model = pin.buildModelFromXML(arm.to_urdf())
+    model = pin.buildModelFromXML(md.to_urdf(arm))
     assert list(model.names)[1:] == ["joint1", "joint2", "joint3", "joint4"]
     assert model.nq == model.nv == 4
 

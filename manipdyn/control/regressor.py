@@ -1,5 +1,7 @@
 """The dynamics as linear in the inertial parameters: ``tau = Y pi``.
 
+Layer: application (control).
+
 Parameters per link (10, Pinocchio's order, ``pin.Inertia.toDynamicParameters``)::
 
     [m, m c_x, m c_y, m c_z, I_xx, I_xy, I_yy, I_xz, I_yz, I_zz]
@@ -10,8 +12,9 @@ frame of the joint that moves the link; :meth:`manipdyn.Arm.chain`).  For a
 modified-DH arm that frame is DH frame i; for a standard-DH arm it is DH frame
 i moved back by ``S_i = Trans_x(a_i) Rot_x(alpha_i)``.  These are the ten
 independent entries of the link's pseudo-inertia (eq. 2.20, 2.21)
-``J = [[S, m c], [m c^T, m]]`` in that frame: ``I = tr(S) E - S``
-(:func:`parameters_from_pseudo_inertia`, :func:`pseudo_inertia_from_parameters`).
+``J = [[S, m c], [m c^T, m]]`` in that frame, converted by
+:func:`manipdyn.inertia.parameters_from_pseudo_inertia` and
+:func:`manipdyn.inertia.pseudo_inertia_from_parameters` (re-exported here).
 
 After the 10 n link parameters come, when the arm has them, one armature
 (reflected rotor inertia ``G^2 Jm``) per joint, whose regressor column is
@@ -26,38 +29,10 @@ import numpy as np
 import pinocchio as pin
 
 from .._state import as_state
+from ..inertia import LINK_PARAMETERS, parameters_from_pseudo_inertia, pseudo_inertia_from_parameters
 
 __all__ = ["Regressor", "parameters_from_pseudo_inertia", "pseudo_inertia_from_parameters",
            "LINK_PARAMETERS"]
-
-#: names of the 10 parameters of one link, in order
-LINK_PARAMETERS = ("m", "mcx", "mcy", "mcz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
-
-
-def parameters_from_pseudo_inertia(J) -> np.ndarray:
-    """The 10 standard inertial parameters (Pinocchio's order) of a pseudo-inertia J (4, 4).
-
-    ``m = J_33``, ``m c = J[:3, 3]``, and the tensor about the origin
-    ``I = tr(S) E - S`` with ``S = J[:3, :3]`` (so ``I_xx = S_yy + S_zz``,
-    ``I_xy = -S_xy``; CONVENTIONS.md on the two signs of products of inertia).
-    """
-    J = np.asarray(J, dtype=np.float64)
-    S = J[:3, :3]
-    I = np.trace(S) * np.eye(3) - S
-    return np.array([J[3, 3], J[0, 3], J[1, 3], J[2, 3],
-                     I[0, 0], I[0, 1], I[1, 1], I[0, 2], I[1, 2], I[2, 2]])
-
-
-def pseudo_inertia_from_parameters(p) -> np.ndarray:
-    """Inverse of :func:`parameters_from_pseudo_inertia`: J (4, 4) from 10 parameters."""
-    m, mx, my, mz, ixx, ixy, iyy, ixz, iyz, izz = (float(v) for v in p)
-    I = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
-    J = np.empty((4, 4))
-    J[:3, :3] = 0.5 * np.trace(I) * np.eye(3) - I
-    J[:3, 3] = J[3, :3] = (mx, my, mz)
-    J[3, 3] = m
-    return J
-
 
 class Regressor:
     """Regressors of an arm's inverse dynamics, from Pinocchio's joint-torque regressor.

@@ -1,5 +1,7 @@
 """Monte-Carlo robustness studies of the tracking controllers, locally or on Dask.
 
+Layer: 7 (applications).
+
 A study answers: over all the arms this could really be (an undeclared
 payload, inertias off by 20 %, friction, a start off the path, torque noise),
 how large does each controller's tracking error get, and how often does it
@@ -27,11 +29,12 @@ from __future__ import annotations
 from .distributions import DISTRIBUTIONS_HELP, Distributions, RunDraw
 from .execute import MissingExtraError, run
 from .plant import Plant, make_plant
+from .plot import plot_report
 from .report import StudyReport
 from .study import CONTROLLER_KEYS, RunSetup, Study, TorqueNoise, model_text
 
 __all__ = ["study", "run", "Study", "StudyReport", "Distributions", "RunDraw", "RunSetup", "Plant",
-           "make_plant", "TorqueNoise", "CONTROLLER_KEYS", "DISTRIBUTIONS_HELP", "MissingExtraError",
+           "make_plant", "plot_report", "TorqueNoise", "CONTROLLER_KEYS", "DISTRIBUTIONS_HELP", "MissingExtraError",
            "model_text"]
 
 

@@ -1,5 +1,7 @@
 """What varies from run to run of a study, and how it is drawn.
 
+Layer: 7 (applications).
+
 Every run of a study simulates one *plant*: the nominal arm as the
 controllers know it, changed in ways nobody told them about.  The changes are
 drawn from the distributions of :class:`Distributions`, with a generator

@@ -1,5 +1,7 @@
 """Running chunks of a study: in this process, on a local Dask cluster, or on a remote one.
 
+Layer: 7 (applications).
+
 * ``scheduler=None`` (default): a Dask ``LocalCluster`` of worker processes on
   this machine, one per core (``workers=`` to choose), one thread each; no
   server to start, and it is shut down at the end.

@@ -1,5 +1,7 @@
 """The simulated arm of one run: the nominal arm's Pinocchio model, changed by a draw.
 
+Layer: 7 (applications).
+
 A :class:`Plant` is what :func:`manipdyn.simulate` needs of its ``plant``
 argument (``n``, ``name``, ``joint_types``, ``forward_dynamics`` and the
 ``pinocchio`` engine), built in microseconds from a copy of the nominal

@@ -1,12 +1,13 @@
-"""The figure of a study: empirical CDFs of the per-run figures, one curve per controller."""
+"""The figure of a study: empirical CDFs of the per-run figures, one curve per controller.
+
+Layer: 7 (applications).
+"""
 
 from __future__ import annotations
 
 import os
 
 import numpy as np
-
-from .report import METRICS
 
 __all__ = ["plot_report", "pyplot"]
 
@@ -26,13 +27,14 @@ def pyplot():
 
 
 def plot_report(report, path: str) -> None:
-    """Write ``path`` (format from its extension; atomically): one panel per figure of :data:`METRICS`."""
+    """Write ``path`` (format from its extension; atomically): one panel per per-run figure of the report."""
     from .._files import atomic_write
-    from ..control.cli import CONTROLLERS
+    from ..control.demo import CONTROLLERS
 
     plt = pyplot()
-    fig, axes = plt.subplots(1, len(METRICS), figsize=(5 * len(METRICS), 4.2))
-    for ax, (m, (desc, unit)) in zip(axes, METRICS.items()):
+    metrics = report.metrics
+    fig, axes = plt.subplots(1, len(metrics), figsize=(5 * len(metrics), 4.2))
+    for ax, (m, (desc, unit)) in zip(axes, metrics.items()):
         for key in report.study.controllers:
             v = np.sort([r[m] for r in report.per_run
                          if r["controller"] == key and not r["diverged"] and r[m] is not None])

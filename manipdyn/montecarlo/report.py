@@ -1,5 +1,7 @@
 """The result of a study: per-run records aggregated in run order.
 
+Layer: 7 (applications).
+
 Everything but the ``"timing"`` entry is a function of the per-run records
 taken in run order (and, within a run, in the study's controller order), so
 the report is bit-identical however the runs were chunked and wherever they
@@ -49,6 +51,9 @@ class StudyReport:
         Wall time, workers, chunks and where chunks ran (not reproducible).
     """
 
+    #: the per-run figures, name -> (description, unit)
+    metrics = METRICS
+
     def __init__(self, study, per_run: list, timing: dict):
         self.study = study
         self.per_run = per_run
@@ -80,7 +85,7 @@ class StudyReport:
         return json.dumps(self.to_dict(), indent=indent)
 
     def table(self) -> str:
-        from ..control.cli import CONTROLLERS
+        from ..control.demo import CONTROLLERS
 
         rows = [f"{'controller':<22} {'':<10} {'p50':>10} {'p90':>10} {'p99':>10} {'max':>10}"]
         for key, e in self.controllers.items():
@@ -104,9 +109,3 @@ class StudyReport:
                 f"{t.get('workers', 1)} worker(s) ({t.get('scheduler', '')}); replay a run with "
                 f"study.replay(run, controller)")
         return f"{head}\n{self.table()}\n{foot}"
-
-    def plot(self, path: str) -> None:
-        """Write the CDFs of the per-run figures, one curve per controller (needs matplotlib)."""
-        from .plot import plot_report
-
-        plot_report(self, path)

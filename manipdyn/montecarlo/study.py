@@ -1,5 +1,7 @@
 """A study: what to simulate, as a small value that travels to any worker.
 
+Layer: 7 (applications).
+
 A :class:`Study` holds the arm as *model text* (its TOML model file, or its
 URDF text and tip), the controllers, the path, the distributions and the
 seed.  :func:`run_chunk` is a pure function of ``(study, run indices)``: any
@@ -157,7 +159,7 @@ class Study:
 
     def controller(self, key: str):
         """A new demo controller ``key`` on the nominal arm (as ``manipdyn track`` builds it)."""
-        from ..control.cli import make_controller
+        from ..control.demo import make_controller
 
         arm = self.arm
         lim = None if self.tau_max is None else np.array(self.tau_max, dtype=np.float64)
@@ -208,7 +210,7 @@ class Study:
 
 @functools.lru_cache(maxsize=8)
 def _path(model: tuple, duration: float):
-    from ..control.cli import demo_path
+    from ..control.demo import demo_path
 
     return demo_path(arm_from_text(*model), duration)
 

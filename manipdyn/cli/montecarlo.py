@@ -1,5 +1,7 @@
 """``manipdyn montecarlo``: a seeded robustness study of the tracking controllers.
 
+Layer: CLI.
+
     manipdyn montecarlo MODEL [--tip LINK] --runs N [--controllers pd,pdg,ct,adaptive]
                         [--seed S] [--scheduler tcp://HOST:PORT] [--json] [--plot FILE.png]
 
@@ -14,32 +16,15 @@ import argparse
 import math
 import os
 import sys
-import time
 
+from ..control.demo import CONTROLLERS, DEFAULT_BANDWIDTH
 from ..errors import ModelError
+from ..loading import load_with_notes
+from ..montecarlo import DISTRIBUTIONS_HELP, Distributions, MissingExtraError, run as run_study, study
+from ..montecarlo.plot import plot_report, pyplot
+from .common import EXIT_OK, Progress
 
-__all__ = ["register_cli"]
-
-#: exit code of a usage error (the CLI's convention)
-EXIT_USAGE = 2
-
-
-class _RunProgress:
-    """A one-line progress bar of runs on stderr."""
-
-    def __init__(self, label: str, enabled: bool, width: int = 30):
-        self.label, self.enabled, self.width = label, enabled, width
-        self.t0 = time.perf_counter()
-
-    def __call__(self, done: int, total: int) -> None:
-        if not self.enabled:
-            return
-        frac = done / total if total else 1.0
-        bar = "#" * int(self.width * frac) + "-" * (self.width - int(self.width * frac))
-        sys.stderr.write(f"\r{self.label:<16} [{bar}] {done}/{total} runs  {time.perf_counter() - self.t0:6.1f} s")
-        if done >= total:
-            sys.stderr.write("\n")
-        sys.stderr.flush()
+__all__ = ["register", "run"]
 
 
 def _finite(args, name: str, low: float, strict: bool = False) -> float:
@@ -50,10 +35,7 @@ def _finite(args, name: str, low: float, strict: bool = False) -> float:
     return v
 
 
-def _cmd_montecarlo(args) -> int:
-    from ..control.cli import CONTROLLERS
-    from . import Distributions, MissingExtraError, run, study
-
+def run(args) -> int:
     if args.runs < 1:
         raise ModelError(f"--runs: must be >= 1, got {args.runs}")
     if args.seed < 0:
@@ -73,8 +55,6 @@ def _cmd_montecarlo(args) -> int:
         folder = os.path.dirname(os.path.abspath(args.plot))
         if os.path.isdir(args.plot) or not os.path.isdir(folder) or not os.access(folder, os.W_OK):
             raise ModelError(f"--plot {args.plot}: expected a writable file path (its folder must exist)")
-        from .plot import pyplot
-
         pyplot()  # matplotlib present? fail before the study, not after it
     try:
         dist = Distributions(payload_mass=args.payload_mass, link_scale=args.link_scale,
@@ -88,13 +68,7 @@ def _cmd_montecarlo(args) -> int:
             raise ModelError(f"--tau-max: must be > 0 N m, got {args.tau_max}")
         tau_max = args.tau_max
 
-    import warnings
-
-    import manipdyn as md
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", md.PhysicalConsistencyWarning)
-        arm = md.load(args.model, tip=args.tip) if args.tip else md.load(args.model)
+    arm, _notes = load_with_notes(args.model, tip=args.tip)   # consistency notes: not this command's business
     try:
         s = study(arm, args.runs, seed=args.seed, controllers=keys, duration=args.duration, dt=args.dt,
                   distributions=dist, tau_max=tau_max, bandwidth=args.bandwidth)
@@ -102,8 +76,8 @@ def _cmd_montecarlo(args) -> int:
         raise ModelError(str(exc)) from None
     show = args.progress or (args.progress is None and sys.stderr.isatty())
     try:
-        report = run(s, scheduler=args.scheduler, workers=args.workers, chunk_size=args.chunk_size,
-                     progress=_RunProgress(arm.name or args.model, show))
+        report = run_study(s, scheduler=args.scheduler, workers=args.workers, chunk_size=args.chunk_size,
+                           progress=Progress(arm.name or args.model, show, unit="runs"))
     except MissingExtraError as exc:
         raise ModelError(str(exc)) from None
     except ConnectionError as exc:
@@ -113,17 +87,14 @@ def _cmd_montecarlo(args) -> int:
     else:
         print(report)
     if args.plot:
-        report.plot(args.plot)
+        plot_report(report, args.plot)
         if not args.json:
             print(f"figure written to {args.plot}")
-    return 0
+    return EXIT_OK
 
 
-def register_cli(subparsers) -> None:
-    """Add ``manipdyn montecarlo`` to the ``manipdyn`` command line."""
-    from ..control.cli import DEFAULT_BANDWIDTH
-    from .distributions import DISTRIBUTIONS_HELP, Distributions
-
+def register(subparsers) -> None:
+    """Add ``manipdyn montecarlo``."""
     d = Distributions()
     p = subparsers.add_parser(
         "montecarlo", help="robustness study of the tracking controllers on varied plants",
@@ -174,4 +145,4 @@ def register_cli(subparsers) -> None:
     prog.add_argument("--progress", dest="progress", action="store_true", default=None,
                       help="always show the progress bar on stderr (default: only on a terminal)")
     prog.add_argument("--no-progress", dest="progress", action="store_false")
-    p.set_defaults(func=_cmd_montecarlo)
+    p.set_defaults(func=run)

@@ -1,0 +1,76 @@
+"""The ``manipdyn`` command line: every subcommand registered in one place.
+
+Layer: CLI (the top).  Each subcommand is a module of this package with
+``register(subparsers)`` (adds its parser, ``set_defaults(func=run)``) and
+``run(args) -> int``; :data:`COMMANDS` lists them in ``--help`` order.
+
+Exit codes: 0 success (engines agree), 1 some quantity disagrees or a checked
+condition fails, 2 usage or model error (one line on stderr, no traceback),
+3 an unexpected internal error (one line; ``--debug`` shows the traceback).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+from ..errors import ModelError
+from . import check, compare, models, montecarlo, track, urdf
+from .common import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE
+
+__all__ = ["main", "build_parser", "COMMANDS"]
+
+#: the subcommands, in the order ``manipdyn --help`` lists them
+COMMANDS = (check, urdf, models, compare, track, montecarlo)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``manipdyn`` argument parser with every subcommand of :data:`COMMANDS`."""
+    p = argparse.ArgumentParser(
+        prog="manipdyn",
+        description="Serial-arm dynamics two independent ways (Pinocchio and the trace-form "
+                    "Lagrange-Euler equations), cross-checked.",
+        epilog="Exit codes: 0 agree, 1 a quantity disagrees, 2 usage or model error, 3 internal error.",
+    )
+    p.add_argument("--debug", action="store_true", help="show Python tracebacks on errors")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    for command in COMMANDS:
+        command.register(sub)
+    return p
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return EXIT_USAGE
+    try:
+        return args.func(args)
+    except BrokenPipeError:
+        # the reader went away (e.g. `manipdyn check ... | head`): not an error of ours
+        try:
+            sys.stdout = open(os.devnull, "w")
+        except OSError:
+            pass
+        return EXIT_OK
+    except ModelError as exc:
+        print(f"manipdyn {args.command}: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except OSError as exc:
+        print(f"manipdyn {args.command}: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print("manipdyn: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:  # never a bare traceback for users
+        if args.debug:
+            raise
+        print(f"manipdyn {args.command}: internal error: {type(exc).__name__}: {exc} "
+              "(rerun with --debug for the traceback)", file=sys.stderr)
+        return EXIT_INTERNAL
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,144 @@
+"""``manipdyn check``: cross-check both engines on arms, and time them.
+
+Layer: CLI.
+"""
+
+from __future__ import annotations
+
+import json
+import statistics
+import sys
+import time
+
+import numpy as np
+
+from ..check import crosscheck
+from ..errors import ModelError, SingularMassMatrixError
+from ..io import write_urdf
+from ..loading import load_with_notes, models
+from ..scale import MissingExtraError
+from .common import EXIT_DISAGREE, EXIT_OK, Progress, output_folder, urdf_target, usage_error
+
+__all__ = ["register", "run"]
+
+
+def _median_us(fn, calls: int) -> float:
+    fn()  # warm-up (builds pools, caches)
+    times = []
+    for _ in range(calls):
+        t = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t)
+    return statistics.median(times) * 1e6
+
+
+def _timings(arm, calls: int = 200) -> dict:
+    rng = np.random.default_rng(1)
+    q = arm.random_state(rng)
+    qd = rng.uniform(-1, 1, arm.n)
+    qdd = rng.uniform(-1, 1, arm.n)
+    out = {}
+    for eng in (arm.pinocchio, arm.lagrange):
+        out[eng.name] = {
+            "inverse_dynamics_us": _median_us(lambda: eng.inverse_dynamics(q, qd, qdd), calls),
+            "mass_matrix_us": _median_us(lambda: eng.mass_matrix(q), calls),
+        }
+        try:
+            out[eng.name]["forward_dynamics_us"] = _median_us(lambda: eng.forward_dynamics(q, qd, qdd), calls)
+        except SingularMassMatrixError:
+            out[eng.name]["forward_dynamics_us"] = float("nan")  # D singular: no forward dynamics
+    return out
+
+
+def _crosscheck(arm, args, progress):
+    """``crosscheck`` here, or spread over Dask workers with ``--scheduler``/``--workers``."""
+    scheduler = args.scheduler
+    if scheduler is None and args.workers is not None:
+        scheduler = "local"
+    if args.workers is not None and args.workers < 1:
+        raise ModelError(f"--workers: must be >= 1, got {args.workers}")
+    try:
+        return crosscheck(arm, samples=args.samples, seed=args.seed, progress=progress,
+                          scheduler=scheduler, workers=args.workers)
+    except MissingExtraError as exc:
+        raise ModelError(str(exc)) from None
+
+
+def _print_result(report, notes, timing, urdf_path) -> None:
+    print(report)
+    for n in notes:
+        print(f"  note: {n}")
+    if timing:
+        p, l = timing["pinocchio"], timing["lagrange"]
+        print(f"  per call (median, us)   {'pinocchio':>10} {'lagrange':>10}")
+        for key, label in (("inverse_dynamics_us", "inverse dynamics"),
+                           ("mass_matrix_us", "mass matrix"),
+                           ("forward_dynamics_us", "forward dynamics")):
+            print(f"  {label:<22} {p[key]:10.1f} {l[key]:10.1f}")
+    if urdf_path:
+        print(f"  URDF written to {urdf_path}")
+    print()
+
+
+def run(args) -> int:
+    specs = list(args.models)
+    if args.all:
+        specs = models() + specs
+    specs = list(dict.fromkeys(specs))  # each arm once, in order
+    if not specs:
+        return usage_error("check", "name at least one model or file, or pass --all")
+    if args.samples < 1:
+        return usage_error("check", f"--samples must be >= 1, got {args.samples}")
+    if args.urdf_out:
+        output_folder(args.urdf_out, "--urdf-out")
+    seen: dict = {}
+    show_progress = args.progress or (args.progress is None and sys.stderr.isatty())
+    results, worst = [], EXIT_OK
+    for spec in specs:
+        arm, notes = load_with_notes(spec, tip=args.tip)
+        urdf_path = None
+        if args.urdf_out:
+            urdf_path = urdf_target(args.urdf_out, arm, seen, "--urdf-out")
+            write_urdf(arm, urdf_path)
+        report = _crosscheck(arm, args, Progress(arm.name or spec, show_progress))
+        timing = _timings(arm, calls=args.timing_calls) if args.timing_calls > 0 else {}
+        if not report.ok:
+            worst = EXIT_DISAGREE
+        results.append({"model": spec, "notes": notes, "urdf": urdf_path,
+                        "timing": timing, "report": report})
+        if not args.json:
+            _print_result(report, notes, timing, urdf_path)
+    if args.json:
+        print(json.dumps([{**r, "report": r["report"].to_dict()} for r in results], indent=2))
+    else:
+        bad = [r["model"] for r in results if not r["report"].ok]
+        print(f"{len(results) - len(bad)}/{len(results)} arms agree"
+              + (f"; DISAGREEMENT: {', '.join(bad)}" if bad else ""))
+    return worst
+
+
+def register(sub) -> None:
+    """Add ``manipdyn check``."""
+    c = sub.add_parser("check", help="cross-check both engines on arms",
+                       description="For each arm: build the URDF, load both engines, compare D, h, g, "
+                                   "tau, forward dynamics and FK on random states, and time both engines.")
+    c.add_argument("models", nargs="*", metavar="MODEL_OR_FILE",
+                   help="bundled model name, .toml model file, or .urdf file")
+    c.add_argument("--all", action="store_true", help="check every bundled model")
+    c.add_argument("--samples", type=int, default=1000, help="random states per arm (default 1000)")
+    c.add_argument("--seed", type=int, default=0, help="seed of the random states (default 0)")
+    c.add_argument("--tip", default=None, help="URDF files: the tip link of the chain to keep")
+    c.add_argument("--json", action="store_true", help="print one JSON document instead of tables")
+    c.add_argument("--urdf-out", metavar="DIR", default=None, help="also write each arm's URDF into DIR")
+    c.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
+                   help="spread the states over this Dask cluster ('local': a cluster of this "
+                        "machine's cores); the report is the same as a local run's")
+    c.add_argument("--workers", type=int, default=None,
+                   help="with --scheduler local (implied): worker processes (default one per core)")
+    c.add_argument("--timing-calls", type=int, default=200,
+                   help="calls per engine for the per-call timing (0 to skip; default 200)")
+    prog = c.add_mutually_exclusive_group()
+    prog.add_argument("--progress", dest="progress", action="store_true", default=None,
+                      help="always show the progress bar (default: only on a terminal)")
+    prog.add_argument("--no-progress", dest="progress", action="store_false")
+    c.set_defaults(func=run)

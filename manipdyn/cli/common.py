@@ -1,0 +1,69 @@
+"""What every ``manipdyn`` subcommand shares: exit codes, progress bars, output folders.
+
+Layer: CLI.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import sys
+import time
+
+from ..errors import ModelError
+
+__all__ = ["EXIT_OK", "EXIT_DISAGREE", "EXIT_USAGE", "EXIT_INTERNAL", "Progress", "output_folder",
+           "urdf_target", "usage_error"]
+
+#: exit codes of every subcommand: 0 success / agreement, 1 a quantity
+#: disagrees or a checked condition fails, 2 usage or model error, 3 a bug
+EXIT_OK, EXIT_DISAGREE, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
+
+
+def usage_error(command: str, message: str) -> int:
+    """Print ``manipdyn COMMAND: error: MESSAGE`` on stderr and return :data:`EXIT_USAGE`."""
+    print(f"manipdyn {command}: error: {message}", file=sys.stderr)
+    return EXIT_USAGE
+
+
+class Progress:
+    """A one-line progress bar on stderr (only when stderr is a terminal, or forced).
+
+    Call it as ``progress(done, total)``; ``unit`` names what is counted.
+    """
+
+    def __init__(self, label: str, enabled: bool, width: int = 30, unit: str = "states"):
+        self.label, self.enabled, self.width, self.unit = label, enabled, width, unit
+        self.t0 = time.perf_counter()
+
+    def __call__(self, done: int, total: int) -> None:
+        if not self.enabled:
+            return
+        frac = done / total if total else 1.0
+        bar = "#" * int(self.width * frac) + "-" * (self.width - int(self.width * frac))
+        el = time.perf_counter() - self.t0
+        sys.stderr.write(f"\r{self.label:<16} [{bar}] {done}/{total} {self.unit}  {el:5.1f} s")
+        if done >= total:
+            sys.stderr.write("\n")
+        sys.stderr.flush()
+
+
+def urdf_target(outdir: str, arm, seen: dict, option: str) -> str:
+    """``outdir/<name>.urdf`` for an arm, with the name made a safe file name.
+
+    Refuses two arms that would write the same file.
+    """
+    stem = re.sub(r"[^A-Za-z0-9_.-]+", "_", arm.name or "arm").strip("._") or "arm"
+    if stem in seen:
+        raise ModelError(f"{option}: {seen[stem]!r} and {arm.name!r} would both be written to {stem}.urdf")
+    seen[stem] = arm.name
+    return os.path.join(outdir, f"{stem}.urdf")
+
+
+def output_folder(path: str, option: str) -> str:
+    """Create the output folder, or say in one line why it cannot be."""
+    try:
+        os.makedirs(path, exist_ok=True)
+    except OSError as exc:
+        raise ModelError(f"{option} {path}: cannot create the folder: {exc.strerror}") from None
+    return path

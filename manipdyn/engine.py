@@ -1,0 +1,80 @@
+"""The one interface both dynamics engines answer: :class:`DynamicsEngine`.
+
+Layer 4 (engines).  ``arm.lagrange`` (:mod:`manipdyn.lagrange`, the trace
+form of chapter II) and ``arm.pinocchio`` (:mod:`manipdyn.pinocchio_engine`)
+share no code; they share this protocol, so the cross-check, the tests and
+the benchmarks treat them alike.  A new engine implements these methods,
+registers a factory with :func:`manipdyn.arm.register_engine`, and is then
+``arm.engine("name")``.
+
+Shapes: every method takes one state ``(n,)`` or a batch ``(N, n)`` (each
+argument the same) and returns arrays with the same leading shape.  Units SI:
+rad or m, N m or N, kg m^2, J; frames: the arm's base frame.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+__all__ = ["DynamicsEngine", "ENGINE_METHODS"]
+
+#: the methods of :class:`DynamicsEngine`, in one place for tests and tools
+ENGINE_METHODS = ("mass_matrix", "coriolis_torque", "gravity_torque", "friction_torque",
+                  "dynamics_terms", "inverse_dynamics", "forward_dynamics", "kinetic_energy",
+                  "potential_energy", "coriolis_matrix", "fkine")
+
+
+@runtime_checkable
+class DynamicsEngine(Protocol):
+    """Dynamics of one arm: ``tau = D(q) qdd + h(q, qd) + g(q) + friction(qd)``."""
+
+    #: engine name, ``"lagrange"`` or ``"pinocchio"``
+    name: str
+    #: number of joints
+    n: int
+
+    def mass_matrix(self, q) -> np.ndarray:
+        """D(q): (n, n) or (N, n, n), kg m^2, symmetric positive definite (armature included)."""
+        ...
+
+    def coriolis_torque(self, q, qd) -> np.ndarray:
+        """h(q, qd) = C(q, qd) qd: (n,) or (N, n), N m (Coriolis and centripetal)."""
+        ...
+
+    def gravity_torque(self, q) -> np.ndarray:
+        """g(q): (n,) or (N, n), N m, the torque that holds the arm still."""
+        ...
+
+    def friction_torque(self, qd) -> np.ndarray:
+        """Viscous plus Coulomb friction ``Fv qd + Fc sign(qd)``: (n,) or (N, n), N m."""
+        ...
+
+    def dynamics_terms(self, q, qd) -> tuple:
+        """``(D, h, g)`` at once (shapes as above)."""
+        ...
+
+    def inverse_dynamics(self, q, qd, qdd) -> np.ndarray:
+        """tau = D qdd + h + g + friction: (n,) or (N, n), N m."""
+        ...
+
+    def forward_dynamics(self, q, qd, tau) -> np.ndarray:
+        """qdd solving D qdd = tau - h - g - friction: (n,) or (N, n), rad/s^2 or m/s^2."""
+        ...
+
+    def kinetic_energy(self, q, qd):
+        """K = qd^T D qd / 2: float or (N,), J."""
+        ...
+
+    def potential_energy(self, q):
+        """P = -sum m_i g^T c_i (zero at the base origin height): float or (N,), J."""
+        ...
+
+    def coriolis_matrix(self, q, qd) -> np.ndarray:
+        """C(q, qd) with C qd = h and dD/dt - 2C skew-symmetric: (n, n) or (N, n, n)."""
+        ...
+
+    def fkine(self, q) -> np.ndarray:
+        """The tool (end) frame's pose in the base frame: (4, 4) or (N, 4, 4), metres."""
+        ...

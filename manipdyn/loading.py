@@ -1,0 +1,75 @@
+"""One entry point for every way of describing an arm: ``md.load``.
+
+Layer: model loaders.  Dispatches to the model-file reader
+(:mod:`manipdyn.modelfile`) and the URDF reader (:mod:`manipdyn.urdf_in`);
+both build models and know nothing of the engines.
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+
+from .errors import ModelError, PhysicalConsistencyWarning
+from .modelfile import load_bundled, load_model_file, models
+from .urdf_in import load_urdf
+
+__all__ = ["load", "load_with_notes", "models"]
+
+
+def load(x, tip: str | None = None, **kw):
+    """Load an arm: a bundled model's name, a model file (.toml), or a URDF.
+
+    Parameters
+    ----------
+    x : str or PathLike
+        ``"puma560"`` (see :func:`models`), a path to a ``.toml`` model file,
+        or a path to a ``.urdf`` file (or URDF text).
+    tip : str, optional
+        URDF only: the link at the end of the chain to keep when the URDF is a
+        tree (e.g. an arm with gripper fingers).
+    **kw
+        Passed on to the loader (``strict=`` for both; ``name=``, ``gravity=``
+        for URDFs).
+
+    Returns
+    -------
+    manipdyn.Arm
+        A :class:`~manipdyn.Manipulator` for names and model files, a
+        :class:`~manipdyn.urdf_in.URDFArm` for URDFs.
+    """
+    if not isinstance(x, (str, os.PathLike)):
+        raise ModelError(
+            f"load: expected a model name, a .toml model file or a URDF path, got {type(x).__name__}")
+    s = os.fspath(x)
+    if (isinstance(x, str) and s.lstrip().startswith("<")) or s.lower().endswith((".urdf", ".xml")):
+        return load_urdf(s, tip=tip, **kw)
+    if tip is not None:
+        raise ModelError(f"tip: only meaningful for a URDF, not for {s!r}")
+    if s.lower().endswith(".toml") or os.sep in s or "/" in s:
+        return load_model_file(s, **kw)
+    if s in models():
+        return load_bundled(s, **kw)
+    if os.path.exists(s):
+        return load_model_file(s, **kw)
+    raise ModelError(f"unknown model {s!r}: not a file, and not a bundled model "
+                     f"({', '.join(models())})")
+
+
+def load_with_notes(x, tip: str | None = None, **kw):
+    """:func:`load`, with physical-consistency warnings returned instead of printed.
+
+    Returns ``(arm, notes)``: ``notes`` is a list of one-line strings, one per
+    :class:`~manipdyn.PhysicalConsistencyWarning` raised while loading (other
+    warnings are re-issued as usual).  This is how the CLI reports them.
+    """
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", PhysicalConsistencyWarning)
+        arm = load(x, tip=tip, **kw)
+    notes = []
+    for w in caught:
+        if issubclass(w.category, PhysicalConsistencyWarning):
+            notes.append(str(w.message))
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    return arm, notes
