@@ -3,8 +3,8 @@
 Four parts, in one run:
 
 1. **Per-call ratios** (issue 14, item 5) on a 6-DOF arm (UR5 and Puma 560):
-   ``arm.inverse_dynamics`` and ``arm.mass_matrix`` (the checked fast path)
-   and ``arm.pinocchio.unchecked`` against raw ``pin.rnea`` / ``pin.crba`` on
+   ``arm.pinocchio.inverse_dynamics`` and ``arm.pinocchio.mass_matrix`` (the
+   checked fast path) and ``arm.pinocchio.unchecked`` against raw ``pin.rnea`` / ``pin.crba`` on
    the same model, timed in interleaved rounds (benchmarks/timing.py).  Two
    call sites: from a Python loop (each candidate called by Python code, as in
    a control loop: what a user pays) and through ``functools.partial`` (no
@@ -91,24 +91,24 @@ def per_call(rounds: int) -> dict:
         rng = np.random.default_rng(0)
         q, qd, qdd = arm.random_state(rng), rng.uniform(-1, 1, arm.n), rng.uniform(-1, 1, arm.n)
         # answers first: a fast wrong answer never counts
-        np.testing.assert_array_equal(arm.inverse_dynamics(q, qd, qdd), pin.rnea(m, d, q, qd, qdd))
+        np.testing.assert_array_equal(eng.inverse_dynamics(q, qd, qdd), pin.rnea(m, d, q, qd, qdd))
         np.testing.assert_array_equal(eng.unchecked.inverse_dynamics(q, qd, qdd), pin.rnea(m, d, q, qd, qdd))
-        np.testing.assert_array_equal(arm.mass_matrix(q), pin.crba(m, d, q))
+        np.testing.assert_array_equal(eng.mass_matrix(q), pin.crba(m, d, q))
         np.testing.assert_array_equal(eng.unchecked.mass_matrix(q), pin.crba(m, d, q))
         P = functools.partial
         rnea_raw, crba_raw = P(pin.rnea, m, d), P(pin.crba, m, d)   # model and data bound, like the engine
         cands = {
             "loop rnea raw": _looped(pin.rnea, m, d, q, qd, qdd),
-            "loop rnea checked": _looped(arm.inverse_dynamics, q, qd, qdd),
+            "loop rnea checked": _looped(eng.inverse_dynamics, q, qd, qdd),
             "loop rnea unchecked": _looped(eng.unchecked.inverse_dynamics, q, qd, qdd),
             "loop crba raw": _looped(pin.crba, m, d, q),
-            "loop crba checked": _looped(arm.mass_matrix, q),
+            "loop crba checked": _looped(eng.mass_matrix, q),
             "loop crba unchecked": _looped(eng.unchecked.mass_matrix, q),
             "partial rnea raw": P(rnea_raw, q, qd, qdd),
-            "partial rnea checked": P(arm.inverse_dynamics, q, qd, qdd),
+            "partial rnea checked": P(eng.inverse_dynamics, q, qd, qdd),
             "partial rnea unchecked": P(eng.unchecked.inverse_dynamics, q, qd, qdd),
             "partial crba raw": P(crba_raw, q),
-            "partial crba checked": P(arm.mass_matrix, q),
+            "partial crba checked": P(eng.mass_matrix, q),
             "partial crba unchecked": P(eng.unchecked.mass_matrix, q),
         }
         scale = {k: (100 if k.startswith("loop") else 1) for k in cands}
