@@ -112,7 +112,37 @@ def small_report(puma):
     return mc.run(s, scheduler="sync", chunk_size=4)
 
 
+def _replays_match(report):
+    """Every record of ``report`` is what ``study.replay`` (one md.simulate) gives, bit for bit."""
+    s = report.study
+    for rec in report.per_run:
+        if rec["diverged"]:   # the replay diverges the same way; the figures cover its log
+            with pytest.raises(SimulationDiverged) as info:
+                s.replay(rec["run"], rec["controller"])
+            log = info.value.log
+        else:
+            log = s.replay(rec["run"], rec["controller"])
+        e = log.e
+        assert rec["rms_error"] == float(np.sqrt(np.mean(np.einsum("ij,ij->i", e, e)))), rec
+        assert rec["max_error"] == float(np.abs(e).max()), rec
+        assert rec["peak_torque"] == float(np.abs(log.tau).max()), rec
+
+
+def test_runs_stepped_together_diverge_and_saturate_as_alone(puma):
+    """Chunks step their runs together (lockstep.py): diverged and saturated runs replay alike."""
+    # the demo path squeezed into 0.5 s is too fast for the adaptive controller on some plants
+    s = mc.study(puma, runs=6, seed=3, duration=0.5)
+    report = mc.run(s, scheduler="sync", chunk_size=6)
+    assert 0 < report.controllers["adaptive"]["diverged"] < 6
+    _replays_match(report)
+    s = mc.study(puma, runs=3, seed=3, duration=0.5, tau_max=150.0)
+    report = mc.run(s, scheduler="sync", chunk_size=3)
+    assert all(e["saturated"] == 3 for e in report.controllers.values())
+    _replays_match(report)
+
+
 def test_replay_gives_the_studys_numbers_bit_for_bit(small_report):
+    _replays_match(small_report)
     s = small_report.study
     for rec in small_report.per_run[::5]:
         if rec["diverged"]:   # the replay diverges the same way; the figures cover its log

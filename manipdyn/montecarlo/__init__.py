@@ -65,8 +65,13 @@ def study(arm, runs: int, seed: int = 0, controllers=CONTROLLER_KEYS, duration: 
 
     lim = None
     if tau_max is not None:
-        lim = np.broadcast_to(np.asarray(tau_max, dtype=np.float64), (arm.n,))
-        lim = tuple(float(x) for x in lim)
+        try:
+            arr = np.broadcast_to(np.asarray(tau_max, dtype=np.float64), (arm.n,))
+        except (TypeError, ValueError):
+            raise ValueError(f"tau_max: expected a number or {arm.n} numbers in N m, got {tau_max!r}") from None
+        if not np.all(arr > 0):
+            raise ValueError(f"tau_max: must be > 0 (inf for no limit), got {arr.tolist()}")
+        lim = tuple(float(x) for x in arr)
     return Study(model_text(arm), runs, seed, tuple(controllers), float(duration), float(dt),
                  distributions if distributions is not None else Distributions(), lim,
                  float(bandwidth), float(gamma))
