@@ -19,7 +19,9 @@ Four parts, in one run:
    ``md.simulate`` (controllers built once, each run's plant and start from
    ``study.setup``: exactly the study's work, in one process) and as a study on
    a local Dask cluster of 2 workers (started beforehand; its start-up is
-   reported apart).  Both answers must agree bit for bit.
+   reported apart).  The study steps the runs of a chunk together
+   (manipdyn/montecarlo/lockstep.py), each run's numbers bit for bit those of
+   ``md.simulate`` alone: both answers must agree exactly.
 4. **Scaling with local workers** (1, 2): study throughput (simulations per second).
 
 BLAS configuration (threadpoolctl) and the machine are recorded.  Run with
