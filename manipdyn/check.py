@@ -82,7 +82,8 @@ class CrosscheckReport:
     samples: int
     seed: int
     quantities: dict = field(default_factory=dict)
-    #: quantities that could not be compared, and why (e.g. a singular D)
+    #: the arm's own notes (arm.notes: physically impossible links, suspicious units),
+    #: then quantities that could not be compared, and why (e.g. a singular D)
     notes: list = field(default_factory=list)
 
     @property
@@ -235,7 +236,7 @@ def _crosscheck_states(arm, samples, seed, chunk, progress, first, stop) -> Cros
 
     states = {"q": q, "qd": qd, "qdd": qdd}
     report = CrosscheckReport(arm=arm.name or "arm", n=arm.n, samples=int(samples_all), seed=int(seed),
-                              notes=list(skipped.values()))
+                              notes=list(getattr(arm, "notes", ())) + list(skipped.values()))
     for key, (ra, rb) in parts.items():
         report.quantities[key] = _compare(key, np.concatenate(ra), np.concatenate(rb), states)
         report.quantities[key].worst_index += first
@@ -251,7 +252,9 @@ def _crosscheck_part(model, samples, seed, chunk, size, part) -> dict:
     from .scale import arm_from_text
 
     t0 = time.perf_counter()
-    report = _crosscheck_states(arm_from_text(*model), samples, seed, chunk, None, part.start, part.stop)
+    arm = arm_from_text(*model)
+    report = _crosscheck_states(arm, samples, seed, chunk, None, part.start, part.stop)
+    report.notes = report.notes[len(getattr(arm, "notes", ())):]     # the client adds the arm's own
     return {part.start // size: report, "timing": {"seconds": time.perf_counter() - t0,
                                            "host": socket.gethostname(), "pid": os.getpid()}}
 
@@ -272,7 +275,8 @@ def _crosscheck_distributed(arm, samples, seed, chunk, progress, scheduler, work
                         parts, scheduler, workers, on_part)
     reports = col.ordered()
     merged = CrosscheckReport(arm=arm.name or "arm", n=arm.n, samples=samples, seed=int(seed),
-                              notes=list(dict.fromkeys(n for r in reports for n in r.notes)))
+                              notes=list(getattr(arm, "notes", ()))
+                              + list(dict.fromkeys(n for r in reports for n in r.notes)))
     skip = {k for r in reports for k in QUANTITIES if k not in r.quantities}
     for key in reports[0].quantities:      # the local run's order
         if key in skip:

@@ -244,12 +244,17 @@ def test_state_slices_are_rows_of_the_full_draw():
         np.testing.assert_array_equal(a[250:600], b)
 
 
-def test_crosscheck_in_parts_reports_what_a_local_run_reports():
+def test_crosscheck_in_parts_reports_what_a_local_run_reports(puma):
     arm = arms.random_arm(11, n=4)
     local = md.crosscheck(arm, samples=2300, seed=1, chunk=200)
     parts = md.crosscheck(arm, samples=2300, seed=1, chunk=200, scheduler="sync", workers=3)
     assert parts.to_json() == local.to_json()
     assert local["D"].worst_index != 0 or local["tau"].worst_index != 0   # indices were really merged
+    # an arm with notes (the Puma's impossible link inertias): said once, as locally
+    local = md.crosscheck(puma, samples=1200, seed=2, chunk=300)
+    assert local.notes
+    assert md.crosscheck(puma, samples=1200, seed=2, chunk=300, scheduler="sync", workers=2).to_json() \
+        == local.to_json()
 
 
 # -- a real Dask cluster ---------------------------------------------------------------------

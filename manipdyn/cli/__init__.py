@@ -16,13 +16,13 @@ import os
 import sys
 
 from ..errors import ModelError
-from . import check, compare, models, montecarlo, track, urdf
+from . import bench, check, compare, models, montecarlo, track, urdf
 from .common import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
 #: the subcommands, in the order ``manipdyn --help`` lists them
-COMMANDS = (check, urdf, models, compare, track, montecarlo)
+COMMANDS = (check, urdf, models, compare, track, montecarlo, bench)
 
 
 def build_parser() -> argparse.ArgumentParser:
