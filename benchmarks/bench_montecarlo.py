@@ -218,6 +218,33 @@ def study_on(study, workers: int) -> tuple[float, float, object]:
     return wall, startup, report
 
 
+def _spin(_):
+    """A fixed amount of pure-Python work (the parallelism probe)."""
+    s = 0
+    for i in range(3_000_000):
+        s += i
+    return s
+
+
+def parallelism_probe() -> float:
+    """What this machine gives two processes right now: the speed-up of 2 over 1 on pure CPU work.
+
+    2.0 on two idle cores; less when other processes hold them.  The study's
+    scaling is to be read against it (measured just before and after).
+    """
+    import multiprocessing as mpc
+
+    ctx = mpc.get_context("spawn")
+    times = {}
+    for procs in (1, 2):
+        with ctx.Pool(procs) as pool:
+            pool.map(_spin, range(procs))          # start-up and imports, untimed
+            t = time.perf_counter()
+            pool.map(_spin, range(4))
+            times[procs] = time.perf_counter() - t
+    return times[1] / times[2]
+
+
 def blas_info() -> list:
     try:
         from threadpoolctl import threadpool_info
@@ -268,26 +295,31 @@ def main(argv=None) -> int:
     print(f"3. {args.runs}-run study ({sims} simulations of {args.duration:g} s) against the plain loop")
     loop_s, loop_recs = plain_loop(study)
     scaling = {}
+    probe_before = parallelism_probe()
     for workers in (1, 2):
         wall, startup, report = study_on(study, workers)
         assert report.per_run == loop_recs, "the study and the plain loop disagree"
         scaling[workers] = {"wall_s": wall, "cluster_startup_s": startup, "sims_per_s": sims / wall,
-                            "ms_per_simulation": 1e3 * wall / sims}
+                            "ms_per_simulation": 1e3 * wall / sims, "ratio_to_plain_loop": wall / loop_s}
+    probe_after = parallelism_probe()
     two = scaling[2]
     result["study"] = {"runs": args.runs, "simulations": sims, "duration_s": args.duration,
                        "plain_loop_s": loop_s, "plain_loop_ms_per_simulation": 1e3 * loop_s / sims,
                        "study_2_workers_ratio": two["wall_s"] / loop_s,
                        "study_2_workers_ratio_with_startup": (two["wall_s"] + two["cluster_startup_s"]) / loop_s,
-                       "workers": scaling}
+                       "workers": scaling,
+                       "machine_parallelism_2_over_1": [probe_before, probe_after]}
     st = result["study"]
     print(f"  plain loop      {loop_s:7.2f} s  ({st['plain_loop_ms_per_simulation']:.1f} ms per simulation)")
     print(f"  study, 2 workers {two['wall_s']:6.2f} s  -> {st['study_2_workers_ratio']:.2f}x the loop "
           f"(target {STUDY_TARGET}); with the cluster start-up and warm-up ({two['cluster_startup_s']:.1f} s): "
           f"{st['study_2_workers_ratio_with_startup']:.2f}x")
-    print("4. scaling with local workers")
+    print("4. scaling with local workers (machine's own 2-process speed-up on pure CPU work, "
+          f"probed before and after: {probe_before:.2f}x, {probe_after:.2f}x)")
     for w, r in scaling.items():
         print(f"  {w} worker(s): {r['sims_per_s']:6.1f} simulations/s ({r['ms_per_simulation']:.1f} ms each), "
-              f"speed-up {r['sims_per_s'] / scaling[1]['sims_per_s']:.2f}x")
+              f"speed-up {r['sims_per_s'] / scaling[1]['sims_per_s']:.2f}x; "
+              f"{r['ratio_to_plain_loop']:.2f}x the plain loop's time")
     result["machine"]["load_average_at_end"] = os.getloadavg()
     print(f"load average (1, 5, 15 min): {result['machine']['load_average_at_start']} at the start, "
           f"{result['machine']['load_average_at_end']} at the end (other work on this machine)")
