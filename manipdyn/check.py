@@ -22,6 +22,7 @@ for prismatic joints); qdd uniform in +-5 rad/s^2 (+-2 m/s^2).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from dataclasses import dataclass, field
 
@@ -120,16 +121,29 @@ class CrosscheckReport:
         return head + "\n" + self.table() + "".join(f"\nnote: {n}" for n in self.notes)
 
 
-def draw_states(arm, samples: int, seed: int = 0):
-    """Seeded random ``(q, qd, qdd)``, each ``(samples, n)``, within the joint limits."""
+def draw_states(arm, samples: int, seed: int = 0, start: int = 0, stop: int | None = None):
+    """Seeded random ``(q, qd, qdd)``, each ``(samples, n)``, within the joint limits.
+
+    ``start``/``stop`` give rows ``start:stop`` of the same draw without
+    drawing the others (each value takes one step of the PCG64 stream, which
+    ``advance`` jumps): how the chunks of a distributed cross-check get their states.
+    """
+    stop = samples if stop is None else stop
+    k, n = stop - start, arm.n
     rng = np.random.default_rng(seed)
-    q = arm.random_state(rng, samples)
+    bits = rng.bit_generator
+    origin = bits.state
     prismatic = np.array([t == "prismatic" for t in arm.joint_types])
     vmax = np.where(prismatic, 0.5, 2.0)
     amax = np.where(prismatic, 2.0, 5.0)
-    qd = vmax * rng.uniform(-1.0, 1.0, (samples, arm.n))
-    qdd = amax * rng.uniform(-1.0, 1.0, (samples, arm.n))
-    return q, qd, qdd
+    out = []
+    for block, draw in enumerate((lambda: arm.random_state(rng, k),
+                                  lambda: vmax * rng.uniform(-1.0, 1.0, (k, n)),
+                                  lambda: amax * rng.uniform(-1.0, 1.0, (k, n)))):
+        bits.state = origin
+        bits.advance((block * samples + start) * n)
+        out.append(draw())
+    return tuple(out)
 
 
 def _compare(name, ref, other, states, tol=TOLERANCE) -> QuantityError:
@@ -150,7 +164,8 @@ def _compare(name, ref, other, states, tol=TOLERANCE) -> QuantityError:
     )
 
 
-def crosscheck(arm, samples: int = 1000, seed: int = 0, chunk: int = 500, progress=None) -> CrosscheckReport:
+def crosscheck(arm, samples: int = 1000, seed: int = 0, chunk: int = 500, progress=None,
+               scheduler=None, workers=None) -> CrosscheckReport:
     """Compare ``arm.lagrange`` and ``arm.pinocchio`` on seeded random states.
 
     Parameters
@@ -164,6 +179,12 @@ def crosscheck(arm, samples: int = 1000, seed: int = 0, chunk: int = 500, progre
         States per batch (bounds memory of the trace-form batch).
     progress : callable, optional
         Called as ``progress(done, total)`` after each chunk.
+    scheduler : None, "local", "sync" or "tcp://HOST:PORT"
+        None: here, in this process.  Otherwise the states are spread in
+        parts of whole chunks over Dask workers (a local cluster of
+        ``workers`` processes, or the cluster at the address; see
+        :mod:`manipdyn.scale`), each part drawing its own states, and the
+        report is the same as a local run's.
 
     Returns
     -------
@@ -173,7 +194,15 @@ def crosscheck(arm, samples: int = 1000, seed: int = 0, chunk: int = 500, progre
     """
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
         raise ValueError(f"samples: expected a positive integer, got {samples!r}")
-    q, qd, qdd = draw_states(arm, int(samples), seed)
+    if scheduler is not None:
+        return _crosscheck_distributed(arm, int(samples), seed, chunk, progress, scheduler, workers)
+    return _crosscheck_states(arm, int(samples), seed, chunk, progress, 0, int(samples))
+
+
+def _crosscheck_states(arm, samples, seed, chunk, progress, first, stop) -> CrosscheckReport:
+    """The cross-check of rows ``first:stop`` of the states (worst indices global)."""
+    q, qd, qdd = draw_states(arm, samples, seed, first, stop)
+    samples_all, samples = samples, stop - first
     L: DynamicsEngine = arm.lagrange
     P: DynamicsEngine = arm.pinocchio
     parts: dict[str, list] = {}
@@ -209,11 +238,56 @@ def crosscheck(arm, samples: int = 1000, seed: int = 0, chunk: int = 500, progre
             progress(sl.stop, samples)
 
     states = {"q": q, "qd": qd, "qdd": qdd}
-    report = CrosscheckReport(arm=arm.name or "arm", n=arm.n, samples=int(samples), seed=int(seed),
+    report = CrosscheckReport(arm=arm.name or "arm", n=arm.n, samples=int(samples_all), seed=int(seed),
                               notes=list(getattr(arm, "notes", ())) + list(skipped.values()))
     for key, (ra, rb) in parts.items():
         report.quantities[key] = _compare(key, np.concatenate(ra), np.concatenate(rb), states)
+        report.quantities[key].worst_index += first
     return report
+
+
+def _crosscheck_part(model, samples, seed, chunk, size, part) -> dict:
+    """One part of a distributed cross-check: ``{part index: report, "timing": ...}``."""
+    import os
+    import socket
+    import time
+
+    from .scale import arm_from_text
+
+    t0 = time.perf_counter()
+    arm = arm_from_text(*model)
+    report = _crosscheck_states(arm, samples, seed, chunk, None, part.start, part.stop)
+    report.notes = report.notes[len(getattr(arm, "notes", ())):]     # the client adds the arm's own
+    return {part.start // size: report, "timing": {"seconds": time.perf_counter() - t0,
+                                           "host": socket.gethostname(), "pid": os.getpid()}}
+
+
+def _crosscheck_distributed(arm, samples, seed, chunk, progress, scheduler, workers) -> CrosscheckReport:
+    """Parts of whole chunks on Dask workers, merged: the report a local run gives."""
+    from .scale import local_cores, map_chunks, model_text
+
+    nparts = 4 * (local_cores() if workers is None else int(workers))
+    size = chunk * max(1, -(-samples // (chunk * nparts)))    # whole chunks: the same batches as a local run
+    parts = [range(a, min(samples, a + size)) for a in range(0, samples, size)]
+
+    def on_part(done, total):  # done counts parts; report states
+        if progress is not None:
+            progress(min(samples, done * size), samples)
+
+    col, _ = map_chunks(_crosscheck_part, (model_text(arm), samples, seed, chunk, size), len(parts),
+                        parts, scheduler, workers, on_part)
+    reports = col.ordered()
+    merged = CrosscheckReport(arm=arm.name or "arm", n=arm.n, samples=samples, seed=int(seed),
+                              notes=list(getattr(arm, "notes", ()))
+                              + list(dict.fromkeys(n for r in reports for n in r.notes)))
+    skip = {k for r in reports for k in QUANTITIES if k not in r.quantities}
+    for key in reports[0].quantities:      # the local run's order
+        if key in skip:
+            continue
+        parts_q = [r.quantities[key] for r in reports]
+        worst = max(parts_q, key=lambda e: e.max_rel)   # the first part holding the largest error
+        merged.quantities[key] = dataclasses.replace(worst, max_abs=max(e.max_abs for e in parts_q))
+    return merged
 
 
 register_service("crosscheck", crosscheck)

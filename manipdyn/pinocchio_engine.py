@@ -12,6 +12,7 @@ new array of the same leading shape (SI units, joint order of the chain).
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 
@@ -30,16 +31,30 @@ _crba, _rnea, _aba, _gravity = pin.crba, pin.rnea, pin.aba, pin.computeGeneraliz
 PARALLEL_MIN_STATES = 2048
 
 
-# The single-state fast paths below call Pinocchio first and check its answer:
-# Pinocchio itself rejects wrong sizes and types (and the general path then
-# explains the error), and a NaN or inf anywhere in (q, qd, qdd) or (q, qd, tau)
-# propagates into every RNEA/ABA output, because each joint's transform
-# multiplies everything after it.  A non-finite answer sends the call down the
-# general path, which names the offending argument.  CRBA and the gravity
-# torque do not depend on q_1 at all, so there q is checked before the call,
-# with ``sum(q.tolist())``: the cheapest finiteness test for a few numbers (a
-# sum that overflows only sends the call down the general path).
+# Single-state calls are the hot path of control loops, so they get shortcuts
+# (see ``_install_fast_path``), installed per engine as closures: no method
+# frame, no attribute look-ups.  A shortcut is taken only for plain 1-D
+# ndarrays of native float64 (``dtype is float64``: a big-endian or any other
+# dtype, a subclass such as a masked array, or another rank goes down the
+# general path, which converts or refuses it).  Pinocchio itself rejects a
+# wrong length (the general path then explains the error), and eigenpy reads
+# strided 1-D arrays correctly (tests/test_fast_path_dtypes.py proves both).
+#
+# Finiteness is read off the answer, which is cheaper than testing the inputs
+# (``item`` of one element against ``sum(x.tolist())``): a NaN or inf anywhere in
+# (q, qd, qdd) or (q, qd, tau) reaches the first entry of the RNEA/ABA answer,
+# because every body's motion is carried through the dense transforms of the
+# joints before it and every body's force back through those to joint 1
+# (IEEE: 0 * NaN is NaN, 0 * inf is NaN).  D(q) and g(q) do not depend on q_1,
+# but q_2..q_n reach D_11 and g_1 (the composite body beyond joint 1), so there
+# ``D_11 * q_1`` is tested (a product that overflows only sends the call down
+# the general path).  tests/test_fast_path_dtypes.py puts NaN and inf in every
+# entry of every argument on DH and URDF arms, revolute and prismatic.  A
+# non-finite answer, or any error, sends the call down the general path, which
+# names the offending argument.
 _FAST_ERRORS = (AttributeError, TypeError, ValueError)
+_F64 = np.dtype(np.float64)
+_ND = np.ndarray
 
 
 def model_from_urdf(urdf_text: str, gravity, armature=None) -> "pin.Model":
@@ -122,6 +137,8 @@ class PinocchioEngine:
             self.friction = np.asarray(friction, dtype=np.float64)
         self._num_threads = num_threads or _threads()
         self._pool = self._pool0 = None
+        self.unchecked = UncheckedView(self)
+        _install_fast_path(self)
 
     @property
     def gravity(self) -> np.ndarray:
@@ -166,11 +183,6 @@ class PinocchioEngine:
     # -- public API ---------------------------------------------------------
     def mass_matrix(self, q) -> np.ndarray:
         """Inertia matrix D(q) by CRBA, (n, n) or (N, n, n); full and symmetric."""
-        try:
-            if q.ndim == 1 and _isfinite(sum(q.tolist())):  # inline: a call costs ~0.1 us
-                return _crba(self.model, self.data, q)
-        except _FAST_ERRORS:
-            pass
         q = as_state(q, "q", self.n)
         if q.ndim == 1:
             return _crba(self.model, self.data, q)
@@ -179,13 +191,6 @@ class PinocchioEngine:
 
     def coriolis_torque(self, q, qd) -> np.ndarray:
         """Coriolis and centripetal torque h(q, qd), (n,) or (N, n) (no friction)."""
-        try:
-            if q.ndim == 1 and qd.ndim == 1:
-                h = _rnea(self._model0, self._data0, q, qd, self._zeros)
-                if _isfinite(sum(h.tolist())):
-                    return h
-        except _FAST_ERRORS:
-            pass
         q = as_state(q, "q", self.n)
         qd = as_state(qd, "qd", self.n)
         if q.ndim == 1 and qd.ndim == 1:
@@ -195,11 +200,6 @@ class PinocchioEngine:
 
     def gravity_torque(self, q) -> np.ndarray:
         """Gravity torque g(q): the torque that holds the arm still, (n,) or (N, n)."""
-        try:
-            if q.ndim == 1 and _isfinite(sum(q.tolist())):
-                return _gravity(self.model, self.data, q)
-        except _FAST_ERRORS:
-            pass
         q = as_state(q, "q", self.n)
         if q.ndim == 1:
             return _gravity(self.model, self.data, q)
@@ -217,14 +217,6 @@ class PinocchioEngine:
 
     def inverse_dynamics(self, q, qd, qdd) -> np.ndarray:
         """Joint torques by RNEA, ``tau = D qdd + h + g`` (+ friction), (n,) or (N, n)."""
-        if self.friction is None:
-            try:
-                if q.ndim == 1 and qd.ndim == 1 and qdd.ndim == 1:
-                    tau = _rnea(self.model, self.data, q, qd, qdd)
-                    if _isfinite(sum(tau.tolist())):
-                        return tau
-            except _FAST_ERRORS:
-                pass
         q = as_state(q, "q", self.n)
         qd = as_state(qd, "qd", self.n)
         qdd = as_state(qdd, "qdd", self.n)
@@ -239,14 +231,6 @@ class PinocchioEngine:
 
     def forward_dynamics(self, q, qd, tau) -> np.ndarray:
         """Joint accelerations by ABA, solving ``D qdd = tau - h - g`` (- friction)."""
-        if self.friction is None:
-            try:
-                if q.ndim == 1 and qd.ndim == 1 and tau.ndim == 1:
-                    qdd = _aba(self.model, self.data, q, qd, tau)
-                    if _isfinite(sum(qdd.tolist())):
-                        return qdd
-            except _FAST_ERRORS:
-                pass
         q = as_state(q, "q", self.n)
         qd = as_state(qd, "qd", self.n)
         tau = as_state(tau, "tau", self.n)
@@ -349,3 +333,131 @@ class PinocchioEngine:
         return np.array([pin.computeCoriolisMatrix(m, d, qi, vi).copy()
                          for qi, vi in zip(q, qd)]).reshape(len(q), self.n, self.n)
 
+
+def _install_fast_path(eng: PinocchioEngine) -> None:
+    """Shadow the five dynamics methods of ``eng`` by closures with a single-state shortcut.
+
+    Each closure falls back to the class's method (the general path) for
+    anything but plain native-float64 ndarrays with finite values (module
+    comment above ``_FAST_ERRORS``).  Same names, signatures and docstrings.
+    """
+    cls = type(eng)
+    model, data, model0, data0, zeros = eng.model, eng.data, eng._model0, eng._data0, eng._zeros
+    ND, F64, isf, errors = _ND, _F64, _isfinite, _FAST_ERRORS
+    crba, rnea, aba, grav = _crba, _rnea, _aba, _gravity
+    g_mass, g_cor, g_grav, g_id, g_fd = (getattr(cls, nm).__get__(eng) for nm in (
+        "mass_matrix", "coriolis_torque", "gravity_torque", "inverse_dynamics", "forward_dynamics"))
+
+    def mass_matrix(q):
+        try:
+            if type(q) is ND and q.dtype is F64 and q.ndim == 1:
+                M = crba(model, data, q)
+                # q_2..q_n non-finite -> D_11 non-finite; q_1 (no effect on D) by the product
+                if isf(M.item(0) * q.item(0)):
+                    return M
+        except errors:
+            pass
+        return g_mass(q)
+
+    def coriolis_torque(q, qd):
+        try:
+            if (type(q) is type(qd) is ND and q.dtype is qd.dtype is F64
+                    and q.ndim == qd.ndim == 1):
+                h = rnea(model0, data0, q, qd, zeros)
+                if isf(h.item(0)):
+                    return h
+        except errors:
+            pass
+        return g_cor(q, qd)
+
+    def gravity_torque(q):
+        try:
+            if type(q) is ND and q.dtype is F64 and q.ndim == 1:
+                g = grav(model, data, q)
+                if isf(g.item(0) * q.item(0)):
+                    return g
+        except errors:
+            pass
+        return g_grav(q)
+
+    def inverse_dynamics(q, qd, qdd):
+        try:
+            if (type(q) is type(qd) is type(qdd) is ND and q.dtype is qd.dtype is qdd.dtype is F64
+                    and q.ndim == qd.ndim == qdd.ndim == 1):
+                tau = rnea(model, data, q, qd, qdd)
+                if isf(tau.item(0)):
+                    return tau
+        except errors:
+            pass
+        return g_id(q, qd, qdd)
+
+    def forward_dynamics(q, qd, tau):
+        try:
+            if (type(q) is type(qd) is type(tau) is ND and q.dtype is qd.dtype is tau.dtype is F64
+                    and q.ndim == qd.ndim == tau.ndim == 1):
+                qdd = aba(model, data, q, qd, tau)
+                if isf(qdd.item(0)):
+                    return qdd
+        except errors:
+            pass
+        return g_fd(q, qd, tau)
+
+    fast = {"mass_matrix": mass_matrix, "coriolis_torque": coriolis_torque,
+            "gravity_torque": gravity_torque}
+    if eng.friction is None:  # with friction, the general path adds it
+        fast.update(inverse_dynamics=inverse_dynamics, forward_dynamics=forward_dynamics)
+    for name, fn in fast.items():
+        fn.__doc__ = getattr(cls, name).__doc__
+        fn.__qualname__ = f"{cls.__name__}.{name}"
+        eng.__dict__[name] = fn
+
+
+class UncheckedView:
+    """``engine.unchecked``: the same single-state calls with no validation at all.
+
+    For hot loops that have validated their inputs once (like MuJoCo's
+    ``skip_checks``).  Each attribute is Pinocchio's function with the model
+    and data bound (``functools.partial``), so a call costs what the raw
+    ``pin.rnea`` / ``pin.crba`` costs.  The contract is the caller's:
+
+    * one state at a time, ``(n,)`` ndarrays of native float64 (a big-endian
+      or integer array is NOT converted: the answer may be silently wrong);
+    * NaN and inf are not detected and propagate into the answer;
+    * a wrong size raises Pinocchio's own error (not a :class:`StateError`);
+    * the returned array is new (caller-owned), as with the checked path.
+
+    Attributes: ``mass_matrix(q)``, ``coriolis_torque(q, qd)``,
+    ``gravity_torque(q)``, ``inverse_dynamics(q, qd, qdd)``,
+    ``forward_dynamics(q, qd, tau)``, with the engine's friction applied as
+    in the checked path.
+    """
+
+    def __init__(self, eng: PinocchioEngine):
+        model, data, model0, data0, zeros = eng.model, eng.data, eng._model0, eng._data0, eng._zeros
+        self.n = eng.n
+        self.mass_matrix = functools.partial(_crba, model, data)
+        self.gravity_torque = functools.partial(_gravity, model, data)
+
+        def coriolis_torque(q, qd):
+            return _rnea(model0, data0, q, qd, zeros)
+
+        self.coriolis_torque = coriolis_torque
+        fr = eng.friction
+        if fr is None:
+            self.inverse_dynamics = functools.partial(_rnea, model, data)
+            self.forward_dynamics = functools.partial(_aba, model, data)
+        else:
+            fv, fc = fr[0].copy(), fr[1].copy()
+            sign = np.sign
+
+            def inverse_dynamics(q, qd, qdd):
+                return _rnea(model, data, q, qd, qdd) + (fv * qd + fc * sign(qd))
+
+            def forward_dynamics(q, qd, tau):
+                return _aba(model, data, q, qd, tau - (fv * qd + fc * sign(qd)))
+
+            self.inverse_dynamics = inverse_dynamics
+            self.forward_dynamics = forward_dynamics
+
+    def __repr__(self) -> str:
+        return f"<unchecked Pinocchio calls, {self.n} joints>"

@@ -16,13 +16,13 @@ import os
 import sys
 
 from ..errors import ModelError
-from . import bench, check, compare, excite, identify, models, track, urdf
+from . import bench, check, compare, excite, identify, models, montecarlo, track, urdf
 from .common import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
 #: the subcommands, in the order ``manipdyn --help`` lists them
-COMMANDS = (check, urdf, models, compare, track, bench, excite, identify)
+COMMANDS = (check, urdf, models, compare, track, montecarlo, excite, identify, bench)
 
 
 def build_parser() -> argparse.ArgumentParser:

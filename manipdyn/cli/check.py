@@ -13,9 +13,10 @@ import time
 import numpy as np
 
 from ..check import crosscheck
-from ..errors import SingularMassMatrixError
+from ..errors import ModelError, SingularMassMatrixError
 from ..io import write_urdf
 from ..loading import models
+from ..scale import MissingExtraError
 from .common import (EXIT_DISAGREE, EXIT_OK, TIP_HELP, Progress, load_all, output_folder, urdf_target,
                      usage_error)
 
@@ -48,6 +49,20 @@ def _timings(arm, calls: int = 200) -> dict:
         except SingularMassMatrixError:
             out[eng.name]["forward_dynamics_us"] = float("nan")  # D singular: no forward dynamics
     return out
+
+
+def _crosscheck(arm, args, progress):
+    """``crosscheck`` here, or spread over Dask workers with ``--scheduler``/``--workers``."""
+    scheduler = args.scheduler
+    if scheduler is None and args.workers is not None:
+        scheduler = "local"
+    if args.workers is not None and args.workers < 1:
+        raise ModelError(f"--workers: must be >= 1, got {args.workers}")
+    try:
+        return crosscheck(arm, samples=args.samples, seed=args.seed, progress=progress,
+                          scheduler=scheduler, workers=args.workers)
+    except MissingExtraError as exc:
+        raise ModelError(str(exc)) from None
 
 
 def _print_result(report, timing, urdf_path, strict_failed: bool) -> None:
@@ -86,8 +101,7 @@ def run(args) -> int:
         if args.urdf_out:
             urdf_path = urdf_target(args.urdf_out, arm, seen, "--urdf-out")
             write_urdf(arm, urdf_path)
-        report = crosscheck(arm, samples=args.samples, seed=args.seed,
-                            progress=Progress(arm.name or spec, show_progress))
+        report = _crosscheck(arm, args, Progress(arm.name or spec, show_progress))
         timing = _timings(arm, calls=args.timing_calls) if args.timing_calls > 0 else {}
         strict_failed = bool(args.strict and notes)
         if not report.ok or strict_failed:
@@ -126,6 +140,11 @@ def register(sub) -> None:
                         "suspicious units (default: check them as published, and say so)")
     c.add_argument("--json", action="store_true", help="print one JSON document instead of tables")
     c.add_argument("--urdf-out", metavar="DIR", default=None, help="also write each arm's URDF into DIR")
+    c.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
+                   help="spread the states over this Dask cluster ('local': a cluster of this "
+                        "machine's cores); the report is the same as a local run's")
+    c.add_argument("--workers", type=int, default=None,
+                   help="with --scheduler local (implied): worker processes (default one per core)")
     c.add_argument("--timing-calls", type=int, default=200,
                    help="calls per engine for the per-call timing (0 to skip; default 200)")
     prog = c.add_mutually_exclusive_group()

@@ -150,6 +150,25 @@ class Controller:
         """The control law before saturation; subclasses implement it."""
         raise NotImplementedError
 
+    def step(self, t, q, qd, q_d, qd_d, qdd_d) -> np.ndarray:
+        """The saturated control law for a reference already evaluated: no validation.
+
+        For loops that validated their inputs once (:func:`simulate` does):
+        ``q, qd, q_d, qd_d, qdd_d`` must be finite ``(n,)`` float64 arrays in
+        native byte order, and ``t`` must not go back in time without
+        :meth:`reset`.  Model calls go to the arm's unchecked Pinocchio path.
+        ``controller(t, q, qd)`` is ``step(t, q, qd, *trajectory(t))`` after checking.
+        """
+        tau = self._law_unchecked(t, q, qd, q_d, qd_d, qdd_d)
+        lim = self.tau_max
+        if lim is not None:
+            tau = np.minimum(np.maximum(tau, -lim), lim)
+        return tau
+
+    def _law_unchecked(self, t, q, qd, q_d, qd_d, qdd_d):
+        # subclasses whose law calls the model override this with the unchecked calls
+        return self.law(t, q, qd, q_d, qd_d, qdd_d)
+
     def __call__(self, t, q, qd) -> np.ndarray:
         if self.trajectory is None:
             raise ValueError(f"{type(self).__name__}: no trajectory; pass one to the "
@@ -191,6 +210,10 @@ class PDGravity(PD):
     def law(self, t, q, qd, q_d, qd_d, qdd_d):
         return self.kp * (q_d - q) + self.kd * (qd_d - qd) + self.arm.gravity_torque(q)
 
+    def _law_unchecked(self, t, q, qd, q_d, qd_d, qdd_d):
+        g = self.arm.pinocchio.unchecked.gravity_torque(q)
+        return self.kp * (q_d - q) + self.kd * (qd_d - qd) + g
+
 
 class ComputedTorque(Controller):
     """Inverse-dynamics control: ``tau = ID_model(q, qd, qdd_d + Kd e_dot + Kp e)``.
@@ -211,6 +234,10 @@ class ComputedTorque(Controller):
     def law(self, t, q, qd, q_d, qd_d, qdd_d):
         v = qdd_d + self.kd * (qd_d - qd) + self.kp * (q_d - q)
         return self.arm.inverse_dynamics(q, qd, v)
+
+    def _law_unchecked(self, t, q, qd, q_d, qd_d, qdd_d):
+        v = qdd_d + self.kd * (qd_d - qd) + self.kp * (q_d - q)
+        return self.arm.pinocchio.unchecked.inverse_dynamics(q, qd, v)
 
 
 class SlotineLi(Controller):

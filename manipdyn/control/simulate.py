@@ -20,6 +20,17 @@ Divergence.  The run stops with :class:`SimulationDiverged` (a
 arm), or a torque or state is not finite.  The message says when (t, step)
 and where (joint, quantity, value); the exception carries the log up to the
 last good sample.  No NaN ever reaches the returned log.
+
+Cost.  Inputs are validated once per run (the initial state, the reference at
+every sample, the plant); the loop then calls the plant's unchecked forward
+dynamics (``plant.pinocchio.unchecked``, Pinocchio's ABA with nothing around
+it) and, for a :class:`manipdyn.control.Controller` bound to the simulated
+trajectory, :meth:`Controller.step` with the precomputed reference, so no state
+is re-validated and no trajectory re-evaluated per step.  What still comes
+from outside each step, the controller's torque, is checked every step
+(shape, dtype, finiteness); a non-finite state is caught at the end of every
+step by the divergence bounds.  Any other callable controller, or a plant
+without an unchecked Pinocchio engine, goes through its checked calls.
 """
 
 from __future__ import annotations
@@ -32,6 +43,7 @@ import numpy as np
 
 from .._state import as_state
 from ..errors import StateError
+from .controllers import Controller
 
 __all__ = ["simulate", "SimulationLog", "SimulationDiverged",
            "DEFAULT_MAX_POSITION", "DEFAULT_MAX_VELOCITY"]
@@ -150,6 +162,14 @@ def _reference(trajectory, t: np.ndarray, n: int):
     return tuple(np.array([r[i] for r in rows], dtype=np.float64).reshape(len(t), n) for i in range(3))
 
 
+def _native(x: np.ndarray) -> np.ndarray:
+    """``x`` (float64) in native byte order, so that the unchecked calls may take it."""
+    return x if x.dtype is _F64 else x.astype(_F64)
+
+
+_F64 = np.dtype(np.float64)
+
+
 def _name(x) -> str:
     return getattr(x, "name", "") or getattr(x, "__name__", "") or type(x).__name__
 
@@ -221,6 +241,10 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
     N = max(1, int(round(duration / dt)))
     t = np.arange(N + 1) * dt
     q_d, qd_d, qdd_d = _reference(trajectory, t, n)
+    for name, ref in (("q_d", q_d), ("qd_d", qd_d), ("qdd_d", qdd_d)):
+        if not np.all(np.isfinite(ref)):
+            k = int(np.argwhere(~np.isfinite(ref))[0][0])
+            raise ValueError(f"trajectory: {name} at t = {t[k]:.6g} s is not finite")
     q = (q_d[0] if q0 is None else as_state(q0, "q0", n)).astype(np.float64, copy=True)
     qd = (qd_d[0] if qd0 is None else as_state(qd0, "qd0", n)).astype(np.float64, copy=True)
     if q.shape != (n,) or qd.shape != (n,):
@@ -233,7 +257,14 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
                         tuple(plant.joint_types))
     pmax2, vmax2 = max_position**2, max_velocity**2
     every = max(1, N // 100)
-    fd = plant.forward_dynamics
+    unchecked = getattr(getattr(plant, "pinocchio", None), "unchecked", None)
+    fd = plant.forward_dynamics if unchecked is None else unchecked.forward_dynamics
+    q, qd = _native(q), _native(qd)
+    if isinstance(controller, Controller) and controller.trajectory is trajectory:
+        step = controller.step              # the reference comes from the rows below
+        rows = (list(q_d), list(qd_d), list(qdd_d))
+    else:
+        step = rows = None
     h, h2, h6 = dt, 0.5 * dt, dt / 6.0
 
     def diverged(k, quantity, values, bound, why):
@@ -269,11 +300,16 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
         for k in range(N):
             Q[k] = q
             V[k] = qd
-            tau = np.asarray(controller(k * dt, q, qd), dtype=np.float64)
+            if step is None:
+                tau = np.asarray(controller(k * dt, q, qd), dtype=np.float64)
+            else:
+                tau = np.asarray(step(k * dt, q, qd, rows[0][k], rows[1][k], rows[2][k]),
+                                 dtype=np.float64)
             if tau.shape != (n,):
                 raise ValueError(f"controller: returned shape {tau.shape}, expected ({n},)")
             if not math.isfinite(tau.dot(tau)) and not np.all(np.isfinite(tau)):
                 diverged(k, "tau", tau, math.inf, "not finite")
+            tau = _native(tau)
             TAU[k] = tau
             try:
                 a1 = fd(q, qd, tau)
@@ -283,7 +319,7 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
                 a3 = fd(q + h2 * v2, v3, tau)
                 v4 = qd + h * a3
                 a4 = fd(q + h * v3, v4, tau)
-            except StateError:   # a stage went non-finite: the step blew up
+            except StateError:   # checked plant: a stage went non-finite, the step blew up
                 diverged(k + 1, "state", qd, math.inf, "an intermediate Runge-Kutta stage is not finite")
             q = q + h6 * (qd + 2.0 * (v2 + v3) + v4)
             qd = qd + h6 * (a1 + 2.0 * (a2 + a3) + a4)

@@ -1,0 +1,148 @@
+"""``manipdyn montecarlo``: a seeded robustness study of the tracking controllers.
+
+Layer: CLI.
+
+    manipdyn montecarlo MODEL [--tip LINK] --runs N [--controllers pd,pdg,ct,adaptive]
+                        [--seed S] [--scheduler tcp://HOST:PORT] [--json] [--plot FILE.png]
+
+Exit codes: 0 the study completed (diverged runs are results, not failures),
+2 usage or model error, or a missing extra, or no scheduler at the address
+(one line on stderr), 3 internal error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+
+from ..control.demo import CONTROLLERS, DEFAULT_BANDWIDTH
+from ..errors import ModelError
+from ..loading import load_with_notes
+from ..montecarlo import DISTRIBUTIONS_HELP, Distributions, MissingExtraError, run as run_study, study
+from ..montecarlo.plot import plot_report, pyplot
+from .common import EXIT_OK, Progress
+
+__all__ = ["register", "run"]
+
+
+def _finite(args, name: str, low: float, strict: bool = False) -> float:
+    v = getattr(args, name)
+    if not math.isfinite(v) or (v <= low if strict else v < low):
+        raise ModelError(f"--{name.replace('_', '-')}: must be a finite number {'>' if strict else '>='} "
+                         f"{low:g}, got {v}")
+    return v
+
+
+def run(args) -> int:
+    if args.runs < 1:
+        raise ModelError(f"--runs: must be >= 1, got {args.runs}")
+    if args.seed < 0:
+        raise ModelError(f"--seed: must be >= 0, got {args.seed}")
+    keys = [k.strip() for k in args.controllers.split(",") if k.strip()]
+    bad = [k for k in keys if k not in CONTROLLERS]
+    if not keys or bad or len(set(keys)) != len(keys):
+        raise ModelError(f"--controllers: expected distinct names among {','.join(CONTROLLERS)}, "
+                         f"got {args.controllers!r}")
+    for name in ("duration", "dt", "bandwidth"):
+        _finite(args, name, 0.0, strict=True)
+    if args.dt > args.duration:
+        raise ModelError(f"--dt: must be at most --duration, got {args.dt}")
+    if args.workers is not None and args.workers < 1:
+        raise ModelError(f"--workers: must be >= 1, got {args.workers}")
+    if args.plot:
+        folder = os.path.dirname(os.path.abspath(args.plot))
+        if os.path.isdir(args.plot) or not os.path.isdir(folder) or not os.access(folder, os.W_OK):
+            raise ModelError(f"--plot {args.plot}: expected a writable file path (its folder must exist)")
+        pyplot()  # matplotlib present? fail before the study, not after it
+    try:
+        dist = Distributions(payload_mass=args.payload_mass, link_scale=args.link_scale,
+                             friction_viscous=args.friction_viscous, friction_coulomb=args.friction_coulomb,
+                             q0_offset=args.q0_offset, torque_noise=args.torque_noise)
+    except ValueError as exc:
+        raise ModelError(f"distributions: {exc}") from None
+    tau_max = None
+    if args.tau_max is not None:
+        if not (args.tau_max > 0):
+            raise ModelError(f"--tau-max: must be > 0 N m, got {args.tau_max}")
+        tau_max = args.tau_max
+
+    arm, _notes = load_with_notes(args.model, tip=args.tip)   # consistency notes: not this command's business
+    try:
+        s = study(arm, args.runs, seed=args.seed, controllers=keys, duration=args.duration, dt=args.dt,
+                  distributions=dist, tau_max=tau_max, bandwidth=args.bandwidth)
+    except ValueError as exc:
+        raise ModelError(str(exc)) from None
+    show = args.progress or (args.progress is None and sys.stderr.isatty())
+    try:
+        report = run_study(s, scheduler=args.scheduler, workers=args.workers, chunk_size=args.chunk_size,
+                           progress=Progress(arm.name or args.model, show, unit="runs"))
+    except MissingExtraError as exc:
+        raise ModelError(str(exc)) from None
+    except ConnectionError as exc:
+        raise ModelError(str(exc)) from None
+    if args.json:
+        print(report.to_json())
+    else:
+        print(report)
+    if args.plot:
+        plot_report(report, args.plot)
+        if not args.json:
+            print(f"figure written to {args.plot}")
+    return EXIT_OK
+
+
+def register(subparsers) -> None:
+    """Add ``manipdyn montecarlo``."""
+    d = Distributions()
+    p = subparsers.add_parser(
+        "montecarlo", help="robustness study of the tracking controllers on varied plants",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="Simulate the tracking controllers on the 'track' demo path, on many plants drawn "
+                    "around the model (seeded per run: a run's plant depends only on --seed and its "
+                    "index), and report per controller the distribution of tracking error and torque, "
+                    "divergences and torque saturations, and the worst runs (replay one with "
+                    "manipdyn.montecarlo's study.replay(run, controller), i.e. manipdyn.simulate). "
+                    "Runs on every local core by default, or on a Dask cluster with --scheduler; "
+                    "the results are bit-identical either way.",
+        epilog=DISTRIBUTIONS_HELP + "\n\nExit codes: 0 study completed (divergences are results), "
+               "2 usage or model error, 3 internal error.")
+    p.add_argument("model", metavar="MODEL", help="bundled model name, .toml model file, or .urdf file")
+    p.add_argument("--tip", default=None, help="URDF files: the tip link of the chain to keep")
+    p.add_argument("--runs", type=int, default=100, help="runs (plants) per controller (default 100)")
+    p.add_argument("--controllers", default="pd,pdg,ct,adaptive", metavar="LIST",
+                   help="comma-separated subset of pd, pdg (PD + gravity), ct (computed torque), "
+                        "adaptive (Slotine-Li); default all four")
+    p.add_argument("--seed", type=int, default=0, help="study seed (default 0)")
+    p.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
+                   help="run on this Dask scheduler (default: a local cluster on every core; "
+                        "'sync': in this process)")
+    p.add_argument("--workers", type=int, default=None, help="local worker processes (default: one per core)")
+    p.add_argument("--chunk-size", type=int, default=None, metavar="RUNS",
+                   help="runs per task (default: about 4 tasks per worker, at most 25)")
+    p.add_argument("--duration", type=float, default=2.0, metavar="S", help="simulated seconds per run (default 2)")
+    p.add_argument("--dt", type=float, default=1e-3, metavar="S", help="step and controller period (default 0.001)")
+    p.add_argument("--bandwidth", type=float, default=DEFAULT_BANDWIDTH, metavar="RAD_S",
+                   help=f"closed-loop bandwidth of the controllers (default {DEFAULT_BANDWIDTH:g})")
+    p.add_argument("--tau-max", type=float, default=None, metavar="NM",
+                   help="torque limit of every joint for every controller (default: the model's own, if any)")
+    p.add_argument("--payload-mass", type=float, default=d.payload_mass, metavar="KG",
+                   help=f"payload mass uniform in [0, KG] (default {d.payload_mass:g})")
+    p.add_argument("--link-scale", type=float, default=d.link_scale, metavar="F",
+                   help=f"link mass/inertia factor uniform in [1-F, 1+F] (default {d.link_scale:g})")
+    p.add_argument("--friction-viscous", type=float, default=d.friction_viscous, metavar="NMS",
+                   help=f"added viscous friction uniform in [0, NMS] (default {d.friction_viscous:g})")
+    p.add_argument("--friction-coulomb", type=float, default=d.friction_coulomb, metavar="NM",
+                   help=f"added Coulomb friction uniform in [0, NM] (default {d.friction_coulomb:g})")
+    p.add_argument("--q0-offset", type=float, default=d.q0_offset, metavar="RAD",
+                   help=f"standard deviation of the initial position offset (default {d.q0_offset:g})")
+    p.add_argument("--torque-noise", type=float, default=d.torque_noise, metavar="NM",
+                   help=f"standard deviation of the applied-torque noise (default {d.torque_noise:g})")
+    p.add_argument("--json", action="store_true", help="print one JSON document instead of tables")
+    p.add_argument("--plot", metavar="FILE.png", default=None, help="write the CDFs per controller (needs matplotlib)")
+    prog = p.add_mutually_exclusive_group()
+    prog.add_argument("--progress", dest="progress", action="store_true", default=None,
+                      help="always show the progress bar on stderr (default: only on a terminal)")
+    prog.add_argument("--no-progress", dest="progress", action="store_false")
+    p.set_defaults(func=run)

@@ -1,0 +1,176 @@
+"""The Dask engine shared by Monte-Carlo studies and big cross-checks.
+
+Layer: 4 (beside the loaders: arms travel as their model text and are rebuilt by them).
+
+Work is cut into *parts* (index ranges); :func:`map_chunks` runs a pure
+function on every part, in this process (``scheduler="sync"``), on a Dask
+``LocalCluster`` of this machine's cores (``scheduler=None``), or on an
+existing Dask cluster (``scheduler="tcp://HOST:PORT"``), and collects the
+results by index, each exactly once.  A part lost with its worker is run
+again (Dask reschedules the tasks of a lost worker; ``retries`` covers
+failures).  Arms travel to workers as text (:func:`model_text`) and are
+rebuilt once per worker process (:func:`arm_from_text`).
+
+``dask[distributed]`` is the ``scale`` extra: ``pip install 'manipdyn[scale]'``.
+"""
+
+from __future__ import annotations
+
+import functools
+import logging
+import math
+import os
+import time
+import warnings
+
+from .errors import ModelError
+
+__all__ = ["MissingExtraError", "require_distributed", "local_cores", "chunks", "map_chunks",
+           "model_text", "arm_from_text", "MAX_CHUNK"]
+
+#: the most items (runs) in one part by default (a part is the unit of work lost with a worker)
+MAX_CHUNK = 25
+
+
+class MissingExtraError(ImportError):
+    """An optional dependency is missing; the message says what to install."""
+
+
+def require_distributed():
+    """``distributed`` (dask.distributed), or :class:`MissingExtraError` with the install command."""
+    try:
+        import distributed
+    except ImportError:
+        raise MissingExtraError(
+            "Monte-Carlo studies and cluster cross-checks on Dask need dask.distributed: "
+            "pip install 'manipdyn[scale]'  (or pass scheduler='sync' to run in this process)"
+        ) from None
+    return distributed
+
+
+def local_cores() -> int:
+    """CPUs this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover (not Linux)
+        return max(1, os.cpu_count() or 1)
+
+
+def chunks(total: int, workers: int, chunk_size: int | None = None) -> list[range]:
+    """Consecutive index ranges covering ``range(total)``: about 4 chunks per worker, at most :data:`MAX_CHUNK`."""
+    if chunk_size is None:
+        chunk_size = max(1, min(MAX_CHUNK, math.ceil(total / (4 * max(1, workers)))))
+    if isinstance(chunk_size, bool) or int(chunk_size) != chunk_size or chunk_size < 1:
+        raise ValueError(f"chunk_size: expected a positive integer, got {chunk_size!r}")
+    chunk_size = int(chunk_size)
+    return [range(a, min(total, a + chunk_size)) for a in range(0, total, chunk_size)]
+
+
+class _Collector:
+    """Results by index, each exactly once."""
+
+    def __init__(self, total: int, progress):
+        self.total, self.progress = total, progress
+        self.results: dict = {}
+        self.chunk_timing: list = []
+
+    def add(self, out: dict) -> None:
+        timing = out.pop("timing", None)
+        for k, v in out.items():
+            if k in self.results:
+                raise RuntimeError(f"run {k} was returned twice (internal error: chunks overlap)")
+            self.results[k] = v
+        if timing is not None:
+            self.chunk_timing.append(timing)
+        if self.progress is not None:
+            self.progress(len(self.results), self.total)
+
+    def ordered(self) -> list:
+        missing = sorted(set(range(self.total)) - set(self.results))
+        if missing:
+            raise RuntimeError(f"runs {missing[:10]} never came back (internal error)")
+        return [self.results[k] for k in range(self.total)]
+
+
+def map_chunks(fn, args, total: int, parts: list, scheduler=None, workers=None, progress=None,
+               retries: int = 3):
+    """Run ``fn(*args, part)`` for every part; return (collector, timing dict).
+
+    The engine shared by studies and cross-checks: ``fn`` returns
+    ``{index: result, ..., "timing": {...}}`` for the indices of its part.
+    """
+    col = _Collector(total, progress)
+    t0 = time.perf_counter()
+    if scheduler == "sync":
+        for part in parts:
+            col.add(fn(*args, part))
+        nworkers, where = 1, "this process"
+    else:
+        distributed = require_distributed()
+        cluster = None
+        if scheduler is None or scheduler == "local":
+            nworkers = local_cores() if workers is None else int(workers)
+            if nworkers < 1:
+                raise ValueError(f"workers: expected a positive integer, got {workers!r}")
+            cluster = distributed.LocalCluster(n_workers=nworkers, threads_per_worker=1, processes=True,
+                                               dashboard_address=None, silence_logs=logging.ERROR)
+            where = "local Dask cluster"
+        else:
+            where = str(scheduler)
+        try:
+            client = distributed.Client(cluster if cluster is not None else scheduler, timeout="10s")
+        except OSError as exc:
+            if cluster is not None:
+                cluster.close()
+            raise ConnectionError(f"scheduler {scheduler}: cannot connect: {exc}") from None
+        try:
+            if cluster is None:
+                nworkers = len(client.scheduler_info().get("workers", {}))
+            futures = [client.submit(fn, *args, part, pure=False, retries=retries) for part in parts]
+            for fut in distributed.as_completed(futures):
+                col.add(fut.result())
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    wall = time.perf_counter() - t0
+    hosts: dict = {}
+    for t in col.chunk_timing:
+        hosts[f"{t['host']}:{t['pid']}"] = hosts.get(f"{t['host']}:{t['pid']}", 0) + 1
+    timing = {"wall_s": wall, "scheduler": where, "workers": nworkers, "chunks": len(parts),
+              "chunk_seconds": sum(t["seconds"] for t in col.chunk_timing), "chunks_by_process": hosts}
+    return col, timing
+
+
+def model_text(arm) -> tuple:
+    """``(kind, text, tip, name, gravity)``: the arm as text a worker can rebuild it from.
+
+    DH arms (:class:`manipdyn.Manipulator`) travel as their model file
+    (floats written exactly, so the rebuilt arm is equal); URDF arms as their
+    URDF text with the tip link, name and gravity.
+    """
+    from .arm import Manipulator
+
+    if isinstance(arm, Manipulator):
+        from .modelfile import model_to_toml
+
+        return ("toml", model_to_toml(arm), None, arm.name, None)
+    text = getattr(arm, "urdf_text", None)
+    if text is None:
+        raise ModelError(f"cannot send {type(arm).__name__} {arm.name!r} to workers "
+                         "as text (expected a DH arm or a URDF arm)")
+    return ("urdf", text, arm.tip, arm.name, tuple(float(g) for g in arm.gravity))
+
+
+@functools.lru_cache(maxsize=8)
+def arm_from_text(kind: str, text: str, tip, name, gravity):
+    """The arm of :func:`model_text`, rebuilt once per process (cached)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")     # the client saw the model's warnings already
+        if kind == "toml":
+            from .modelfile import parse_model
+
+            return parse_model(text, f"model text of {name!r}")
+        from .urdf_in import load_urdf
+
+        return load_urdf(text, tip=tip, name=name, gravity=gravity)
