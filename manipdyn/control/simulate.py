@@ -215,10 +215,29 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
     """
     t_wall = time.perf_counter()
     plant = arm if plant is None else plant
+    trajectory, duration, dt, N = _check_arguments(arm, controller, trajectory, duration, dt, plant)
+    n = arm.n
+    t = np.arange(N + 1) * dt
+    q_d, qd_d, qdd_d = _finite_reference(trajectory, t, n)
+    q, qd = _initial_state(q_d, qd_d, q0, qd0, n)
+    log = SimulationLog(t, np.empty((N + 1, n)), np.empty((N + 1, n)), q_d, qd_d, qdd_d,
+                        np.empty((N + 1, n)), dt, _name(controller), plant.name or "plant",
+                        tuple(plant.joint_types))
+    watch = _Divergence(log, plant, N, dt, max_position, max_velocity)
+    _integrate(log, watch, plant, controller, trajectory, q, qd, progress)
+    log.wall_time = time.perf_counter() - t_wall
+    return log
+
+
+def _check_arguments(arm, controller, trajectory, duration, dt, plant):
+    """Blame the argument that does not fit the arm, before anything uses it.
+
+    Returns ``(trajectory, duration, dt, N)``, the trajectory and duration
+    filled in from the controller and the trajectory when not given.
+    """
     n = arm.n
     if plant.n != n:
         raise ValueError(f"plant: has {plant.n} joints, the arm {n}")
-    # blame the argument that does not fit the arm, before anything uses it
     if getattr(controller, "n", n) != n:
         raise ValueError(f"controller: built for an arm with {controller.n} joints, the arm has {n}")
     if trajectory is None:
@@ -238,62 +257,88 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
         raise ValueError(f"dt: must be a positive number of seconds, got {dt!r}")
     if not (duration > 0 and math.isfinite(duration)):
         raise ValueError(f"duration: must be a positive number of seconds, got {duration!r}")
-    N = max(1, int(round(duration / dt)))
-    t = np.arange(N + 1) * dt
+    return trajectory, duration, dt, max(1, int(round(duration / dt)))
+
+
+def _finite_reference(trajectory, t, n):
+    """The reference ``(q_d, qd_d, qdd_d)``, each (N + 1, n), refused where not finite."""
     q_d, qd_d, qdd_d = _reference(trajectory, t, n)
     for name, ref in (("q_d", q_d), ("qd_d", qd_d), ("qdd_d", qdd_d)):
         if not np.all(np.isfinite(ref)):
             k = int(np.argwhere(~np.isfinite(ref))[0][0])
             raise ValueError(f"trajectory: {name} at t = {t[k]:.6g} s is not finite")
+    return q_d, qd_d, qdd_d
+
+
+def _initial_state(q_d, qd_d, q0, qd0, n):
+    """``(q, qd)`` at t = 0: the given ones, or the reference's (zero initial error)."""
     q = (q_d[0] if q0 is None else as_state(q0, "q0", n)).astype(np.float64, copy=True)
     qd = (qd_d[0] if qd0 is None else as_state(qd0, "qd0", n)).astype(np.float64, copy=True)
     if q.shape != (n,) or qd.shape != (n,):
         raise ValueError(f"q0, qd0: expected shape ({n},)")
+    return _native(q), _native(qd)
 
-    Q = np.empty((N + 1, n))
-    V = np.empty((N + 1, n))
-    TAU = np.empty((N + 1, n))
-    log = SimulationLog(t, Q, V, q_d, qd_d, qdd_d, TAU, dt, _name(controller), plant.name or "plant",
-                        tuple(plant.joint_types))
-    pmax2, vmax2 = max_position**2, max_velocity**2
-    every = max(1, N // 100)
-    unchecked = getattr(getattr(plant, "pinocchio", None), "unchecked", None)
-    fd = plant.forward_dynamics if unchecked is None else unchecked.forward_dynamics
-    q, qd = _native(q), _native(qd)
-    if isinstance(controller, Controller) and controller.trajectory is trajectory:
-        step = controller.step              # the reference comes from the rows below
-        rows = (list(q_d), list(qd_d), list(qdd_d))
-    else:
-        step = rows = None
-    h, h2, h6 = dt, 0.5 * dt, dt / 6.0
 
-    def diverged(k, quantity, values, bound, why):
+class _Divergence:
+    """The divergence bounds of a run, and the :class:`SimulationDiverged` that ends it."""
+
+    def __init__(self, log, plant, N, dt, max_position, max_velocity):
+        self.log, self.plant, self.N, self.dt = log, plant, N, dt
+        self.max_position, self.max_velocity = max_position, max_velocity
+        self.pmax2, self.vmax2 = max_position**2, max_velocity**2
+
+    def fail(self, k, quantity, values, bound, why):
+        """Raise :class:`SimulationDiverged` at step ``k``, naming the joint when one is at fault."""
+        dt, log = self.dt, self.log
         bad = ~np.isfinite(values) if why == "not finite" else np.abs(values) > bound
         j = int(np.argmax(bad)) if bad.any() else None
         unit = {"q": ("rad", "m"), "qd": ("rad/s", "m/s"), "tau": ("N m", "N")}.get(quantity, ("", ""))
         if j is not None:
-            u = unit[1] if plant.joint_types[j] == "prismatic" else unit[0]
+            u = unit[1] if self.plant.joint_types[j] == "prismatic" else unit[0]
             where = f": joint {j + 1} {quantity} = {values[j]:.6g} {u}"
             where += " is not finite" if why == "not finite" else f" beyond the bound {bound:g}"
         else:
             where = f": {why}"
         kept = f"the log up to t = {(k - 1) * dt:.6g} s is in .log" if k > 0 else "nothing was logged"
-        msg = (f"simulation diverged at t = {k * dt:.6g} s (step {k} of {N}, {log.controller} on "
+        msg = (f"simulation diverged at t = {k * dt:.6g} s (step {k} of {self.N}, {log.controller} on "
                f"{log.plant}){where}. The controller or the plant is unstable; {kept}")
         raise SimulationDiverged(msg, t=k * dt, step=k, joint=None if j is None else j + 1,
                                  quantity=quantity, value=None if j is None else float(values[j]),
                                  log=log.truncated(k))
 
-    def check_state(k):
-        qq, vv = q.dot(q), qd.dot(qd)
-        if qq <= pmax2 and vv <= vmax2:
+    def check_state(self, k, q, qd):
+        """Fail when q or qd left the bounds or is not finite (one dot product when fine)."""
+        if q.dot(q) <= self.pmax2 and qd.dot(qd) <= self.vmax2:
             return
-        for name, x, b in (("q", q, max_position), ("qd", qd, max_velocity)):
+        for name, x, b in (("q", q, self.max_position), ("qd", qd, self.max_velocity)):
             if not np.all(np.isfinite(x)):
-                diverged(k, name, x, b, "not finite")
+                self.fail(k, name, x, b, "not finite")
             if np.any(np.abs(x) > b):
-                diverged(k, name, x, b, "bound")
+                self.fail(k, name, x, b, "bound")
 
+    def check_torque(self, k, tau):
+        """Fail when the controller's torque is not finite."""
+        if not math.isfinite(tau.dot(tau)) and not np.all(np.isfinite(tau)):
+            self.fail(k, "tau", tau, math.inf, "not finite")
+
+
+def _integrate(log, watch, plant, controller, trajectory, q, qd, progress) -> None:
+    """The fixed-step RK4 loop with the torque held over each step; fills ``log`` in place.
+
+    States were validated once, before the loop; inside it the plant's
+    unchecked forward dynamics and the controller's :meth:`Controller.step`
+    (with the precomputed reference rows) are called when available.
+    """
+    Q, V, TAU, dt, N, n = log.q, log.qd, log.tau, log.dt, watch.N, len(q)
+    every = max(1, N // 100)
+    unchecked = getattr(getattr(plant, "pinocchio", None), "unchecked", None)
+    fd = plant.forward_dynamics if unchecked is None else unchecked.forward_dynamics
+    if isinstance(controller, Controller) and controller.trajectory is trajectory:
+        step = controller.step              # the reference comes from the rows below
+        rows = (list(log.q_d), list(log.qd_d), list(log.qdd_d))
+    else:
+        step = rows = None
+    h, h2, h6 = dt, 0.5 * dt, dt / 6.0
     # Non-finite values are detected below and end the run with SimulationDiverged,
     # so numpy's overflow and invalid-value warnings would only repeat it.
     with np.errstate(over="ignore", invalid="ignore"):
@@ -307,8 +352,7 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
                                  dtype=np.float64)
             if tau.shape != (n,):
                 raise ValueError(f"controller: returned shape {tau.shape}, expected ({n},)")
-            if not math.isfinite(tau.dot(tau)) and not np.all(np.isfinite(tau)):
-                diverged(k, "tau", tau, math.inf, "not finite")
+            watch.check_torque(k, tau)
             tau = _native(tau)
             TAU[k] = tau
             try:
@@ -320,19 +364,16 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
                 v4 = qd + h * a3
                 a4 = fd(q + h * v3, v4, tau)
             except StateError:   # checked plant: a stage went non-finite, the step blew up
-                diverged(k + 1, "state", qd, math.inf, "an intermediate Runge-Kutta stage is not finite")
+                watch.fail(k + 1, "state", qd, math.inf, "an intermediate Runge-Kutta stage is not finite")
             q = q + h6 * (qd + 2.0 * (v2 + v3) + v4)
             qd = qd + h6 * (a1 + 2.0 * (a2 + a3) + a4)
-            check_state(k + 1)
+            watch.check_state(k + 1, q, qd)
             if progress is not None and (k + 1) % every == 0:
                 progress(k + 1, N)
         Q[N] = q
         V[N] = qd
         tau = np.asarray(controller(N * dt, q, qd), dtype=np.float64)
-        if not math.isfinite(tau.dot(tau)) and not np.all(np.isfinite(tau)):
-            diverged(N, "tau", tau, math.inf, "not finite")
+        watch.check_torque(N, tau)
         TAU[N] = tau
     if progress is not None:
         progress(N, N)
-    log.wall_time = time.perf_counter() - t_wall
-    return log
