@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import json
 import statistics
-import sys
 import time
 
 import numpy as np
@@ -17,8 +16,8 @@ from ..errors import ModelError, SingularMassMatrixError
 from ..io import write_urdf
 from ..loading import models
 from ..scale import MissingExtraError
-from .common import (EXIT_DISAGREE, EXIT_OK, TIP_HELP, Progress, load_all, output_folder, urdf_target,
-                     usage_error)
+from .common import (EXIT_DISAGREE, EXIT_OK, TIP_HELP, Progress, add_progress_options, load_all,
+                     output_folder, progress_wanted, urdf_target, usage_error)
 
 __all__ = ["register", "run"]
 
@@ -94,7 +93,7 @@ def run(args) -> int:
         output_folder(args.urdf_out, "--urdf-out")
     loaded = load_all(specs, args.tip)         # every name checked before any arm runs
     seen: dict = {}
-    show_progress = args.progress or (args.progress is None and sys.stderr.isatty())
+    show_progress = progress_wanted(args)
     results, worst = [], EXIT_OK
     for spec, arm, notes in loaded:
         urdf_path = None
@@ -147,8 +146,5 @@ def register(sub) -> None:
                    help="with --scheduler local (implied): worker processes (default one per core)")
     c.add_argument("--timing-calls", type=int, default=200,
                    help="calls per engine for the per-call timing (0 to skip; default 200)")
-    prog = c.add_mutually_exclusive_group()
-    prog.add_argument("--progress", dest="progress", action="store_true", default=None,
-                      help="always show the progress bar (default: only on a terminal)")
-    prog.add_argument("--no-progress", dest="progress", action="store_false")
+    add_progress_options(c)
     c.set_defaults(func=run)

@@ -13,7 +13,7 @@ import time
 from ..errors import ModelError, TipError
 from ..loading import load_with_notes
 
-__all__ = ["EXIT_OK", "EXIT_DISAGREE", "EXIT_USAGE", "EXIT_INTERNAL", "Progress", "output_folder",
+__all__ = ["add_progress_options", "progress_wanted", "EXIT_OK", "EXIT_DISAGREE", "EXIT_USAGE", "EXIT_INTERNAL", "Progress", "output_folder",
            "urdf_target", "usage_error", "load_arm", "load_all", "is_urdf", "TIP_HELP"]
 
 #: help of every ``--tip`` option
@@ -109,3 +109,17 @@ def load_all(specs, tip: str | None = None, option: str = "--tip") -> list:
         raise ModelError(f"{option}: only meaningful for a URDF file, and none of "
                          f"{', '.join(map(repr, specs))} is one")
     return [(s, *load_arm(s, tip if is_urdf(s) else None, option)) for s in specs]
+
+
+def add_progress_options(parser, what: str = "the progress bar") -> None:
+    """``--progress`` / ``--no-progress``: show ``what`` on stderr always / never
+    (default: only when stderr is a terminal; read it with :func:`progress_wanted`)."""
+    prog = parser.add_mutually_exclusive_group()
+    prog.add_argument("--progress", dest="progress", action="store_true", default=None,
+                      help=f"always show {what} on stderr (default: only on a terminal)")
+    prog.add_argument("--no-progress", dest="progress", action="store_false")
+
+
+def progress_wanted(args) -> bool:
+    """Whether to draw progress bars: ``--progress``, ``--no-progress``, or stderr is a terminal."""
+    return args.progress if args.progress is not None else sys.stderr.isatty()

@@ -15,7 +15,7 @@ import sys
 from ..errors import ModelError
 from ..identification import MissingExtraError
 from ..loading import load_with_notes
-from .common import EXIT_OK, Progress, usage_error
+from .common import EXIT_OK, Progress, add_progress_options, progress_wanted, usage_error
 
 __all__ = ["register", "run"]
 
@@ -45,10 +45,7 @@ def register(subparsers) -> None:
     p.add_argument("--iterations", type=int, default=60, help="optimiser iterations (default 60)")
     p.add_argument("--friction", action="store_true", help="also excite friction parameters")
     p.add_argument("--json", action="store_true", help="print a JSON object instead of text")
-    prog = p.add_mutually_exclusive_group()
-    prog.add_argument("--progress", dest="progress", action="store_true", default=None,
-                      help="always show the progress bar (default: only on a terminal)")
-    prog.add_argument("--no-progress", dest="progress", action="store_false")
+    add_progress_options(p, "the progress bar")
     p.set_defaults(func=run)
 
 
@@ -68,8 +65,7 @@ def run(args) -> int:
             raise ModelError(f"--amax: expected 1 or {arm.n} values, got {len(amax)}")
         ex = excitation(arm, duration=args.duration, harmonics=args.harmonics, rate=args.rate,
                         seed=args.seed, vmax=vmax, amax=amax, iterations=args.iterations,
-                        friction=args.friction, progress=Progress("optimising", sys.stderr.isatty() if args.progress is None
-                                                  else args.progress, unit="iterations"))
+                        friction=args.friction, progress=Progress("optimising", progress_wanted(args), unit="iterations"))
         ex.to_csv(args.output)
     except (ModelError, MissingExtraError) as exc:
         return usage_error("excite", str(exc))

@@ -15,14 +15,13 @@ from __future__ import annotations
 import argparse
 import math
 import os
-import sys
 
 from ..control.demo import CONTROLLERS, DEFAULT_BANDWIDTH
 from ..errors import ModelError
 from ..loading import load_with_notes
 from ..montecarlo import DISTRIBUTIONS_HELP, Distributions, MissingExtraError, run as run_study, study
 from ..montecarlo.plot import plot_report, pyplot
-from .common import EXIT_OK, Progress
+from .common import EXIT_OK, Progress, add_progress_options, progress_wanted
 
 __all__ = ["register", "run"]
 
@@ -74,7 +73,7 @@ def run(args) -> int:
                   distributions=dist, tau_max=tau_max, bandwidth=args.bandwidth)
     except ValueError as exc:
         raise ModelError(str(exc)) from None
-    show = args.progress or (args.progress is None and sys.stderr.isatty())
+    show = progress_wanted(args)
     try:
         report = run_study(s, scheduler=args.scheduler, workers=args.workers, chunk_size=args.chunk_size,
                            progress=Progress(arm.name or args.model, show, unit="runs"))
@@ -141,8 +140,5 @@ def register(subparsers) -> None:
                    help=f"standard deviation of the applied-torque noise (default {d.torque_noise:g})")
     p.add_argument("--json", action="store_true", help="print one JSON document instead of tables")
     p.add_argument("--plot", metavar="FILE.png", default=None, help="write the CDFs per controller (needs matplotlib)")
-    prog = p.add_mutually_exclusive_group()
-    prog.add_argument("--progress", dest="progress", action="store_true", default=None,
-                      help="always show the progress bar on stderr (default: only on a terminal)")
-    prog.add_argument("--no-progress", dest="progress", action="store_false")
+    add_progress_options(p, "the progress bar")
     p.set_defaults(func=run)

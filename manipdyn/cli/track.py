@@ -26,7 +26,7 @@ from ..control.plant import with_payload
 from ..control.plots import PLOT_INSTALL, plot_compare, plot_single, pyplot
 from ..control.simulate import SimulationDiverged, simulate
 from ..errors import ModelError
-from .common import TIP_HELP, Progress, load_arm
+from .common import TIP_HELP, Progress, add_progress_options, load_arm, progress_wanted
 
 __all__ = ["register", "run"]
 
@@ -83,7 +83,7 @@ def run(args) -> int:
         plant = with_payload(arm, args.payload, com=DEFAULT_PAYLOAD_COM)
     path = demo_path(arm, args.duration)
     kinds = list(CONTROLLERS) if args.compare else [args.controller]
-    show_progress = args.progress or (args.progress is None and sys.stderr.isatty())
+    show_progress = progress_wanted(args)
     final = max(0.0, args.duration - 1.0)
     logs, rc = {}, 0
     head = (f"manipdyn track {arm.name}: demo path {args.duration:g} s, {1 / args.dt:g} Hz RK4 "
@@ -157,8 +157,5 @@ def register(subparsers) -> None:
     p.add_argument("--plot", metavar="OUT.png", default=None,
                    help=f"write a figure (needs matplotlib: {PLOT_INSTALL})")
     p.add_argument("--compare", action="store_true", help="run all four controllers and compare them")
-    prog = p.add_mutually_exclusive_group()
-    prog.add_argument("--progress", dest="progress", action="store_true", default=None,
-                      help="always show a progress bar per run on stderr (default: only on a terminal)")
-    prog.add_argument("--no-progress", dest="progress", action="store_false")
+    add_progress_options(p, "a progress bar per run")
     p.set_defaults(func=run)
