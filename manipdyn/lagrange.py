@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from ._state import as_state, same_batch
+from ._state import as_state, check_result, same_batch
 from .errors import SingularMassMatrixError
 
 __all__ = ["TraceFormEngine", "trace_form_engine", "CHUNK"]
@@ -40,6 +40,13 @@ def _link_sum(S: np.ndarray, x: np.ndarray) -> np.ndarray:
     B, n = x.shape[:2]
     return (S @ x.reshape(B, n, math.prod(x.shape[2:]))).reshape(x.shape)
 
+
+_isfinite = math.isfinite
+#: the public name of each batch kernel, for overflow messages
+_KERNEL_NAMES = {"_k_mass": "mass_matrix", "_k_coriolis": "coriolis_torque", "_k_gravity": "gravity_torque",
+                 "_k_terms": "dynamics_terms", "_k_inverse": "inverse_dynamics",
+                 "_k_forward": "forward_dynamics", "_k_kinetic": "kinetic_energy",
+                 "_k_potential": "potential_energy", "poses": "link_poses"}
 
 class TraceFormEngine:
     """Trace-form Lagrange-Euler dynamics of one arm.
@@ -156,14 +163,21 @@ class TraceFormEngine:
         twice as fast as one pass.  ``single`` strips the batch axis again.
         """
         B = arrays[0].shape[0]
-        if B <= CHUNK:
-            out = kernel(*arrays)
-        else:
-            parts = [kernel(*(a[k:k + CHUNK] for a in arrays)) for k in range(0, B, CHUNK)]
-            if isinstance(parts[0], tuple):
-                out = tuple(np.concatenate(p) for p in zip(*parts))
+        with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported below, by state
+            if B <= CHUNK:
+                out = kernel(*arrays)
             else:
-                out = np.concatenate(parts)
+                parts = [kernel(*(a[k:k + CHUNK] for a in arrays)) for k in range(0, B, CHUNK)]
+                if isinstance(parts[0], tuple):
+                    out = tuple(np.concatenate(p) for p in zip(*parts))
+                else:
+                    out = np.concatenate(parts)
+        for x in (out if isinstance(out, tuple) else (out,)):
+            if not _isfinite(np.add.reduce(x.reshape(-1))):  # finite states in: say where it overflowed
+                code = getattr(kernel, "__code__", None)
+                names = code.co_varnames[1:1 + len(arrays)] if code is not None else ()
+                what = _KERNEL_NAMES.get(getattr(kernel, "__name__", ""), "trace form")
+                check_result(x, what, **{nm: (a[0] if single else a) for nm, a in zip(names, arrays)})
         if single:
             return tuple(x[0] for x in out) if isinstance(out, tuple) else out[0]
         return out

@@ -18,11 +18,12 @@ import os
 import numpy as np
 import pinocchio as pin
 
-from ._state import as_state, same_batch
+from ._state import as_state, check_result, same_batch
 from .errors import ModelError, SingularMassMatrixError
 from .urdf_out import TOOL_LINK, arm_to_urdf
 
 _isfinite = math.isfinite
+_F64 = np.dtype(np.float64)  # native byte order: '>f8' is another object
 _crba, _rnea, _aba, _gravity = pin.crba, pin.rnea, pin.aba, pin.computeGeneralizedGravity
 
 #: below this many states a batch runs on one thread (thread start-up costs
@@ -117,6 +118,8 @@ class PinocchioEngine:
         self._model0.gravity.linear = np.zeros(3)
         self._data0 = self._model0.createData()
         self._zeros = np.zeros(self.n)
+        # a prismatic joint's huge q can overflow D and g: check those results
+        self._prismatic = any(j.shortname().startswith("JointModelP") for j in model.joints[1:])
         self.friction = None
         if friction is not None and np.any(friction):
             self.friction = np.asarray(friction, dtype=np.float64)
@@ -167,20 +170,22 @@ class PinocchioEngine:
     def mass_matrix(self, q) -> np.ndarray:
         """Inertia matrix D(q) by CRBA, (n, n) or (N, n, n); full and symmetric."""
         try:
-            if q.ndim == 1 and _isfinite(sum(q.tolist())):  # inline: a call costs ~0.1 us
-                return _crba(self.model, self.data, q)
+            if q.dtype is _F64 and q.ndim == 1 and _isfinite(sum(q.tolist())):  # inline: a call costs ~0.1 us
+                if not self._prismatic:  # rotations are bounded: finite q, finite D
+                    return _crba(self.model, self.data, q)
         except _FAST_ERRORS:
             pass
         q = as_state(q, "q", self.n)
         if q.ndim == 1:
-            return _crba(self.model, self.data, q)
+            return check_result(_crba(self.model, self.data, q), "mass_matrix", q=q)
         m, d = self.model, self.data
-        return np.array([pin.crba(m, d, qi) for qi in q]).reshape(len(q), self.n, self.n)
+        D = np.array([pin.crba(m, d, qi) for qi in q]).reshape(len(q), self.n, self.n)
+        return check_result(D, "mass_matrix", q=q)
 
     def coriolis_torque(self, q, qd) -> np.ndarray:
         """Coriolis and centripetal torque h(q, qd), (n,) or (N, n) (no friction)."""
         try:
-            if q.ndim == 1 and qd.ndim == 1:
+            if q.dtype is _F64 and qd.dtype is _F64 and q.ndim == 1 and qd.ndim == 1:
                 h = _rnea(self._model0, self._data0, q, qd, self._zeros)
                 if _isfinite(sum(h.tolist())):
                     return h
@@ -189,22 +194,26 @@ class PinocchioEngine:
         q = as_state(q, "q", self.n)
         qd = as_state(qd, "qd", self.n)
         if q.ndim == 1 and qd.ndim == 1:
-            return _rnea(self._model0, self._data0, q, qd, self._zeros)
+            return check_result(_rnea(self._model0, self._data0, q, qd, self._zeros), "coriolis_torque",
+                                q=q, qd=qd)
         same_batch((q, "q"), (qd, "qd"))
-        return self._rnea_batch(self._get_pool0(), q, qd, np.zeros(q.shape))
+        return check_result(self._rnea_batch(self._get_pool0(), q, qd, np.zeros(q.shape)),
+                            "coriolis_torque", q=q, qd=qd)
 
     def gravity_torque(self, q) -> np.ndarray:
         """Gravity torque g(q): the torque that holds the arm still, (n,) or (N, n)."""
         try:
-            if q.ndim == 1 and _isfinite(sum(q.tolist())):
-                return _gravity(self.model, self.data, q)
+            if q.dtype is _F64 and q.ndim == 1 and _isfinite(sum(q.tolist())):
+                if not self._prismatic:
+                    return _gravity(self.model, self.data, q)
         except _FAST_ERRORS:
             pass
         q = as_state(q, "q", self.n)
         if q.ndim == 1:
-            return _gravity(self.model, self.data, q)
+            return check_result(_gravity(self.model, self.data, q), "gravity_torque", q=q)
         zeros = np.zeros(q.shape)
-        return self._rnea_batch(self._get_pool(), q, zeros, zeros)  # g(q) = rnea(q, 0, 0)
+        g = self._rnea_batch(self._get_pool(), q, zeros, zeros)  # g(q) = rnea(q, 0, 0)
+        return check_result(g, "gravity_torque", q=q)
 
     def friction_torque(self, qd) -> np.ndarray:
         """Joint friction ``Fv qd + Fc sign(qd)`` (zero if none)."""
@@ -219,7 +228,8 @@ class PinocchioEngine:
         """Joint torques by RNEA, ``tau = D qdd + h + g`` (+ friction), (n,) or (N, n)."""
         if self.friction is None:
             try:
-                if q.ndim == 1 and qd.ndim == 1 and qdd.ndim == 1:
+                if (q.dtype is _F64 and qd.dtype is _F64 and qdd.dtype is _F64
+                        and q.ndim == 1 and qd.ndim == 1 and qdd.ndim == 1):
                     tau = _rnea(self.model, self.data, q, qd, qdd)
                     if _isfinite(sum(tau.tolist())):
                         return tau
@@ -235,13 +245,14 @@ class PinocchioEngine:
             tau = self._rnea_batch(self._get_pool(), q, qd, qdd)
         if self.friction is not None:
             tau = tau + self._friction(qd)
-        return tau
+        return check_result(tau, "inverse_dynamics", q=q, qd=qd, qdd=qdd)
 
     def forward_dynamics(self, q, qd, tau) -> np.ndarray:
         """Joint accelerations by ABA, solving ``D qdd = tau - h - g`` (- friction)."""
         if self.friction is None:
             try:
-                if q.ndim == 1 and qd.ndim == 1 and tau.ndim == 1:
+                if (q.dtype is _F64 and qd.dtype is _F64 and tau.dtype is _F64
+                        and q.ndim == 1 and qd.ndim == 1 and tau.ndim == 1):
                     qdd = _aba(self.model, self.data, q, qd, tau)
                     if _isfinite(sum(qdd.tolist())):
                         return qdd
@@ -266,7 +277,7 @@ class PinocchioEngine:
             w = np.linalg.eigvalsh(D)
             if np.any(w[:, 0] <= 1e-12 * np.maximum(1.0, np.abs(w[:, -1]))):
                 raise SingularMassMatrixError.for_mass_matrix(D)
-        return qdd
+        return check_result(qdd, "forward_dynamics", q=q, qd=qd, tau=tau)
 
     def kinetic_energy(self, q, qd):
         """Kinetic energy (J), rotors included; scalar or (N,)."""
