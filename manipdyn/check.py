@@ -127,15 +127,21 @@ def draw_states(arm, samples: int, seed: int = 0):
     return q, qd, qdd
 
 
-def _compare(name, ref, other, states, tol=TOLERANCE) -> QuantityError:
+def _errors(ref, other):
+    """Per-state absolute error and scale of one chunk: two (B,) arrays."""
     ref = np.asarray(ref, dtype=np.float64)
     other = np.asarray(other, dtype=np.float64)
     N = ref.shape[0]
-    diff = np.abs(other - ref).reshape(N, -1)
-    scale = np.maximum(1.0, np.abs(ref).reshape(N, -1).max(axis=1))
-    abs_err = diff.max(axis=1)
+    with np.errstate(invalid="ignore", over="ignore"):
+        diff = np.abs(other - ref).reshape(N, -1)
+        scale = np.maximum(1.0, np.abs(ref).reshape(N, -1).max(axis=1))
+        abs_err = diff.max(axis=1)
     # a NaN anywhere is a disagreement, never a silent pass
     abs_err = np.where(np.isfinite(abs_err), abs_err, np.inf)
+    return abs_err, np.where(np.isfinite(scale), scale, 1.0)
+
+
+def _compare(name, abs_err, scale, states, tol=TOLERANCE) -> QuantityError:
     rel = abs_err / scale
     i = int(np.argmax(rel))
     return QuantityError(
@@ -143,6 +149,10 @@ def _compare(name, ref, other, states, tol=TOLERANCE) -> QuantityError:
         max_abs=float(abs_err.max()), max_rel=float(rel[i]), worst_index=i,
         worst_state={k: v[i] for k, v in states.items()}, tolerance=tol,
     )
+
+
+#: doubles of one (states x n x n) array the cross-check holds at a time
+CHUNK_DOUBLES = 2_000_000
 
 
 def crosscheck(arm, samples: int = 1000, seed: int = 0, chunk: int = 500, progress=None) -> CrosscheckReport:
@@ -156,7 +166,10 @@ def crosscheck(arm, samples: int = 1000, seed: int = 0, chunk: int = 500, progre
     seed : int
         Seed of the state generator (``numpy.random.default_rng``).
     chunk : int
-        States per batch (bounds memory of the trace-form batch).
+        States per batch, at most; fewer on long chains so that a batch's
+        (states, n, n) arrays hold at most :data:`CHUNK_DOUBLES` numbers.
+        Only per-state errors are kept between batches: memory grows
+        linearly with ``samples`` and with ``n**2`` per batch.
     progress : callable, optional
         Called as ``progress(done, total)`` after each chunk.
 
@@ -174,10 +187,13 @@ def crosscheck(arm, samples: int = 1000, seed: int = 0, chunk: int = 500, progre
     parts: dict[str, list] = {}
     skipped: dict[str, str] = {}
 
+    chunk = max(1, min(int(chunk), CHUNK_DOUBLES // (arm.n * arm.n)))
+
     def add(key, a, b):
-        ra, rb = parts.setdefault(key, ([], []))
-        ra.append(a)
-        rb.append(b)
+        ea, es = parts.setdefault(key, ([], []))
+        e, sc = _errors(a, b)
+        ea.append(e)
+        es.append(sc)
 
     for start in range(0, samples, chunk):
         sl = slice(start, min(samples, start + chunk))

@@ -82,6 +82,9 @@ class TraceFormEngine:
         self.armature = np.zeros(self.n) if armature is None else np.asarray(armature, dtype=np.float64)
         self._has_armature = bool(np.any(self.armature))
         self._armature_diag = np.diag(self.armature)
+        # states per block: CHUNK, fewer on long chains so that one (B, n, n)
+        # temporary stays within about 16 MB (memory linear in N, chunked)
+        self._chunk = max(1, min(CHUNK, 2_000_000 // (self.n * self.n)))
         self._upper = np.triu(np.ones((self.n, self.n), dtype=bool))
         self._tail = np.triu(np.ones((self.n, self.n)))        # sum over p >= k
         self._head = np.tril(np.ones((self.n, self.n)))        # sum over p <= k
@@ -163,6 +166,7 @@ class TraceFormEngine:
         twice as fast as one pass.  ``single`` strips the batch axis again.
         """
         B = arrays[0].shape[0]
+        CHUNK = self._chunk
         with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported below, by state
             if B <= CHUNK:
                 out = kernel(*arrays)

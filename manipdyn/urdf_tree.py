@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import limits
 from .errors import ModelError
 from .inertia import LinkInertia
 from .urdf_xml import (KNOWN_TYPES, MOVABLE, one_child, read_name, read_number, read_origin,
@@ -104,6 +105,9 @@ def read_joint(el, label: str) -> URDFJoint:
             # URDF requires effort and velocity; Pinocchio's reader refuses the file without them
             effort = read_number(lim, "effort", where)
             velocity = read_number(lim, "velocity", where)
+            if effort < 0 or velocity < 0:
+                raise ModelError(f"{where}: <limit effort={effort} velocity={velocity}>: both must be >= 0 "
+                                 "(they are magnitudes; Pinocchio's reader refuses negative ones)")
             if jtype != "continuous" and (lim.get("lower") is not None or lim.get("upper") is not None):
                 lower = read_number(lim, "lower", where, default=0.0)
                 upper = read_number(lim, "upper", where, default=0.0)
@@ -141,6 +145,10 @@ class URDFTree:
         if root_el.tag != "robot":
             raise ModelError(f"{label}: the root element is <{root_el.tag}>, expected <robot>")
         self.robot_name = root_el.get("name") or ""
+        for tag in ("link", "joint"):
+            count = sum(1 for _ in root_el.iterchildren(tag))
+            if count > limits.MAX_LINKS:
+                raise limits.over_limit(label, f"the number of <{tag}> elements", count, "MAX_LINKS")
         self.links: dict[str, URDFLink] = {}
         for el in root_el.iterchildren("link"):
             link = read_link(el, label)
@@ -186,6 +194,19 @@ class URDFTree:
                 f"{label}: links {some_names(cut)} are not reachable from the root link "
                 f"'{self.root}': their joints form a kinematic loop"
             )
+        self.check_fixed_runs()
+
+    def check_fixed_runs(self) -> None:
+        """Refuse more than :data:`manipdyn.limits.MAX_FIXED_RUN` fixed joints in a row."""
+        stack = [(self.root, 0)]
+        while stack:
+            ln, run = stack.pop()
+            for j in self.children[ln]:
+                r = run + 1 if j.type == "fixed" else 0
+                if r > limits.MAX_FIXED_RUN:
+                    raise limits.over_limit(f"{j.where}", "the number of fixed joints in a row ending here",
+                                            r, "MAX_FIXED_RUN")
+                stack.append((j.child, r))
 
     def path(self, link: str) -> list[URDFJoint]:
         """Joints from the root down to ``link``."""
