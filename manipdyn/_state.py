@@ -51,7 +51,8 @@ _KIND_NAMES = {"b": "bool", "c": "complex", "O": "object", "M": "datetime64", "m
 
 
 def _refuse(name: str, n: int, what: str):
-    return StateError(f"{name}: expected real numbers, an array of shape ({n},) or (N, {n}), got {what}")
+    sep = ", " if what.startswith("could not") else ", got "
+    return StateError(f"{name}: expected a real array of shape ({n},) or (N, {n}){sep}{what}")
 
 
 def state_array(x, name: str, n: int) -> np.ndarray:
@@ -71,6 +72,8 @@ def state_array(x, name: str, n: int) -> np.ndarray:
                                "or the unmasked rows")
     if isinstance(x, (bool, np.bool_)):
         raise _refuse(name, n, "a bool")
+    if isinstance(x, (str, bytes)):
+        raise _refuse(name, n, f"could not convert {type(x).__name__} {x!r:.40}")
     if isinstance(x, np.ndarray):
         src = x
     else:

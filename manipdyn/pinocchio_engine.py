@@ -20,6 +20,7 @@ import pinocchio as pin
 
 from ._state import as_state, check_result, same_batch
 from .errors import ModelError, SingularMassMatrixError
+from .pinocchio_agree import check_same_arm
 from .urdf_out import TOOL_LINK, arm_to_urdf
 
 _isfinite = math.isfinite
@@ -56,10 +57,17 @@ def model_for_arm(arm) -> "pin.Model":
     """Pinocchio's model of ``arm``: from the original URDF text when the arm came
     from a file (reduced by locking its off-chain joints at ``pin.neutral``, 0),
     otherwise from the URDF generated from the arm's chain."""
+    where = getattr(arm, "source", "") or arm.name or "arm"
     if arm.source_urdf is None:
-        return model_from_urdf(arm_to_urdf(arm), arm.gravity, arm.armature)
-    where = getattr(arm, "source", "") or arm.name
-    model = pin.buildModelFromXML(arm.source_urdf)
+        model = model_from_urdf(arm_to_urdf(arm), arm.gravity, arm.armature)
+        check_same_arm(model, arm, where)
+        return model
+    try:
+        model = pin.buildModelFromXML(arm.source_urdf)
+    except (RuntimeError, ValueError) as exc:
+        msg = " ".join(str(exc).split())
+        raise ModelError(f"{where}: Pinocchio's URDF reader (urdfdom) refuses the file that manipdyn "
+                         f"read: {msg}") from None
     if arm.locked_joints:
         ids = []
         for nm in arm.locked_joints:
@@ -75,6 +83,7 @@ def model_for_arm(arm) -> "pin.Model":
         )
     if not (model.nq == model.nv == arm.n):
         raise ModelError(f"{where}: Pinocchio's model has nq={model.nq}, nv={model.nv}; expected {arm.n}")
+    check_same_arm(model, arm, where)  # both readers must read the same arm
     model.gravity.linear = np.array(arm.gravity)
     model.armature = np.array(arm.armature)
     return model
