@@ -22,9 +22,10 @@ from typing import Callable, Literal, NamedTuple, get_args
 
 import numpy as np
 
+from . import limits
 from .errors import ModelError
 from .kinematics import ChainKinematics, DHKinematics, rot_x, rot_z, trans
-from .links import ChainJoint, DHLink
+from .links import ChainJoint, DHLink, check_name
 
 __all__ = ["Arm", "Manipulator", "URDFArm", "Convention", "TraceFormData", "register_engine",
            "register_service", "DEFAULT_QLIM", "joint_letters", "as_gravity"]
@@ -307,13 +308,15 @@ class Manipulator(Arm):
         links = tuple(links)
         if not links:
             raise ModelError("links: an arm needs at least one DHLink, got none")
+        if len(links) > limits.MAX_JOINTS:
+            raise limits.over_limit("links", "the number of links", len(links), "MAX_JOINTS")
         for i, l in enumerate(links):
             if not isinstance(l, DHLink):
                 raise ModelError(f"links[{i}]: expected a DHLink, got {type(l).__name__}")
         self.links = links
         self.convention = convention
         self.gravity = as_gravity(gravity)
-        self.name = str(name)
+        self.name = check_name(str(name), "Manipulator", "name")
         self.source = str(source)
         self.sources = dict(sources or {})
         self.description = str(description)
@@ -422,7 +425,7 @@ class URDFArm(Arm):
     def __init__(self, *, name, gravity, source, urdf_text, pin_text, root, tip, joints, tool,
                  locked, members, path=None):
         super().__init__()
-        self.name = str(name)
+        self.name = check_name(str(name), "URDFArm", "name")
         self.gravity = as_gravity(gravity)
         self.source = source
         self.urdf_text = urdf_text

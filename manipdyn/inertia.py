@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import limits
 from .errors import ModelError, PhysicalConsistencyWarning
 
 __all__ = [
@@ -49,9 +50,9 @@ def as_vector3(value, where: str, field_name: str) -> np.ndarray:
     """Return ``value`` as a finite float 3-vector or raise ModelError naming it."""
     try:
         arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError, RecursionError):
         raise ModelError(
-            f"{where}: field '{field_name}' must be 3 numbers (x, y, z), got {value!r}"
+            f"{where}: field '{field_name}' must be 3 numbers (x, y, z), got {value!r:.200}"
         ) from None
     if arr.shape != (3,):
         raise ModelError(
@@ -59,6 +60,7 @@ def as_vector3(value, where: str, field_name: str) -> np.ndarray:
         )
     if not np.all(np.isfinite(arr)):
         raise ModelError(f"{where}: field '{field_name}' must be finite, got {arr.tolist()}")
+    limits.check_magnitude(arr, where, field_name)
     return arr
 
 
@@ -72,9 +74,9 @@ def as_tensor3(value, where: str, field_name: str = "inertia") -> np.ndarray:
     """
     try:
         arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError, RecursionError):
         raise ModelError(
-            f"{where}: field '{field_name}' must be a 3x3 matrix or 3 diagonal values, got {value!r}"
+            f"{where}: field '{field_name}' must be a 3x3 matrix or 3 diagonal values, got {value!r:.200}"
         ) from None
     if arr.shape == (3,):
         arr = np.diag(arr)
@@ -90,6 +92,7 @@ def as_tensor3(value, where: str, field_name: str = "inertia") -> np.ndarray:
         )
     if not np.all(np.isfinite(arr)):
         raise ModelError(f"{where}: field '{field_name}' must be finite, got {arr.tolist()}")
+    limits.check_magnitude(arr, where, field_name, " kg m^2")
     scale = max(1e-300, float(np.max(np.abs(arr))))
     if np.max(np.abs(arr - arr.T)) > 1e-12 * scale:
         raise ModelError(
@@ -294,10 +297,11 @@ class LinkInertia:
         where = self.name
         try:
             m = float(self.mass)
-        except (TypeError, ValueError):
-            raise ModelError(f"{where}: field 'mass' must be a number in kg, got {self.mass!r}") from None
+        except (TypeError, ValueError, OverflowError):
+            raise ModelError(f"{where}: field 'mass' must be a number in kg, got {self.mass!r:.60}") from None
         if not math.isfinite(m):
             raise ModelError(f"{where}: field 'mass' must be finite, got {m}")
+        limits.check_magnitude(m, where, "mass", " kg")
         if m < 0:
             raise ModelError(f"{where}: field 'mass' must be >= 0 kg, got {m}")
         object.__setattr__(self, "mass", m)
@@ -372,7 +376,10 @@ class LinkInertia:
             if np.max(np.abs(I)) > 0:
                 problems.append("rotational inertia on a massless link (mass = 0, inertia != 0)")
             return problems
-        principal = np.linalg.eigvalsh(I)
+        try:
+            principal = np.linalg.eigvalsh(I)
+        except np.linalg.LinAlgError:  # cannot happen within limits.MAX_MAGNITUDE; never leak it
+            return [f"the inertia tensor's principal moments cannot be computed ({I.tolist()})"]
         tol = _PSD_RTOL * scale
         if principal[0] < -tol:
             problems.append(f"negative principal moment of inertia {principal[0]:.6g} kg m^2")

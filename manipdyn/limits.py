@@ -15,14 +15,19 @@ from __future__ import annotations
 
 from .errors import ModelError
 
-__all__ = ["MAX_FILE_BYTES", "MAX_LINKS", "MAX_JOINTS", "MAX_FIXED_RUN", "MAX_MAGNITUDE", "over_limit"]
+__all__ = ["MAX_FILE_BYTES", "MAX_MODEL_FILE_BYTES", "MAX_LINKS", "MAX_JOINTS", "MAX_FIXED_RUN", "MAX_MAGNITUDE", "over_limit"]
 
 #: largest URDF or model file read, bytes (16 MiB; real ones are under 1 MiB)
 MAX_FILE_BYTES = 16 * 1024 * 1024
+#: largest model file (.toml) read, bytes (1 MiB; the bundled ones are under 10 kB)
+MAX_MODEL_FILE_BYTES = 1024 * 1024
 #: most ``<link>`` (and so ``<joint>``) elements in a URDF
 MAX_LINKS = 1000
-#: most movable joints in an arm's chain (URDF chain, DH table, model file)
-MAX_JOINTS = 300
+#: most movable joints in an arm's chain (URDF chain, DH table, model file).
+#: Pinocchio's ``Data`` holds four n x n x n tensors (second-order derivatives):
+#: 32 MB at n = 100, 860 MB at n = 300, and an engine holds up to six of them
+#: (its own, the gravity-free twin's, one per thread of each batch pool)
+MAX_JOINTS = 100
 #: most fixed joints in a row along any root-to-leaf path of a URDF
 MAX_FIXED_RUN = 200
 #: largest magnitude of any model number (lengths in m, masses in kg, inertias
@@ -38,3 +43,17 @@ def over_limit(where: str, what: str, value, name: str) -> ModelError:
         f"{where}: {what} is {value}, over the limit of {limit:g} (manipdyn.limits.{name}); "
         f"if the model is trusted, raise it: manipdyn.limits.{name} = ..."
     )
+
+
+def check_magnitude(value, where: str, field: str, unit: str = "") -> None:
+    """Raise :class:`ModelError` if any entry of ``value`` exceeds :data:`MAX_MAGNITUDE`."""
+    import numpy as np
+
+    arr = np.abs(np.asarray(value, dtype=np.float64))
+    if arr.size and not float(arr.max()) <= MAX_MAGNITUDE:
+        worst = float(arr.reshape(-1)[int(np.argmax(arr))])
+        raise ModelError(
+            f"{where}: field '{field}' has magnitude {worst:g}{unit}, over {MAX_MAGNITUDE:g} "
+            "(manipdyn.limits.MAX_MAGNITUDE): products of such numbers overflow float64; "
+            "check the units, or raise the limit for a trusted model"
+        )

@@ -54,6 +54,7 @@ from pathlib import Path
 import numpy as np
 
 from ._files import atomic_write_text
+from . import limits
 from .arm import Manipulator
 from .errors import ModelError
 from .links import DHLink
@@ -96,9 +97,19 @@ def load_model_file(path, strict: bool = False) -> Manipulator:
     """Read a TOML model file (format in this module's docstring)."""
     path = os.fspath(path)
     try:
-        text = Path(path).read_text(encoding="utf-8")
+        with open(path, "rb") as fh:
+            data = fh.read(limits.MAX_MODEL_FILE_BYTES + 1)
     except OSError as exc:
         raise ModelError(f"{path}: cannot read model file: {exc.strerror or exc}") from None
+    if len(data) > limits.MAX_MODEL_FILE_BYTES:
+        raise limits.over_limit(path, "the model file size", f"over {limits.MAX_MODEL_FILE_BYTES} bytes",
+                                "MAX_MODEL_FILE_BYTES")
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data[:exc.start].count(b"\n") + 1
+        raise ModelError(f"{path}: a model file is UTF-8 text; byte offset {exc.start} (line {line}) is "
+                         f"not: {exc.reason} (byte {data[exc.start:exc.start + 1]!r})") from None
     return parse_model(text, path, strict=strict)
 
 
@@ -108,9 +119,16 @@ def load_model_file(path, strict: bool = False) -> Manipulator:
 def _num(value, where: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ModelError(f"{where}: expected a number, got {type(value).__name__} {value!r}")
-    v = float(value)
+    try:
+        v = float(value)
+    except OverflowError:
+        raise ModelError(f"{where}: expected a finite number, got an integer of {len(str(abs(value)))} "
+                         "digits (beyond the float64 range)") from None
     if not math.isfinite(v):
         raise ModelError(f"{where}: expected a finite number, got {value!r}")
+    if abs(v) > limits.MAX_MAGNITUDE:
+        raise ModelError(f"{where}: magnitude {abs(v):g} is over {limits.MAX_MAGNITUDE:g} "
+                         "(manipdyn.limits.MAX_MAGNITUDE): products of such numbers overflow float64")
     return v
 
 
@@ -154,10 +172,17 @@ def _inertia(value, scale: float, where: str) -> np.ndarray:
 
 def parse_model(text: str, origin: str = "<model>", strict: bool = False) -> Manipulator:
     """Parse model-file text; ``origin`` names the file in error messages."""
+    if not isinstance(text, str):
+        raise ModelError(f"{origin}: model text must be a str, got {type(text).__name__}")
+    if len(text) > limits.MAX_MODEL_FILE_BYTES:
+        raise limits.over_limit(origin, "the model text length", f"{len(text)} characters",
+                                "MAX_MODEL_FILE_BYTES")
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ModelError(f"{origin}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise ModelError(f"{origin}: not a model file: arrays or tables nested too deeply") from None
     unknown = set(data) - _TOP_KEYS
     if unknown:
         raise ModelError(f"{origin}: unknown key(s) {sorted(unknown)}; expected some of {sorted(_TOP_KEYS)}")

@@ -133,7 +133,7 @@ def refuse_raw_whitespace(text: str, label: str) -> None:
         if _RAW_WS.search(m.group(2)):
             line = body.count("\n", 0, m.start()) + 1
             raise ModelError(
-                f"{label}, line {line}: {m.group(1)}={m.group(2)!r}: a tab or line break inside a "
+                f"{label}, line {line}: {m.group(1)}={m.group(2)[1:-1]!r}: a tab or line break inside a "
                 "number attribute; separate the numbers with spaces (urdfdom, Pinocchio's reader, "
                 "reads the attribute differently)"
             )
@@ -189,11 +189,29 @@ def parse_number(s: str):
     return v
 
 
+def why_not_a_number(s: str) -> str:
+    """Why ``s`` (one number, no spaces expected) is refused, in words."""
+    if s != s.rstrip():
+        return "a trailing space or line break (urdfdom refuses it)"
+    if any(not c.isascii() for c in s):
+        return "non-ASCII characters (urdfdom reads ASCII digits only)"
+    if not NUMBER.match(s):
+        return "not a decimal number (no nan, inf, hex or 1_000)"
+    v = float(s)
+    if not math.isfinite(v) or abs(v) > limits.MAX_MAGNITUDE:
+        return (f"magnitude over {limits.MAX_MAGNITUDE:g} (manipdyn.limits.MAX_MAGNITUDE: products of "
+                "such numbers overflow)")
+    return "a non-zero number that underflows to 0 (urdfdom refuses it)"
+
+
 def _bad_number(where, el, attr, raw, expected) -> ModelError:
-    return ModelError(
-        f"{where}: <{el.tag} {attr}=\"{raw}\">: {expected} (ASCII digits, magnitude at most "
-        f"{limits.MAX_MAGNITUDE:g} = manipdyn.limits.MAX_MAGNITUDE, no nan or inf)"
-    )
+    if expected.startswith("expected 3"):
+        parts = [p for p in raw.split(" ") if p]
+        bad = [p for p in parts if parse_number(p) is None]
+        why = f"{len(parts)} found" if not bad else f"{bad[0]!r}: {why_not_a_number(bad[0])}"
+    else:
+        why = why_not_a_number(raw.lstrip(" "))
+    return ModelError(f"{where}: <{el.tag} {attr}=\"{raw}\">: {expected}: {why}")
 
 
 def read_number(el, attr: str, where: str, default=None) -> float:
@@ -206,7 +224,7 @@ def read_number(el, attr: str, where: str, default=None) -> float:
         return default
     v = parse_number(raw.lstrip(" "))
     if v is None:
-        raise _bad_number(where, el, attr, raw, "not a finite number, or a trailing space")
+        raise _bad_number(where, el, attr, raw, "not a finite number")
     return v
 
 
