@@ -15,12 +15,12 @@
 from __future__ import annotations
 
 import dataclasses
-import math
 import warnings
 
 import numpy as np
 
 import manipdyn as md
+from manipdyn.random_arms import random_arm
 
 #: bundled arms timed when present, in this order
 BENCH_ARMS = ("puma560", "stanford", "ur5", "ur10")
@@ -59,44 +59,10 @@ def bench_arms(names=None):
     return arms, skipped
 
 
-def _rotation(rng):
-    Q, R = np.linalg.qr(rng.standard_normal((3, 3)))
-    Q = Q * np.sign(np.diag(R))
-    if np.linalg.det(Q) < 0:
-        Q[:, 0] = -Q[:, 0]
-    return Q
-
-
-def _physical_inertia(rng, lo=1e-3, hi=0.2):
-    """``R diag(p) R^T`` with principal moments obeying the triangle inequalities."""
-    p1, p2 = rng.uniform(lo, hi, size=2)
-    low, high = abs(p1 - p2), p1 + p2
-    p3 = rng.uniform(low + 0.05 * (high - low), high - 0.05 * (high - low))
-    R = _rotation(rng)
-    I = R @ np.diag(rng.permutation([p1, p2, p3])) @ R.T
-    return 0.5 * (I + I.T)
-
-
-def _random_link(rng, joint, name):
-    return md.DHLink(
-        joint=joint,
-        a=float(rng.uniform(-0.5, 0.5)), alpha=float(rng.uniform(-math.pi, math.pi)),
-        d=float(rng.uniform(-0.5, 0.5)), theta=float(rng.uniform(-math.pi, math.pi)),
-        mass=float(rng.uniform(0.2, 5.0)), com=rng.uniform(-0.3, 0.3, size=3),
-        inertia=_physical_inertia(rng), name=name,
-    )
-
-
 def random_chain(n, seed=0, convention="standard", joints=None, gravity=(0.0, 0.0, -9.81), name=None):
-    """A seeded random DH arm with physical inertias (all revolute unless ``joints`` says)."""
-    rng = np.random.default_rng(seed)
-    joints = joints or "R" * n
-    links = [_random_link(rng, "prismatic" if j == "P" else "revolute", f"L{i + 1}")
-             for i, j in enumerate(joints)]
-    with warnings.catch_warnings():
-        warnings.simplefilter("error", md.PhysicalConsistencyWarning)
-        return md.Manipulator(links, convention=convention, gravity=gravity,
-                              name=name or f"random{n}{convention[0]}", strict=True)
+    """A seeded random DH arm with physical inertias, no rotors (all revolute unless ``joints`` says)."""
+    return random_arm(seed, convention=convention, joints=joints or "R" * n, gravity=gravity,
+                      rotors=False, name=name)
 
 
 def probe_arms():

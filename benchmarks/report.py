@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .run import IMPL_LABEL, IMPLS, OPS
+from .cases import IMPL_LABEL, IMPLS, OPS
 
 _SHORT = {"manipdyn": "fast", "pinocchio": "pin", "lagrange": "trace1", "lagrange_batch": "traceB",
           "rtb": "rtb", "rtb_Cqd": "rtb C@qd"}

@@ -34,7 +34,8 @@ import manipdyn as md
 from manipdyn._files import atomic_write, atomic_write_text
 
 from . import arm_set as bench_arms_mod
-from . import rtb_adapter
+from . import report, rtb_adapter
+from .cases import ARGS, IMPL_LABEL, IMPLS, OPS
 from .referee import Referee
 from .timing import interleaved, loop_overhead, paired_ratio, profile_top
 
@@ -42,26 +43,6 @@ SCHEMA = "manipdyn-bench/1"
 HERE = os.path.dirname(os.path.abspath(__file__))
 DEFAULT_OUT = os.path.join(HERE, "results")
 
-OPS = ("mass_matrix", "coriolis_torque", "gravity_torque", "inverse_dynamics", "forward_dynamics",
-       "dynamics_terms")
-ARGS = {
-    "mass_matrix": ("q",),
-    "coriolis_torque": ("q", "qd"),
-    "gravity_torque": ("q",),
-    "inverse_dynamics": ("q", "qd", "qdd"),
-    "forward_dynamics": ("q", "qd", "tau"),
-    "dynamics_terms": ("q", "qd"),
-}
-#: implementations, in table order
-IMPLS = ("manipdyn", "pinocchio", "lagrange", "lagrange_batch", "rtb", "rtb_Cqd")
-IMPL_LABEL = {
-    "manipdyn": "manipdyn fast path",
-    "pinocchio": "raw Pinocchio",
-    "lagrange": "trace form, 1 state",
-    "lagrange_batch": "trace form, per state in a batch",
-    "rtb": "Robotics Toolbox (DHRobot)",
-    "rtb_Cqd": "Toolbox coriolis(q, qd) @ qd",
-}
 #: relative tolerance against the energy referee (which is exact to ~1e-10)
 TOL = 1e-6
 
@@ -829,8 +810,6 @@ def main(argv=None):
         "section_durations_s": {k: round(v, 1) for k, v in sections.items()},
     }
     results["duration_s"] = round(time.perf_counter() - t_start, 1)
-    from . import report
-
     text_table = report.console(results)
     log(text_table)
     atomic_write_text(os.path.join(out_dir, "latest.json"), json.dumps(_clean(results), indent=1) + "\n")

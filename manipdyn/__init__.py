@@ -1,5 +1,7 @@
 """manipdyn: serial-arm dynamics computed two independent ways, and checked.
 
+Layer: the package top: wires the engines into the model and exports the public names.
+
 * ``arm.lagrange``: the trace-form Lagrange-Euler engine of chapter II;
 * ``arm.pinocchio``: Pinocchio's RNEA/CRBA/ABA on the arm's URDF;
 * :func:`crosscheck`: proof that the two agree.

@@ -1,4 +1,7 @@
-"""Atomic file writes: a failure never leaves a partial file behind."""
+"""Atomic file writes: a failure never leaves a partial file behind.
+
+Layer: 0 (utilities): atomic file writes.
+"""
 
 from __future__ import annotations
 

@@ -1,5 +1,7 @@
 """Validation of joint-state arguments at the API boundary.
 
+Layer: 0 (utilities): joint-state validation at the API boundary.
+
 Every public dynamics function accepts one state of shape ``(n,)`` or a batch
 of shape ``(N, n)``; these helpers check that and name the argument when it
 is wrong.

@@ -1,5 +1,7 @@
 """The cross-check: the trace-form engine against the Pinocchio engine.
 
+Layer: 5 (the cross-check): talks to the two engines only through :class:`manipdyn.engine.DynamicsEngine`.
+
 For seeded random states within the joint limits, every quantity is computed
 by both engines and compared: D, h, C (the Coriolis matrix), g, tau, the
 forward dynamics of those torques, the end pose and both energies.  The error of one state is

@@ -1,5 +1,7 @@
 """Are two descriptions the same arm?  (``md.compare(a, b)``, ``manipdyn compare A B``)
 
+Layer: application (compare).
+
 Typical use: a datasheet DH table against the vendor's URDF.  The two
 descriptions may put the base and tool frames elsewhere, count a joint the
 other way round, or start it from another zero.  :func:`compare` finds, in

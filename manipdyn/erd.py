@@ -1,5 +1,7 @@
 """The URDFs shipped by example-robot-data, found from its installed files.
 
+Layer: model loaders (finds the URDFs of example-robot-data).
+
 example-robot-data 5 and later ship URDF files only (under the package's
 ``cmeel.prefix/share/example-robot-data/robots/``), no Python loader::
 

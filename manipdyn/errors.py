@@ -1,5 +1,7 @@
 """Exceptions and warnings raised by manipdyn.
 
+Layer: 0 (utilities): the exceptions every layer raises.
+
 Both error classes subclass the built-in they refine, so callers may catch
 either ``manipdyn.ModelError`` or plain ``ValueError``.
 """

@@ -1,5 +1,7 @@
 """Rigid-body inertia of one link and its pseudo-inertia matrix (eq. 2.20, 2.21).
 
+Layer: 2 (inertia with J): every conversion between inertia conventions lives here.
+
 Conventions (see CONVENTIONS.md):
 
 * ``inertia`` is the inertia TENSOR about the centre of mass, in the link
@@ -46,14 +48,17 @@ def _readonly(a: np.ndarray) -> np.ndarray:
     return a
 
 
+def _as_float_array(value, where: str, field_name: str, expected: str) -> np.ndarray:
+    """``value`` as a float array, or a ModelError naming the field and the ``expected`` form."""
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError, RecursionError):
+        raise ModelError(f"{where}: field '{field_name}' must be {expected}, got {value!r:.200}") from None
+
+
 def as_vector3(value, where: str, field_name: str) -> np.ndarray:
     """Return ``value`` as a finite float 3-vector or raise ModelError naming it."""
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError, OverflowError, RecursionError):
-        raise ModelError(
-            f"{where}: field '{field_name}' must be 3 numbers (x, y, z), got {value!r:.200}"
-        ) from None
+    arr = _as_float_array(value, where, field_name, "3 numbers (x, y, z)")
     if arr.shape != (3,):
         raise ModelError(
             f"{where}: field '{field_name}' must have length 3 (x, y, z), got shape {arr.shape}"
@@ -72,12 +77,7 @@ def as_tensor3(value, where: str, field_name: str = "inertia") -> np.ndarray:
     ambiguous between libraries (a known source of silent errors); pass a 3x3
     matrix instead.
     """
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError, OverflowError, RecursionError):
-        raise ModelError(
-            f"{where}: field '{field_name}' must be a 3x3 matrix or 3 diagonal values, got {value!r:.200}"
-        ) from None
+    arr = _as_float_array(value, where, field_name, "a 3x3 matrix or 3 diagonal values")
     if arr.shape == (3,):
         arr = np.diag(arr)
     elif arr.shape == (6,):

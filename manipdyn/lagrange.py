@@ -186,6 +186,11 @@ class TraceFormEngine:
             return tuple(x[0] for x in out) if isinstance(out, tuple) else out[0]
         return out
 
+    def _call(self, kernel, **named):
+        """Validate the named states and run ``kernel`` on them as a batch (:meth:`_run`)."""
+        single, arrays = self._states(**named)
+        return self._run(kernel, single, *arrays)
+
     def _states(self, **named):
         """Validate named states; return ``(single, [batch arrays])`` in order."""
         arrays = [as_state(v, k, self.n) for k, v in named.items()]
@@ -244,21 +249,18 @@ class TraceFormEngine:
     # -- public API ---------------------------------------------------------
     def mass_matrix(self, q) -> np.ndarray:
         """Inertia matrix D(q) (eq. 2.39, D_ij), (n, n) or (N, n, n), SI units."""
-        single, (qb,) = self._states(q=q)
-        return self._run(self._k_mass, single, qb)
+        return self._call(self._k_mass, q=q)
 
     def coriolis_torque(self, q, qd) -> np.ndarray:
         """Coriolis and centripetal torque h(q, qd) (eq. 2.39, D_ijk), (n,) or (N, n).
 
         Friction, if the model has it, is not included (see :meth:`friction_torque`).
         """
-        single, arrays = self._states(q=q, qd=qd)
-        return self._run(self._k_coriolis, single, *arrays)
+        return self._call(self._k_coriolis, q=q, qd=qd)
 
     def gravity_torque(self, q) -> np.ndarray:
         """Gravity torque g(q) (eq. 2.39, D_i): the torque that holds the arm still."""
-        single, (qb,) = self._states(q=q)
-        return self._run(self._k_gravity, single, qb)
+        return self._call(self._k_gravity, q=q)
 
     def friction_torque(self, qd) -> np.ndarray:
         """Joint friction ``Fv qd + Fc sign(qd)``, outside the Lagrangian (zero if none)."""
@@ -267,18 +269,15 @@ class TraceFormEngine:
 
     def dynamics_terms(self, q, qd):
         """``(D, h, g)`` in one pass over the kinematics (the cheap way to get all three)."""
-        single, arrays = self._states(q=q, qd=qd)
-        return self._run(self._k_terms, single, *arrays)
+        return self._call(self._k_terms, q=q, qd=qd)
 
     def inverse_dynamics(self, q, qd, qdd) -> np.ndarray:
         """Joint torques ``tau = D qdd + h + g`` (eq. 2.39), plus friction if modelled."""
-        single, arrays = self._states(q=q, qd=qd, qdd=qdd)
-        return self._run(self._k_inverse, single, *arrays)
+        return self._call(self._k_inverse, q=q, qd=qd, qdd=qdd)
 
     def forward_dynamics(self, q, qd, tau) -> np.ndarray:
         """Joint accelerations solving ``D qdd = tau - h - g`` (minus friction)."""
-        single, arrays = self._states(q=q, qd=qd, tau=tau)
-        return self._run(self._k_forward, single, *arrays)
+        return self._call(self._k_forward, q=q, qd=qd, tau=tau)
 
     def kinetic_energy(self, q, qd) -> np.ndarray:
         """Kinetic energy K (eq. 2.22, plus rotors), J; scalar or (N,).
@@ -287,24 +286,20 @@ class TraceFormEngine:
         tr(Tdot_i J_i Tdot_i^T)`` with ``Tdot_i = (sum_j Delta_j qd_j) T_i``,
         not from D, so that ``K = qd^T D qd / 2`` is a real check.
         """
-        single, arrays = self._states(q=q, qd=qd)
-        return self._run(self._k_kinetic, single, *arrays)
+        return self._call(self._k_kinetic, q=q, qd=qd)
 
     def potential_energy(self, q) -> np.ndarray:
         """Potential energy P = -sum_i m_i g^T T_i r_bar_i (eq. 2.24), J; scalar or (N,)."""
-        single, (qb,) = self._states(q=q)
-        return self._run(self._k_potential, single, qb)
+        return self._call(self._k_potential, q=q)
 
     # -- kinematics passthrough -------------------------------------------
     def link_poses(self, q) -> np.ndarray:
         """Link frames T_1..T_n in the base frame (eq. 2.7), (n, 4, 4) or (N, n, 4, 4)."""
-        single, (qb,) = self._states(q=q)
-        return self._run(self._kin.poses, single, qb)
+        return self._call(self._kin.poses, q=q)
 
     def fkine(self, q) -> np.ndarray:
         """End pose (4, 4) or (N, 4, 4) in the base frame."""
-        single, (qb,) = self._states(q=q)
-        return self._run(lambda x: self._kin.tool(self._kin.poses(x)), single, qb)
+        return self._call(lambda x: self._kin.tool(self._kin.poses(x)), q=q)
 
     # -- Coriolis matrix ---------------------------------------------------------
     def christoffel_symbols(self, q) -> np.ndarray:
@@ -318,8 +313,7 @@ class TraceFormEngine:
         :meth:`coriolis_matrix`; ``tests/test_coriolis.py`` proves it).
         O(n^3) small traces: for tests and analysis, not for control loops.
         """
-        single, (qb,) = self._states(q=q)
-        return self._run(self._k_christoffel, single, qb)
+        return self._call(self._k_christoffel, q=q)
 
     def _k_christoffel(self, q):
         _, Delta, W = self._frames(q)
@@ -374,8 +368,7 @@ class TraceFormEngine:
         ``i > j`` is ``<Delta_j_dot, Delta_i Wbar_i> + <Delta_j, Delta_i Ubar_i^T>``
         per row: n^2 traces, every step batched.
         """
-        single, arrays = self._states(q=q, qd=qd)
-        return self._run(self._k_coriolis_matrix, single, *arrays)
+        return self._call(self._k_coriolis_matrix, q=q, qd=qd)
 
     def _k_coriolis_matrix(self, q, qdb):
         _, Delta, W = self._frames(q)

@@ -1,5 +1,7 @@
 """Model files: a human-editable TOML description of a DH arm, and ``md.load``.
 
+Layer: model loaders and writers (TOML model files).
+
 Format (``format = "manipdyn-model/1"``)::
 
     format = "manipdyn-model/1"

@@ -1,5 +1,7 @@
 """URDF to arm: read a serial chain out of a URDF file, safely.
 
+Layer: model loaders (URDF): chain extraction and lumping of fixed bodies.
+
 :func:`load_urdf` parses the URDF itself (lxml with entity resolution, DTD
 loading and network access off) into a chain of :class:`ChainJoint`; the
 trace-form engine runs on that chain and shares no code with the Pinocchio
@@ -63,6 +65,35 @@ __all__ = ["load_urdf", "URDFArm", "build_chain", "pinocchio_text"]
 
 
 def build_chain(tree: URDFTree, tip: str | None, strict: bool):
+    """The serial chain from the root to ``tip``, in named steps.
+
+    Returns ``(tip, joints, tool, locked, members)``: the tip link, the chain
+    joints (:class:`ChainJoint`, bodies lumped), the fixed transform from the
+    last chain link to the tip, the movable joints locked at 0, and the links
+    lumped into each chain body.
+    """
+    tip = resolve_tip(tree, tip)
+    path = tree.path(tip)
+    chain = [j for j in path if j.movable]
+    if not chain:
+        raise ModelError(
+            f"{tree.label}: no movable joint between the root link '{tree.root}' and the tip '{tip}'"
+        )
+    if len(chain) > limits.MAX_JOINTS:
+        raise limits.over_limit(tree.label, f"the number of movable joints from '{tree.root}' to '{tip}'",
+                                len(chain), "MAX_JOINTS")
+    index = {j.name: k for k, j in enumerate(chain)}
+    locked = [j for j in tree.joints.values() if j.movable and j.name not in index]
+    refuse_coupled_mimics(tree, index)
+    origins, tool = chain_origins(path, index)
+    J, members = lump_bodies(tree, index, len(chain), strict)
+    warn_joints_moving_no_mass(chain, J)
+    joints = chain_joints(tree.label, chain, origins, J)
+    return tip, joints, tool, tuple(j.name for j in locked), members
+
+
+def resolve_tip(tree: URDFTree, tip: str | None) -> str:
+    """``tip`` checked against the tree's links, or the default tip when None."""
     label = tree.label
     if tip is None:
         tip = default_tip(tree)
@@ -74,19 +105,11 @@ def build_chain(tree: URDFTree, tip: str | None, strict: bool):
             raise ModelError(
                 f"{label}: unknown tip link {tip!r}; links are {some_names(leaves + others)}"
             )
-    path = tree.path(tip)
-    chain = [j for j in path if j.movable]
-    if not chain:
-        raise ModelError(
-            f"{label}: no movable joint between the root link '{tree.root}' and the tip '{tip}'"
-        )
-    if len(chain) > limits.MAX_JOINTS:
-        raise limits.over_limit(label, f"the number of movable joints from '{tree.root}' to '{tip}'",
-                                len(chain), "MAX_JOINTS")
-    index = {j.name: k for k, j in enumerate(chain)}
-    locked = [j for j in tree.joints.values() if j.movable and j.name not in index]
+    return tip
 
-    # mimic joints
+
+def refuse_coupled_mimics(tree: URDFTree, index: dict) -> None:
+    """Refuse ``<mimic>`` couplings that a chain of independent joints cannot express."""
     for j in tree.joints.values():
         if j.mimic is None or not j.movable:
             continue  # a fixed joint has no variable to couple
@@ -105,7 +128,11 @@ def build_chain(tree: URDFTree, tip: str | None, strict: bool):
                 f"offset {offset}; locked at 0 it would break the coupling (it should sit at {offset})"
             )
 
-    # Origins relative to the previous movable link frame; fixed joints composed in.
+
+
+def chain_origins(path, index: dict):
+    """Each chain joint's origin relative to the previous movable link frame, fixed
+    joints composed in; and the fixed transform from the last chain link to the tip."""
     origins = []
     acc = np.eye(4)
     for j in path:
@@ -114,10 +141,14 @@ def build_chain(tree: URDFTree, tip: str | None, strict: bool):
             acc = np.eye(4)
         else:
             acc = acc @ j.origin  # fixed joint
-    tool = acc
+    return origins, acc
 
-    # Lump every link into the moving body it hangs from (locked joints at 0: M(0) = I).
-    n = len(chain)
+
+
+def lump_bodies(tree: URDFTree, index: dict, n: int, strict: bool):
+    """Pseudo-inertias (n, 4, 4) of the chain bodies, every link lumped into the moving
+    body it hangs from (locked joints at 0: M(0) = I), and the links in each."""
+    label = tree.label
     J = np.zeros((n, 4, 4))
     members: list[list[str]] = [[] for _ in range(n)]
     with_inertial = [False] * n
@@ -144,14 +175,23 @@ def build_chain(tree: URDFTree, tip: str | None, strict: bool):
             "the dynamics would be identically zero"
         )
 
+    return J, members
+
+
+def warn_joints_moving_no_mass(chain, J) -> None:
+    """Warn about a chain joint that moves no mass: D is then singular."""
     tail = np.cumsum(J[::-1], axis=0)[::-1]  # everything joint k moves
     for k, j in enumerate(chain):
         if not np.any(tail[k]):
             warnings.warn(
                 f"{j.where}: moves no mass (no <inertial> from link '{j.child}' to the tip): "
                 "the mass matrix is singular and forward dynamics undefined",
-                PhysicalConsistencyWarning, stacklevel=3,
+                PhysicalConsistencyWarning, stacklevel=4,
             )
+
+
+def chain_joints(label: str, chain, origins, J) -> tuple:
+    """The :class:`ChainJoint` records: bodies from the lumped J, limits with defaults."""
     joints = []
     for k, j in enumerate(chain):
         Jk = 0.5 * (J[k] + J[k].T)
@@ -171,7 +211,7 @@ def build_chain(tree: URDFTree, tip: str | None, strict: bool):
             friction_viscous=j.damping, friction_coulomb=j.friction,
             effort=j.effort, velocity=j.velocity, link_name=j.child,
         ))
-    return tip, tuple(joints), tool, tuple(j.name for j in locked), members
+    return tuple(joints)
 
 
 def pinocchio_text(root_el, text: str) -> str:

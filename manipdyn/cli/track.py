@@ -51,7 +51,8 @@ MAX_DURATION = 300.0
 MAX_STEPS = 2e6
 
 
-def run(args) -> int:
+def check_options(args) -> None:
+    """Refuse every bad numeric option, and an unwritable --plot target, before any work."""
     for opt in ("duration", "dt", "payload", "bandwidth", "gamma"):
         if not math.isfinite(getattr(args, opt)):
             raise ModelError(f"--{opt}: must be a finite number, got {getattr(args, opt)}")
@@ -72,6 +73,10 @@ def run(args) -> int:
         if os.path.isdir(args.plot) or not os.path.isdir(folder) or not os.access(folder, os.W_OK):
             raise ModelError(f"--plot {args.plot}: expected a writable file path (its folder must exist)")
         pyplot()  # matplotlib installed?
+
+
+def run(args) -> int:
+    check_options(args)
     arm, notes = load_with_notes(args.model)
     plant = arm
     if args.payload > 0:
@@ -107,17 +112,23 @@ def run(args) -> int:
         print()
         print(_compare_table(logs, final))
     if args.plot:
-        title = f"{arm.name}: demo path, {args.duration:g} s at {1 / args.dt:g} Hz" + \
-                (f", +{args.payload:g} kg payload unknown to the controller" if args.payload > 0 else "")
-        if args.compare:
-            plot_compare(logs, arm, title, args.plot)
-        else:
-            only = logs[CONTROLLERS[kinds[0]]]
-            if isinstance(only, str):
-                print(f"no figure: the run {only.lower()}", file=sys.stderr)
-                return rc
-            plot_single(only, arm, f"{title}\n{CONTROLLERS[kinds[0]]}", args.plot)
-        print(f"\nfigure written to {args.plot}")
+        return write_figure(args, arm, logs, kinds, rc)
+    return rc
+
+
+def write_figure(args, arm, logs: dict, kinds: list, rc: int) -> int:
+    """The --plot figure of the run(s): all controllers with --compare, else the one."""
+    title = f"{arm.name}: demo path, {args.duration:g} s at {1 / args.dt:g} Hz" + \
+        (f", +{args.payload:g} kg payload unknown to the controller" if args.payload > 0 else "")
+    if args.compare:
+        plot_compare(logs, arm, title, args.plot)
+    else:
+        only = logs[CONTROLLERS[kinds[0]]]
+        if isinstance(only, str):
+            print(f"no figure: the run {only.lower()}", file=sys.stderr)
+            return rc
+        plot_single(only, arm, f"{title}\n{CONTROLLERS[kinds[0]]}", args.plot)
+    print(f"\nfigure written to {args.plot}")
     return rc
 
 

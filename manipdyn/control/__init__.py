@@ -1,5 +1,7 @@
 """Path-tracking control on top of manipdyn's dynamics (the thesis' subject).
 
+Layer: application (control).
+
 * trajectories (:mod:`.trajectory`): :class:`Quintic`, :class:`ViaPoints`,
   :class:`Sampled`, each ``trajectory(t) -> (q_d, qd_d, qdd_d)``;
 * controllers (:mod:`.controllers`), one interface ``tau = controller(t, q, qd)``:

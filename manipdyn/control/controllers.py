@@ -1,5 +1,7 @@
 """Joint-space tracking controllers with one interface: ``tau = controller(t, q, qd)``.
 
+Layer: application (control).
+
 Each controller follows a reference trajectory (``trajectory(t) -> (q_d,
 qd_d, qdd_d)``, see :mod:`manipdyn.control.trajectory`), bound at
 construction or by :meth:`Controller.reset` (which :func:`simulate` calls).

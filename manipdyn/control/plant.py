@@ -1,5 +1,7 @@
 """Variants of an arm to use as the plant of a simulation: a payload, mis-estimated masses.
 
+Layer: application (control).
+
 Both return a new :class:`manipdyn.Manipulator` (the original is immutable and
 unchanged), built by combining pseudo-inertias (eq. 2.20: the pseudo-inertias
 of bodies described in one frame add) and ``dataclasses.replace`` on the DH

@@ -1,5 +1,7 @@
 """The dynamics as linear in the inertial parameters: ``tau = Y pi``.
 
+Layer: application (control).
+
 Parameters per link (10, Pinocchio's order, ``pin.Inertia.toDynamicParameters``)::
 
     [m, m c_x, m c_y, m c_z, I_xx, I_xy, I_yy, I_xz, I_yz, I_zz]

@@ -1,5 +1,7 @@
 """Closed-loop simulation: a controller driving an arm, integrated by fixed-step RK4.
 
+Layer: application (control).
+
 ``simulate(arm, controller, trajectory, duration, dt=1e-3, plant=None)``.
 
 Time stepping.  At each step ``t_k = k dt`` the controller is called once,

@@ -1,5 +1,7 @@
 """Joint-space reference trajectories.
 
+Layer: application (control).
+
 Every trajectory is called as ``q_d, qd_d, qdd_d = traj(t)``: for a scalar
 time ``t`` (s) each is an ``(n,)`` array (rad or m, per second, per second
 squared); for an array of times ``(N,)`` each is ``(N, n)``.  Outside its
