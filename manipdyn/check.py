@@ -110,9 +110,16 @@ class CrosscheckReport:
                         f"{'ok' if q.ok else 'DISAGREE'}")
         return "\n".join(rows)
 
+    def _verdict(self) -> str:
+        if not self.ok:
+            return "DISAGREEMENT in " + ", ".join(self.failures())
+        if self.notes:
+            return "the compared quantities agree, but NOT ALL COULD BE COMPARED (see the notes)"
+        return "all agree"
+
     def __str__(self) -> str:
         head = (f"crosscheck {self.arm!r} ({self.n} joints, {self.samples} states, seed {self.seed}): "
-                f"{'all agree' if self.ok else 'DISAGREEMENT in ' + ', '.join(self.failures())} "
+                f"{self._verdict()} "
                 f"(tolerance {TOLERANCE:g} relative)")
         return head + "\n" + self.table() + "".join(f"\nnote: {n}" for n in self.notes)
 

@@ -88,7 +88,9 @@ def run(args) -> int:
         report = crosscheck(arm, samples=args.samples, seed=args.seed,
                             progress=Progress(arm.name or spec, show_progress))
         timing = _timings(arm, calls=args.timing_calls) if args.timing_calls > 0 else {}
-        if not report.ok:
+        if not report.ok or report.notes:
+            # a quantity that could not be compared (forward dynamics of a
+            # singular D) is a failed condition, never "all agree"
             worst = EXIT_DISAGREE
         results.append({"model": spec, "notes": notes, "urdf": urdf_path,
                         "timing": timing, "report": report})
@@ -98,8 +100,11 @@ def run(args) -> int:
         print(json.dumps([{**r, "report": r["report"].to_dict()} for r in results], indent=2))
     else:
         bad = [r["model"] for r in results if not r["report"].ok]
-        print(f"{len(results) - len(bad)}/{len(results)} arms agree"
-              + (f"; DISAGREEMENT: {', '.join(bad)}" if bad else ""))
+        failed = [r["model"] for r in results if r["report"].ok and r["report"].notes]
+        print(f"{len(results) - len(bad) - len(failed)}/{len(results)} arms agree"
+              + (f"; DISAGREEMENT: {', '.join(bad)}" if bad else "")
+              + (f"; FAILED (a quantity could not be compared, see the notes): {', '.join(failed)}"
+                 if failed else ""))
     return worst
 
 
@@ -107,7 +112,10 @@ def register(sub) -> None:
     """Add ``manipdyn check``."""
     c = sub.add_parser("check", help="cross-check both engines on arms",
                        description="For each arm: build the URDF, load both engines, compare D, h, g, "
-                                   "tau, forward dynamics and FK on random states, and time both engines.")
+                                   "tau, forward dynamics and FK on random states, and time both engines.",
+                       epilog="Exit codes: 0 every arm agrees; 1 a quantity disagrees, or could not be "
+                              "compared (forward dynamics of an arm whose mass matrix is singular: a "
+                              "failed condition, never 'all agree'); 2 usage or model error; 3 a bug.")
     c.add_argument("models", nargs="*", metavar="MODEL_OR_FILE",
                    help="bundled model name, .toml model file, or .urdf file")
     c.add_argument("--all", action="store_true", help="check every bundled model")
