@@ -64,14 +64,16 @@ def state_array(x, name: str, n: int) -> np.ndarray:
     float arrays of any width and byte order (a big-endian ``'>f8'`` state is
     converted, never reinterpreted), integer arrays, and (nested) lists or
     tuples of real numbers.  Refused, naming ``name``: bool, complex, object,
-    string, datetime/timedelta and structured dtypes; masked arrays (the mask
-    would be silently dropped: fill them first, ``x.filled(value)``); ragged
+    string, datetime/timedelta and structured dtypes; masked arrays with a masked entry
+    (the mask would be silently dropped: fill them first, ``x.filled(value)``); ragged
     or too deeply nested sequences; numbers beyond the float64 range (a huge
     Python ``int`` or a ``longdouble``), which would become inf.
     """
     if isinstance(x, np.ma.MaskedArray):
-        raise _refuse(name, n, "a masked array: the mask would be dropped; pass x.filled(value) "
-                               "or the unmasked rows")
+        if np.ma.getmaskarray(x).any():
+            raise _refuse(name, n, "a masked array with masked entries: the mask would be dropped; "
+                                   "pass x.filled(value) or the unmasked rows")
+        x = np.ma.getdata(x)  # nothing masked: the data is the state
     if isinstance(x, (bool, np.bool_)):
         raise _refuse(name, n, "a bool")
     if isinstance(x, (str, bytes)):

@@ -25,6 +25,7 @@ from .urdf_out import TOOL_LINK, arm_to_urdf
 
 _isfinite = math.isfinite
 _F64 = np.dtype(np.float64)  # native byte order: '>f8' is another object
+_ND = np.ndarray  # exactly: a masked array's data would reach Pinocchio without its mask
 _crba, _rnea, _aba, _gravity = pin.crba, pin.rnea, pin.aba, pin.computeGeneralizedGravity
 
 #: below this many states a batch runs on one thread (thread start-up costs
@@ -179,6 +180,7 @@ class PinocchioEngine:
     def mass_matrix(self, q) -> np.ndarray:
         """Inertia matrix D(q) by CRBA, (n, n) or (N, n, n); full and symmetric."""
         try:
+            # tolist() of a masked array holds None at masked entries: sum() fails, general path
             if q.dtype is _F64 and q.ndim == 1 and _isfinite(sum(q.tolist())):  # inline: a call costs ~0.1 us
                 if not self._prismatic:  # rotations are bounded: finite q, finite D
                     return _crba(self.model, self.data, q)
@@ -194,7 +196,8 @@ class PinocchioEngine:
     def coriolis_torque(self, q, qd) -> np.ndarray:
         """Coriolis and centripetal torque h(q, qd), (n,) or (N, n) (no friction)."""
         try:
-            if q.dtype is _F64 and qd.dtype is _F64 and q.ndim == 1 and qd.ndim == 1:
+            if (type(q) is type(qd) is _ND and q.dtype is qd.dtype is _F64
+                    and q.ndim == 1 and qd.ndim == 1):
                 h = _rnea(self._model0, self._data0, q, qd, self._zeros)
                 if _isfinite(sum(h.tolist())):
                     return h
@@ -237,7 +240,7 @@ class PinocchioEngine:
         """Joint torques by RNEA, ``tau = D qdd + h + g`` (+ friction), (n,) or (N, n)."""
         if self.friction is None:
             try:
-                if (q.dtype is _F64 and qd.dtype is _F64 and qdd.dtype is _F64
+                if (type(q) is type(qd) is type(qdd) is _ND and q.dtype is qd.dtype is qdd.dtype is _F64
                         and q.ndim == 1 and qd.ndim == 1 and qdd.ndim == 1):
                     tau = _rnea(self.model, self.data, q, qd, qdd)
                     if _isfinite(sum(tau.tolist())):
@@ -260,7 +263,7 @@ class PinocchioEngine:
         """Joint accelerations by ABA, solving ``D qdd = tau - h - g`` (- friction)."""
         if self.friction is None:
             try:
-                if (q.dtype is _F64 and qd.dtype is _F64 and tau.dtype is _F64
+                if (type(q) is type(qd) is type(tau) is _ND and q.dtype is qd.dtype is tau.dtype is _F64
                         and q.ndim == 1 and qd.ndim == 1 and tau.ndim == 1):
                     qdd = _aba(self.model, self.data, q, qd, tau)
                     if _isfinite(sum(qdd.tolist())):
