@@ -91,6 +91,7 @@ def as_gravity(value, where="gravity") -> np.ndarray:
         raise ModelError(f"{where}: expected 3 numbers (gx, gy, gz) in m/s^2, got shape {g.shape}")
     if not np.all(np.isfinite(g)):
         raise ModelError(f"{where}: must be finite, got {g.tolist()}")
+    limits.check_range(g, where, "gravity", "acceleration")
     g = g.copy()
     g.setflags(write=False)
     return g

@@ -33,6 +33,10 @@ from .errors import SingularMassMatrixError
 __all__ = ["crosscheck", "CrosscheckReport", "QuantityError", "TOLERANCE", "draw_states"]
 
 TOLERANCE = 1e-9
+#: largest cond(D) at which forward dynamics is compared: solving with D loses
+#: about log10(cond D) of float64's 16 digits, so 1e7 leaves 1e-9 (observed: the
+#: bundled arms <= 2.4e4, Tiago cut at its arm 4.7e6 with qdd error 1.3e-10)
+MAX_COND = 1e7
 
 QUANTITIES = {
     "D": "mass matrix D(q)",
@@ -214,6 +218,28 @@ def crosscheck(arm, samples: int = 1000, seed: int = 0, chunk: int = 500, progre
         tau = L.inverse_dynamics(qs, qds, qdds)
         add("tau", tau, P.inverse_dynamics(qs, qds, qdds))
         # forward dynamics of the same torques: both should return qdd
+        if "qdd" not in skipped:
+            # forward dynamics solves with D: its error grows with cond(D); beyond
+            # MAX_COND float64 cannot give qdd to TOLERANCE, so it is not compared
+            w = np.linalg.eigvalsh(D)                       # ascending, (B, n)
+            hi = np.maximum(np.abs(w).max(axis=1), 1e-300)
+            lo = w[:, 0]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                cond = np.where(lo > 0, hi / lo, np.inf)
+            if np.any(lo < -1e-12 * hi):
+                skipped["qdd"] = (f"qdd not compared: the mass matrix D(q) is not positive definite "
+                                  f"(eigenvalue {float(lo.min()):.3g}): some link's inertia is physically "
+                                  "impossible, and forward dynamics has no physical meaning (ABA and a "
+                                  "linear solve then differ); see the physical-consistency warnings")
+            elif np.any(lo <= 1e-15 * hi):  # numerically singular (or a zero row)
+                singular = lo <= 1e-15 * hi
+                skipped["qdd"] = f"qdd not compared: {SingularMassMatrixError.for_mass_matrix(D[singular])}"
+            elif np.any(~(cond <= MAX_COND)):
+                skipped["qdd"] = (f"qdd not compared: the mass matrix D(q) is ill-conditioned (cond(D) = "
+                                  f"{float(np.max(cond)):.3g} > {MAX_COND:g}): float64 cannot give the forward "
+                                  f"dynamics to {TOLERANCE:g}; check the model's inertias")
+            if "qdd" in skipped:
+                parts.pop("qdd", None)
         if "qdd" not in skipped:
             try:
                 add("qdd", L.forward_dynamics(qs, qds, tau), P.forward_dynamics(qs, qds, tau))

@@ -40,6 +40,10 @@ __all__ = [
 # inequalities) before a body is called physically impossible: a few ulps of
 # the body's own scale, so that rounding in published tables is not flagged.
 _PSD_RTOL = 1e-9
+#: largest ratio of the largest principal moment to the sum of the other two that
+#: float64 pseudo-inertias hold (see :meth:`LinkInertia.check_representable`):
+#: the rounding ``1e-16 * 1e6`` stays 1e-10 relative to the moments that matter
+REPRESENTABLE_RATIO = 1e6
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -305,7 +309,9 @@ class LinkInertia:
         if m < 0:
             raise ModelError(f"{where}: field 'mass' must be >= 0 kg, got {m}")
         object.__setattr__(self, "mass", m)
-        object.__setattr__(self, "com", _readonly(as_vector3(self.com, where, "com")))
+        com = as_vector3(self.com, where, "com")
+        limits.check_range(com, where, "com", "length")
+        object.__setattr__(self, "com", _readonly(com))
         object.__setattr__(self, "inertia", _readonly(as_tensor3(self.inertia, where, "inertia")))
 
     # -- conversions -------------------------------------------------------
@@ -406,6 +412,35 @@ class LinkInertia:
                 )
         return problems
 
+    def check_representable(self, where: str | None = None) -> None:
+        """Raise :class:`ModelError` if float64 cannot hold this tensor in a pseudo-inertia.
+
+        The pseudo-inertia stores ``S = tr(I)/2 E - I + m c c^T`` (eq. 2.21):
+        every moment then carries a rounding error of about ``1e-16 tr(I)``.
+        For a real body the largest principal moment is at most the sum of the
+        other two, so that error stays relative to the moments that matter.
+        A tensor whose largest principal moment exceeds the sum of the other
+        two (or 1 kg m^2, the cross-check's absolute floor, if that is more)
+        by more than :data:`REPRESENTABLE_RATIO` (a typo in an exponent,
+        ``ixx="7e27"``) is not a rigid body, and its small moments are lost in
+        that rounding: the trace form and Pinocchio would then describe
+        different arms.  Refused even without ``strict``, naming the link.
+        """
+        I = self.inertia
+        try:
+            lam = np.abs(np.linalg.eigvalsh(I))
+        except np.linalg.LinAlgError:
+            lam = np.abs(np.diag(I))
+        lam = np.sort(lam)
+        # 1 kg m^2 floor: the cross-check's own absolute floor (errors relative to max(1, |D|))
+        if lam[2] > REPRESENTABLE_RATIO * max(lam[0] + lam[1], 1.0):
+            raise ModelError(
+                f"{where or self.name}: inertia with principal moments {lam[2]:.6g}, {lam[1]:.6g}, "
+                f"{lam[0]:.6g} kg m^2: the largest exceeds the sum of the other two by over "
+                f"{REPRESENTABLE_RATIO:g} times; no rigid body has it, and float64 cannot hold the small "
+                "moments beside it (the two engines would disagree). Check the units and exponents"
+            )
+
     def check_physical(self, strict: bool = False, where: str | None = None) -> bool:
         """Warn (or raise with ``strict=True``) if the body is physically impossible.
 
@@ -415,6 +450,7 @@ class LinkInertia:
         if not problems:
             return True
         msg = f"{where or self.name}: physically impossible inertia: " + "; ".join(problems)
+        self.check_representable(where)
         if strict:
             raise ModelError(msg)
         warnings.warn(msg, PhysicalConsistencyWarning, stacklevel=3)

@@ -15,7 +15,8 @@ from __future__ import annotations
 
 from .errors import ModelError
 
-__all__ = ["MAX_FILE_BYTES", "MAX_MODEL_FILE_BYTES", "MAX_LINKS", "MAX_JOINTS", "MAX_FIXED_RUN", "MAX_MAGNITUDE", "over_limit"]
+__all__ = ["MAX_FILE_BYTES", "MAX_MODEL_FILE_BYTES", "MAX_LINKS", "MAX_JOINTS", "MAX_FIXED_RUN", "MAX_NAME_LENGTH", "MAX_LENGTH", "MAX_ANGLE",
+           "MAX_GRAVITY", "check_range", "MAX_MAGNITUDE", "over_limit"]
 
 #: largest URDF or model file read, bytes (16 MiB; real ones are under 1 MiB)
 MAX_FILE_BYTES = 16 * 1024 * 1024
@@ -30,6 +31,17 @@ MAX_LINKS = 1000
 MAX_JOINTS = 100
 #: most fixed joints in a row along any root-to-leaf path of a URDF
 MAX_FIXED_RUN = 200
+#: largest length (m): origins, DH a and d, centres of mass, prismatic limits.
+#: float64 holds 16 digits: a 10 km offset beside a 1 mm link leaves the 1e-9 the
+#: cross-check asks for; beyond, the engines' different sums round differently
+MAX_LENGTH = 1e4
+#: largest angle (rad): rpy, DH alpha and theta, revolute limits (q + theta loses
+#: the digits of q when theta is huge)
+MAX_ANGLE = 1e4
+#: largest gravity component (m/s^2): tau - g cancels digits in forward dynamics
+MAX_GRAVITY = 1e4
+#: longest name (arm, link, joint) in characters: names go into URDF text and messages
+MAX_NAME_LENGTH = 1000
 #: largest magnitude of any model number (lengths in m, masses in kg, inertias
 #: in kg m^2, gear ratios, rotor inertias, friction): products of three of them
 #: (m r^2 v^2 ...) stay far from float64 overflow (1.8e308)
@@ -56,4 +68,23 @@ def check_magnitude(value, where: str, field: str, unit: str = "") -> None:
             f"{where}: field '{field}' has magnitude {worst:g}{unit}, over {MAX_MAGNITUDE:g} "
             "(manipdyn.limits.MAX_MAGNITUDE): products of such numbers overflow float64; "
             "check the units, or raise the limit for a trusted model"
+        )
+
+
+_RANGES = {"length": ("MAX_LENGTH", " m"), "angle": ("MAX_ANGLE", " rad"), "acceleration": ("MAX_GRAVITY", " m/s^2")}
+
+
+def check_range(value, where: str, field: str, kind: str) -> None:
+    """Raise :class:`ModelError` if a length, angle or acceleration is beyond its limit."""
+    import numpy as np
+
+    name, unit = _RANGES[kind]
+    limit = globals()[name]
+    arr = np.abs(np.asarray(value, dtype=np.float64))
+    if arr.size and not float(arr.max()) <= limit:
+        worst = float(arr.reshape(-1)[int(np.argmax(arr))])
+        raise ModelError(
+            f"{where}: field '{field}' has the {kind} {worst:g}{unit}, over {limit:g}{unit} "
+            f"(manipdyn.limits.{name}): float64 cannot hold it beside the arm's other {kind}s to the "
+            "cross-check's 1e-9; check the units, or raise the limit for a trusted model"
         )

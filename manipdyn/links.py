@@ -39,6 +39,9 @@ def check_name(value, where: str, field: str = "name") -> str:
     """
     if not isinstance(value, str):
         raise ModelError(f"{where}: field '{field}' must be a string, got {type(value).__name__}")
+    if len(value) > limits.MAX_NAME_LENGTH:
+        raise limits.over_limit(where, f"the length of field '{field}' ({value[:20]!r}...)", len(value),
+                                "MAX_NAME_LENGTH")
     for k, ch in enumerate(value):
         o = ord(ch)
         if (o < 0x20 and ch not in "\t\n\r") or 0xD800 <= o <= 0xDFFF or o in (0xFFFE, 0xFFFF):
@@ -70,6 +73,9 @@ def _check_actuator(where, motor_inertia, gear_ratio, friction_viscous, friction
     g = _scalar(gear_ratio, where, "gear_ratio")
     if g == 0:
         raise ModelError(f"{where}: field 'gear_ratio' must be non-zero, got {g}")
+    if abs(g) ** 2 * jm > limits.MAX_MAGNITUDE:
+        raise ModelError(f"{where}: the reflected rotor inertia gear_ratio^2 * motor_inertia = "
+                         f"{abs(g) ** 2 * jm:g} is over {limits.MAX_MAGNITUDE:g} (manipdyn.limits.MAX_MAGNITUDE)")
     fv = _scalar(friction_viscous, where, "friction_viscous")
     fc = _scalar(friction_coulomb, where, "friction_coulomb")
     if fv < 0 or fc < 0:
@@ -134,6 +140,7 @@ class DHLink:
         set_(self, "name", name)
         for f, v in (("a", a), ("alpha", alpha), ("d", d), ("theta", theta)):
             set_(self, f, _scalar(v, where, f))
+            limits.check_range(getattr(self, f), where, f, "angle" if f in ("alpha", "theta") else "length")
         if body is not None and not isinstance(body, LinkInertia):
             raise ModelError(f"{where}: field 'body' must be a LinkInertia, got {type(body).__name__}")
         base = body if body is not None else LinkInertia(name=where)
@@ -142,6 +149,8 @@ class DHLink:
                                base.inertia if inertia is None else inertia, name=where)
         set_(self, "body", body)
         set_(self, "qlim", _qlim(qlim, where))
+        if self.qlim is not None:
+            limits.check_range(self.qlim, where, "qlim", "length" if joint == "prismatic" else "angle")
         jm, g, fv, fc = _check_actuator(where, motor_inertia, gear_ratio, friction_viscous, friction_coulomb)
         set_(self, "motor_inertia", jm)
         set_(self, "gear_ratio", g)
@@ -240,6 +249,8 @@ class ChainJoint:
         ax.setflags(write=False)
         object.__setattr__(self, "axis", ax)
         object.__setattr__(self, "qlim", _qlim(self.qlim, where))
+        if self.qlim is not None:
+            limits.check_range(self.qlim, where, "qlim", "length" if self.joint == "prismatic" else "angle")
         for f in ("effort", "velocity"):
             v = getattr(self, f)
             if v is not None:

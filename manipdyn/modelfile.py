@@ -258,8 +258,13 @@ def parse_model(text: str, origin: str = "<model>", strict: bool = False) -> Man
         except ModelError as exc:
             raise ModelError(f"{w}: {exc}") from None
     description = _str(data.get("description", ""), f"{origin}: key 'description'")
-    return Manipulator(links, convention=convention, gravity=gravity, name=name, strict=strict,
-                       source=source, sources=sources, description=description)
+    try:
+        return Manipulator(links, convention=convention, gravity=gravity, name=name, strict=strict,
+                           source=source, sources=sources, description=description)
+    except ModelError as exc:
+        if origin in str(exc):
+            raise
+        raise ModelError(f"{origin}: {exc}") from None  # always name the file
 
 
 # ---------------------------------------------------------------------------

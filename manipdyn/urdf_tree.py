@@ -13,6 +13,7 @@ import numpy as np
 from . import limits
 from .errors import ModelError
 from .inertia import LinkInertia
+from .links import check_name
 from .urdf_xml import (KNOWN_TYPES, MOVABLE, one_child, read_name, read_number, read_origin,
                        read_vector3, where_in)
 
@@ -98,8 +99,9 @@ def read_joint(el, label: str) -> URDFJoint:
         ax_el = one_child(el, "axis", where, required=False)
         if ax_el is not None:
             axis = read_vector3(ax_el, "xyz", where, (1.0, 0.0, 0.0))
-        if not np.linalg.norm(axis) > 0:
-            raise ModelError(f"{where}: <axis xyz> must be non-zero")
+        if not np.linalg.norm(axis) >= 1e-9:  # a tinier axis loses digits when normalised
+            raise ModelError(f"{where}: <axis xyz=\"{ax_el.get('xyz') if ax_el is not None else ''}\">: "
+                             "must be a direction of length >= 1e-9")
         lim = one_child(el, "limit", where, required=jtype != "continuous")
         if lim is not None:
             # URDF requires effort and velocity; Pinocchio's reader refuses the file without them
@@ -111,6 +113,8 @@ def read_joint(el, label: str) -> URDFJoint:
             if jtype != "continuous" and (lim.get("lower") is not None or lim.get("upper") is not None):
                 lower = read_number(lim, "lower", where, default=0.0)
                 upper = read_number(lim, "upper", where, default=0.0)
+                limits.check_range((lower, upper), f"{where} <limit>", "lower/upper",
+                                   "length" if jtype == "prismatic" else "angle")
         dyn = one_child(el, "dynamics", where, required=False)
         if dyn is not None:
             damping = read_number(dyn, "damping", where, default=0.0)
@@ -144,7 +148,7 @@ class URDFTree:
         self.label = label
         if root_el.tag != "robot":
             raise ModelError(f"{label}: the root element is <{root_el.tag}>, expected <robot>")
-        self.robot_name = root_el.get("name") or ""
+        self.robot_name = check_name(root_el.get("name") or "", label, "<robot name>")
         for tag in ("link", "joint"):
             count = sum(1 for _ in root_el.iterchildren(tag))
             if count > limits.MAX_LINKS:

@@ -17,6 +17,7 @@ import numpy as np
 from . import limits
 from .errors import ModelError
 from .kinematics import rpy_to_matrix
+from .links import check_name
 
 __all__ = ["MOVABLE", "KNOWN_TYPES", "read_source", "decode", "parse_xml", "where_in", "read_number",
            "read_vector3", "read_origin", "one_child", "read_name"]
@@ -248,8 +249,12 @@ def read_origin(parent_el, where: str) -> np.ndarray:
     T = np.eye(4)
     if els:
         o = els[0]
-        T[:3, 3] = read_vector3(o, "xyz", where, (0.0, 0.0, 0.0))
-        T[:3, :3] = rpy_to_matrix(read_vector3(o, "rpy", where, (0.0, 0.0, 0.0)))
+        xyz = read_vector3(o, "xyz", where, (0.0, 0.0, 0.0))
+        rpy = read_vector3(o, "rpy", where, (0.0, 0.0, 0.0))
+        limits.check_range(xyz, f"{where} <origin>", "xyz", "length")
+        limits.check_range(rpy, f"{where} <origin>", "rpy", "angle")
+        T[:3, 3] = xyz
+        T[:3, :3] = rpy_to_matrix(rpy)
     return T
 
 
@@ -268,4 +273,4 @@ def read_name(el, where: str) -> str:
     n = el.get("name")
     if n is None or not n.strip():
         raise ModelError(f"{where}: <{el.tag}> has no name")
-    return n
+    return check_name(n, where, "name")
