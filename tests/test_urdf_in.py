@@ -625,7 +625,7 @@ BAD = {
                                {}, r"joint 'j1': missing the <limit> element"),
     "limit without effort": (ONE.replace(' effort="1"', ""), {}, r"<limit> is missing the attribute 'effort'"),
     "inverted limits": (ONE.replace('lower="-1" upper="1"', 'lower="1" upper="-1"'), {}, r"lower < upper"),
-    "zero axis": (ONE.replace('axis xyz="0 0 1"', 'axis xyz="0 0 0"'), {}, r"<axis xyz="0 0 0">: must be a direction"),
+    "zero axis": (ONE.replace('axis xyz="0 0 1"', 'axis xyz="0 0 0"'), {}, r'<axis xyz="0 0 0">: must be a direction'),
     "unknown joint type": (ONE.replace('type="revolute"', 'type="hinge"'), {}, r"unknown joint type 'hinge'"),
     "duplicate link": (ONE.replace('<link name="base"/>', '<link name="base"/><link name="base"/>'), {},
                        r"link 'base': duplicate link name"),
