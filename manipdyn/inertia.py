@@ -97,6 +97,7 @@ def as_tensor3(value, where: str, field_name: str = "inertia") -> np.ndarray:
     if not np.all(np.isfinite(arr)):
         raise ModelError(f"{where}: field '{field_name}' must be finite, got {arr.tolist()}")
     limits.check_magnitude(arr, where, field_name, " kg m^2")
+    limits.check_range(arr, where, field_name, "inertia")
     scale = max(1e-300, float(np.max(np.abs(arr))))
     if np.max(np.abs(arr - arr.T)) > 1e-12 * scale:
         raise ModelError(
@@ -306,6 +307,7 @@ class LinkInertia:
         if not math.isfinite(m):
             raise ModelError(f"{where}: field 'mass' must be finite, got {m}")
         limits.check_magnitude(m, where, "mass", " kg")
+        limits.check_range(m, where, "mass", "mass")
         if m < 0:
             raise ModelError(f"{where}: field 'mass' must be >= 0 kg, got {m}")
         object.__setattr__(self, "mass", m)

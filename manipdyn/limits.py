@@ -16,7 +16,7 @@ from __future__ import annotations
 from .errors import ModelError
 
 __all__ = ["MAX_FILE_BYTES", "MAX_MODEL_FILE_BYTES", "MAX_LINKS", "MAX_JOINTS", "MAX_FIXED_RUN", "MAX_NAME_LENGTH", "MAX_LENGTH", "MAX_ANGLE",
-           "MAX_GRAVITY", "check_range", "MAX_MAGNITUDE", "over_limit"]
+           "MAX_GRAVITY", "MAX_MASS", "MAX_INERTIA", "check_range", "MAX_MAGNITUDE", "over_limit"]
 
 #: largest URDF or model file read, bytes (16 MiB; real ones are under 1 MiB)
 MAX_FILE_BYTES = 16 * 1024 * 1024
@@ -40,6 +40,11 @@ MAX_LENGTH = 1e4
 MAX_ANGLE = 1e4
 #: largest gravity component (m/s^2): tau - g cancels digits in forward dynamics
 MAX_GRAVITY = 1e4
+#: largest mass (kg) and inertia entry (kg m^2) of one body: a link a billion
+#: times heavier than the next one leaves its neighbours' torques at the mercy of
+#: its rounding (1e-16 * 1e9 * ...), beyond the cross-check's 1e-9
+MAX_MASS = 1e9
+MAX_INERTIA = 1e9
 #: longest name (arm, link, joint) in characters: names go into URDF text and messages
 MAX_NAME_LENGTH = 1000
 #: largest magnitude of any model number (lengths in m, masses in kg, inertias
@@ -71,7 +76,8 @@ def check_magnitude(value, where: str, field: str, unit: str = "") -> None:
         )
 
 
-_RANGES = {"length": ("MAX_LENGTH", " m"), "angle": ("MAX_ANGLE", " rad"), "acceleration": ("MAX_GRAVITY", " m/s^2")}
+_RANGES = {"length": ("MAX_LENGTH", " m"), "angle": ("MAX_ANGLE", " rad"), "acceleration": ("MAX_GRAVITY", " m/s^2"),
+           "mass": ("MAX_MASS", " kg"), "inertia": ("MAX_INERTIA", " kg m^2")}
 
 
 def check_range(value, where: str, field: str, kind: str) -> None:

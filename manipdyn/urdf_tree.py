@@ -14,7 +14,7 @@ from . import limits
 from .errors import ModelError
 from .inertia import LinkInertia
 from .links import check_name
-from .urdf_xml import (KNOWN_TYPES, MOVABLE, one_child, read_name, read_number, read_origin,
+from .urdf_xml import (KNOWN_TYPES, MOVABLE, check_numbers, one_child, read_name, read_number, read_origin,
                        read_vector3, where_in)
 
 __all__ = ["URDFLink", "URDFJoint", "URDFTree", "read_link", "read_joint", "some_names", "default_tip"]
@@ -52,6 +52,7 @@ def read_link(el, label: str) -> URDFLink:
     where0 = where_in(label, el, "<link>")
     name = read_name(el, where0)
     where = where_in(label, el, f"link '{name}'")
+    check_numbers(el, where)
     inert = one_child(el, "inertial", where, required=False)
     body = None
     if inert is not None:
@@ -73,6 +74,7 @@ def read_joint(el, label: str) -> URDFJoint:
     where0 = where_in(label, el, "<joint>")
     name = read_name(el, where0)
     where = where_in(label, el, f"joint '{name}'")
+    check_numbers(el, where)
     jtype = el.get("type")
     if jtype is None:
         raise ModelError(f"{where}: <joint> is missing the attribute 'type'")

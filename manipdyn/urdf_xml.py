@@ -19,7 +19,7 @@ from .errors import ModelError
 from .kinematics import rpy_to_matrix
 from .links import check_name
 
-__all__ = ["MOVABLE", "KNOWN_TYPES", "read_source", "decode", "parse_xml", "where_in", "read_number",
+__all__ = ["MOVABLE", "KNOWN_TYPES", "check_numbers", "read_source", "decode", "parse_xml", "where_in", "read_number",
            "read_vector3", "read_origin", "one_child", "read_name"]
 
 MOVABLE = ("revolute", "continuous", "prismatic")
@@ -160,6 +160,12 @@ def parse_xml(text: str, label: str):
         root = etree.fromstring(body, parser)
     except etree.XMLSyntaxError as exc:
         raise ModelError(f"{label}: not well-formed XML: {exc}") from None
+    # processing instructions: urdfdom's XML parser (TinyXML2) refuses them inside the document
+    pis = [n for n in root.iter(etree.PI)] + [n for n in root.itersiblings(etree.PI, preceding=True)] \
+        + [n for n in root.itersiblings(etree.PI)]
+    if pis:
+        raise ModelError(f"{label}, line {pis[0].sourceline}: refused: a processing instruction "
+                         f"<?{pis[0].target} ...?>; urdfdom (Pinocchio's reader) refuses them: remove it")
     # Second line of defence, on what libxml2 actually saw.
     info = root.getroottree().docinfo
     dtd = info.internalDTD
@@ -192,8 +198,8 @@ def parse_number(s: str):
 
 def why_not_a_number(s: str) -> str:
     """Why ``s`` (one number, no spaces expected) is refused, in words."""
-    if s != s.rstrip():
-        return "a trailing space or line break (urdfdom refuses it)"
+    if s != s.strip():
+        return "a leading or trailing space or line break (urdfdom refuses it)"
     if any(not c.isascii() for c in s):
         return "non-ASCII characters (urdfdom reads ASCII digits only)"
     if not NUMBER.match(s):
@@ -206,24 +212,24 @@ def why_not_a_number(s: str) -> str:
 
 
 def _bad_number(where, el, attr, raw, expected) -> ModelError:
-    if expected.startswith("expected 3"):
+    if expected.startswith("expected "):
         parts = [p for p in raw.split(" ") if p]
         bad = [p for p in parts if parse_number(p) is None]
         why = f"{len(parts)} found" if not bad else f"{bad[0]!r}: {why_not_a_number(bad[0])}"
     else:
-        why = why_not_a_number(raw.lstrip(" "))
+        why = why_not_a_number(raw)
     return ModelError(f"{where}: <{el.tag} {attr}=\"{raw}\">: {expected}: {why}")
 
 
 def read_number(el, attr: str, where: str, default=None) -> float:
-    """A scalar number attribute.  Leading spaces are allowed (urdfdom skips
-    them), trailing ones are not (urdfdom refuses them)."""
+    """A scalar number attribute: no spaces at all (urdfdom refuses a trailing
+    space everywhere and a leading one in ``<limit>``)."""
     raw = el.get(attr)
     if raw is None:
         if default is None:
             raise ModelError(f"{where}: <{el.tag}> is missing the attribute '{attr}'")
         return default
-    v = parse_number(raw.lstrip(" "))
+    v = parse_number(raw)
     if v is None:
         raise _bad_number(where, el, attr, raw, "not a finite number")
     return v
@@ -239,6 +245,40 @@ def read_vector3(el, attr: str, where: str, default) -> np.ndarray:
     if len(vals) != 3 or any(v is None for v in vals):
         raise _bad_number(where, el, attr, raw, "expected 3 finite numbers separated by spaces")
     return np.array(vals, dtype=np.float64)
+
+
+#: every number attribute urdfdom parses (in <joint> and <link> and their
+#: children), with the count of numbers it holds
+URDFDOM_NUMBERS = {"xyz": 3, "rpy": 3, "size": 3, "scale": 3, "rgba": 4, "radius": 1, "length": 1,
+                   "value": 1, "ixx": 1, "ixy": 1, "ixz": 1, "iyy": 1, "iyz": 1, "izz": 1, "lower": 1,
+                   "upper": 1, "effort": 1, "velocity": 1, "damping": 1, "friction": 1, "multiplier": 1,
+                   "offset": 1, "rising": 1, "falling": 1, "soft_lower_limit": 1, "soft_upper_limit": 1,
+                   "k_position": 1, "k_velocity": 1}
+
+
+def check_numbers(el, where: str) -> None:
+    """Check the grammar of every number urdfdom reads under ``el`` (a <link> or <joint>).
+
+    manipdyn uses only some of them (not a visual's size, nor a fixed joint's
+    <limit>), but urdfdom parses them all and refuses the whole file, or drops
+    the element, on one it cannot read: refused here first, with the place.
+    """
+    for sub in el.iter():
+        if not isinstance(sub.tag, str):
+            continue
+        for attr, raw in sub.attrib.items():
+            k = URDFDOM_NUMBERS.get(attr)
+            if k is None or (attr == "value" and sub.tag != "mass") or (attr == "length" and sub.tag != "cylinder"):
+                continue
+            parent = sub.getparent()
+            w = where if sub is el or parent is el else f"{where} <{parent.tag}>"
+            if k == 1:
+                if parse_number(raw) is None:
+                    raise _bad_number(w, sub, attr, raw, "not a finite number")
+            else:
+                parts = [p for p in raw.split(" ") if p]
+                if len(parts) != k or any(parse_number(p) is None for p in parts):
+                    raise _bad_number(w, sub, attr, raw, f"expected {k} finite numbers separated by spaces")
 
 
 def read_origin(parent_el, where: str) -> np.ndarray:

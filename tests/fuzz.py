@@ -324,6 +324,7 @@ def _model_mutation(rng: random.Random, data: dict) -> str:
         "drop_key", "unknown_key", "units", "convention", "links_many", "links_none", "links_dup",
         "qlim_reversed", "name_ctrl", "gravity", "format", "links_type"])
     links = data.get("links") if isinstance(data.get("links"), list) else []
+    links = [l for l in links if isinstance(l, dict)]
     if op in ("value", "perturb", "drop_key", "unknown_key") and links:
         link = rng.choice(links)
         if not isinstance(link, dict) or not link:

@@ -103,13 +103,34 @@ def test_text_the_two_readers_would_read_differently_is_refused(case, text, patt
         md.load(text)
 
 
-def test_leading_and_repeated_spaces_are_read_as_urdfdom_reads_them():
-    # urdfdom skips leading spaces of a scalar and empty pieces of a vector:
-    # accepted, and both readers must then agree (the engine check passes)
+def test_repeated_spaces_in_vectors_are_read_as_urdfdom_reads_them():
+    # urdfdom skips empty pieces of a vector: accepted, and both readers must
+    # then agree (the engine check passes); a space around a scalar is refused
+    # (urdfdom refuses a trailing one everywhere, a leading one in <limit>)
     text = replace_first(UR5, "xyz", "  0.0   0.0 0.089159 ")
-    text = replace_first(text, "ixx", " 0.010267495893")
     arm = md.load(text)
     assert md.crosscheck(arm, samples=5).ok
+    with pytest.raises(md.ModelError, match=r"effort=\" 150.0\">: not a finite number: a leading or trailing space"):
+        md.load(replace_first(UR5, "effort", " 150.0"))
+
+
+def test_numbers_urdfdom_reads_but_manipdyn_does_not_use_are_checked():
+    # a fixed joint's <limit> and a visual's geometry: urdfdom parses them and
+    # refuses the file (or drops the element) on a bad number
+    fixed = re.search(r'<joint name="[^"]*" type="fixed">', UR5).group(0)
+    text = UR5.replace(fixed, fixed + '<limit effort=".e1" velocity="1"/>', 1)
+    with pytest.raises(md.ModelError, match=r"type=\"fixed\"|joint '.*'.*<limit effort=\"\.e1\">"):
+        md.load(text)
+    text = UR5.replace("<link name=\"shoulder\">", "<link name=\"shoulder\"><visual><geometry>"
+                       "<box size=\"1 1\"/></geometry></visual>", 1)
+    with pytest.raises(md.ModelError, match=r"<box size=\"1 1\">: expected 3 finite numbers"):
+        md.load(text)
+
+
+def test_processing_instructions_are_refused():
+    text = UR5.replace("<link", "<?xml-stylesheet href='x'?><link", 1)
+    with pytest.raises(md.ModelError, match=r"refused: a processing instruction <\?xml-stylesheet"):
+        md.load(text)
 
 
 def test_reader_disagreement_is_caught_when_the_engine_is_built(monkeypatch):
