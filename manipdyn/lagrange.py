@@ -265,7 +265,7 @@ class TraceFormEngine:
     def friction_torque(self, qd) -> np.ndarray:
         """Joint friction ``Fv qd + Fc sign(qd)``, outside the Lagrangian (zero if none)."""
         qd = as_state(qd, "qd", self.n)
-        return np.zeros_like(qd) + self._friction(qd)
+        return check_result(np.zeros_like(qd) + self._friction(qd), "friction_torque", qd=qd)
 
     def dynamics_terms(self, q, qd):
         """``(D, h, g)`` in one pass over the kinematics (the cheap way to get all three)."""

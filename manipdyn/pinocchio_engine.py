@@ -230,7 +230,7 @@ class PinocchioEngine:
     def friction_torque(self, qd) -> np.ndarray:
         """Joint friction ``Fv qd + Fc sign(qd)`` (zero if none)."""
         qd = as_state(qd, "qd", self.n)
-        return np.zeros_like(qd) + self._friction(qd)
+        return check_result(np.zeros_like(qd) + self._friction(qd), "friction_torque", qd=qd)
 
     def dynamics_terms(self, q, qd):
         """``(D, h, g)`` for one state or a batch."""
@@ -297,24 +297,30 @@ class PinocchioEngine:
         qd = as_state(qd, "qd", self.n)
         same_batch((q, "q"), (qd, "qd"))
         if q.ndim == 1:
-            return float(pin.computeKineticEnergy(self.model, self.data, q, qd))
+            K = float(pin.computeKineticEnergy(self.model, self.data, q, qd))
+            return float(check_result(np.array([K]), "kinetic_energy", q=q, qd=qd)[0])
         m, d = self.model, self.data
-        return np.array([pin.computeKineticEnergy(m, d, qi, vi) for qi, vi in zip(q, qd)])
+        K = np.array([pin.computeKineticEnergy(m, d, qi, vi) for qi, vi in zip(q, qd)])
+        return check_result(K, "kinetic_energy", q=q, qd=qd)
 
     def potential_energy(self, q):
         """Potential energy (J), zero at the base origin height; scalar or (N,)."""
         q = as_state(q, "q", self.n)
         if q.ndim == 1:
-            return float(pin.computePotentialEnergy(self.model, self.data, q))
+            P = float(pin.computePotentialEnergy(self.model, self.data, q))
+            return float(check_result(np.array([P]), "potential_energy", q=q)[0])
         m, d = self.model, self.data
-        return np.array([pin.computePotentialEnergy(m, d, qi) for qi in q])
+        P = np.array([pin.computePotentialEnergy(m, d, qi) for qi in q])
+        return check_result(P, "potential_energy", q=q)
 
     def frame_placement(self, q, frame: str) -> np.ndarray:
         """Pose (4, 4) or (N, 4, 4) of a named URDF frame (link) in the base frame."""
         q = as_state(q, "q", self.n)
         fid = self.model.getFrameId(frame)
         if fid >= self.model.nframes:
-            raise KeyError(f"frame {frame!r} is not in the Pinocchio model")
+            names = [f.name for f in self.model.frames]
+            raise ModelError(f"frame: {frame!r} is not a frame of the model; frames are "
+                             f"{', '.join(repr(n) for n in names[:20])}{' ...' if len(names) > 20 else ''}")
         m, d = self.model, self.data
 
         def one(qi):
@@ -322,8 +328,8 @@ class PinocchioEngine:
             return d.oMf[fid].homogeneous.copy()
 
         if q.ndim == 1:
-            return one(q)
-        return np.array([one(qi) for qi in q])
+            return check_result(one(q), "frame_placement", q=q)
+        return check_result(np.array([one(qi) for qi in q]), "frame_placement", q=q)
 
     def fkine(self, q) -> np.ndarray:
         """The tool frame's pose in the base frame: (4, 4) or (N, 4, 4)."""
@@ -341,8 +347,9 @@ class PinocchioEngine:
         qd = as_state(qd, "qd", self.n)
         m, d = self.model, self.data
         if q.ndim == 1 and qd.ndim == 1:
-            return pin.computeCoriolisMatrix(m, d, q, qd).copy()
+            return check_result(pin.computeCoriolisMatrix(m, d, q, qd).copy(), "coriolis_matrix", q=q, qd=qd)
         same_batch((q, "q"), (qd, "qd"))
-        return np.array([pin.computeCoriolisMatrix(m, d, qi, vi).copy()
-                         for qi, vi in zip(q, qd)]).reshape(len(q), self.n, self.n)
+        C = np.array([pin.computeCoriolisMatrix(m, d, qi, vi).copy()
+                      for qi, vi in zip(q, qd)]).reshape(len(q), self.n, self.n)
+        return check_result(C, "coriolis_matrix", q=q, qd=qd)
 
