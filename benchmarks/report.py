@@ -1,4 +1,4 @@
-"""Console table and Markdown summary of a benchmark run (the dict written to latest.json)."""
+"""Console table and Markdown summary of a benchmark run (the dict written to results.json)."""
 
 from __future__ import annotations
 
@@ -102,7 +102,24 @@ def _md_table(head, body):
     return out
 
 
+def _pools(pools) -> str:
+    if not isinstance(pools, list):
+        return str(pools)
+    return "; ".join(f"{p.get('internal_api')} {p.get('version') or ''} ({p.get('user_api')}, "
+                     f"{p.get('num_threads')} threads"
+                     + (f", {p['architecture']}" if p.get("architecture") else "") + ")" for p in pools)
+
+
 def markdown(res):
+    """The results as a Markdown report: one named section after another."""
+    L = []
+    for section in (_md_header, _md_targets, _md_per_call, _md_batch, _md_scaling, _md_checks, _md_skipped):
+        L += section(res)
+    return "\n".join(L)
+
+
+def _md_header(res) -> list:
+    """Title, command, machine and BLAS configuration."""
     m = res["machine"]
     L = [f"# manipdyn benchmark: {res['mode']} run, {res['started']}", ""]
     L.append(f"Command: `{res['command']}`; {res['duration_s']} s.  ")
@@ -110,12 +127,20 @@ def markdown(res):
              f"numpy {m['numpy']} ({m.get('blas')}), pinocchio {m['pinocchio']}, "
              f"roboticstoolbox-python {m['roboticstoolbox'] or 'not installed'}; "
              f"OPENBLAS_CORETYPE={m.get('OPENBLAS_CORETYPE')}; load average "
-             f"{_load(m.get('loadavg_start'))} at the start, {_load(m.get('loadavg_end'))} at the end.")
+             f"{_load(m.get('loadavg_start'))} at the start, {_load(m.get('loadavg_end'))} at the end.  ")
+    L.append(f"BLAS and OpenMP thread pools (threadpoolctl): {_pools(m.get('blas_config'))}; "
+             f"OPENBLAS_L2_SIZE={m.get('OPENBLAS_L2_SIZE')}.")
     L.append("")
     L.append("Times are medians over interleaved rounds (every candidate timed in every round); "
              "ratios are medians of the per-round ratios.  Arms are built without rotors and friction.")
     L.append("")
 
+    return L
+
+
+def _md_targets(res) -> list:
+    """The targets and their verdicts; a profile of each missed one."""
+    L = []
     L.append("## Targets")
     L.append("")
     body = []
@@ -152,6 +177,12 @@ def markdown(res):
                 L.append(t["analysis"])
                 L.append("")
 
+    return L
+
+
+def _md_per_call(res) -> list:
+    """Per-call medians of every implementation, with the ratios."""
+    L = []
     rows = res.get("per_call", [])
     if rows:
         rm = _ratio_map(res)
@@ -178,6 +209,12 @@ def markdown(res):
         L += _md_table(head, body)
         L.append("")
 
+    return L
+
+
+def _md_batch(res) -> list:
+    """Batch throughput against a Python loop."""
+    L = []
     b = res.get("batch", [])
     if b:
         L.append("## Batch throughput")
@@ -197,6 +234,12 @@ def markdown(res):
                         for r in res.get("batch_ratios", [])])
         L.append("")
 
+    return L
+
+
+def _md_scaling(res) -> list:
+    """Fitted scaling exponents with the number of joints."""
+    L = []
     sc = res.get("scaling")
     if sc and sc.get("n"):
         L.append("## Scaling with the number of joints")
@@ -217,6 +260,12 @@ def markdown(res):
         L.append(f"Plot: `{sc['plot']}` beside this file" if sc.get("plot") else f"Plot skipped: {sc.get('plot_skipped')}")
         L.append("")
 
+    return L
+
+
+def _md_checks(res) -> list:
+    """The correctness checks against the energy referee, and the Toolbox disagreements."""
+    L = []
     ch = res["checks"]
     L.append("## Correctness checks")
     L.append("")
@@ -249,13 +298,19 @@ def markdown(res):
         for arm, diffs in notes.items():
             L.append(f"- {arm}: " + ("identical numbers" if not diffs else "; ".join(diffs)))
         L.append("")
+    return L
+
+
+def _md_skipped(res) -> list:
+    """What was skipped, and why."""
+    L = []
     if res.get("skipped"):
         L.append("## Skipped")
         L.append("")
         for s in res["skipped"]:
             L.append(f"- {s['what']}: {s['reason']}")
         L.append("")
-    return "\n".join(L)
+    return L
 
 
 def _e(x):

@@ -3,15 +3,20 @@
     python -m benchmarks.run            # full suite (~2 minutes on 2 cores)
     python -m benchmarks.run --smoke    # a few seconds, tiny sizes (what the test runs)
 
-Writes ``benchmarks/results/latest.json`` and ``latest.md`` (atomically; or
-into ``--out DIR``) and ``scaling.png`` when matplotlib is installed.  See
-benchmarks/README.md for what is measured and the targets.
+Every run writes ``results.json`` and ``results.md`` (atomically) and
+``scaling.png`` (when matplotlib is installed) into its own folder,
+``benchmarks/results/runs/<UTC time>-<mode>/`` (ignored by git), or into
+``--out DIR``.  The committed reference results,
+``benchmarks/results/reference.json`` and ``reference.md``, change only with
+``--publish`` (a full run).  ``--check-targets`` makes a missed target exit 1.
+See benchmarks/README.md for what is measured and the targets.
 
 Every answer is checked before it is timed: the fast path (Pinocchio), raw
 Pinocchio, the trace-form engine, and the Robotics Toolbox are compared with
 an independent energy-based referee (benchmarks/referee.py) at random
-states.  A wrong answer aborts that row loudly; the exit status is 2 if one
-of manipdyn's own engines was wrong.
+states.  A wrong answer aborts that row loudly.  Exit status: 2 if one of
+manipdyn's own engines was wrong (or bad options), 1 with ``--check-targets``
+if a target was missed, else 0.
 """
 
 from __future__ import annotations
@@ -41,7 +46,11 @@ from .timing import interleaved, loop_overhead, paired_ratio, profile_top
 
 SCHEMA = "manipdyn-bench/1"
 HERE = os.path.dirname(os.path.abspath(__file__))
-DEFAULT_OUT = os.path.join(HERE, "results")
+RESULTS = os.path.join(HERE, "results")
+#: where runs go by default: one folder per run, ignored by git
+RUNS = os.path.join(RESULTS, "runs")
+#: the published reference results (committed; rewritten only by --publish)
+REFERENCE = ("reference.json", "reference.md")
 
 #: relative tolerance against the energy referee (which is exact to ~1e-10)
 TOL = 1e-6
@@ -86,6 +95,20 @@ def loud(msg):
 # ---------------------------------------------------------------------------
 # machine
 # ---------------------------------------------------------------------------
+def blas_config() -> list | str:
+    """The BLAS/OpenMP thread pools this process runs with (threadpoolctl), without file paths.
+
+    OPENBLAS_CORETYPE changes which kernels OpenBLAS uses (on some machines it
+    halves the speed of numpy's small matrix products), so every result records it.
+    """
+    try:
+        from threadpoolctl import threadpool_info
+    except ImportError:
+        return "threadpoolctl not installed (pip install 'manipdyn[bench]')"
+    keep = ("user_api", "internal_api", "prefix", "version", "num_threads", "threading_layer", "architecture")
+    return [{k: v for k, v in pool.items() if k in keep} for pool in threadpool_info()]
+
+
 def machine_info():
     import pinocchio as pin
 
@@ -126,10 +149,12 @@ def machine_info():
         mpl = None
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     return {
+        "blas_config": blas_config(),
         "cpu": cpu, "cpu_detail": detail, "cores": cores, "memory_gib": mem, "platform": platform.platform(),
         "python": platform.python_version(), "numpy": np.__version__, "pinocchio": pin.__version__,
         "manipdyn": md.__version__, "roboticstoolbox": rtb_adapter.version(), "matplotlib": mpl,
         "blas": blas, "OPENBLAS_CORETYPE": os.environ.get("OPENBLAS_CORETYPE"),
+        "OPENBLAS_L2_SIZE": os.environ.get("OPENBLAS_L2_SIZE"),
         "loadavg_start": list(os.getloadavg()) if hasattr(os, "getloadavg") else None,
     }
 
@@ -726,7 +751,13 @@ def _profile_for(tid, arm, cfg, rng):
 def parse_args(argv):
     p = argparse.ArgumentParser(prog="python -m benchmarks.run", description=__doc__.split("\n\n")[0])
     p.add_argument("--smoke", action="store_true", help="a few seconds, tiny sizes (checks the code runs)")
-    p.add_argument("--out", default=DEFAULT_OUT, help="output folder (default benchmarks/results)")
+    p.add_argument("--out", default=None,
+                   help="output folder (default: a new benchmarks/results/runs/<UTC time>-<mode>/, ignored by git)")
+    p.add_argument("--publish", action="store_true",
+                   help="also rewrite the committed reference results benchmarks/results/reference.{json,md} "
+                        "(full runs only)")
+    p.add_argument("--check-targets", action="store_true",
+                   help="exit 1 when a performance target is missed (default: report it, exit 0)")
     p.add_argument("--arms", nargs="*", default=None,
                    help="bundled arms to time (default: puma560 stanford, and ur5 ur10 if bundled; "
                         "smoke: puma560)")
@@ -741,11 +772,16 @@ def parse_args(argv):
 def main(argv=None):
     args = parse_args(sys.argv[1:] if argv is None else argv)
     cfg = SMOKE if args.smoke else FULL
-    out_dir = os.path.abspath(args.out)
+    if args.publish and (args.smoke or args.arms or args.skip):
+        print("benchmarks.run: error: --publish needs a full run (no --smoke, --arms or --skip)",
+              file=sys.stderr)
+        return 2
+    now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0)
+    started = now.isoformat()
+    out_dir = os.path.abspath(args.out or os.path.join(RUNS, f"{now:%Y%m%dT%H%M%SZ}-{cfg.mode}"))
     os.makedirs(out_dir, exist_ok=True)
     rng = np.random.default_rng(args.seed)
     t_start = time.perf_counter()
-    started = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
 
     skipped = []
     if args.no_rtb:
@@ -812,12 +848,26 @@ def main(argv=None):
     results["duration_s"] = round(time.perf_counter() - t_start, 1)
     text_table = report.console(results)
     log(text_table)
-    atomic_write_text(os.path.join(out_dir, "latest.json"), json.dumps(_clean(results), indent=1) + "\n")
-    atomic_write_text(os.path.join(out_dir, "latest.md"), report.markdown(results))
-    log(f"wrote {os.path.join(out_dir, 'latest.json')} and latest.md in {results['duration_s']} s")
+    doc, summary = json.dumps(_clean(results), indent=1) + "\n", report.markdown(results)
+    atomic_write_text(os.path.join(out_dir, "results.json"), doc)
+    atomic_write_text(os.path.join(out_dir, "results.md"), summary)
+    log(f"wrote {os.path.join(out_dir, 'results.json')} and results.md in {results['duration_s']} s")
+    if args.publish:
+        atomic_write_text(os.path.join(RESULTS, REFERENCE[0]), doc)
+        atomic_write_text(os.path.join(RESULTS, REFERENCE[1]), summary)
+        log(f"published as the reference results: {os.path.join(RESULTS, REFERENCE[0])} and {REFERENCE[1]}")
+    return exit_status(checks, targets, args.check_targets)
+
+
+def exit_status(checks: dict, targets: list, check_targets: bool) -> int:
+    """2 when a manipdyn engine was wrong; 1 when asked to check targets and one was missed; else 0."""
     if not checks["passed"]:
         loud("a manipdyn engine gave a wrong answer: see the checks above")
         return 2
+    missed = [t["id"] for t in targets if t.get("status") == "MISS"]
+    if check_targets and missed:
+        loud(f"--check-targets: missed {', '.join(missed)}")
+        return 1
     return 0
 
 

@@ -19,7 +19,8 @@ model and its loaders, the two engines, the cross-check, the applications.
 Importing it imports both engines, which register themselves with the model.
 """
 
-from .errors import ModelError, PhysicalConsistencyWarning, SingularMassMatrixError, StateError
+from .errors import (ModelError, ModelNoteWarning, PhysicalConsistencyWarning, SingularMassMatrixError,
+                     StateError, SuspiciousValueWarning)
 from .inertia import LinkInertia
 from .kinematics import transform_inverse
 from .links import ChainJoint, DHLink
@@ -30,7 +31,9 @@ from .engine import DynamicsEngine
 from .arm import register_engine
 from .lagrange import trace_form_engine
 from .check import CrosscheckReport, crosscheck
-from .comparison import CompareReport, compare
+# ``compare`` is the function; the package of the same name is manipdyn/compare/
+# (binding the name here, after the import, makes md.compare the function)
+from .compare import CompareReport, compare
 
 
 def _pinocchio_engine(arm):
@@ -52,12 +55,13 @@ def __getattr__(name):
         return simulate
     raise AttributeError(f"module 'manipdyn' has no attribute {name!r}")
 
+
 __version__ = "0.1.0"
 
 __all__ = [
     "Arm", "ChainJoint", "Convention", "CompareReport", "CrosscheckReport", "DHLink", "DynamicsEngine",
-    "LinkInertia", "Manipulator", "ModelError", "PhysicalConsistencyWarning", "SingularMassMatrixError",
-    "StateError", "URDFArm", "compare", "crosscheck", "load", "load_with_notes", "models", "save",
+    "LinkInertia", "Manipulator", "ModelError", "ModelNoteWarning", "PhysicalConsistencyWarning", "SingularMassMatrixError",
+    "StateError", "SuspiciousValueWarning", "URDFArm", "compare", "crosscheck", "load", "load_with_notes", "models", "save",
     "simulate", "to_toml", "to_urdf", "transform_inverse", "write_urdf",
 ]
 

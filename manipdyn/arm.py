@@ -23,9 +23,9 @@ from typing import Callable, Literal, NamedTuple, get_args
 import numpy as np
 
 from . import limits
-from .errors import ModelError
+from .errors import ModelError, PhysicalConsistencyWarning, warn_notes
 from .kinematics import ChainKinematics, DHKinematics, rot_x, rot_z, trans
-from .links import ChainJoint, DHLink, check_name
+from .links import ChainJoint, DHLink, check_name, physical_note
 
 __all__ = ["Arm", "Manipulator", "URDFArm", "Convention", "TraceFormData", "register_engine",
            "register_service", "DEFAULT_QLIM", "joint_letters", "as_gravity"]
@@ -116,6 +116,7 @@ class Arm:
     name: str
     gravity: np.ndarray
     source: str = ""
+    notes: tuple = ()  #: one line per physically impossible link, suspicious unit, ...
 
     def __init__(self) -> None:
         self._engines: dict = {}
@@ -329,9 +330,10 @@ class Manipulator(Arm):
         self.armature.setflags(write=False)
         fr = np.array([[l.friction_viscous for l in links], [l.friction_coulomb for l in links]])
         self.friction = fr if np.any(fr) else None
-        for i, l in enumerate(links):
-            label = f"link {i + 1}" + (f" ({l.name})" if l.name else "")
-            l.body.check_physical(strict=self.strict, where=f"{self.name or 'arm'}: {label}")
+        notes = (physical_note(l.body, f"{self.name or 'arm'}: link {i + 1}" + (f" ({l.name})" if l.name else ""),
+                               self.strict) for i, l in enumerate(links))
+        self.notes = tuple(n for n in notes if n)
+        warn_notes(self.name or "arm", self.notes, PhysicalConsistencyWarning)
 
     def __eq__(self, other):
         if not isinstance(other, Manipulator):

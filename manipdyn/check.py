@@ -85,8 +85,12 @@ class CrosscheckReport:
     samples: int
     seed: int
     quantities: dict = field(default_factory=dict)
-    #: quantities that could not be compared, and why (e.g. a singular D)
+    #: the arm's own notes (arm.notes: physically impossible links, suspicious units),
+    #: then quantities that could not be compared, and why (e.g. a singular D)
     notes: list = field(default_factory=list)
+    #: quantities that could not be compared -> why (also among the notes); a
+    #: failed condition for ``manipdyn check``, never "all agree"
+    not_compared: dict = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
@@ -102,6 +106,7 @@ class CrosscheckReport:
     def to_dict(self) -> dict:
         return {"arm": self.arm, "n": self.n, "samples": self.samples, "seed": self.seed,
                 "ok": self.ok, "tolerance": TOLERANCE, "notes": self.notes,
+                "not_compared": self.not_compared,
                 "quantities": {k: q.to_dict() for k, q in self.quantities.items()}}
 
     def to_json(self) -> str:
@@ -117,8 +122,9 @@ class CrosscheckReport:
     def _verdict(self) -> str:
         if not self.ok:
             return "DISAGREEMENT in " + ", ".join(self.failures())
-        if self.notes:
-            return "the compared quantities agree, but NOT ALL COULD BE COMPARED (see the notes)"
+        if self.not_compared:
+            return ("the compared quantities agree, but NOT ALL COULD BE COMPARED: "
+                    + ", ".join(self.not_compared) + " (see the notes)")
         return "all agree"
 
     def __str__(self) -> str:
@@ -284,7 +290,8 @@ def crosscheck(arm, samples: int = 1000, seed: int = 0, chunk: int = 500, progre
 
     states = {"q": q, "qd": qd, "qdd": qdd}
     report = CrosscheckReport(arm=arm.name or "arm", n=arm.n, samples=int(samples), seed=int(seed),
-                              notes=list(skipped.values()))
+                              notes=list(getattr(arm, "notes", ())) + list(skipped.values()),
+                              not_compared=dict(skipped))
     for key, (ra, rb) in parts.items():
         report.quantities[key] = _compare(key, np.concatenate(ra), np.concatenate(rb), states)
     return report

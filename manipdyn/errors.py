@@ -8,7 +8,14 @@ either ``manipdyn.ModelError`` or plain ``ValueError``.
 
 from __future__ import annotations
 
-__all__ = ["ModelError", "PhysicalConsistencyWarning", "SingularMassMatrixError", "StateError"]
+import os
+import sys
+import warnings
+
+_PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__)) + os.sep
+
+__all__ = ["ModelError", "TipError", "ModelNoteWarning", "PhysicalConsistencyWarning", "SuspiciousValueWarning",
+           "SingularMassMatrixError", "StateError", "warn_at_caller", "warn_notes"]
 
 
 class ModelError(ValueError):
@@ -19,15 +26,85 @@ class ModelError(ValueError):
     """
 
 
+class TipError(ModelError):
+    """A URDF tree needs a tip link (or got one it does not have).
+
+    Attributes: ``source`` (the file, for messages), ``problem`` (what is
+    wrong, one sentence), ``leaves`` (leaf links that end a chain of movable
+    joints: the candidates), ``links`` (every link of the file) and
+    ``suggestions`` (close spellings of an unknown tip).  :meth:`for_option`
+    phrases the message for the way the tip was given: ``"tip="`` in
+    Python (the default message), ``"--tip"`` on the command line.
+    """
+
+    def __init__(self, source: str, problem: str, leaves=(), links=(), suggestions=(), option: str = "tip="):
+        self.source, self.problem = source, problem
+        self.leaves, self.links, self.suggestions = tuple(leaves), tuple(links), tuple(suggestions)
+        super().__init__(self._text(option))
+
+    def _text(self, option: str) -> str:
+        how = f"{option}'<link name>'" if option.endswith("=") else f"{option} LINK"
+        parts = [f"{self.source}: {self.problem}"]
+        if self.suggestions:
+            first, *rest = self.suggestions
+            parts.append(f"did you mean {first!r}" + (f" (or {', '.join(map(repr, rest))})" if rest else ""))
+        if self.leaves:
+            parts.append(f"choose the chain with {how}; the leaf links are "
+                         + ", ".join(repr(n) for n in self.leaves))
+        if self.links and set(self.links) != set(self.leaves):
+            parts.append(f"all {len(self.links)} links: " + ", ".join(repr(n) for n in self.links))
+        return "; ".join(parts)
+
+    def for_option(self, option: str) -> "TipError":
+        """The same error, its message naming ``option`` (e.g. ``"--tip"``, ``"--tip-a"``)."""
+        return TipError(self.source, self.problem, self.leaves, self.links, self.suggestions, option)
+
+
 class StateError(ValueError):
     """A joint state (q, qd, qdd, tau) has the wrong shape or is not finite."""
 
 
-class PhysicalConsistencyWarning(UserWarning):
+class ModelNoteWarning(UserWarning):
+    """A model was built, but something in it deserves the user's attention.
+
+    The arm keeps the same notes in ``arm.notes`` (one line each), so reports
+    can show them; catch this class to silence both kinds below.
+    """
+
+
+class PhysicalConsistencyWarning(ModelNoteWarning):
     """A well-formed link inertia that no real rigid body can have.
 
     Raised as an error instead when the model is built with ``strict=True``.
     """
+
+
+class SuspiciousValueWarning(ModelNoteWarning):
+    """A value that is probably in the wrong unit (an angle of 90 in a file in radians,
+    lengths that look like millimetres in a file in metres).
+
+    Raised as an error instead when the model is loaded with ``strict=True``.
+    """
+
+
+def warn_at_caller(message: str, category=ModelNoteWarning) -> None:
+    """``warnings.warn`` pointed at the first frame outside manipdyn: the user's own call."""
+    frame, level = sys._getframe(0), 1
+    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(_PACKAGE_DIR):
+        frame, level = frame.f_back, level + 1
+    warnings.warn(message, category, stacklevel=level)
+
+
+def warn_notes(label: str, notes, category=ModelNoteWarning) -> None:
+    """One warning for a model's notes (one line each), pointed at the user's call."""
+    notes = list(notes)
+    if not notes:
+        return
+    if len(notes) == 1:
+        message = notes[0]
+    else:
+        message = f"{label}: {len(notes)} notes:\n  " + "\n  ".join(notes)
+    warn_at_caller(message, category)
 
 
 class SingularMassMatrixError(ValueError):

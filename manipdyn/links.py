@@ -17,7 +17,7 @@ from .errors import ModelError
 from .inertia import LinkInertia, as_vector3
 from .kinematics import JOINT_TYPES, dh_modified, dh_standard
 
-__all__ = ["DHLink", "ChainJoint", "check_name"]
+__all__ = ["physical_note", "DHLink", "ChainJoint", "check_name"]
 
 
 def _scalar(value, where: str, name: str) -> float:
@@ -81,6 +81,30 @@ def _check_actuator(where, motor_inertia, gear_ratio, friction_viscous, friction
     if fv < 0 or fc < 0:
         raise ModelError(f"{where}: friction coefficients must be >= 0, got viscous={fv}, coulomb={fc}")
     return jm, g, fv, fc
+
+
+def physical_note(body: LinkInertia, where: str, strict: bool = False) -> str | None:
+    """The one-line note on a physically impossible body (None when it is consistent);
+    with ``strict``, a :class:`ModelError` instead."""
+    try:
+        body.check_physical(strict=True, where=where)
+    except ModelError as exc:
+        if strict:
+            raise
+        return str(exc)
+    return None
+
+
+def _refuse_negative_moment(I: np.ndarray, where: str) -> None:
+    """A DH link (model file or Python) with a clearly negative principal moment is refused,
+    as a negative mass is.  (URDF files keep loading with a note: vendors publish such
+    bodies, e.g. Tiago's antenna link, and the files are used as they are.)"""
+    if not np.any(I):
+        return
+    low = float(np.linalg.eigvalsh(I)[0])
+    if low < -1e-9 * float(np.max(np.abs(I))):   # the tolerance of LinkInertia.consistency_problems
+        raise ModelError(f"{where}: field 'inertia' has a negative principal moment of inertia "
+                         f"{low:.6g} kg m^2; no body has one, as no body has a negative mass")
 
 
 @dataclass(frozen=True, eq=False, init=False)
@@ -147,6 +171,7 @@ class DHLink:
         if body is None or mass is not None or com is not None or inertia is not None:
             body = LinkInertia(base.mass if mass is None else mass, base.com if com is None else com,
                                base.inertia if inertia is None else inertia, name=where)
+        _refuse_negative_moment(body.inertia, where)
         set_(self, "body", body)
         set_(self, "qlim", _qlim(qlim, where))
         if self.qlim is not None:

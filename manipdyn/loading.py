@@ -10,7 +10,7 @@ from __future__ import annotations
 import os
 import warnings
 
-from .errors import ModelError, PhysicalConsistencyWarning
+from .errors import ModelError, ModelNoteWarning, PhysicalConsistencyWarning, warn_notes
 from .modelfile import load_bundled, load_model_file, models
 from .urdf_in import load_urdf
 
@@ -43,7 +43,7 @@ def load(x, tip: str | None = None, **kw):
             f"load: expected a model name, a .toml model file or a URDF path, got {type(x).__name__}")
     s = os.fspath(x)
     if (isinstance(x, str) and s.lstrip().startswith("<")) or s.lower().endswith((".urdf", ".xml")):
-        return load_urdf(s, tip=tip, **kw)
+        return _load_urdf_with_notes(s, tip, **kw)
     if tip is not None:
         raise ModelError(f"tip: only meaningful for a URDF, not for {s!r}")
     if s.lower().endswith(".toml") or os.sep in s or "/" in s:
@@ -56,20 +56,32 @@ def load(x, tip: str | None = None, **kw):
                      f"({', '.join(models())})")
 
 
-def load_with_notes(x, tip: str | None = None, **kw):
-    """:func:`load`, with physical-consistency warnings returned instead of printed.
-
-    Returns ``(arm, notes)``: ``notes`` is a list of one-line strings, one per
-    :class:`~manipdyn.PhysicalConsistencyWarning` raised while loading (other
-    warnings are re-issued as usual).  This is how the CLI reports them.
-    """
+def _load_urdf_with_notes(source: str, tip, **kw):
+    """:func:`load_urdf`, its physical-consistency warnings kept as ``arm.notes`` and
+    warned once, at the user's call (not at a line inside manipdyn)."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", PhysicalConsistencyWarning)
-        arm = load(x, tip=tip, **kw)
+        arm = load_urdf(source, tip=tip, **kw)
     notes = []
     for w in caught:
         if issubclass(w.category, PhysicalConsistencyWarning):
             notes.append(str(w.message))
         else:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-    return arm, notes
+    arm.notes = tuple(notes)
+    warn_notes(arm.name or "arm", notes, PhysicalConsistencyWarning)
+    return arm
+
+
+def load_with_notes(x, tip: str | None = None, **kw):
+    """:func:`load`, with the model's notes returned instead of warned.
+
+    Returns ``(arm, notes)``: ``notes`` is ``list(arm.notes)``, one line per
+    physically impossible link inertia, link that moves no mass, or value in
+    a suspicious unit (the :class:`~manipdyn.ModelNoteWarning` warnings are
+    not shown; other warnings are).  This is how the CLI reports them.
+    """
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ModelNoteWarning)
+        arm = load(x, tip=tip, **kw)
+    return arm, list(arm.notes)

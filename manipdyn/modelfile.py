@@ -58,7 +58,7 @@ import numpy as np
 from ._files import atomic_write_text
 from . import limits
 from .arm import Manipulator
-from .errors import ModelError
+from .errors import ModelError, SuspiciousValueWarning, warn_notes
 from .links import DHLink
 
 __all__ = ["models", "load_bundled", "load_model_file", "parse_model", "save_model", "model_to_toml", "FORMAT"]
@@ -168,8 +168,10 @@ def _inertia(value, scale: float, where: str) -> np.ndarray:
                          [v["ixz"], v["iyz"], v["izz"]]])
     if isinstance(value, list) and len(value) == 3 and all(isinstance(r, list) for r in value):
         return np.array([_nums(r, 3, f"{where}[{i}]") for i, r in enumerate(value)]) * scale
-    raise ModelError(f"{where}: expected a table {{ ixx = ..., iyy = ..., izz = ..., ixy = ..., ixz = ..., iyz = ... }} "
-                     f"or a 3x3 list, got {value!r}")
+    if isinstance(value, list) and len(value) == 3:   # [ixx, iyy, izz]: a diagonal tensor, as in Python
+        return np.diag(_nums(value, 3, where)) * scale
+    raise ModelError(f"{where}: expected a table {{ ixx = ..., iyy = ..., izz = ..., ixy = ..., ixz = ..., iyz = ... }}, "
+                     f"3 diagonal values [ixx, iyy, izz] or a 3x3 list, got {value!r}")
 
 
 def parse_model(text: str, origin: str = "<model>", strict: bool = False) -> Manipulator:
@@ -188,7 +190,10 @@ def parse_model(text: str, origin: str = "<model>", strict: bool = False) -> Man
     unknown = set(data) - _TOP_KEYS
     if unknown:
         raise ModelError(f"{origin}: unknown key(s) {sorted(unknown)}; expected some of {sorted(_TOP_KEYS)}")
-    fmt = data.get("format", FORMAT)
+    if "format" not in data:
+        raise ModelError(f"{origin}: missing key 'format'; the first line of a model file is "
+                         f'format = "{FORMAT}"')
+    fmt = data["format"]
     if fmt != FORMAT:
         raise ModelError(f"{origin}: key 'format' is {fmt!r}; this manipdyn reads {FORMAT!r}")
     for key in ("name", "convention", "links"):
@@ -258,13 +263,49 @@ def parse_model(text: str, origin: str = "<model>", strict: bool = False) -> Man
         except ModelError as exc:
             raise ModelError(f"{w}: {exc}") from None
     description = _str(data.get("description", ""), f"{origin}: key 'description'")
+    unit_notes = _unit_notes(origin, raw_links, units, links)
+    if strict and unit_notes:
+        raise ModelError("; ".join(unit_notes) + " (strict)")
     try:
-        return Manipulator(links, convention=convention, gravity=gravity, name=name, strict=strict,
-                           source=source, sources=sources, description=description)
+        arm = Manipulator(links, convention=convention, gravity=gravity, name=name, strict=strict,
+                          source=source, sources=sources, description=description)
     except ModelError as exc:
         if origin in str(exc):
             raise
         raise ModelError(f"{origin}: {exc}") from None  # always name the file
+    arm.notes = tuple(unit_notes) + arm.notes
+    warn_notes(name or origin, unit_notes, SuspiciousValueWarning)
+    return arm
+
+
+#: a DH length above this (m) looks like millimetres (or cm) read as metres
+_LONGEST_PLAUSIBLE = 10.0
+#: an arm whose every non-zero DH length is below this (m) looks like metres read as mm
+_SHORTEST_PLAUSIBLE = 5e-3
+
+
+def _unit_notes(origin: str, raw_links: list, units: dict, links: list) -> list[str]:
+    """One-line notes on values that look like they are in another unit than the file says."""
+    notes = []
+    angle_unit = units.get("angle", "rad")
+    if angle_unit == "rad":
+        for i, raw in enumerate(raw_links):
+            for key in ("alpha", "theta"):
+                v = raw.get(key)
+                if isinstance(v, (int, float)) and abs(v) > 2 * math.pi + 1e-9:
+                    notes.append(f"{origin}: links[{i}] key '{key}' = {v!r} is more than 2 pi in a file "
+                                 "whose angles are in rad: degrees? (set units.angle = \"deg\")")
+    length_unit = units.get("length", "m")
+    lengths = np.array([abs(v) for l in links for v in (l.a, l.d)])
+    if lengths.size and lengths.max() > _LONGEST_PLAUSIBLE:
+        notes.append(f"{origin}: a DH length of {lengths.max():.6g} m (after units.length = "
+                     f"\"{length_unit}\"): the lengths look like they are in a smaller unit")
+    nonzero = lengths[lengths > 0]
+    if nonzero.size and nonzero.max() < _SHORTEST_PLAUSIBLE:
+        notes.append(f"{origin}: every DH length is under {_SHORTEST_PLAUSIBLE * 1000:g} mm (largest "
+                     f"{nonzero.max():.6g} m after units.length = \"{length_unit}\"): the lengths look "
+                     "like they are in a larger unit")
+    return notes
 
 
 # ---------------------------------------------------------------------------

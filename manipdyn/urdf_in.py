@@ -58,7 +58,7 @@ from .arm import DEFAULT_QLIM, URDFArm
 from .errors import ModelError, PhysicalConsistencyWarning
 from .inertia import LinkInertia, transform_pseudo_inertia
 from .links import ChainJoint
-from .urdf_tree import URDFTree, default_tip, some_names
+from .urdf_tree import URDFTree, default_tip, some_names, unknown_tip
 from .urdf_xml import decode, parse_xml, read_source
 
 __all__ = ["load_urdf", "URDFArm", "build_chain", "pinocchio_text"]
@@ -100,11 +100,7 @@ def resolve_tip(tree: URDFTree, tip: str | None) -> str:
     else:
         tip = str(tip)
         if tip not in tree.links:
-            leaves = [n for n in tree.links if not tree.children[n]]
-            others = [n for n in tree.links if tree.children[n]]
-            raise ModelError(
-                f"{label}: unknown tip link {tip!r}; links are {some_names(leaves + others)}"
-            )
+            raise unknown_tip(tree, tip)
     return tip
 
 

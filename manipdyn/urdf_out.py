@@ -9,7 +9,10 @@ arm's joint variables q: fixed DH offsets live in the joint origins.
 Defaults written where the arm gives none (URDF requires them on
 revolute/prismatic joints): ``effort = 1000`` (N m or N) and
 ``velocity = 10`` (rad/s or m/s).  They are placeholders for tools that
-insist on them; manipdyn's dynamics never read them.
+insist on them; manipdyn's dynamics never read them.  A comment before each
+joint says where its limits came from: the model's values, or these
+documented defaults (and :data:`manipdyn.arm.DEFAULT_QLIM` for a DH link
+without ``qlim``).
 
 Rotor inertia (armature) has no element in URDF; it is kept in the model
 file and given to Pinocchio as ``model.armature``.  Viscous and Coulomb
@@ -20,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["arm_to_urdf", "DEFAULT_EFFORT", "DEFAULT_VELOCITY", "TOOL_LINK"]
+__all__ = ["arm_to_urdf", "limit_provenance", "DEFAULT_EFFORT", "DEFAULT_VELOCITY", "TOOL_LINK"]
 
 #: name of the fixed flange link at the end frame T_n
 TOOL_LINK = "tool"
@@ -32,6 +35,28 @@ DEFAULT_VELOCITY = 10.0
 def _f(x) -> float:
     """A plain Python float (so the XML never reads ``np.float64(...)``)."""
     return float(x)
+
+
+def limit_provenance(arm, k: int, joint) -> str:
+    """Where joint ``k``'s ``<limit>`` values come from, in one line (written as a comment)."""
+    from .arm import DEFAULT_QLIM
+
+    unit = "rad" if joint.joint == "revolute" else "m"
+    lo, hi = DEFAULT_QLIM[joint.joint]
+    links = getattr(arm, "links", None)            # a DH arm: its links say whether qlim was given
+    if links is not None and links[k].qlim is None:
+        bounds = f"lower/upper {lo:g}/{hi:g} {unit}: manipdyn's default (DEFAULT_QLIM), the model gives none"
+    elif links is not None:
+        bounds = "lower/upper: the model's qlim"
+    else:
+        bounds = (f"lower/upper: as read from the source URDF (manipdyn's default {lo:g}/{hi:g} {unit} "
+                  "where it gave none, e.g. continuous joints)")
+    if joint.effort is not None and joint.velocity is not None:
+        rates = "effort/velocity: the model's"
+    else:
+        rates = (f"effort {DEFAULT_EFFORT:g}, velocity {DEFAULT_VELOCITY:g}: manipdyn's placeholders "
+                 "(URDF requires them; manipdyn's dynamics never read them)")
+    return f"{joint.name} limits: {bounds}; {rates}"
 
 
 def arm_to_urdf(arm) -> str:
@@ -77,6 +102,7 @@ def arm_to_urdf(arm) -> str:
     links.append(yourdfpy.Link(name=TOOL_LINK))
     ujoints.append(yourdfpy.Joint(name="tool_joint", type="fixed", parent=parent, child=TOOL_LINK,
                                   origin=np.array(tool, dtype=np.float64)))
+    index = {j.name: k for k, j in enumerate(joints)}
     robot = yourdfpy.Robot(name=arm.name or "arm", links=links, joints=ujoints)
     urdf = yourdfpy.URDF(robot=robot, build_scene_graph=False, load_meshes=False)
     root = urdf.write_xml().getroot()
@@ -87,4 +113,8 @@ def arm_to_urdf(arm) -> str:
         comment += ". Rotor inertia (armature, kg m^2 per joint) is not expressible in URDF: " + \
             " ".join(repr(float(a)) for a in arm.armature)
     root.insert(0, etree.Comment(comment.replace("--", "- -") + " "))
+    for el in root.findall("joint"):
+        k = index.get(el.get("name"))
+        if k is not None:
+            el.addprevious(etree.Comment(" " + limit_provenance(arm, k, joints[k]).replace("--", "- -") + " "))
     return etree.tostring(root, pretty_print=True, xml_declaration=True, encoding="UTF-8").decode("utf-8")

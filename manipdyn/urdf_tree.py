@@ -11,13 +11,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import limits
-from .errors import ModelError
+from .errors import ModelError, TipError
 from .inertia import LinkInertia
 from .links import check_name
 from .urdf_xml import (KNOWN_TYPES, MOVABLE, check_numbers, one_child, read_name, read_number, read_origin,
                        read_vector3, where_in)
 
-__all__ = ["URDFLink", "URDFJoint", "URDFTree", "read_link", "read_joint", "some_names", "default_tip"]
+__all__ = ["URDFLink", "URDFJoint", "URDFTree", "read_link", "read_joint", "some_names", "default_tip",
+           "tip_candidates", "unknown_tip"]
 
 @dataclass
 class URDFLink:
@@ -224,6 +225,20 @@ class URDFTree:
         return out[::-1]
 
 
+def tip_candidates(tree: URDFTree) -> list[str]:
+    """Leaf links with at least one movable joint between them and the root: possible tips."""
+    return [n for n in tree.links if not tree.children[n] and any(j.movable for j in tree.path(n))]
+
+
+def unknown_tip(tree: URDFTree, tip: str) -> TipError:
+    """The error for a tip that is not a link of the tree: close spellings and every link."""
+    import difflib
+
+    close = difflib.get_close_matches(tip, list(tree.links), n=3, cutoff=0.6)
+    return TipError(tree.label, f"unknown tip link {tip!r}", leaves=tip_candidates(tree),
+                    links=list(tree.links), suggestions=close)
+
+
 def default_tip(tree: URDFTree) -> str:
     label = tree.label
     movable = [j for j in tree.joints.values() if j.movable]
@@ -238,12 +253,11 @@ def default_tip(tree: URDFTree) -> str:
         k = next(i for i, j in enumerate(mp) if j.name not in on_path)
         branch = mp[k].parent
         ends = [deepest.child, m.child]
-        raise ModelError(
-            f"{label}: the movable joints are not serial: they branch at link '{branch}' "
-            f"(towards joint '{m.name}' and joint '{deepest.name}'). "
-            f"Pass tip='<link name>' to choose the chain, e.g. tip={ends[0]!r} or tip={ends[1]!r} "
-            f"or tip={branch!r}; the other joints are then locked at 0"
-        )
+        raise TipError(
+            label, f"the movable joints are not serial: they branch at link '{branch}' "
+                   f"(towards joint '{m.name}' and joint '{deepest.name}'); the joints off the chosen "
+                   "chain are then locked at 0",
+            leaves=tip_candidates(tree), links=list(tree.links))
     tip = deepest.child
     while len(tree.children[tip]) == 1 and tree.children[tip][0].type == "fixed":
         tip = tree.children[tip][0].child

@@ -450,7 +450,7 @@ def run_case(kind: str, seed: int, index: int, folder: str) -> tuple[str, str]:
             report = md.crosscheck(arm, samples=3, seed=index % 1000)
         if not report.ok:
             return "DISAGREE", f"{where}: {report}"
-        if report.notes:
+        if report.not_compared:
             return "agree (qdd not compared: D singular, indefinite or ill-conditioned)", where
         return "agree", where
     except Exception as exc:  # noqa: BLE001 - classifying is the point

@@ -38,14 +38,14 @@ def smoke(tmp_path_factory):
         warnings.simplefilter("ignore")
         code = run.main(["--smoke", "--out", str(out)])
     assert _snapshot() == before, "the smoke run must not touch benchmarks/results"
-    return code, out, json.loads((out / "latest.json").read_text())
+    return code, out, json.loads((out / "results.json").read_text())
 
 
 def test_exit_status_and_files(smoke):
     code, out, res = smoke
     assert code == 0
-    assert (out / "latest.json").is_file()
-    md_text = (out / "latest.md").read_text()
+    assert (out / "results.json").is_file()
+    md_text = (out / "results.md").read_text()
     assert md_text.startswith("# manipdyn benchmark: smoke run")
     assert "## Targets" in md_text and "## Correctness checks" in md_text
     # atomic writes leave no temporary files behind
@@ -128,7 +128,7 @@ def test_without_toolbox_rows_are_skipped_with_a_reason(tmp_path, monkeypatch):
         warnings.simplefilter("ignore")
         code = run.main(["--smoke", "--out", str(tmp_path), "--skip", "batch", "scaling"])
     assert code == 0
-    res = json.loads((tmp_path / "latest.json").read_text())
+    res = json.loads((tmp_path / "results.json").read_text())
     assert res["checks"]["passed"] is True
     assert not any(r["impl"].startswith("rtb") for r in res["checks"]["results"] + res["per_call"])
     skipped = {t["id"]: t for t in res["targets"] if t["status"] == "skipped"}
@@ -147,8 +147,8 @@ def test_a_wrong_answer_aborts_its_row_and_fails_the_run(tmp_path, monkeypatch, 
         code = run.main(["--smoke", "--out", str(tmp_path), "--no-rtb", "--skip", "batch", "scaling"])
     assert code == 2
     assert "WRONG ANSWER (manipdyn fast path) puma560 gravity_torque" in capsys.readouterr().err
-    res = json.loads((tmp_path / "latest.json").read_text())
+    res = json.loads((tmp_path / "results.json").read_text())
     assert res["checks"]["passed"] is False
     assert {(r["impl"], r["op"]) for r in res["aborted_rows"]} == {("manipdyn", "gravity_torque")}
     assert not any(r["impl"] == "manipdyn" and r["op"] == "gravity_torque" for r in res["per_call"])
-    assert "ABORTED" in (tmp_path / "latest.md").read_text()
+    assert "ABORTED" in (tmp_path / "results.md").read_text()

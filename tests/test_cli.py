@@ -61,7 +61,7 @@ def test_disagreement_is_exit_1(monkeypatch, capsys):
 
 def test_python_dash_m(tmp_path):
     bad = tmp_path / "bad.toml"
-    bad.write_text('name = "x"\n')
+    bad.write_text('format = "manipdyn-model/1"\nname = "x"\n')
     r = subprocess.run([sys.executable, "-m", "manipdyn", "check", str(bad)], capture_output=True, text=True)
     assert r.returncode == 2
     assert "Traceback" not in r.stderr

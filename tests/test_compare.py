@@ -24,7 +24,8 @@ import pytest
 import arms
 import manipdyn as md
 from manipdyn import cli
-from manipdyn.comparison import KIN_TOLERANCE, CompareReport, _chain, compare
+from manipdyn.compare import KIN_TOLERANCE, CompareReport, compare
+from manipdyn.compare.canonical import canonical_chain
 from manipdyn.erd import robots_dir
 from manipdyn.kinematics import matrix_to_rpy, rot_x, rot_y, rot_z, trans
 
@@ -71,7 +72,7 @@ def test_ur5_dh_table_matches_example_robot_data_urdf():
     masses = {m["link"]: m for m in r.masses}
     assert masses[3]["mass_a"] == pytest.approx(2.33) and masses[3]["mass_b"] == pytest.approx(2.275)
     text = str(r)
-    for word in ("SAME ARM", "base", "tool", "offset", "D ", "h ", "g ", "mass"):
+    for word in ("NOT THE SAME ARM", "base", "tool", "offset", "D ", "h ", "g ", "mass"):
         assert word in text, text
 
 
@@ -128,7 +129,7 @@ def test_bundled_model_against_its_own_urdf_file(name):
 def test_chain_form_reproduces_forward_kinematics():
     for name in md.models():
         arm = load(name)
-        ch = _chain(arm)
+        ch = canonical_chain(arm)
         for q in arm.random_state(np.random.default_rng(2), 5):
             np.testing.assert_allclose(ch.fk(q), arm.fkine(q), atol=1e-13)
 
@@ -241,17 +242,17 @@ def test_bundled_arm_redescribed_with_flips_and_offsets():
 # ---------------------------------------------------------------------------
 # Errors and the command line
 # ---------------------------------------------------------------------------
-def test_different_joint_count_is_a_one_line_model_error():
-    with pytest.raises(md.ModelError) as exc:
-        compare(load("ur5"), load("panda"))
-    assert "\n" not in str(exc.value) and "6 joints" in str(exc.value) and "7" in str(exc.value)
+def test_different_joint_count_is_a_verdict_not_an_error():
+    r = compare(load("ur5"), load("panda"))
+    assert not r.same_arm and r.kinematics == "different" and r.dynamics_verdict == "not compared"
+    assert "6 joints" in r.structure and "7" in r.structure
+    assert r.verdict().startswith("NOT THE SAME ARM")
 
 
-def test_different_joint_type_is_a_one_line_model_error():
-    with pytest.raises(md.ModelError) as exc:
-        compare(load("stanford"), load("ur5"))
-    msg = str(exc.value)
-    assert "\n" not in msg and "joint 3" in msg and "prismatic" in msg and "revolute" in msg
+def test_different_joint_type_is_a_verdict_not_an_error():
+    r = compare(load("stanford"), load("ur5"))
+    assert not r.same_arm
+    assert "joint 3" in r.structure and "prismatic" in r.structure and "revolute" in r.structure
 
 
 def test_bad_samples():
@@ -281,11 +282,11 @@ def test_cli_json(capsys):
     assert any("link 1" in n for n in d["load_notes"])  # the massless Puma link 1
 
 
-def test_cli_model_error_is_one_line(capsys):
+def test_cli_joint_count_mismatch_exits_1_as_the_help_promises(capsys):
     code = cli.main(["compare", "stanford", "ur5"])
-    err = capsys.readouterr().err
-    assert code == 2
-    assert err.count("\n") == 1 and "not the same arm" in err
+    out = capsys.readouterr().out
+    assert code == 1
+    assert "NOT THE SAME ARM" in out and "joint 3" in out
 
 
 def test_rounded_angles_in_a_description():

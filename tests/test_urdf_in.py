@@ -609,7 +609,9 @@ BAD = {
                         JOINT("j1", "base", "a"), JOINT("j2", "a", "b")])),
         {}, r"no <inertial> on any moving link \('a', 'b'\)",
     ),
-    "unknown tip": (ONE, {"tip": "hand"}, r"unknown tip link 'hand'; links are 'l1', 'base'"),
+    "unknown tip": (ONE, {"tip": "hand"},
+                    r"unknown tip link 'hand'; choose the chain with tip='<link name>'; the leaf links are 'l1'; "
+                    r"all 2 links: 'base', 'l1'"),
     "tip before any joint": (ONE, {"tip": "base"}, r"no movable joint between the root link 'base' and the tip 'base'"),
     "malformed number": (ONE.replace('value="1.0"', 'value="1.0.0"'), {},
                          r'line \d+, link \'l1\' <inertial>: <mass value="1.0.0">: not a finite number'),

@@ -15,8 +15,9 @@ import numpy as np
 from ..check import crosscheck
 from ..errors import SingularMassMatrixError
 from ..io import write_urdf
-from ..loading import load_with_notes, models
-from .common import EXIT_DISAGREE, EXIT_OK, Progress, output_folder, urdf_target, usage_error
+from ..loading import models
+from .common import (EXIT_DISAGREE, EXIT_OK, TIP_HELP, Progress, load_all, output_folder, urdf_target,
+                     usage_error)
 
 __all__ = ["register", "run"]
 
@@ -49,10 +50,10 @@ def _timings(arm, calls: int = 200) -> dict:
     return out
 
 
-def _print_result(report, notes, timing, urdf_path) -> None:
-    print(report)
-    for n in notes:
-        print(f"  note: {n}")
+def _print_result(report, timing, urdf_path, strict_failed: bool) -> None:
+    print(report)                       # the arm's notes are part of the report
+    if strict_failed:
+        print(f"  STRICT: {len(report.notes)} note(s) above fail --strict")
     if timing:
         p, l = timing["pinocchio"], timing["lagrange"]
         print(f"  per call (median, us)   {'pinocchio':>10} {'lagrange':>10}")
@@ -76,11 +77,11 @@ def run(args) -> int:
         return usage_error("check", f"--samples must be >= 1, got {args.samples}")
     if args.urdf_out:
         output_folder(args.urdf_out, "--urdf-out")
+    loaded = load_all(specs, args.tip)         # every name checked before any arm runs
     seen: dict = {}
     show_progress = args.progress or (args.progress is None and sys.stderr.isatty())
     results, worst = [], EXIT_OK
-    for spec in specs:
-        arm, notes = load_with_notes(spec, tip=args.tip)
+    for spec, arm, notes in loaded:
         urdf_path = None
         if args.urdf_out:
             urdf_path = urdf_target(args.urdf_out, arm, seen, "--urdf-out")
@@ -88,23 +89,27 @@ def run(args) -> int:
         report = crosscheck(arm, samples=args.samples, seed=args.seed,
                             progress=Progress(arm.name or spec, show_progress))
         timing = _timings(arm, calls=args.timing_calls) if args.timing_calls > 0 else {}
-        if not report.ok or report.notes:
+        strict_failed = bool(args.strict and notes)
+        if not report.ok or strict_failed or report.not_compared:
             # a quantity that could not be compared (forward dynamics of a
             # singular D) is a failed condition, never "all agree"
             worst = EXIT_DISAGREE
-        results.append({"model": spec, "notes": notes, "urdf": urdf_path,
-                        "timing": timing, "report": report})
+        results.append({"model": spec, "notes": notes, "urdf": urdf_path, "timing": timing,
+                        "strict_failed": strict_failed, "report": report})
         if not args.json:
-            _print_result(report, notes, timing, urdf_path)
+            _print_result(report, timing, urdf_path, strict_failed)
     if args.json:
         print(json.dumps([{**r, "report": r["report"].to_dict()} for r in results], indent=2))
     else:
         bad = [r["model"] for r in results if not r["report"].ok]
-        failed = [r["model"] for r in results if r["report"].ok and r["report"].notes]
+        failed = [r["model"] for r in results if r["report"].ok and r["report"].not_compared]
         print(f"{len(results) - len(bad) - len(failed)}/{len(results)} arms agree"
               + (f"; DISAGREEMENT: {', '.join(bad)}" if bad else "")
               + (f"; FAILED (a quantity could not be compared, see the notes): {', '.join(failed)}"
                  if failed else ""))
+        strict = [r["model"] for r in results if r["strict_failed"]]
+        if strict:
+            print(f"--strict: {', '.join(strict)} have notes (physically impossible or suspicious values)")
     return worst
 
 
@@ -112,16 +117,21 @@ def register(sub) -> None:
     """Add ``manipdyn check``."""
     c = sub.add_parser("check", help="cross-check both engines on arms",
                        description="For each arm: build the URDF, load both engines, compare D, h, g, "
-                                   "tau, forward dynamics and FK on random states, and time both engines.",
+                                   "tau, forward dynamics and FK on random states, and time both engines. "
+                                   "Every model is loaded before the first is run.",
                        epilog="Exit codes: 0 every arm agrees; 1 a quantity disagrees, or could not be "
                               "compared (forward dynamics of an arm whose mass matrix is singular: a "
-                              "failed condition, never 'all agree'); 2 usage or model error; 3 a bug.")
+                              "failed condition, never 'all agree'), or a note under --strict; 2 usage "
+                              "or model error; 3 a bug.")
     c.add_argument("models", nargs="*", metavar="MODEL_OR_FILE",
                    help="bundled model name, .toml model file, or .urdf file")
     c.add_argument("--all", action="store_true", help="check every bundled model")
     c.add_argument("--samples", type=int, default=1000, help="random states per arm (default 1000)")
     c.add_argument("--seed", type=int, default=0, help="seed of the random states (default 0)")
-    c.add_argument("--tip", default=None, help="URDF files: the tip link of the chain to keep")
+    c.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
+    c.add_argument("--strict", action="store_true",
+                   help="fail (exit 1) on every note: physically impossible link inertias, values in "
+                        "suspicious units (default: check them as published, and say so)")
     c.add_argument("--json", action="store_true", help="print one JSON document instead of tables")
     c.add_argument("--urdf-out", metavar="DIR", default=None, help="also write each arm's URDF into DIR")
     c.add_argument("--timing-calls", type=int, default=200,

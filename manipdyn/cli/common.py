@@ -10,10 +10,15 @@ import re
 import sys
 import time
 
-from ..errors import ModelError
+from ..errors import ModelError, TipError
+from ..loading import load_with_notes
 
 __all__ = ["EXIT_OK", "EXIT_DISAGREE", "EXIT_USAGE", "EXIT_INTERNAL", "Progress", "output_folder",
-           "urdf_target", "usage_error"]
+           "urdf_target", "usage_error", "load_arm", "load_all", "is_urdf", "TIP_HELP"]
+
+#: help of every ``--tip`` option
+TIP_HELP = ("tree URDFs (an arm with a gripper): the link that ends the chain to use; "
+            "without it, a tree URDF is refused with the list of candidate leaf links")
 
 #: exit codes of every subcommand: 0 success / agreement, 1 a quantity
 #: disagrees or a checked condition fails, 2 usage or model error, 3 a bug
@@ -61,9 +66,46 @@ def urdf_target(outdir: str, arm, seen: dict, option: str) -> str:
 
 
 def output_folder(path: str, option: str) -> str:
-    """Create the output folder, or say in one line why it cannot be."""
+    """Create the output folder and make sure files can be written in it, or say in one
+    line why not (before any work starts)."""
+    import tempfile
+
     try:
         os.makedirs(path, exist_ok=True)
     except OSError as exc:
         raise ModelError(f"{option} {path}: cannot create the folder: {exc.strerror}") from None
+    if not os.path.isdir(path):
+        raise ModelError(f"{option} {path}: not a folder")
+    try:
+        with tempfile.TemporaryFile(dir=path):
+            pass
+    except OSError as exc:
+        raise ModelError(f"{option} {path}: cannot write files in this folder ({exc.strerror})") from None
     return path
+
+
+def is_urdf(spec: str) -> bool:
+    """True when ``spec`` names a URDF file (by its extension)."""
+    return str(spec).lower().endswith((".urdf", ".xml"))
+
+
+def load_arm(spec: str, tip: str | None = None, option: str = "--tip"):
+    """``(arm, notes)`` of :func:`manipdyn.load_with_notes`; a tip error names ``option``."""
+    try:
+        return load_with_notes(spec, tip=tip)
+    except TipError as exc:
+        raise exc.for_option(option) from None
+
+
+def load_all(specs, tip: str | None = None, option: str = "--tip") -> list:
+    """Load every model before any work starts: ``[(spec, arm, notes)]``.
+
+    A misspelled name or a bad file fails here, in one line, before the
+    first arm is run.  ``tip`` applies to the URDF files among ``specs``;
+    given with no URDF file among them it is a usage error.
+    """
+    specs = list(specs)
+    if tip is not None and not any(is_urdf(s) for s in specs):
+        raise ModelError(f"{option}: only meaningful for a URDF file, and none of "
+                         f"{', '.join(map(repr, specs))} is one")
+    return [(s, *load_arm(s, tip if is_urdf(s) else None, option)) for s in specs]

@@ -23,10 +23,10 @@ import numpy as np
 
 from ..control.demo import CONTROLLERS, DEFAULT_BANDWIDTH, DEFAULT_GAMMA, DEFAULT_PAYLOAD_COM, demo_path, make_controller
 from ..control.plant import with_payload
-from ..control.plots import plot_compare, plot_single, pyplot
+from ..control.plots import PLOT_INSTALL, plot_compare, plot_single, pyplot
 from ..control.simulate import SimulationDiverged, simulate
 from ..errors import ModelError
-from ..loading import load_with_notes
+from .common import TIP_HELP, Progress, load_arm
 
 __all__ = ["register", "run"]
 
@@ -77,12 +77,13 @@ def check_options(args) -> None:
 
 def run(args) -> int:
     check_options(args)
-    arm, notes = load_with_notes(args.model)
+    arm, notes = load_arm(args.model, args.tip)
     plant = arm
     if args.payload > 0:
         plant = with_payload(arm, args.payload, com=DEFAULT_PAYLOAD_COM)
     path = demo_path(arm, args.duration)
     kinds = list(CONTROLLERS) if args.compare else [args.controller]
+    show_progress = args.progress or (args.progress is None and sys.stderr.isatty())
     final = max(0.0, args.duration - 1.0)
     logs, rc = {}, 0
     head = (f"manipdyn track {arm.name}: demo path {args.duration:g} s, {1 / args.dt:g} Hz RK4 "
@@ -97,7 +98,8 @@ def run(args) -> int:
         ctrl = make_controller(kind, arm, args.bandwidth, args.gamma)
         label = CONTROLLERS[kind]
         try:
-            log = simulate(arm, ctrl, path, args.duration, dt=args.dt, plant=plant)
+            log = simulate(arm, ctrl, path, args.duration, dt=args.dt, plant=plant,
+                           progress=Progress(label[:16], show_progress, unit="steps"))
         except SimulationDiverged as exc:
             logs[label] = f"DIVERGED at t = {exc.t:.3g} s"
             print(f"\n{label}: {exc}")
@@ -139,7 +141,8 @@ def register(subparsers) -> None:
         description="Simulate a joint-space tracking controller on the standard demo path "
                     "(fixed-step RK4, zero-order hold) and report tracking errors and torques. "
                     "Exit codes: 0 finished, 1 a controller diverged, 2 bad input.")
-    p.add_argument("model", metavar="MODEL", help="bundled model name or .toml model file")
+    p.add_argument("model", metavar="MODEL_OR_FILE", help="bundled model name, .toml model file, or .urdf file")
+    p.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
     p.add_argument("--controller", choices=list(CONTROLLERS), default="ct",
                    help="pd, pdg (PD + gravity), ct (computed torque, default), adaptive (Slotine-Li)")
     p.add_argument("--payload", type=float, default=0.0, metavar="KG",
@@ -151,6 +154,11 @@ def register(subparsers) -> None:
                    help=f"closed-loop bandwidth of the controllers (default {DEFAULT_BANDWIDTH:g})")
     p.add_argument("--gamma", type=float, default=DEFAULT_GAMMA,
                    help=f"adaptation gain of the adaptive controller (default {DEFAULT_GAMMA:g})")
-    p.add_argument("--plot", metavar="OUT.png", default=None, help="write a figure (needs matplotlib)")
+    p.add_argument("--plot", metavar="OUT.png", default=None,
+                   help=f"write a figure (needs matplotlib: {PLOT_INSTALL})")
     p.add_argument("--compare", action="store_true", help="run all four controllers and compare them")
+    prog = p.add_mutually_exclusive_group()
+    prog.add_argument("--progress", dest="progress", action="store_true", default=None,
+                      help="always show a progress bar per run on stderr (default: only on a terminal)")
+    prog.add_argument("--no-progress", dest="progress", action="store_false")
     p.set_defaults(func=run)

@@ -5,9 +5,12 @@ Layer: CLI.
 
 from __future__ import annotations
 
+import os
+
+from ..errors import ModelError
 from ..io import write_urdf
-from ..loading import load_with_notes, models
-from .common import EXIT_OK, output_folder, urdf_target, usage_error
+from ..loading import models
+from .common import EXIT_OK, TIP_HELP, load_all, output_folder, urdf_target, usage_error
 
 __all__ = ["register", "run"]
 
@@ -19,19 +22,28 @@ def run(args) -> int:
     if not specs:
         return usage_error("urdf", "name at least one model or pass --all")
     output_folder(args.outdir, "OUTDIR")
+    loaded = load_all(dict.fromkeys(specs), args.tip)   # each spec once, all loaded before writing
     seen: dict = {}
-    for spec in dict.fromkeys(specs):  # each spec once, in order
-        arm, _ = load_with_notes(spec)
+    for spec, arm, _notes in loaded:
         path = urdf_target(args.outdir, arm, seen, "OUTDIR")
-        write_urdf(arm, path)
+        try:
+            write_urdf(arm, path)
+        except OSError as exc:
+            raise ModelError(f"OUTDIR {args.outdir}: cannot write {os.path.basename(path)} ({exc.strerror})") from None
         print(f"wrote {path}")
     return EXIT_OK
 
 
 def register(sub) -> None:
     """Add ``manipdyn urdf``."""
-    u = sub.add_parser("urdf", help="write the URDF of arms", description="Write <name>.urdf for each arm into OUTDIR.")
-    u.add_argument("models", nargs="*", metavar="MODEL_OR_FILE")
+    u = sub.add_parser("urdf", help="write the URDF of arms",
+                       usage="manipdyn urdf [-h] [--all] [--tip LINK] [MODEL_OR_FILE ...] OUTDIR  (options first)",
+                       description="Write <name>.urdf for each arm into OUTDIR (created if needed). "
+                                   "The URDF carries the arm's joint limits and says in a comment which "
+                                   "values are manipdyn's defaults. Exit 0 written, 2 usage or model error.")
+    u.add_argument("models", nargs="*", metavar="MODEL_OR_FILE",
+                   help="bundled model name, .toml model file or .urdf file (several allowed)")
+    u.add_argument("outdir", metavar="OUTDIR", help="the folder to write the .urdf files into")
     u.add_argument("--all", action="store_true", help="every bundled model")
-    u.add_argument("outdir", metavar="OUTDIR")
+    u.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
     u.set_defaults(func=run)

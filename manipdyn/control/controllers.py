@@ -40,7 +40,8 @@ __all__ = ["Controller", "PD", "PDGravity", "ComputedTorque", "SlotineLi",
            "model_torque_limits", "pd_gains", "adaptation_gains"]
 
 
-def _gain(value, n: int, name: str, positive: bool = False, allow_inf: bool = False) -> np.ndarray:
+def _gain(value, n: int, name: str, positive: bool = False, allow_inf: bool = False,
+          nonnegative: bool = False) -> np.ndarray:
     try:
         g = np.array(value, dtype=np.float64)
     except (TypeError, ValueError):
@@ -53,6 +54,9 @@ def _gain(value, n: int, name: str, positive: bool = False, allow_inf: bool = Fa
         raise ValueError(f"{name}: must be finite, got {g.tolist()}")
     if positive and np.any(g <= 0):
         raise ValueError(f"{name}: must be > 0, got {g.tolist()}")
+    if nonnegative and np.any(g < 0):
+        raise ValueError(f"{name}: must be >= 0 (a negative gain drives the arm away from the path), "
+                         f"got {g.tolist()}")
     return g
 
 
@@ -171,8 +175,8 @@ class PD(Controller):
     name = "PD"
 
     def __init__(self, arm, kp, kd, trajectory=None, tau_max=None):
-        self.kp = _gain(kp, arm.n, "kp")
-        self.kd = _gain(kd, arm.n, "kd")
+        self.kp = _gain(kp, arm.n, "kp", nonnegative=True)
+        self.kd = _gain(kd, arm.n, "kd", nonnegative=True)
         super().__init__(arm, trajectory, tau_max)
 
     def law(self, t, q, qd, q_d, qd_d, qdd_d):
@@ -200,8 +204,8 @@ class ComputedTorque(Controller):
     name = "computed torque"
 
     def __init__(self, arm, kp=100.0, kd=20.0, trajectory=None, tau_max=None):
-        self.kp = _gain(kp, arm.n, "kp")
-        self.kd = _gain(kd, arm.n, "kd")
+        self.kp = _gain(kp, arm.n, "kp", nonnegative=True)
+        self.kd = _gain(kd, arm.n, "kd", nonnegative=True)
         super().__init__(arm, trajectory, tau_max)
 
     def law(self, t, q, qd, q_d, qd_d, qdd_d):

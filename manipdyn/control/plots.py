@@ -12,7 +12,11 @@ import numpy as np
 from .._files import atomic_write
 from ..errors import ModelError
 
-__all__ = ["pyplot", "save_figure", "plot_single", "plot_compare"]
+__all__ = ["PLOT_INSTALL", "pyplot", "save_figure", "plot_single", "plot_compare"]
+
+
+#: the install hint for plots, as the README gives it
+PLOT_INSTALL = "pip install 'manipdyn[plot]' (in a source checkout: pip install -e '.[plot]')"
 
 
 # -- figure ------------------------------------------------------------------------
@@ -21,8 +25,7 @@ def pyplot():
     try:
         import matplotlib
     except ImportError:
-        raise ModelError("--plot needs matplotlib: install manipdyn[plot] "
-                         "(pip install 'manipdyn[plot]')") from None
+        raise ModelError(f"--plot needs matplotlib: {PLOT_INSTALL}") from None
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 

@@ -156,7 +156,7 @@ def _name(x) -> str:
 
 def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, plant=None,
              q0=None, qd0=None, max_position: float = DEFAULT_MAX_POSITION,
-             max_velocity: float = DEFAULT_MAX_VELOCITY) -> SimulationLog:
+             max_velocity: float = DEFAULT_MAX_VELOCITY, progress=None) -> SimulationLog:
     """Simulate ``controller`` tracking ``trajectory`` on ``plant`` (default ``arm``).
 
     Parameters
@@ -180,6 +180,9 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
         Initial state; default the reference at t = 0 (zero initial error).
     max_position, max_velocity : float
         Divergence bounds (module docstring).
+    progress : callable, optional
+        Called as ``progress(steps_done, steps_total)`` about a hundred times
+        over the run, and once at its end.
 
     Returns
     -------
@@ -195,10 +198,15 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
     n = arm.n
     if plant.n != n:
         raise ValueError(f"plant: has {plant.n} joints, the arm {n}")
+    # blame the argument that does not fit the arm, before anything uses it
+    if getattr(controller, "n", n) != n:
+        raise ValueError(f"controller: built for an arm with {controller.n} joints, the arm has {n}")
     if trajectory is None:
         trajectory = getattr(controller, "trajectory", None)
         if trajectory is None:
             raise ValueError("trajectory: none given and the controller has none")
+    if getattr(trajectory, "n", n) != n:
+        raise ValueError(f"trajectory: has {trajectory.n} joints, the arm {n}")
     if hasattr(controller, "reset"):
         controller.reset(trajectory)
     if duration is None:
@@ -224,6 +232,7 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
     log = SimulationLog(t, Q, V, q_d, qd_d, qdd_d, TAU, dt, _name(controller), plant.name or "plant",
                         tuple(plant.joint_types))
     pmax2, vmax2 = max_position**2, max_velocity**2
+    every = max(1, N // 100)
     fd = plant.forward_dynamics
     h, h2, h6 = dt, 0.5 * dt, dt / 6.0
 
@@ -279,11 +288,15 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
             q = q + h6 * (qd + 2.0 * (v2 + v3) + v4)
             qd = qd + h6 * (a1 + 2.0 * (a2 + a3) + a4)
             check_state(k + 1)
+            if progress is not None and (k + 1) % every == 0:
+                progress(k + 1, N)
         Q[N] = q
         V[N] = qd
         tau = np.asarray(controller(N * dt, q, qd), dtype=np.float64)
         if not math.isfinite(tau.dot(tau)) and not np.all(np.isfinite(tau)):
             diverged(N, "tau", tau, math.inf, "not finite")
         TAU[N] = tau
+    if progress is not None:
+        progress(N, N)
     log.wall_time = time.perf_counter() - t_wall
     return log
