@@ -196,8 +196,7 @@ class PinocchioEngine:
     def coriolis_torque(self, q, qd) -> np.ndarray:
         """Coriolis and centripetal torque h(q, qd), (n,) or (N, n) (no friction)."""
         try:
-            if (type(q) is type(qd) is _ND and q.dtype is qd.dtype is _F64
-                    and q.ndim == 1 and qd.ndim == 1):
+            if type(q) is type(qd) is _ND and q.dtype is qd.dtype is _F64 and q.ndim == qd.ndim == 1:
                 h = _rnea(self._model0, self._data0, q, qd, self._zeros)
                 if _isfinite(sum(h.tolist())):
                     return h
@@ -241,7 +240,7 @@ class PinocchioEngine:
         if self.friction is None:
             try:
                 if (type(q) is type(qd) is type(qdd) is _ND and q.dtype is qd.dtype is qdd.dtype is _F64
-                        and q.ndim == 1 and qd.ndim == 1 and qdd.ndim == 1):
+                        and q.ndim == qd.ndim == qdd.ndim == 1):
                     tau = _rnea(self.model, self.data, q, qd, qdd)
                     if _isfinite(sum(tau.tolist())):
                         return tau
@@ -264,7 +263,7 @@ class PinocchioEngine:
         if self.friction is None:
             try:
                 if (type(q) is type(qd) is type(tau) is _ND and q.dtype is qd.dtype is tau.dtype is _F64
-                        and q.ndim == 1 and qd.ndim == 1 and tau.ndim == 1):
+                        and q.ndim == qd.ndim == tau.ndim == 1):
                     qdd = _aba(self.model, self.data, q, qd, tau)
                     if _isfinite(sum(qdd.tolist())):
                         return qdd
