@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from .errors import ModelError
 
-__all__ = ["MAX_FILE_BYTES", "MAX_MODEL_FILE_BYTES", "MAX_LINKS", "MAX_JOINTS", "MAX_FIXED_RUN", "MAX_NAME_LENGTH", "MAX_LENGTH", "MAX_ANGLE",
+__all__ = ["open_regular", "MAX_FILE_BYTES", "MAX_MODEL_FILE_BYTES", "MAX_LINKS", "MAX_JOINTS", "MAX_FIXED_RUN", "MAX_NAME_LENGTH", "MAX_LENGTH", "MAX_ANGLE",
            "MAX_GRAVITY", "MAX_MASS", "MAX_INERTIA", "check_range", "MAX_MAGNITUDE", "over_limit"]
 
 #: largest URDF or model file read, bytes (16 MiB; real ones are under 1 MiB)
@@ -94,3 +94,24 @@ def check_range(value, where: str, field: str, kind: str) -> None:
             f"(manipdyn.limits.{name}): float64 cannot hold it beside the arm's other {kind}s to the "
             "cross-check's 1e-9; check the units, or raise the limit for a trusted model"
         )
+
+
+def open_regular(path: str, label: str):
+    """Open ``path`` for reading bytes, refusing anything but a regular file.
+
+    A FIFO would block ``open`` forever and a device (``/dev/zero``) never
+    ends; the file is opened non-blocking, checked with ``fstat``, then read.
+    """
+    import os
+    import stat
+
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    except OSError as exc:
+        raise ModelError(f"{label}: cannot read {path!r}: {exc.strerror or exc}") from None
+    st = os.fstat(fd)
+    if not stat.S_ISREG(st.st_mode):
+        os.close(fd)
+        kind = "a directory" if stat.S_ISDIR(st.st_mode) else "not a regular file (a device, FIFO or socket)"
+        raise ModelError(f"{label}: cannot read {path!r}: {kind}")
+    return os.fdopen(fd, "rb")

@@ -308,6 +308,16 @@ def test_file_size_caps(tmp_path, monkeypatch):
         md.load(t)
 
 
+@pytest.mark.parametrize("name", ["fifo.urdf", "fifo.toml"])
+def test_a_fifo_or_device_is_refused_not_a_hang(tmp_path, name):
+    fifo = tmp_path / name
+    os.mkfifo(fifo)
+    with pytest.raises(md.ModelError, match=r"not a regular file"):
+        md.load(fifo)
+    with pytest.raises(md.ModelError, match=r"/dev/zero.*not a regular file"):
+        md.load("/dev/zero")  # a device that never ends
+
+
 def test_a_model_file_with_a_50_mb_string_is_refused_quickly(tmp_path):
     p = tmp_path / "huge.toml"
     p.write_text(PUMA_TOML.replace('name = "puma560"', 'name = "' + "x" * (50 * 2**20) + '"', 1))
@@ -351,9 +361,8 @@ def test_huge_gear_ratio_is_refused():
 
 def test_deeply_nested_arrays_in_a_model_file(tmp_path):
     p = tmp_path / "deep.toml"
-    p.write_text(PUMA_TOML.replace("gravity = [", "gravity = " + "[" * 10000 + "]" * 10000 + "\nx = [", 1)
-                 if "gravity = [" in PUMA_TOML else PUMA_TOML + "\nnest = " + "[" * 10000 + "]" * 10000 + "\n")
-    with pytest.raises(md.ModelError, match=r"deep\.toml: "):
+    p.write_text("nest = " + "[" * 10000 + "]" * 10000 + "\n" + PUMA_TOML)
+    with pytest.raises(md.ModelError, match=r"deep\.toml: not a model file: arrays or tables nested too deeply"):
         md.load(p)
 
 
