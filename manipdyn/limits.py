@@ -108,10 +108,10 @@ def open_regular(path: str, label: str):
     try:
         fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
     except OSError as exc:
-        raise ModelError(f"{label}: cannot read {path!r}: {exc.strerror or exc}") from None
+        raise ModelError(f"{label}: {exc.strerror or exc}") from None
     st = os.fstat(fd)
     if not stat.S_ISREG(st.st_mode):
         os.close(fd)
         kind = "a directory" if stat.S_ISDIR(st.st_mode) else "not a regular file (a device, FIFO or socket)"
-        raise ModelError(f"{label}: cannot read {path!r}: {kind}")
+        raise ModelError(f"{label}: {kind}")
     return os.fdopen(fd, "rb")

@@ -99,7 +99,7 @@ def load_model_file(path, strict: bool = False) -> Manipulator:
     """Read a TOML model file (format in this module's docstring)."""
     path = os.fspath(path)
     try:
-        with limits.open_regular(path, path) as fh:
+        with limits.open_regular(path, f"{path}: cannot read model file") as fh:
             data = fh.read(limits.MAX_MODEL_FILE_BYTES + 1)
     except OSError as exc:
         raise ModelError(f"{path}: cannot read model file: {exc.strerror or exc}") from None

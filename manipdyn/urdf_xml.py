@@ -53,7 +53,7 @@ def read_source(source):
         path = os.fspath(source)
         label = f"URDF file {os.path.basename(path)}"
         try:
-            with limits.open_regular(path, label) as fh:
+            with limits.open_regular(path, f"{label}: cannot read {path!r}") as fh:
                 data = fh.read(limits.MAX_FILE_BYTES + 1)
         except OSError as exc:
             raise ModelError(f"{label}: cannot read {path!r}: {exc.strerror or exc}") from None
