@@ -79,7 +79,8 @@ def _perturb(rng: random.Random, raw: str) -> str:
         v = float(raw)
     except ValueError:
         v = 1.0
-    f = rng.choice([-1.0, 0.0, 1e-12, 1e-300, 1e6, 1e30, 1e59, 2.0, -1e6])
+    f = rng.choice([-1.0, 0.0, 1e-12, 1e-300, 1e6, 1e30, 1e59, 2.0, -1e6,  # hostile
+                    0.5, 1.5, -0.3, 1e-3, 1e3, 1.000001])                   # careless but plausible
     return repr(v * f)
 
 
@@ -252,6 +253,17 @@ def make_urdf_case(seed: int, index: int) -> tuple[bytes, str, list[str]]:
     src = rng.choice(URDFS)
     root = etree.fromstring(src.read_bytes())
     ops = [src.name]
+    if rng.random() < 1 / 3:  # a careless edit: plausible numbers changed, the arm must still agree
+        text = etree.tostring(root, encoding="unicode")
+        for _ in range(rng.randint(1, 4)):
+            ms = list(re.finditer(r'\b(' + "|".join(NUMBER_ATTRS + VECTOR_ATTRS) + r')="([^"]*)"', text))
+            m = rng.choice(ms)
+            parts = m.group(2).split()
+            k = rng.randrange(len(parts))
+            parts[k] = repr(float(parts[k]) * rng.choice([0.5, 1.5, -1.0, 0.0, 1e-3, 10.0, 1.000001]))
+            text = text[:m.start(2)] + " ".join(parts) + text[m.end(2):]
+            ops.append(f"careless:{m.group(1)}")
+        return text.encode("utf-8"), f"case{index}.urdf", ops
     for _ in range(rng.choice([0, 0, 1, 1, 2])):
         ops.append(_urdf_structural(rng, root))
     text = etree.tostring(root, encoding="unicode")
@@ -334,7 +346,7 @@ def _model_mutation(rng: random.Random, data: dict) -> str:
             link[key] = rng.choice(HOSTILE_TOML_VALUES)
         elif op == "perturb":
             v = link[key]
-            f = rng.choice([-1.0, 0.0, 1e-12, 1e6, 1e30, 1e59, 1e62, 2.0])
+            f = rng.choice([-1.0, 0.0, 1e-12, 1e6, 1e30, 1e59, 1e62, 2.0, 0.5, 1.5, -0.3, 1e-3, 1e3])
             if isinstance(v, (int, float)) and not isinstance(v, bool):
                 link[key] = v * f
             elif isinstance(v, list) and v and all(isinstance(x, (int, float)) for x in v):
@@ -405,6 +417,15 @@ def make_model_case(seed: int, index: int) -> tuple[bytes, str, list[str]]:
     src = rng.choice(MODELS)
     data = tomllib.loads(src.read_text(encoding="utf-8"))
     ops = [src.name]
+    if rng.random() < 1 / 3:  # a careless edit: plausible numbers changed, the arm must still agree
+        for _ in range(rng.randint(1, 4)):
+            link = rng.choice(data["links"])
+            keys = [k for k, v in link.items() if isinstance(v, (int, float)) and not isinstance(v, bool)]
+            if keys:
+                k = rng.choice(keys)
+                link[k] = link[k] * rng.choice([0.5, 1.5, -1.0, 0.0, 1e-3, 10.0, 1.000001])
+                ops.append(f"careless:{k}")
+        return _toml_dump(data).encode("utf-8"), f"case{index}.toml", ops
     for _ in range(rng.choice([1, 1, 2, 3])):
         ops.append(_model_mutation(rng, data))
     text: str | bytes = _toml_dump(data)

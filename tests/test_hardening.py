@@ -345,6 +345,20 @@ def test_non_utf8_urdf_names_the_file_and_byte_offset(tmp_path):
         md.load(p)
 
 
+@pytest.mark.parametrize("key,value,pattern", [
+    ("mass", "1e300", r"magnitude 1e\+300 is over 1e\+60"),
+    ("mass", "1e12", r"field 'mass' has the mass 1e\+12 kg, over 1e\+09 kg \(manipdyn.limits.MAX_MASS\)"),
+    ("d", "1e155", r"magnitude 1e\+155"),
+    ("a", "1e5", r"field 'a' has the length 100000 m, over 10000 m \(manipdyn.limits.MAX_LENGTH\)"),
+])
+def test_model_file_values_that_would_overflow_or_swamp_are_refused(tmp_path, key, value, pattern):
+    # issue: model values of 1e300 loaded fine and gave NaN dynamics
+    p = tmp_path / "big.toml"
+    p.write_text(re.sub(rf"(?m)^{key} = [-0-9.e+]+", f"{key} = {value}", PUMA_TOML, count=1))
+    with pytest.raises(md.ModelError, match=rf"big\.toml.*{pattern}"):
+        md.load(p)
+
+
 def test_huge_integer_mass_in_a_model_file(tmp_path):
     p = tmp_path / "int.toml"
     p.write_text(re.sub(r"mass = [0-9.e+-]+", "mass = " + "9" * 400, PUMA_TOML, count=1))
