@@ -46,7 +46,8 @@ _isfinite = math.isfinite
 _KERNEL_NAMES = {"_k_mass": "mass_matrix", "_k_coriolis": "coriolis_torque", "_k_gravity": "gravity_torque",
                  "_k_terms": "dynamics_terms", "_k_inverse": "inverse_dynamics",
                  "_k_forward": "forward_dynamics", "_k_kinetic": "kinetic_energy",
-                 "_k_potential": "potential_energy", "poses": "link_poses"}
+                 "_k_potential": "potential_energy", "poses": "link_poses",
+                 "_k_christoffel": "christoffel_symbols", "_k_coriolis_matrix": "coriolis_matrix"}
 
 class TraceFormEngine:
     """Trace-form Lagrange-Euler dynamics of one arm.
@@ -85,6 +86,7 @@ class TraceFormEngine:
         # states per block: CHUNK, fewer on long chains so that one (B, n, n)
         # temporary stays within about 16 MB (memory linear in N, chunked)
         self._chunk = max(1, min(CHUNK, 2_000_000 // (self.n * self.n)))
+        self._chunk3 = max(1, min(CHUNK, 2_000_000 // (16 * self.n ** 3)))
         self._upper = np.triu(np.ones((self.n, self.n), dtype=bool))
         self._tail = np.triu(np.ones((self.n, self.n)))        # sum over p >= k
         self._head = np.tril(np.ones((self.n, self.n)))        # sum over p <= k
@@ -166,7 +168,8 @@ class TraceFormEngine:
         twice as fast as one pass.  ``single`` strips the batch axis again.
         """
         B = arrays[0].shape[0]
-        CHUNK = self._chunk
+        # the Christoffel symbols hold n^3 numbers per state: fewer states per block
+        CHUNK = self._chunk3 if getattr(kernel, "__name__", "") == "_k_christoffel" else self._chunk
         with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported below, by state
             if B <= CHUNK:
                 out = kernel(*arrays)
