@@ -40,6 +40,8 @@ import tempfile
 import threading
 import time
 
+from .errors import ModelError
+
 __all__ = ["atomic_write", "atomic_write_text", "sweep_stale_temporaries", "STALE_SECONDS"]
 
 #: a temporary file is swept only when its process is gone AND it is this old
@@ -114,7 +116,12 @@ def atomic_write(path, write, binary: bool = False, encoding: str = "utf-8") -> 
     written through, mode kept, clean-up on errors, Ctrl-C and SIGTERM).
     If ``write`` or the rename fails, ``path`` is untouched.
     """
-    path = os.fspath(path)
+    try:
+        path = os.fsdecode(os.fspath(path))
+    except TypeError:
+        raise ModelError(f"path: expected a file path (str or os.PathLike), got {type(path).__name__}") from None
+    if "\x00" in path:
+        raise ModelError(f"path: {path!r} contains a NUL character")
     real, st = _target(path)
     folder = os.path.dirname(os.path.abspath(real))
     sweep_stale_temporaries(folder)

@@ -83,7 +83,7 @@ def as_gravity(value, where="gravity") -> np.ndarray:
     """Gravity as a read-only (3,) float array (m/s^2); the chapter's [gx, gy, gz, 0] accepted."""
     try:
         g = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError, RecursionError):
         raise ModelError(f"{where}: expected 3 numbers (gx, gy, gz) in m/s^2, got {value!r}") from None
     if g.shape == (4,) and g[3] == 0.0:
         g = g[:3]  # the chapter's homogeneous form [gx, gy, gz, 0]
@@ -305,9 +305,12 @@ class Manipulator(Arm):
         if convention is _REQUIRED:
             raise TypeError("Manipulator: the argument 'convention' is required: 'standard' (distal DH, "
                             "eq. 2.3) or 'modified' (Craig's proximal DH); there is no default")
-        if convention not in CONVENTIONS:
+        if not isinstance(convention, str) or convention not in CONVENTIONS:
             raise ModelError(f"convention: must be 'standard' or 'modified', got {convention!r}")
-        links = tuple(links)
+        try:
+            links = tuple(links)
+        except TypeError:
+            raise ModelError(f"links: expected a sequence of DHLink, got {type(links).__name__}") from None
         if not links:
             raise ModelError("links: an arm needs at least one DHLink, got none")
         if len(links) > limits.MAX_JOINTS:

@@ -28,7 +28,7 @@ import numpy as np
 
 from .arm import register_service
 from .engine import DynamicsEngine
-from .errors import SingularMassMatrixError
+from .errors import SingularMassMatrixError, StateError
 
 __all__ = ["crosscheck", "CrosscheckReport", "QuantityError", "TOLERANCE", "draw_states"]
 
@@ -37,6 +37,8 @@ TOLERANCE = 1e-9
 #: about log10(cond D) of float64's 16 digits, so 1e7 leaves 1e-9 (observed: the
 #: bundled arms <= 2.4e4, Tiago cut at its arm 4.7e6 with qdd error 1.3e-10)
 MAX_COND = 1e7
+#: most states one cross-check draws (3 arrays of samples x n doubles are held)
+MAX_SAMPLES = 10_000_000
 
 QUANTITIES = {
     "D": "mass matrix D(q)",
@@ -244,7 +246,13 @@ def crosscheck(arm, samples: int = 1000, seed: int = 0, chunk: int = 500, progre
         etc. give max absolute and relative errors and the worst state.
     """
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
-        raise ValueError(f"samples: expected a positive integer, got {samples!r}")
+        raise StateError(f"samples: expected a positive integer, got {samples!r:.60}")
+    if samples > MAX_SAMPLES:
+        shown = str(samples) if len(str(samples)) < 30 else f"a {len(str(samples))}-digit number"
+        raise StateError(f"samples: {shown} is over {MAX_SAMPLES:g} states (the drawn states alone "
+                         "would not fit in memory); run several cross-checks with different seeds")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise StateError(f"seed: expected a non-negative integer, got {seed!r:.60}")
     q, qd, qdd = draw_states(arm, int(samples), seed)
     L: DynamicsEngine = arm.lagrange
     P: DynamicsEngine = arm.pinocchio

@@ -157,7 +157,7 @@ class DHLink:
                  friction_viscous: float = 0.0, friction_coulomb: float = 0.0, name: str = ""):
         name = check_name(str(name), "DHLink", "name")
         where = f"link '{name}'" if name else "DHLink"
-        if joint not in JOINT_TYPES:
+        if not isinstance(joint, str) or joint not in JOINT_TYPES:
             raise ModelError(f"{where}: field 'joint' must be 'revolute' or 'prismatic', got {joint!r}")
         set_ = object.__setattr__
         set_(self, "joint", joint)
@@ -253,7 +253,7 @@ class ChainJoint:
 
     def __post_init__(self) -> None:
         where = f"joint '{self.name}'"
-        if self.joint not in JOINT_TYPES:
+        if not isinstance(self.joint, str) or self.joint not in JOINT_TYPES:
             raise ModelError(f"{where}: type must be 'revolute' or 'prismatic', got {self.joint!r}")
         try:
             T = np.array(self.origin, dtype=np.float64)

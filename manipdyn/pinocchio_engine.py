@@ -315,6 +315,8 @@ class PinocchioEngine:
     def frame_placement(self, q, frame: str) -> np.ndarray:
         """Pose (4, 4) or (N, 4, 4) of a named URDF frame (link) in the base frame."""
         q = as_state(q, "q", self.n)
+        if not isinstance(frame, str):
+            raise ModelError(f"frame: expected a frame (link) name, got {type(frame).__name__}")
         fid = self.model.getFrameId(frame)
         if fid >= self.model.nframes:
             names = [f.name for f in self.model.frames]

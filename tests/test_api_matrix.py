@@ -177,3 +177,48 @@ def test_huge_finite_states_are_finite_or_an_overflow_error(arm, engine, method,
             continue
         for o in out if isinstance(out, tuple) else (out,):
             assert np.all(np.isfinite(o)), f"{method}({arg}={big:g}) returned non-finite values"
+
+
+CONSTRUCTOR_BAD = [None, "x", b"x", 5, -1, 1e300, float("nan"), [], [1], [1, 2, 3], [[1] * 3] * 3, {}, {"a": 1},
+                   True, 10**400, np.zeros(3), np.zeros((3, 3)), np.array(["a"] * 3), object(), complex(1, 1),
+                   "a\x00b", "x" * 5000]
+
+
+@pytest.mark.filterwarnings("ignore::manipdyn.PhysicalConsistencyWarning")
+def test_constructors_and_load_raise_only_manipdyn_errors(arm):
+    """Every keyword of the model constructors, md.load and md.crosscheck, given junk:
+    a ModelError or StateError (or a valid object), never a foreign exception."""
+    link = md.DHLink(a=0.5, mass=1.0, inertia=(0.1, 0.1, 0.1))
+    body = md.LinkInertia(mass=1.0, inertia=(0.1, 0.1, 0.1))
+    calls = {}
+    for b in CONSTRUCTOR_BAD:
+        calls[f"Manipulator(links={b!r:.20})"] = lambda b=b: md.Manipulator(b, convention="standard")
+        for kw in ("convention", "gravity", "name"):
+            base = {"convention": "standard"}
+            base[kw] = b
+            calls[f"Manipulator({kw}={b!r:.20})"] = lambda base=base: md.Manipulator([link], **base)
+        for kw in ("joint", "a", "alpha", "d", "theta", "mass", "com", "inertia", "qlim", "motor_inertia",
+                   "gear_ratio", "friction_viscous", "friction_coulomb", "name", "body"):
+            calls[f"DHLink({kw}={b!r:.20})"] = lambda kw=kw, b=b: md.DHLink(**{kw: b})
+        for kw in ("mass", "com", "inertia"):
+            calls[f"LinkInertia({kw}={b!r:.20})"] = lambda kw=kw, b=b: md.LinkInertia(**{kw: b})
+        for kw in ("name", "joint", "origin", "axis", "body", "qlim", "armature", "friction_viscous",
+                   "effort", "velocity"):
+            base = dict(name="j", joint="revolute", origin=np.eye(4), axis=(0, 0, 1), body=body)
+            base[kw] = b
+            calls[f"ChainJoint({kw}={b!r:.20})"] = lambda base=base: md.ChainJoint(**base)
+        calls[f"load({b!r:.20})"] = lambda b=b: md.load(b)
+        for kw in ("gravity", "name", "tip"):
+            calls[f"load(ur5.urdf, {kw}={b!r:.20})"] = lambda kw=kw, b=b: md.load("urdf/ur5.urdf", **{kw: b})
+        calls[f"crosscheck(samples={b!r:.20})"] = lambda b=b: md.crosscheck(arm, samples=b)
+        calls[f"crosscheck(seed={b!r:.20})"] = lambda b=b: md.crosscheck(arm, samples=2, seed=b)
+        calls[f"frame_placement(frame={b!r:.20})"] = lambda b=b: arm.pinocchio.frame_placement(np.zeros(N), b)
+    foreign = []
+    for label, call in calls.items():
+        try:
+            call()
+        except (md.ModelError, md.StateError):
+            pass
+        except Exception as exc:  # noqa: BLE001 - collecting them is the test
+            foreign.append(f"{label}: {type(exc).__name__}: {exc!s:.80}")
+    assert not foreign, "\n".join(foreign)
