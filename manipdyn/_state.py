@@ -24,10 +24,14 @@ def as_state(x, name: str, n: int) -> np.ndarray:
     """Return ``x`` as a float64 array of shape ``(n,)`` or ``(N, n)``.
 
     Raises :class:`StateError` (a ``ValueError``) naming ``name``, the shape
-    received and the shape expected, or the first non-finite entry.
+    received and the shape expected, the first non-finite entry, or why the
+    input is not real numbers (:func:`state_array`: any float or integer dtype
+    and byte order is converted; bool, object, string, datetime, masked,
+    ragged input and integers beyond float range are refused).
 
     The common case (a float64 ndarray of shape ``(n,)``) costs well under a
-    microsecond: this sits in control loops.
+    microsecond: this sits in control loops.  Only a plain ndarray whose dtype
+    IS the native float64 takes it (``np.dtype('>f8')`` is another object).
     """
     if type(x) is _ND and x.dtype is _F64 and x.shape == (n,):
         # NaN and inf propagate through a sum; only when it is not finite (or

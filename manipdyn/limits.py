@@ -15,8 +15,9 @@ from __future__ import annotations
 
 from .errors import ModelError
 
-__all__ = ["open_regular", "MAX_FILE_BYTES", "MAX_MODEL_FILE_BYTES", "MAX_LINKS", "MAX_JOINTS", "MAX_FIXED_RUN", "MAX_NAME_LENGTH", "MAX_LENGTH", "MAX_ANGLE",
-           "MAX_GRAVITY", "MAX_MASS", "MAX_INERTIA", "check_range", "MAX_MAGNITUDE", "over_limit"]
+__all__ = ["MAX_FILE_BYTES", "MAX_MODEL_FILE_BYTES", "MAX_LINKS", "MAX_JOINTS", "MAX_FIXED_RUN",
+           "MAX_NAME_LENGTH", "MAX_LENGTH", "MAX_ANGLE", "MAX_GRAVITY", "MAX_MASS", "MAX_INERTIA",
+           "MAX_MAGNITUDE", "over_limit", "check_magnitude", "check_range", "open_regular"]
 
 #: largest URDF or model file read, bytes (16 MiB; real ones are under 1 MiB)
 MAX_FILE_BYTES = 16 * 1024 * 1024
