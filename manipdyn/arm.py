@@ -25,7 +25,7 @@ import numpy as np
 from . import limits
 from .errors import ModelError, PhysicalConsistencyWarning, warn_notes
 from .kinematics import ChainKinematics, DHKinematics, rot_x, rot_z, trans
-from .links import ChainJoint, DHLink, check_name, physical_note
+from .links import ChainJoint, DHLink, as_dh_links, check_name, physical_note
 
 __all__ = ["Arm", "Manipulator", "URDFArm", "Convention", "TraceFormData", "register_engine",
            "register_service", "DEFAULT_QLIM", "joint_letters", "as_gravity"]
@@ -190,6 +190,11 @@ class Arm:
         """Joint limits (n, 2), rad or m; defaults of :data:`DEFAULT_QLIM` where none given."""
         return self._qlim
 
+    def parameters(self, armature: bool = False, friction: bool = False) -> np.ndarray:
+        """``pi`` with ``engine.regressor(q, qd, qdd, armature, friction) @ pi = tau`` (:mod:`manipdyn.parameters`)."""
+        from .parameters import arm_parameters
+        return arm_parameters(self, armature=armature, friction=friction)
+
     # -- the fast path --------------------------------------------------------
     def mass_matrix(self, q):
         """D(q), (n, n) or (N, n, n), kg m^2: Pinocchio's CRBA."""
@@ -307,18 +312,7 @@ class Manipulator(Arm):
                             "eq. 2.3) or 'modified' (Craig's proximal DH); there is no default")
         if not isinstance(convention, str) or convention not in CONVENTIONS:
             raise ModelError(f"convention: must be 'standard' or 'modified', got {convention!r}")
-        try:
-            links = tuple(links)
-        except TypeError:
-            raise ModelError(f"links: expected a sequence of DHLink, got {type(links).__name__}") from None
-        if not links:
-            raise ModelError("links: an arm needs at least one DHLink, got none")
-        if len(links) > limits.MAX_JOINTS:
-            raise limits.over_limit("links", "the number of links", len(links), "MAX_JOINTS")
-        for i, l in enumerate(links):
-            if not isinstance(l, DHLink):
-                raise ModelError(f"links[{i}]: expected a DHLink, got {type(l).__name__}")
-        self.links = links
+        self.links = links = as_dh_links(links)
         self.convention = convention
         self.gravity = as_gravity(gravity)
         self.name = check_name(str(name), "Manipulator", "name")

@@ -4,7 +4,8 @@ Layer: 5 (the cross-check): talks to the two engines only through :class:`manipd
 
 For seeded random states within the joint limits, every quantity is computed
 by both engines and compared: D, h, C (the Coriolis matrix), g, tau, the
-forward dynamics of those torques, the end pose and both energies.  The error of one state is
+forward dynamics of those torques, the end pose, both energies and the
+inverse-dynamics regressor Y (tau = Y pi, :mod:`manipdyn.parameters`).  The error of one state is
 
     err = max_k |pinocchio_k - lagrange_k| / max(1, max_k |lagrange_k|)
 
@@ -50,6 +51,7 @@ QUANTITIES = {
     "fk": "end pose (forward kinematics)",
     "K": "kinetic energy",
     "P": "potential energy",
+    "Y": "inverse-dynamics regressor Y(q, qd, qdd) (10 parameters per link)",
 }
 
 
@@ -293,6 +295,7 @@ def crosscheck(arm, samples: int = 1000, seed: int = 0, chunk: int = 500, progre
         add("K", L.kinetic_energy(qs, qds)[:, None], np.asarray(P.kinetic_energy(qs, qds))[:, None])
         add("P", L.potential_energy(qs)[:, None], np.asarray(P.potential_energy(qs))[:, None])
         add("C", L.coriolis_matrix(qs, qds), P.coriolis_matrix(qs, qds))
+        add("Y", L.regressor(qs, qds, qdds), P.regressor(qs, qds, qdds))
         if progress is not None:
             progress(sl.stop, samples)
 

@@ -23,7 +23,7 @@ __all__ = ["DynamicsEngine", "ENGINE_METHODS"]
 #: the methods of :class:`DynamicsEngine`, in one place for tests and tools
 ENGINE_METHODS = ("mass_matrix", "coriolis_torque", "gravity_torque", "friction_torque",
                   "dynamics_terms", "inverse_dynamics", "forward_dynamics", "kinetic_energy",
-                  "potential_energy", "coriolis_matrix", "fkine")
+                  "potential_energy", "coriolis_matrix", "fkine", "regressor")
 
 
 @runtime_checkable
@@ -77,4 +77,13 @@ class DynamicsEngine(Protocol):
 
     def fkine(self, q) -> np.ndarray:
         """The tool (end) frame's pose in the base frame: (4, 4) or (N, 4, 4), metres."""
+        ...
+
+    def regressor(self, q, qd, qdd, armature: bool = False, friction: bool = False) -> np.ndarray:
+        """Y with ``Y @ arm.parameters(armature, friction) = tau``: (n, p) or (N, n, p).
+
+        10 columns per link (Pinocchio's order, about the URDF link frame's
+        origin), then n armature and 2n friction columns when asked for
+        (:mod:`manipdyn.parameters`).
+        """
         ...

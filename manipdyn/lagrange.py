@@ -66,11 +66,15 @@ class TraceFormEngine:
         Reflected rotor inertia ``G^2 Jm`` per joint (kg m^2 or kg).
     friction : (2, n) or None
         Viscous and Coulomb friction coefficients per joint.
+    link_offsets : (n, 4, 4) or None
+        ``S_p`` with ``T_p = L_p S_p``, ``L_p`` link p's frame in the arm's URDF
+        (:meth:`manipdyn.Manipulator.urdf_link_offsets`; identity when None).
+        Only :meth:`regressor` uses it: its parameters are about ``L_p``.
     """
 
     name = "lagrange"
 
-    def __init__(self, kinematics, J, gravity, armature=None, friction=None):
+    def __init__(self, kinematics, J, gravity, armature=None, friction=None, link_offsets=None):
         self._kin = kinematics
         self.n = kinematics.n
         self.J = np.asarray(J, dtype=np.float64)
@@ -94,6 +98,16 @@ class TraceFormEngine:
         self.friction = None if friction is None else np.asarray(friction, dtype=np.float64)
         if self.friction is not None and not np.any(self.friction):
             self.friction = None
+        # S_p^-1 (T_p S_p^-1 = L_p); None when every S_p is the identity
+        self._S_inv = None
+        if link_offsets is not None and not np.allclose(link_offsets, np.eye(4), rtol=0, atol=0):
+            S = np.asarray(link_offsets, dtype=np.float64)
+            R_t = np.swapaxes(S[:, :3, :3], -1, -2)
+            S_inv = np.zeros_like(S)
+            S_inv[:, :3, :3] = R_t                               # eq. 2.2: [[R^T, -R^T p], [0, 1]]
+            S_inv[:, :3, 3] = -(R_t @ S[:, :3, 3:])[..., 0]
+            S_inv[:, 3, 3] = 1.0
+            self._S_inv = S_inv
 
     # -- internals ---------------------------------------------------------
     def _frames(self, qb):
@@ -295,6 +309,58 @@ class TraceFormEngine:
         """Potential energy P = -sum_i m_i g^T T_i r_bar_i (eq. 2.24), J; scalar or (N,)."""
         return self._call(self._k_potential, q=q)
 
+    # -- regressor ----------------------------------------------------------------
+    def regressor(self, q, qd, qdd, armature: bool = False, friction: bool = False) -> np.ndarray:
+        """Inverse-dynamics regressor ``Y`` with ``Y @ pi = tau``, (n, p) or (N, n, p).
+
+        Derived from the trace form, in closed form.  Eq. 2.39 regrouped by
+        link (see :meth:`_h`, :meth:`_g`) reads
+
+            tau_i = sum_{p >= i} tr(A_p W_p Delta_i^T) - g^T Delta_i W_p e_4,
+            W_p = T_p J_p T_p^T,
+
+        with ``A_p`` holding the velocity and acceleration terms.  Each term is
+        linear in ``J_p``: with the Frobenius product ``<X, Y> = tr(X^T Y)``,
+        ``tau_i = sum_{p >= i} <M_ip, W_p>``, ``M_ip = A_p^T Delta_i -
+        (Delta_i^T g) e_4^T``.  Writing ``J_p = sum_k pi_pk E_k`` (the ten
+        basis matrices :data:`manipdyn.parameters.PARAMETER_BASIS`, J of a unit
+        parameter) in link p's URDF frame ``L_p = T_p S_p^-1`` gives
+
+            dtau_i / dpi_pk = <M_ip, L_p E_k L_p^T> = <L_p^T M_ip L_p, E_k>
+                              (p >= i; 0 for p < i),
+
+        no finite differences.  Parameters: :mod:`manipdyn.parameters` (10 per
+        link, Pinocchio's order, about the URDF link frame's origin), then
+        ``armature`` (n columns ``qdd_j``) and ``friction`` (2n columns
+        ``qd_j``, ``sign(qd_j)``) when asked for.  SI units.
+        """
+        single, arrays = self._states(q=q, qd=qd, qdd=qdd)
+        Y = self._run(self._k_regressor, single, *arrays)
+        from .parameters import extra_columns   # the model layer (below this engine)
+
+        qd_, qdd_ = (arrays[1][0], arrays[2][0]) if single else (arrays[1], arrays[2])
+        extra = extra_columns(qd_, qdd_, armature, friction)
+        return np.concatenate([Y, extra], axis=-1) if extra.shape[-1] else Y
+
+    def _k_regressor(self, q, qd, qdd):
+        from .parameters import PARAMETER_BASIS
+
+        T, Delta = self._kin.frames(q)
+        B, n = qd.shape
+        V = Delta * qd[:, :, None, None]
+        Omega2 = _link_sum(self._head_strict2, V)
+        X = (Omega2 + V) @ V + Delta * qdd[:, :, None, None]
+        A = _link_sum(self._head, X)                               # A_p, (B, n, 4, 4)
+        L = T if self._S_inv is None else T @ self._S_inv          # URDF link frames L_p
+        # M_ip = A_p^T Delta_i - (Delta_i^T g) e_4^T, indexed [b, p, i]
+        M = np.swapaxes(A, -1, -2)[:, :, None] @ Delta[:, None, :]
+        M[..., 3] -= (self._g4 @ Delta)[:, None, :, :]
+        # <M_ip, L_p E_k L_p^T> = <L_p^T M_ip L_p, E_k>: one product with the constant basis
+        N = np.swapaxes(L, -1, -2)[:, :, None] @ M @ L[:, :, None]
+        Yp = N.reshape(B, n, n, 16) @ PARAMETER_BASIS.reshape(10, 16).T   # [b, p, i, k]
+        Yp *= self._upper.T[None, :, :, None]                      # only p >= i
+        return Yp.transpose(0, 2, 1, 3).reshape(B, n, 10 * n)
+
     # -- kinematics passthrough -------------------------------------------
     def link_poses(self, q) -> np.ndarray:
         """Link frames T_1..T_n in the base frame (eq. 2.7), (n, 4, 4) or (N, n, 4, 4)."""
@@ -395,5 +461,8 @@ class TraceFormEngine:
 def trace_form_engine(arm) -> TraceFormEngine:
     """The trace-form engine of ``arm`` (the factory behind ``arm.lagrange``)."""
     kin, J, armature, friction = arm.trace_form_data()
-    return TraceFormEngine(kin, J, arm.gravity, armature=armature, friction=friction)
+    # a DH arm's trace form runs in DH frames, its URDF (and regressor) in URDF link frames
+    offsets = arm.urdf_link_offsets() if hasattr(arm, "urdf_link_offsets") else None
+    return TraceFormEngine(kin, J, arm.gravity, armature=armature, friction=friction,
+                           link_offsets=offsets)
 

@@ -17,7 +17,7 @@ from .errors import ModelError
 from .inertia import LinkInertia, as_vector3
 from .kinematics import JOINT_TYPES, dh_modified, dh_standard
 
-__all__ = ["physical_note", "DHLink", "ChainJoint", "check_name"]
+__all__ = ["physical_note", "DHLink", "ChainJoint", "as_dh_links", "check_name"]
 
 
 def _scalar(value, where: str, name: str) -> float:
@@ -48,6 +48,22 @@ def check_name(value, where: str, field: str = "name") -> str:
             raise ModelError(f"{where}: field '{field}' holds the control character U+{o:04X} at "
                              f"index {k} ({value[:40]!r}); names must be printable text")
     return value
+
+
+def as_dh_links(links) -> tuple:
+    """``links`` as a non-empty tuple of at most ``limits.MAX_JOINTS`` :class:`DHLink`, or a ModelError."""
+    try:
+        links = tuple(links)
+    except TypeError:
+        raise ModelError(f"links: expected a sequence of DHLink, got {type(links).__name__}") from None
+    if not links:
+        raise ModelError("links: an arm needs at least one DHLink, got none")
+    if len(links) > limits.MAX_JOINTS:
+        raise limits.over_limit("links", "the number of links", len(links), "MAX_JOINTS")
+    for i, l in enumerate(links):
+        if not isinstance(l, DHLink):
+            raise ModelError(f"links[{i}]: expected a DHLink, got {type(l).__name__}")
+    return links
 
 
 def _qlim(value, where: str):

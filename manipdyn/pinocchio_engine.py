@@ -290,6 +290,32 @@ class PinocchioEngine:
                 raise SingularMassMatrixError.for_mass_matrix(D)
         return check_result(qdd, "forward_dynamics", q=q, qd=qd, tau=tau)
 
+    def regressor(self, q, qd, qdd, armature: bool = False, friction: bool = False) -> np.ndarray:
+        """Inverse-dynamics regressor ``Y`` with ``Y @ pi = tau``, (n, p) or (N, n, p).
+
+        The link columns are ``pin.computeJointTorqueRegressor`` (10 per body,
+        Pinocchio's order, about the joint frame = the URDF link frame, with
+        the model's gravity); ``armature`` appends n columns ``diag(qdd)`` and
+        ``friction`` 2n columns ``diag(qd)``, ``diag(sign(qd))`` (layout:
+        :mod:`manipdyn.parameters`).  A batch is a loop over states.
+        """
+        from .parameters import extra_columns
+
+        q = as_state(q, "q", self.n)
+        qd = as_state(qd, "qd", self.n)
+        qdd = as_state(qdd, "qdd", self.n)
+        same_batch((q, "q"), (qd, "qd"), (qdd, "qdd"))
+        m, d = self.model, self.data
+        reg = pin.computeJointTorqueRegressor
+        if q.ndim == 1:
+            Y = reg(m, d, q, qd, qdd).copy()
+        else:
+            Y = np.empty((len(q), self.n, 10 * self.n))
+            for k in range(len(q)):
+                Y[k] = reg(m, d, q[k], qd[k], qdd[k])
+        extra = extra_columns(qd, qdd, armature, friction)
+        return np.concatenate([Y, extra], axis=-1) if extra.shape[-1] else Y
+
     def kinetic_energy(self, q, qd):
         """Kinetic energy (J), rotors included; scalar or (N,)."""
         q = as_state(q, "q", self.n)

@@ -34,7 +34,7 @@ LAYERS = {
     0: ("manipdyn.errors", "manipdyn._files", "manipdyn._state", "manipdyn.limits"),
     1: ("manipdyn.kinematics",),
     2: ("manipdyn.inertia",),
-    3: ("manipdyn.links", "manipdyn.arm"),
+    3: ("manipdyn.links", "manipdyn.arm", "manipdyn.parameters"),
     4: ("manipdyn.urdf_xml", "manipdyn.urdf_tree", "manipdyn.urdf_in", "manipdyn.urdf_out",
         "manipdyn.modelfile", "manipdyn.loading", "manipdyn.io", "manipdyn.erd", "manipdyn.models"),
     5: ("manipdyn.engine", "manipdyn.lagrange", "manipdyn.pinocchio_engine", "manipdyn.pinocchio_agree"),

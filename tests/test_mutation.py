@@ -118,3 +118,42 @@ def test_nan_from_an_engine_is_a_disagreement():
     arm.set_engine("pinocchio", Broken())
     report = md.crosscheck(arm, samples=10)
     assert not report["g"].ok and math.isinf(report["g"].max_rel)
+
+
+# -- the regressor: a planted bug in either engine's Y is caught -------------------
+
+def test_trace_form_regressor_in_dh_frames_is_caught():
+    """The trace-form regressor with its parameters about DH frame i instead of
+    the URDF link frame (the offsets S_i forgotten): tau, D, g still agree."""
+    from manipdyn.lagrange import TraceFormEngine
+
+    arm = _arm()
+    kin, J, armature, friction = arm.trace_form_data()
+    arm.set_engine("lagrange", TraceFormEngine(kin, J, arm.gravity, armature=armature,
+                                               friction=friction, link_offsets=None))
+    report = md.crosscheck(arm, samples=SAMPLES)
+    assert not report["Y"].ok
+    assert report["tau"].ok and report["D"].ok
+
+
+def test_pinocchio_regressor_with_swapped_products_of_inertia_is_caught():
+    """Pinocchio's columns read in another library's order (Ixy and Ixz swapped)."""
+    arm = _arm()
+    eng = arm.pinocchio
+    real = eng.regressor
+
+    class Swapped:
+        def __getattr__(self, name):
+            return getattr(eng, name)
+
+        def regressor(self, q, qd, qdd, **kw):
+            Y = real(q, qd, qdd, **kw)
+            cols = np.arange(Y.shape[-1])
+            for p in range(arm.n):
+                cols[10 * p + 5], cols[10 * p + 7] = 10 * p + 7, 10 * p + 5
+            return Y[..., cols]
+
+    arm.set_engine("pinocchio", Swapped())
+    report = md.crosscheck(arm, samples=SAMPLES)
+    assert not report["Y"].ok
+    assert report["tau"].ok

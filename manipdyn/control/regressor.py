@@ -30,6 +30,7 @@ import pinocchio as pin
 
 from .._state import as_state
 from ..inertia import LINK_PARAMETERS, parameters_from_pseudo_inertia, pseudo_inertia_from_parameters
+from ..parameters import arm_parameters, parameter_count, parameter_names
 
 __all__ = ["Regressor", "parameters_from_pseudo_inertia", "pseudo_inertia_from_parameters",
            "LINK_PARAMETERS"]
@@ -63,7 +64,7 @@ class Regressor:
         self._m4.gravity.linear = 4.0 * np.asarray(model.gravity.linear)
         self._m0.gravity.linear = np.zeros(3)
         self._d4, self._d0 = self._m4.createData(), self._m0.createData()
-        self.p = 10 * n + (n if self.armature else 0) + (2 * n if self.friction else 0)
+        self.p = parameter_count(n, self.armature, self.friction)
         self._Y = np.zeros((n, self.p))
         self._Ylinks = self._Y[:, :10 * n]
         self._Yflat = self._Y.reshape(-1)            # a view: Y is contiguous
@@ -78,30 +79,18 @@ class Regressor:
     @property
     def names(self) -> list[str]:
         """Parameter names, e.g. ``"link3.mcx"``, ``"joint2.armature"``, ``"joint1.fv"``."""
-        out = [f"link{i + 1}.{p}" for i in range(self.n) for p in LINK_PARAMETERS]
-        if self.armature:
-            out += [f"joint{i + 1}.armature" for i in range(self.n)]
-        if self.friction:
-            out += [f"joint{i + 1}.fv" for i in range(self.n)] + [f"joint{i + 1}.fc" for i in range(self.n)]
-        return out
+        return parameter_names(self.n, self.armature, self.friction)
 
     def parameters(self, arm=None) -> np.ndarray:
         """The parameter vector ``pi`` (p,) of ``arm`` (default: the regressor's own arm).
 
-        Link parameters from the pseudo-inertias of :meth:`Arm.chain`'s bodies
-        (URDF link frames), then armature and friction as configured.
+        :func:`manipdyn.parameters.arm_parameters` (the layout both engines'
+        ``regressor`` methods use), with armature and friction as configured.
         """
         arm = self._arm if arm is None else arm
         if arm.n != self.n:
             raise ValueError(f"arm: expected {self.n} joints, got {arm.n}")
-        joints, _ = arm.chain()
-        parts = [parameters_from_pseudo_inertia(j.body.J) for j in joints]
-        if self.armature:
-            parts.append(np.asarray(arm.armature, dtype=np.float64))
-        if self.friction:
-            fr = np.zeros((2, self.n)) if arm.friction is None else np.asarray(arm.friction)
-            parts += [fr[0], fr[1]]
-        return np.concatenate(parts)
+        return arm_parameters(arm, self.armature, self.friction)
 
     def __call__(self, q, qd, qr_d, qr_dd) -> np.ndarray:
         """Slotine-Li regressor ``Y`` (n, p) at one state; a new array each call.
@@ -143,5 +132,9 @@ class Regressor:
         return Y
 
     def inverse_dynamics(self, q, qd, qdd) -> np.ndarray:
-        """The ordinary regressor: ``Y(q, qd, qdd) @ pi = tau`` of inverse dynamics."""
+        """The ordinary regressor: ``Y(q, qd, qdd) @ pi = tau`` of inverse dynamics.
+
+        The same matrix as ``arm.pinocchio.regressor(q, qd, qdd, armature, friction)``
+        (one state), which also takes batches.
+        """
         return self(q, qd, qd, qdd)

@@ -1,0 +1,25 @@
+"""Identification of an arm's inertial parameters from its own joint data.
+
+Layer: application (identification).
+
+* :func:`base_parameters`: the identifiable combinations (QR with pivoting);
+* :func:`excitation`: an optimised Fourier-series excitation trajectory;
+* :func:`fit`: ``ols``, ``wls`` and the physically consistent ``consistent``
+  (J_i >= 0, cvxpy with Clarabel or SCS), returning the identified arm;
+* :func:`read_measurements`: CSV data, with zero-phase derivatives of q.
+
+Needs the ``identify`` extra (scipy, cvxpy, clarabel, scs):
+``pip install 'manipdyn[identify]'``.
+"""
+
+from ._deps import INSTALL, MissingExtraError
+from .base import BaseParameters, base_parameters
+from .data import Measurements, read_measurements, write_measurements_csv
+from .estimation import METHODS, FitResult, fit
+from .report import format_report
+from .sdp import Bounds
+from .trajectory import Excitation, excitation
+
+__all__ = ["BaseParameters", "Bounds", "Excitation", "FitResult", "INSTALL", "METHODS",
+           "Measurements", "MissingExtraError", "base_parameters", "excitation", "fit",
+           "format_report", "read_measurements", "write_measurements_csv"]

@@ -1,0 +1,242 @@
+"""Estimation of the inertial parameters from joint data: ``fit``.
+
+Layer: application (identification).
+
+Model: ``tau = Y(q, qd, qdd) pi + e`` with the regressor of
+:meth:`TraceFormEngine.regressor` and the layout of :mod:`manipdyn.parameters`.
+Only the base parameters ``beta = K pi`` (:mod:`.base`) are identifiable:
+``tau = Y_b beta + e``.  Methods:
+
+* ``ols``: ordinary least squares on beta;
+* ``wls``: weighted least squares, each joint's rows divided by its noise
+  level ``sigma_j``, estimated from OLS residuals the way Gautier does it:
+  joint j's equations alone, ``tau_j = Y_b,j beta``, are solved by OLS
+  over the ``r_j`` base parameters that appear in them, and
+  ``sigma_j^2 = ||rho_j||^2 / (N - r_j)``.  (The residuals of the pooled
+  OLS fit would not do: that fit is dominated by the large proximal torques
+  and leaves misfit, not noise, in the small wrist torques.)  A noise level
+  below ``1e-6`` of the largest joint's RMS torque is raised to that floor
+  (exact data then weigh the joints equally);
+* ``consistent``: the same weighted objective over the full parameters
+  subject to ``J_i >= 0`` for every link (:mod:`.sdp`).
+
+The returned arm has full parameters reproducing the identified beta; among
+those, the closest to the prior (least squares; for ``consistent`` with
+``J_i >= 0``).  What is not identified (armature without ``armature=True``,
+friction without ``friction=True``) keeps the prior's values, and its torque
+is subtracted from the measurements before the fit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import ModelError
+from ..inertia import pseudo_inertia_from_parameters
+from ..parameters import arm_parameters
+from .model import arm_with_parameters
+from .base import BaseParameters, base_parameters
+from .sdp import Bounds, consistent_fit
+
+__all__ = ["fit", "FitResult", "METHODS", "link_min_eigenvalues"]
+
+METHODS = ("ols", "wls", "consistent")
+
+
+def link_min_eigenvalues(pi, n: int) -> np.ndarray:
+    """Smallest eigenvalue of each link's pseudo-inertia J_i (n,) from full parameters (p,)."""
+    J = pseudo_inertia_from_parameters(np.asarray(pi)[:10 * n].reshape(n, 10))
+    return np.linalg.eigvalsh(J)[:, 0]
+
+
+@dataclass
+class FitResult:
+    """Result of :func:`fit`.
+
+    Attributes
+    ----------
+    arm : manipdyn.Manipulator or None
+        The identified arm (None when its parameters cannot be written, e.g.
+        a negative mass from ``ols``; ``arm_error`` says why).
+    parameters : (p,)
+        Full parameter vector (layout of :mod:`manipdyn.parameters`).
+    base : BaseParameters
+    beta : (r,)
+        Identified base parameters.
+    residuals : (N, n)
+        Measured minus predicted torque on the fit data, N m or N.
+    sigma : (n,)
+        Per-joint noise level from each joint's own OLS residuals (N m or N).
+    method : str
+    condition_number : float
+        Of the base regressor stacked over the data.
+    consistent : bool
+        Every link's J_i >= 0 (smallest eigenvalue >= 0).
+    report : dict
+        The figures of ``manipdyn identify --json``.
+    """
+
+    arm: object
+    parameters: np.ndarray
+    base: BaseParameters
+    beta: np.ndarray
+    residuals: np.ndarray
+    sigma: np.ndarray
+    method: str
+    condition_number: float
+    consistent: bool
+    prior: object = None
+    arm_error: str | None = None
+    report: dict = field(default_factory=dict)
+
+    def predict(self, q, qd, qdd) -> np.ndarray:
+        """Torques of the identified model, (N, n) or (n,): ``Y_b beta`` plus the prior's
+        armature and friction torques where those were not identified."""
+        b = self.base
+        Y = self.prior.lagrange.regressor(q, qd, qdd, armature=b.armature, friction=b.friction)
+        return b.regressor(Y) @ self.beta + _known_torque(self.prior, qd, qdd, b.armature, b.friction)
+
+
+def _known_torque(prior, qd, qdd, armature, friction):
+    """Prior torques outside the fitted parameters (armature, friction), (..., n)."""
+    out = np.zeros(np.shape(qd))
+    if not armature:
+        out = out + np.asarray(prior.armature) * qdd
+    if not friction and prior.friction is not None:
+        out = out + prior.lagrange.friction_torque(qd)
+    return out
+
+
+def _reduce(A, y):
+    """``(R, c, rho0)`` with ``||A b - y||^2 = ||R b - c||^2 + rho0^2`` for every b.
+
+    One QR of ``[A | y]`` (R only, no Q): R (r, r), c (r,), rho0 the part of y
+    outside A's column space.  Cheaper than lstsq or SVD on the tall A.
+    """
+    r = A.shape[1]
+    Ra = np.linalg.qr(np.column_stack([A, y]), mode="r")
+    rho0 = abs(float(Ra[r, r])) if Ra.shape[0] > r else 0.0
+    return Ra[:r, :r], Ra[:r, r], rho0
+
+
+def _joint_noise(Yb, y) -> np.ndarray:
+    """Per-joint noise level from each joint's own OLS fit (module docstring), (n,)."""
+    N, n, _ = Yb.shape
+    sigma = np.empty(n)
+    for j in range(n):
+        A = Yb[:, j, :]
+        norms = np.linalg.norm(A, axis=0)
+        A = A[:, norms > 1e-12 * max(norms.max(), 1e-300)]
+        R, c, rho0 = _reduce(A, y[:, j])
+        sol, _, rank, _ = np.linalg.lstsq(R, c, rcond=None)
+        sigma[j] = np.sqrt((np.sum((R @ sol - c) ** 2) + rho0**2) / max(1, N - rank))
+    return sigma
+
+
+def _check(q, qd, qdd, tau, n):
+    arrays = []
+    for name, x in (("q", q), ("qd", qd), ("qdd", qdd), ("tau", tau)):
+        a = np.asarray(x, dtype=np.float64)
+        if a.ndim != 2 or a.shape[1] != n:
+            raise ModelError(f"{name}: expected shape (N, {n}), got {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise ModelError(f"{name}: must be finite")
+        arrays.append(a)
+    if len({a.shape[0] for a in arrays}) != 1:
+        raise ModelError(f"q, qd, qdd, tau: expected the same number of samples, got "
+                         f"{[a.shape[0] for a in arrays]}")
+    return arrays
+
+
+def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armature: bool = False,
+        bounds: Bounds | None = None, base: BaseParameters | None = None,
+        name: str | None = None) -> FitResult:
+    """Identify ``arm``'s parameters from samples (module docstring).
+
+    Parameters
+    ----------
+    arm : manipdyn.Manipulator
+        Kinematics and prior (its parameters are the starting point of the
+        full-parameter choice; their values do not bias beta).
+    q, qd, qdd, tau : (N, n)
+        Joint positions, velocities, accelerations and torques (SI).
+    method : "ols" | "wls" | "consistent"
+    friction, armature : bool
+        Identify viscous and Coulomb friction, and armature.
+    bounds : Bounds, optional
+        Extra constraints of ``consistent`` (mass range, COM box).
+    base : BaseParameters, optional
+        Reuse a :func:`base_parameters` result (same armature/friction flags).
+    name : str, optional
+        Name of the identified arm.
+    """
+    if method not in METHODS:
+        raise ModelError(f"method: expected one of {', '.join(METHODS)}, got {method!r}")
+    if bounds is not None and method != "consistent":
+        raise ModelError("bounds: only the 'consistent' method takes bounds")
+    n = arm.n
+    q, qd, qdd, tau = _check(q, qd, qdd, tau, n)
+    if base is None:
+        base = base_parameters(arm, armature=armature, friction=friction)
+    elif (base.armature, base.friction) != (bool(armature), bool(friction)):
+        raise ModelError("base: computed with other armature/friction flags than this fit")
+    N, r = len(q), base.count
+    if N * n < r:
+        raise ModelError(f"data: {N} samples give {N * n} equations for {r} base parameters")
+    Yb = base.regressor(arm.lagrange.regressor(q, qd, qdd, armature=armature, friction=friction))
+    y = tau - _known_torque(arm, qd, qdd, armature, friction)
+    R0, c0, _ = _reduce(Yb.reshape(-1, r), y.reshape(-1))
+    s = np.linalg.svd(R0, compute_uv=False)              # the singular values of the stacked Y_b
+    cond = float(s[0] / s[-1]) if s[-1] > 0 else float("inf")
+    sigma = _joint_noise(Yb, y)
+    # noise below 1e-6 of the largest joint's RMS torque is rounding, not noise:
+    # flooring it keeps the weights (and the semidefinite program) well scaled
+    # on exact data, where every sigma_j would otherwise be ~1e-12 and arbitrary
+    floor = 1e-6 * max(float(np.sqrt(np.mean(y**2, axis=0)).max()), 1e-300)
+    sigma = np.maximum(sigma, floor)
+    prior = arm_parameters(arm, armature, friction)
+
+    cov = None
+    if method == "ols":
+        beta = np.linalg.lstsq(R0, c0, rcond=None)[0]
+        pi = base.full_closest_to(beta, prior)
+        solver = "lstsq"
+    else:
+        w = 1.0 / sigma
+        R, c, _ = _reduce((Yb * w[None, :, None]).reshape(-1, r), (y * w).reshape(-1))
+        if method == "wls":
+            beta = np.linalg.lstsq(R, c, rcond=None)[0]
+            pi = base.full_closest_to(beta, prior)
+            solver = "lstsq"
+            try:
+                cov = np.linalg.inv(R.T @ R)     # rows have unit variance after weighting
+            except np.linalg.LinAlgError:
+                cov = None
+        else:
+            pi, solver = consistent_fit(R, c, base.K, n, prior, extra=bool(armature or friction),
+                                        bounds=bounds)
+            beta = base.from_full(pi)
+    residuals = y - Yb @ beta
+    eig = link_min_eigenvalues(pi, n)
+    consistent = bool(np.all(eig >= 0.0))
+    out_arm, err = None, None
+    try:
+        import warnings
+
+        from ..errors import PhysicalConsistencyWarning
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", PhysicalConsistencyWarning)
+            out_arm = arm_with_parameters(arm, pi, armature=armature, friction=friction,
+                                          name=name if name is not None else arm.name)
+    except ModelError as exc:
+        err = str(exc)
+    result = FitResult(arm=out_arm, parameters=pi, base=base, beta=beta, residuals=residuals,
+                       sigma=sigma, method=method, condition_number=cond, consistent=consistent,
+                       prior=arm, arm_error=err)
+    from .report import build_report
+
+    result.report = build_report(result, solver=solver, samples=N, cov=cov, min_eigenvalues=eig)
+    return result

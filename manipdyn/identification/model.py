@@ -1,0 +1,79 @@
+"""The identified arm: a DH arm carrying a parameter vector.
+
+Layer: application (identification).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ..arm import Manipulator
+from ..errors import ModelError
+from ..inertia import LinkInertia, pseudo_inertia_from_parameters, transform_pseudo_inertia
+from ..kinematics import transform_inverse
+from ..parameters import parameter_count
+
+__all__ = ["arm_with_parameters"]
+
+
+def arm_with_parameters(arm, pi, armature: bool = False, friction: bool = False,
+                        name: str | None = None, strict: bool = False):
+    """A copy of the DH arm ``arm`` whose links carry the parameters ``pi``.
+
+    Parameters
+    ----------
+    arm : manipdyn.Manipulator
+        Gives the kinematics, limits, gear ratios and everything not in ``pi``.
+    pi : (p,)
+        Parameter vector in the layout of this module (URDF link frames).
+    armature, friction : bool
+        Whether ``pi`` holds armature (set as ``motor_inertia = armature / G^2``
+        with the prior's gear ratio G) and friction entries; when False the
+        prior's values are kept.
+    name : str, optional
+        Name of the new arm (default: the prior's).
+    strict : bool
+        Passed to :class:`Manipulator` (a physically impossible link raises).
+
+    Raises :class:`ModelError` if a link's mass is negative or a massless
+    link has first moments (no file can hold that), naming the link.
+    """
+    if not isinstance(arm, Manipulator):
+        raise ModelError(f"arm: writing identified parameters needs a DH arm (a Manipulator), "
+                         f"got {type(arm).__name__} {arm.name!r}")
+    n = arm.n
+    pi = np.asarray(pi, dtype=np.float64)
+    expect = parameter_count(n, armature, friction)
+    if pi.shape != (expect,):
+        raise ValueError(f"pi: expected shape ({expect},) for {n} joints "
+                         f"(armature={armature}, friction={friction}), got {pi.shape}")
+    J_urdf = pseudo_inertia_from_parameters(pi[:10 * n].reshape(n, 10))
+    S = arm.urdf_link_offsets()
+    S_inv = np.array([transform_inverse(s) for s in S])
+    J_dh = transform_pseudo_inertia(J_urdf, S_inv)      # URDF link frame -> DH frame i
+    col = 10 * n
+    arm_vals = fv = fc = None
+    if armature:
+        arm_vals, col = pi[col:col + n], col + n
+    if friction:
+        fv, fc = pi[col:col + n], pi[col + n:col + 2 * n]
+    links = []
+    for i, l in enumerate(arm.links):
+        label = f"link {i + 1}" + (f" ({l.name})" if l.name else "")
+        if J_dh[i, 3, 3] < 0:
+            raise ModelError(f"{label}: identified mass {J_dh[i, 3, 3]:.6g} kg is negative; "
+                             "no model file can hold it (use the 'consistent' method)")
+        J = 0.5 * (J_dh[i] + J_dh[i].T)
+        if J[3, 3] == 0.0:
+            J[:3, 3] = J[3, :3] = 0.0
+        kw = dict(body=LinkInertia.from_pseudo_inertia(J, name=label))
+        if armature:
+            kw["motor_inertia"] = float(arm_vals[i]) / l.gear_ratio**2
+        if friction:
+            kw["friction_viscous"], kw["friction_coulomb"] = float(fv[i]), float(fc[i])
+        links.append(dataclasses.replace(l, **kw))
+    return Manipulator(links, convention=arm.convention, gravity=arm.gravity,
+                       name=arm.name if name is None else name, strict=strict,
+                       source=arm.source, sources=arm.sources, description=arm.description)

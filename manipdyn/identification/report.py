@@ -1,0 +1,60 @@
+"""Identification report: the figures of ``manipdyn identify --json`` and a text table.
+
+Layer: application (identification).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["build_report", "format_report"]
+
+
+def build_report(result, solver: str, samples: int, cov=None, min_eigenvalues=None) -> dict:
+    """A JSON-ready dict: ``n_base``, ``condition_number``, ``rms_residual`` (n, N m),
+    ``consistent``, ``method`` and details (noise levels, base parameters with their
+    expressions, values and, for ``wls``, relative standard deviations in %)."""
+    b = result.base
+    rms = np.sqrt(np.mean(result.residuals**2, axis=0))
+    rows = []
+    std = np.sqrt(np.clip(np.diag(cov), 0, None)) if cov is not None else None
+    for k, expr in enumerate(b.expressions()):
+        row = {"expression": expr, "value": float(result.beta[k])}
+        if std is not None:
+            row["std"] = float(std[k])
+            row["rel_std_percent"] = float(100 * std[k] / max(abs(result.beta[k]), 1e-300))
+        rows.append(row)
+    return {
+        "method": result.method,
+        "n_base": int(b.count),
+        "condition_number": float(result.condition_number),
+        "rms_residual": [float(x) for x in rms],
+        "noise_sigma": [float(x) for x in result.sigma],
+        "consistent": bool(result.consistent),
+        "min_eigenvalue_J": [float(x) for x in (min_eigenvalues if min_eigenvalues is not None else [])],
+        "samples": int(samples),
+        "solver": solver,
+        "friction": bool(b.friction),
+        "armature": bool(b.armature),
+        "arm_error": result.arm_error,
+        "base_parameters": rows,
+    }
+
+
+def format_report(rep: dict) -> str:
+    """A readable summary of :func:`build_report`'s dict."""
+    lines = [
+        f"method {rep['method']} ({rep['solver']}), {rep['samples']} samples, "
+        f"{rep['n_base']} base parameters, condition number {rep['condition_number']:.4g}",
+        f"physically consistent (every J_i >= 0): {'yes' if rep['consistent'] else 'NO'}",
+        "joint   rms residual   noise (OLS)",
+    ]
+    for j, (r, s) in enumerate(zip(rep["rms_residual"], rep["noise_sigma"])):
+        lines.append(f"{j + 1:>5}   {r:12.4g}   {s:11.4g}")
+    lines.append("base parameters:")
+    for row in rep["base_parameters"]:
+        extra = f"  (+-{row['rel_std_percent']:.2g} %)" if "rel_std_percent" in row else ""
+        lines.append(f"  {row['value']:+.6g} = {row['expression']}{extra}")
+    if rep.get("arm_error"):
+        lines.append(f"the identified parameters cannot be written as a model: {rep['arm_error']}")
+    return "\n".join(lines)

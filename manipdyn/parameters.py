@@ -1,0 +1,87 @@
+"""The arm's inertial parameter vector: the ``pi`` of ``tau = Y(q, qd, qdd) pi``.
+
+Layer 3 (the model): the parameters are a view of the model's link inertias.
+
+Layout, shared by both engines' ``regressor`` methods, by
+:class:`manipdyn.control.regressor.Regressor` and by
+:mod:`manipdyn.identification`:
+
+* ``10 n`` link parameters, link by link, each in Pinocchio's order
+  (:data:`manipdyn.inertia.LINK_PARAMETERS`)
+  ``[m, m c_x, m c_y, m c_z, I_xx, I_xy, I_yy, I_xz, I_yz, I_zz]``: mass (kg),
+  first moments (kg m) and the inertia TENSOR (tensor sign, kg m^2) about the
+  ORIGIN of the link's frame in the arm's URDF (:meth:`manipdyn.Arm.chain`).
+  For a standard-DH arm that frame is DH frame i moved back by
+  ``S_i = Trans_x(a_i) Rot_x(alpha_i)`` (:meth:`manipdyn.Manipulator.urdf_link_offsets`);
+  for a modified-DH or URDF arm it is the link frame itself.
+* with ``armature=True``: ``n`` reflected rotor inertias ``G^2 J_m``
+  (kg m^2 or kg), regressor column ``qdd_j``;
+* with ``friction=True``: ``n`` viscous coefficients (column ``qd_j``) then
+  ``n`` Coulomb coefficients (column ``sign(qd_j)``).
+
+All conversions between a link's pseudo-inertia J and its ten parameters go
+through :func:`manipdyn.inertia.parameters_from_pseudo_inertia` and
+:func:`manipdyn.inertia.pseudo_inertia_from_parameters`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .inertia import LINK_PARAMETERS, parameters_from_pseudo_inertia, pseudo_inertia_from_parameters
+
+__all__ = ["parameter_names", "parameter_count", "arm_parameters", "extra_columns", "PARAMETER_BASIS"]
+
+#: ``PARAMETER_BASIS[k]`` (4, 4) is the pseudo-inertia of the unit vector e_k of
+#: the 10 parameters: J = sum_k p_k PARAMETER_BASIS[k] (the map is linear).
+PARAMETER_BASIS = pseudo_inertia_from_parameters(np.eye(10))
+PARAMETER_BASIS.setflags(write=False)
+
+
+def parameter_count(n: int, armature: bool = False, friction: bool = False) -> int:
+    """Length of the parameter vector: ``10 n (+ n armature) (+ 2 n friction)``."""
+    return 10 * n + (n if armature else 0) + (2 * n if friction else 0)
+
+
+def parameter_names(n: int, armature: bool = False, friction: bool = False) -> list[str]:
+    """Names in vector order, e.g. ``"link3.mcx"``, ``"joint2.armature"``, ``"joint1.fv"``."""
+    out = [f"link{i + 1}.{p}" for i in range(n) for p in LINK_PARAMETERS]
+    if armature:
+        out += [f"joint{i + 1}.armature" for i in range(n)]
+    if friction:
+        out += [f"joint{i + 1}.fv" for i in range(n)] + [f"joint{i + 1}.fc" for i in range(n)]
+    return out
+
+
+def arm_parameters(arm, armature: bool = False, friction: bool = False) -> np.ndarray:
+    """The parameter vector ``pi`` of ``arm`` (see the module docstring), shape (p,).
+
+    Link parameters come from the pseudo-inertias of :meth:`Arm.chain`'s bodies
+    (URDF link frames); armature and friction (zeros when the arm has none)
+    are appended when asked for.
+    """
+    joints, _ = arm.chain()
+    parts = [parameters_from_pseudo_inertia(np.array([j.body.J for j in joints])).reshape(-1)]
+    if armature:
+        parts.append(np.asarray(arm.armature, dtype=np.float64))
+    if friction:
+        fr = np.zeros((2, arm.n)) if arm.friction is None else np.asarray(arm.friction, dtype=np.float64)
+        parts += [fr[0], fr[1]]
+    return np.concatenate(parts)
+
+
+def extra_columns(qd: np.ndarray, qdd: np.ndarray, armature: bool, friction: bool) -> np.ndarray:
+    """Regressor columns of armature and friction, (..., n, k) with k = n, 2n, 3n or 0.
+
+    ``qd``, ``qdd`` are (..., n).  Armature: ``diag(qdd)``; friction:
+    ``diag(qd)`` then ``diag(sign(qd))``.
+    """
+    blocks = []
+    eye = np.eye(qd.shape[-1])
+    if armature:
+        blocks.append(qdd[..., :, None] * eye)
+    if friction:
+        blocks += [qd[..., :, None] * eye, np.sign(qd)[..., :, None] * eye]
+    if not blocks:
+        return np.zeros(qd.shape + (0,))
+    return np.concatenate(blocks, axis=-1)
