@@ -22,9 +22,10 @@ from typing import Callable, Literal, NamedTuple, get_args
 
 import numpy as np
 
+from . import limits
 from .errors import ModelError, PhysicalConsistencyWarning, warn_notes
 from .kinematics import ChainKinematics, DHKinematics, rot_x, rot_z, trans
-from .links import ChainJoint, DHLink, physical_note
+from .links import ChainJoint, DHLink, as_dh_links, check_name, physical_note
 
 __all__ = ["Arm", "Manipulator", "URDFArm", "Convention", "TraceFormData", "register_engine",
            "register_service", "DEFAULT_QLIM", "joint_letters", "as_gravity"]
@@ -82,7 +83,7 @@ def as_gravity(value, where="gravity") -> np.ndarray:
     """Gravity as a read-only (3,) float array (m/s^2); the chapter's [gx, gy, gz, 0] accepted."""
     try:
         g = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError, RecursionError):
         raise ModelError(f"{where}: expected 3 numbers (gx, gy, gz) in m/s^2, got {value!r}") from None
     if g.shape == (4,) and g[3] == 0.0:
         g = g[:3]  # the chapter's homogeneous form [gx, gy, gz, 0]
@@ -90,6 +91,7 @@ def as_gravity(value, where="gravity") -> np.ndarray:
         raise ModelError(f"{where}: expected 3 numbers (gx, gy, gz) in m/s^2, got shape {g.shape}")
     if not np.all(np.isfinite(g)):
         raise ModelError(f"{where}: must be finite, got {g.tolist()}")
+    limits.check_range(g, where, "gravity", "acceleration")
     g = g.copy()
     g.setflags(write=False)
     return g
@@ -308,18 +310,12 @@ class Manipulator(Arm):
         if convention is _REQUIRED:
             raise TypeError("Manipulator: the argument 'convention' is required: 'standard' (distal DH, "
                             "eq. 2.3) or 'modified' (Craig's proximal DH); there is no default")
-        if convention not in CONVENTIONS:
+        if not isinstance(convention, str) or convention not in CONVENTIONS:
             raise ModelError(f"convention: must be 'standard' or 'modified', got {convention!r}")
-        links = tuple(links)
-        if not links:
-            raise ModelError("links: an arm needs at least one DHLink, got none")
-        for i, l in enumerate(links):
-            if not isinstance(l, DHLink):
-                raise ModelError(f"links[{i}]: expected a DHLink, got {type(l).__name__}")
-        self.links = links
+        self.links = links = as_dh_links(links)
         self.convention = convention
         self.gravity = as_gravity(gravity)
-        self.name = str(name)
+        self.name = check_name(str(name), "Manipulator", "name")
         self.source = str(source)
         self.sources = dict(sources or {})
         self.description = str(description)
@@ -429,7 +425,7 @@ class URDFArm(Arm):
     def __init__(self, *, name, gravity, source, urdf_text, pin_text, root, tip, joints, tool,
                  locked, members, path=None):
         super().__init__()
-        self.name = str(name)
+        self.name = check_name(str(name), "URDFArm", "name")
         self.gravity = as_gravity(gravity)
         self.source = source
         self.urdf_text = urdf_text

@@ -30,11 +30,17 @@ import numpy as np
 
 from .arm import register_service
 from .engine import DynamicsEngine
-from .errors import SingularMassMatrixError
+from .errors import SingularMassMatrixError, StateError
 
 __all__ = ["crosscheck", "CrosscheckReport", "QuantityError", "TOLERANCE", "draw_states"]
 
 TOLERANCE = 1e-9
+#: largest cond(D) at which forward dynamics is compared: solving with D loses
+#: about log10(cond D) of float64's 16 digits, so 1e7 leaves 1e-9 (observed: the
+#: bundled arms <= 2.4e4, Tiago cut at its arm 4.7e6 with qdd error 1.3e-10)
+MAX_COND = 1e7
+#: most states one cross-check draws (3 arrays of samples x n doubles are held)
+MAX_SAMPLES = 10_000_000
 
 QUANTITIES = {
     "D": "mass matrix D(q)",
@@ -87,6 +93,9 @@ class CrosscheckReport:
     #: the arm's own notes (arm.notes: physically impossible links, suspicious units),
     #: then quantities that could not be compared, and why (e.g. a singular D)
     notes: list = field(default_factory=list)
+    #: quantities that could not be compared -> why (also among the notes); a
+    #: failed condition for ``manipdyn check``, never "all agree"
+    not_compared: dict = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
@@ -102,6 +111,7 @@ class CrosscheckReport:
     def to_dict(self) -> dict:
         return {"arm": self.arm, "n": self.n, "samples": self.samples, "seed": self.seed,
                 "ok": self.ok, "tolerance": TOLERANCE, "notes": self.notes,
+                "not_compared": self.not_compared,
                 "quantities": {k: q.to_dict() for k, q in self.quantities.items()}}
 
     def to_json(self) -> str:
@@ -114,9 +124,17 @@ class CrosscheckReport:
                         f"{'ok' if q.ok else 'DISAGREE'}")
         return "\n".join(rows)
 
+    def _verdict(self) -> str:
+        if not self.ok:
+            return "DISAGREEMENT in " + ", ".join(self.failures())
+        if self.not_compared:
+            return ("the compared quantities agree, but NOT ALL COULD BE COMPARED: "
+                    + ", ".join(self.not_compared) + " (see the notes)")
+        return "all agree"
+
     def __str__(self) -> str:
         head = (f"crosscheck {self.arm!r} ({self.n} joints, {self.samples} states, seed {self.seed}): "
-                f"{'all agree' if self.ok else 'DISAGREEMENT in ' + ', '.join(self.failures())} "
+                f"{self._verdict()} "
                 f"(tolerance {TOLERANCE:g} relative)")
         return head + "\n" + self.table() + "".join(f"\nnote: {n}" for n in self.notes)
 
@@ -146,15 +164,21 @@ def draw_states(arm, samples: int, seed: int = 0, start: int = 0, stop: int | No
     return tuple(out)
 
 
-def _compare(name, ref, other, states, tol=TOLERANCE) -> QuantityError:
+def _errors(ref, other):
+    """Per-state absolute error and scale of one chunk: two (B,) arrays."""
     ref = np.asarray(ref, dtype=np.float64)
     other = np.asarray(other, dtype=np.float64)
     N = ref.shape[0]
-    diff = np.abs(other - ref).reshape(N, -1)
-    scale = np.maximum(1.0, np.abs(ref).reshape(N, -1).max(axis=1))
-    abs_err = diff.max(axis=1)
+    with np.errstate(invalid="ignore", over="ignore"):
+        diff = np.abs(other - ref).reshape(N, -1)
+        scale = np.maximum(1.0, np.abs(ref).reshape(N, -1).max(axis=1))
+        abs_err = diff.max(axis=1)
     # a NaN anywhere is a disagreement, never a silent pass
     abs_err = np.where(np.isfinite(abs_err), abs_err, np.inf)
+    return abs_err, np.where(np.isfinite(scale), scale, 1.0)
+
+
+def _compare(name, abs_err, scale, states, tol=TOLERANCE) -> QuantityError:
     rel = abs_err / scale
     i = int(np.argmax(rel))
     return QuantityError(
@@ -162,6 +186,55 @@ def _compare(name, ref, other, states, tol=TOLERANCE) -> QuantityError:
         max_abs=float(abs_err.max()), max_rel=float(rel[i]), worst_index=i,
         worst_state={k: v[i] for k, v in states.items()}, tolerance=tol,
     )
+
+
+#: doubles of one (states x n x n) array the cross-check holds at a time
+CHUNK_DOUBLES = 2_000_000
+
+
+def qdd_not_comparable(D, dD, dh, dg, qdd) -> str:
+    """Why forward dynamics cannot be compared to :data:`TOLERANCE` at these states, or "".
+
+    ``D`` (B, n, n) is the reference mass matrix; ``dD``, ``dh``, ``dg`` the
+    other engine's differences from the reference (each within TOLERANCE);
+    ``qdd`` (B, n) the accelerations.  Forward dynamics solves ``D qdd = tau
+    - h - g``: to first order the engines' qdd then differ by up to
+    ``(|dD| |qdd| + |dh| + |dg|) / lambda_min(D)`` (max-norms), even with two
+    exact solvers.  When that exceeds TOLERANCE (relative to ``max(1,
+    |qdd|)``), a disagreement in qdd would say nothing about the solvers, so
+    qdd is not compared and the reason is reported:
+
+    * D not positive definite (a physically impossible inertia: no physical
+      forward dynamics, and ABA and a linear solve then differ);
+    * D numerically singular (a joint that moves no mass);
+    * cond(D) over :data:`MAX_COND`, or the first-order bound above over
+      TOLERANCE (float64 cannot give qdd to TOLERANCE at these states).
+    """
+    w = np.linalg.eigvalsh(D)                       # ascending, (B, n)
+    hi = np.maximum(np.abs(w).max(axis=1), 1e-300)
+    lo = w[:, 0]
+    if np.any(lo < -1e-12 * hi):
+        return (f"the mass matrix D(q) is not positive definite (eigenvalue {float(lo.min()):.3g}): some "
+                "link's inertia is physically impossible, and forward dynamics has no physical meaning "
+                "(ABA and a linear solve then differ); see the physical-consistency warnings")
+    singular = lo <= 1e-15 * hi                     # numerically singular (or a zero row)
+    if np.any(singular):
+        return str(SingularMassMatrixError.for_mass_matrix(D[singular]))
+    cond = hi / lo
+    if np.any(~(cond <= MAX_COND)):
+        return (f"the mass matrix D(q) is ill-conditioned (cond(D) = {float(np.max(cond)):.3g} > "
+                f"{MAX_COND:g}): float64 cannot give the forward dynamics to {TOLERANCE:g}; check the "
+                "model's inertias")
+    B = len(D)
+    amax = np.abs(qdd).reshape(B, -1).max(axis=1)
+    spread = (np.abs(dD).reshape(B, -1).max(axis=1) * amax + np.abs(dh).reshape(B, -1).max(axis=1)
+              + np.abs(dg).reshape(B, -1).max(axis=1)) / lo / np.maximum(1.0, amax)
+    if np.any(~(spread <= TOLERANCE)):
+        return (f"the engines' D, h, g agree (within {TOLERANCE:g}) but forward dynamics divides their "
+                f"differences by lambda_min(D) = {float(lo[np.argmax(spread)]):.3g}: the qdd can differ by "
+                f"{float(np.max(spread)):.3g} relative, beyond {TOLERANCE:g}, whatever the solvers (lengths "
+                "or joint ranges far from the arm's scale?)")
+    return ""
 
 
 def crosscheck(arm, samples: int = 1000, seed: int = 0, chunk: int = 500, progress=None,
@@ -176,7 +249,10 @@ def crosscheck(arm, samples: int = 1000, seed: int = 0, chunk: int = 500, progre
     seed : int
         Seed of the state generator (``numpy.random.default_rng``).
     chunk : int
-        States per batch (bounds memory of the trace-form batch).
+        States per batch, at most; fewer on long chains so that a batch's
+        (states, n, n) arrays hold at most :data:`CHUNK_DOUBLES` numbers.
+        Only per-state errors are kept between batches: memory grows
+        linearly with ``samples`` and with ``n**2`` per batch.
     progress : callable, optional
         Called as ``progress(done, total)`` after each chunk.
     scheduler : None, "local", "sync" or "tcp://HOST:PORT"
@@ -193,14 +269,24 @@ def crosscheck(arm, samples: int = 1000, seed: int = 0, chunk: int = 500, progre
         etc. give max absolute and relative errors and the worst state.
     """
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
-        raise ValueError(f"samples: expected a positive integer, got {samples!r}")
+        raise StateError(f"samples: expected a positive integer, got {samples!r:.60}")
+    if samples > MAX_SAMPLES:
+        shown = str(samples) if len(str(samples)) < 30 else f"a {len(str(samples))}-digit number"
+        raise StateError(f"samples: {shown} is over {MAX_SAMPLES:g} states (the drawn states alone "
+                         "would not fit in memory); run several cross-checks with different seeds")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise StateError(f"seed: expected a non-negative integer, got {seed!r:.60}")
+    chunk = max(1, min(int(chunk), CHUNK_DOUBLES // (arm.n * arm.n)))
     if scheduler is not None:
         return _crosscheck_distributed(arm, int(samples), seed, chunk, progress, scheduler, workers)
     return _crosscheck_states(arm, int(samples), seed, chunk, progress, 0, int(samples))
 
 
 def _crosscheck_states(arm, samples, seed, chunk, progress, first, stop) -> CrosscheckReport:
-    """The cross-check of rows ``first:stop`` of the states (worst indices global)."""
+    """The cross-check of rows ``first:stop`` of the states (worst indices global).
+
+    ``chunk`` is the batch size already bounded by :data:`CHUNK_DOUBLES`.
+    """
     q, qd, qdd = draw_states(arm, samples, seed, first, stop)
     samples_all, samples = samples, stop - first
     L: DynamicsEngine = arm.lagrange
@@ -209,20 +295,27 @@ def _crosscheck_states(arm, samples, seed, chunk, progress, first, stop) -> Cros
     skipped: dict[str, str] = {}
 
     def add(key, a, b):
-        ra, rb = parts.setdefault(key, ([], []))
-        ra.append(a)
-        rb.append(b)
+        ea, es = parts.setdefault(key, ([], []))
+        e, sc = _errors(a, b)
+        ea.append(e)
+        es.append(sc)
 
     for start in range(0, samples, chunk):
         sl = slice(start, min(samples, start + chunk))
         qs, qds, qdds = q[sl], qd[sl], qdd[sl]
         D, h, g = L.dynamics_terms(qs, qds)
-        add("D", D, P.mass_matrix(qs))
-        add("h", h, P.coriolis_torque(qs, qds))
-        add("g", g, P.gravity_torque(qs))
+        pD, ph, pg = P.mass_matrix(qs), P.coriolis_torque(qs, qds), P.gravity_torque(qs)
+        add("D", D, pD)
+        add("h", h, ph)
+        add("g", g, pg)
         tau = L.inverse_dynamics(qs, qds, qdds)
         add("tau", tau, P.inverse_dynamics(qs, qds, qdds))
         # forward dynamics of the same torques: both should return qdd
+        if "qdd" not in skipped:
+            why = qdd_not_comparable(D, pD - D, ph - h, pg - g, qdds)
+            if why:
+                skipped["qdd"] = f"qdd not compared: {why}"
+                parts.pop("qdd", None)
         if "qdd" not in skipped:
             try:
                 add("qdd", L.forward_dynamics(qs, qds, tau), P.forward_dynamics(qs, qds, tau))
@@ -239,7 +332,8 @@ def _crosscheck_states(arm, samples, seed, chunk, progress, first, stop) -> Cros
 
     states = {"q": q, "qd": qd, "qdd": qdd}
     report = CrosscheckReport(arm=arm.name or "arm", n=arm.n, samples=int(samples_all), seed=int(seed),
-                              notes=list(getattr(arm, "notes", ())) + list(skipped.values()))
+                              notes=list(getattr(arm, "notes", ())) + list(skipped.values()),
+                              not_compared=dict(skipped))
     for key, (ra, rb) in parts.items():
         report.quantities[key] = _compare(key, np.concatenate(ra), np.concatenate(rb), states)
         report.quantities[key].worst_index += first
@@ -280,6 +374,9 @@ def _crosscheck_distributed(arm, samples, seed, chunk, progress, scheduler, work
     merged = CrosscheckReport(arm=arm.name or "arm", n=arm.n, samples=samples, seed=int(seed),
                               notes=list(getattr(arm, "notes", ()))
                               + list(dict.fromkeys(n for r in reports for n in r.notes)))
+    for r in reports:                      # the first part's reason, as a local run gives it
+        for key, why in r.not_compared.items():
+            merged.not_compared.setdefault(key, why)
     skip = {k for r in reports for k in QUANTITIES if k not in r.quantities}
     for key in reports[0].quantities:      # the local run's order
         if key in skip:

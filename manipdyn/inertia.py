@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import limits
 from .errors import ModelError, PhysicalConsistencyWarning
 
 __all__ = [
@@ -39,6 +40,10 @@ __all__ = [
 # inequalities) before a body is called physically impossible: a few ulps of
 # the body's own scale, so that rounding in published tables is not flagged.
 _PSD_RTOL = 1e-9
+#: largest ratio of the largest principal moment to the sum of the other two that
+#: float64 pseudo-inertias hold (see :meth:`LinkInertia.check_representable`):
+#: the rounding ``1e-16 * 1e6`` stays 1e-10 relative to the moments that matter
+REPRESENTABLE_RATIO = 1e6
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -51,8 +56,8 @@ def _as_float_array(value, where: str, field_name: str, expected: str) -> np.nda
     """``value`` as a float array, or a ModelError naming the field and the ``expected`` form."""
     try:
         return np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ModelError(f"{where}: field '{field_name}' must be {expected}, got {value!r}") from None
+    except (TypeError, ValueError, OverflowError, RecursionError):
+        raise ModelError(f"{where}: field '{field_name}' must be {expected}, got {value!r:.200}") from None
 
 
 def as_vector3(value, where: str, field_name: str) -> np.ndarray:
@@ -64,6 +69,7 @@ def as_vector3(value, where: str, field_name: str) -> np.ndarray:
         )
     if not np.all(np.isfinite(arr)):
         raise ModelError(f"{where}: field '{field_name}' must be finite, got {arr.tolist()}")
+    limits.check_magnitude(arr, where, field_name)
     return arr
 
 
@@ -90,6 +96,8 @@ def as_tensor3(value, where: str, field_name: str = "inertia") -> np.ndarray:
         )
     if not np.all(np.isfinite(arr)):
         raise ModelError(f"{where}: field '{field_name}' must be finite, got {arr.tolist()}")
+    limits.check_magnitude(arr, where, field_name, " kg m^2")
+    limits.check_range(arr, where, field_name, "inertia")
     scale = max(1e-300, float(np.max(np.abs(arr))))
     if np.max(np.abs(arr - arr.T)) > 1e-12 * scale:
         raise ModelError(
@@ -294,14 +302,18 @@ class LinkInertia:
         where = self.name
         try:
             m = float(self.mass)
-        except (TypeError, ValueError):
-            raise ModelError(f"{where}: field 'mass' must be a number in kg, got {self.mass!r}") from None
+        except (TypeError, ValueError, OverflowError):
+            raise ModelError(f"{where}: field 'mass' must be a number in kg, got {self.mass!r:.60}") from None
         if not math.isfinite(m):
             raise ModelError(f"{where}: field 'mass' must be finite, got {m}")
+        limits.check_magnitude(m, where, "mass", " kg")
+        limits.check_range(m, where, "mass", "mass")
         if m < 0:
             raise ModelError(f"{where}: field 'mass' must be >= 0 kg, got {m}")
         object.__setattr__(self, "mass", m)
-        object.__setattr__(self, "com", _readonly(as_vector3(self.com, where, "com")))
+        com = as_vector3(self.com, where, "com")
+        limits.check_range(com, where, "com", "length")
+        object.__setattr__(self, "com", _readonly(com))
         object.__setattr__(self, "inertia", _readonly(as_tensor3(self.inertia, where, "inertia")))
 
     # -- conversions -------------------------------------------------------
@@ -372,7 +384,10 @@ class LinkInertia:
             if np.max(np.abs(I)) > 0:
                 problems.append("rotational inertia on a massless link (mass = 0, inertia != 0)")
             return problems
-        principal = np.linalg.eigvalsh(I)
+        try:
+            principal = np.linalg.eigvalsh(I)
+        except np.linalg.LinAlgError:  # cannot happen within limits.MAX_MAGNITUDE; never leak it
+            return [f"the inertia tensor's principal moments cannot be computed ({I.tolist()})"]
         tol = _PSD_RTOL * scale
         if principal[0] < -tol:
             problems.append(f"negative principal moment of inertia {principal[0]:.6g} kg m^2")
@@ -399,6 +414,35 @@ class LinkInertia:
                 )
         return problems
 
+    def check_representable(self, where: str | None = None) -> None:
+        """Raise :class:`ModelError` if float64 cannot hold this tensor in a pseudo-inertia.
+
+        The pseudo-inertia stores ``S = tr(I)/2 E - I + m c c^T`` (eq. 2.21):
+        every moment then carries a rounding error of about ``1e-16 tr(I)``.
+        For a real body the largest principal moment is at most the sum of the
+        other two, so that error stays relative to the moments that matter.
+        A tensor whose largest principal moment exceeds the sum of the other
+        two (or 1 kg m^2, the cross-check's absolute floor, if that is more)
+        by more than :data:`REPRESENTABLE_RATIO` (a typo in an exponent,
+        ``ixx="7e27"``) is not a rigid body, and its small moments are lost in
+        that rounding: the trace form and Pinocchio would then describe
+        different arms.  Refused even without ``strict``, naming the link.
+        """
+        I = self.inertia
+        try:
+            lam = np.abs(np.linalg.eigvalsh(I))
+        except np.linalg.LinAlgError:
+            lam = np.abs(np.diag(I))
+        lam = np.sort(lam)
+        # 1 kg m^2 floor: the cross-check's own absolute floor (errors relative to max(1, |D|))
+        if lam[2] > REPRESENTABLE_RATIO * max(lam[0] + lam[1], 1.0):
+            raise ModelError(
+                f"{where or self.name}: inertia with principal moments {lam[2]:.6g}, {lam[1]:.6g}, "
+                f"{lam[0]:.6g} kg m^2: the largest exceeds the sum of the other two by over "
+                f"{REPRESENTABLE_RATIO:g} times; no rigid body has it, and float64 cannot hold the small "
+                "moments beside it (the two engines would disagree). Check the units and exponents"
+            )
+
     def check_physical(self, strict: bool = False, where: str | None = None) -> bool:
         """Warn (or raise with ``strict=True``) if the body is physically impossible.
 
@@ -408,6 +452,7 @@ class LinkInertia:
         if not problems:
             return True
         msg = f"{where or self.name}: physically impossible inertia: " + "; ".join(problems)
+        self.check_representable(where)
         if strict:
             raise ModelError(msg)
         warnings.warn(msg, PhysicalConsistencyWarning, stacklevel=3)

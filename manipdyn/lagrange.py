@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from ._state import as_state, same_batch
+from ._state import as_state, check_result, same_batch
 from .errors import SingularMassMatrixError
 
 __all__ = ["TraceFormEngine", "trace_form_engine", "CHUNK"]
@@ -40,6 +40,14 @@ def _link_sum(S: np.ndarray, x: np.ndarray) -> np.ndarray:
     B, n = x.shape[:2]
     return (S @ x.reshape(B, n, math.prod(x.shape[2:]))).reshape(x.shape)
 
+
+_isfinite = math.isfinite
+#: the public name of each batch kernel, for overflow messages
+_KERNEL_NAMES = {"_k_mass": "mass_matrix", "_k_coriolis": "coriolis_torque", "_k_gravity": "gravity_torque",
+                 "_k_terms": "dynamics_terms", "_k_inverse": "inverse_dynamics",
+                 "_k_forward": "forward_dynamics", "_k_kinetic": "kinetic_energy",
+                 "_k_potential": "potential_energy", "poses": "link_poses",
+                 "_k_christoffel": "christoffel_symbols", "_k_coriolis_matrix": "coriolis_matrix"}
 
 class TraceFormEngine:
     """Trace-form Lagrange-Euler dynamics of one arm.
@@ -79,6 +87,10 @@ class TraceFormEngine:
         self.armature = np.zeros(self.n) if armature is None else np.asarray(armature, dtype=np.float64)
         self._has_armature = bool(np.any(self.armature))
         self._armature_diag = np.diag(self.armature)
+        # states per block: CHUNK, fewer on long chains so that one (B, n, n)
+        # temporary stays within about 16 MB (memory linear in N, chunked)
+        self._chunk = max(1, min(CHUNK, 2_000_000 // (self.n * self.n)))
+        self._chunk3 = max(1, min(CHUNK, 2_000_000 // (16 * self.n ** 3)))
         self._upper = np.triu(np.ones((self.n, self.n), dtype=bool))
         self._tail = np.triu(np.ones((self.n, self.n)))        # sum over p >= k
         self._head = np.tril(np.ones((self.n, self.n)))        # sum over p <= k
@@ -170,14 +182,23 @@ class TraceFormEngine:
         twice as fast as one pass.  ``single`` strips the batch axis again.
         """
         B = arrays[0].shape[0]
-        if B <= CHUNK:
-            out = kernel(*arrays)
-        else:
-            parts = [kernel(*(a[k:k + CHUNK] for a in arrays)) for k in range(0, B, CHUNK)]
-            if isinstance(parts[0], tuple):
-                out = tuple(np.concatenate(p) for p in zip(*parts))
+        # the Christoffel symbols hold n^3 numbers per state: fewer states per block
+        CHUNK = self._chunk3 if getattr(kernel, "__name__", "") == "_k_christoffel" else self._chunk
+        with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported below, by state
+            if B <= CHUNK:
+                out = kernel(*arrays)
             else:
-                out = np.concatenate(parts)
+                parts = [kernel(*(a[k:k + CHUNK] for a in arrays)) for k in range(0, B, CHUNK)]
+                if isinstance(parts[0], tuple):
+                    out = tuple(np.concatenate(p) for p in zip(*parts))
+                else:
+                    out = np.concatenate(parts)
+        for x in (out if isinstance(out, tuple) else (out,)):
+            if not _isfinite(np.add.reduce(x.reshape(-1))):  # finite states in: say where it overflowed
+                code = getattr(kernel, "__code__", None)
+                names = code.co_varnames[1:1 + len(arrays)] if code is not None else ()
+                what = _KERNEL_NAMES.get(getattr(kernel, "__name__", ""), "trace form")
+                check_result(x, what, **{nm: (a[0] if single else a) for nm, a in zip(names, arrays)})
         if single:
             return tuple(x[0] for x in out) if isinstance(out, tuple) else out[0]
         return out
@@ -261,7 +282,7 @@ class TraceFormEngine:
     def friction_torque(self, qd) -> np.ndarray:
         """Joint friction ``Fv qd + Fc sign(qd)``, outside the Lagrangian (zero if none)."""
         qd = as_state(qd, "qd", self.n)
-        return np.zeros_like(qd) + self._friction(qd)
+        return check_result(np.zeros_like(qd) + self._friction(qd), "friction_torque", qd=qd)
 
     def dynamics_terms(self, q, qd):
         """``(D, h, g)`` in one pass over the kinematics (the cheap way to get all three)."""

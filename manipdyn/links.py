@@ -12,21 +12,58 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import limits
 from .errors import ModelError
 from .inertia import LinkInertia, as_vector3
 from .kinematics import JOINT_TYPES, dh_modified, dh_standard
 
-__all__ = ["physical_note", "DHLink", "ChainJoint"]
+__all__ = ["physical_note", "DHLink", "ChainJoint", "as_dh_links", "check_name"]
 
 
 def _scalar(value, where: str, name: str) -> float:
     try:
         v = float(value)
-    except (TypeError, ValueError):
-        raise ModelError(f"{where}: field '{name}' must be a number, got {value!r}") from None
+    except (TypeError, ValueError, OverflowError):
+        raise ModelError(f"{where}: field '{name}' must be a finite number, got {value!r:.60}") from None
     if not math.isfinite(v):
         raise ModelError(f"{where}: field '{name}' must be finite, got {v}")
+    limits.check_magnitude(v, where, name)
     return v
+
+
+def check_name(value, where: str, field: str = "name") -> str:
+    """``value`` as a name: a string without NUL or other characters XML 1.0 cannot hold.
+
+    Names go into URDF files and messages; a NUL would fail deep inside the
+    XML writer with a message that names nothing.
+    """
+    if not isinstance(value, str):
+        raise ModelError(f"{where}: field '{field}' must be a string, got {type(value).__name__}")
+    if len(value) > limits.MAX_NAME_LENGTH:
+        raise limits.over_limit(where, f"the length of field '{field}' ({value[:20]!r}...)", len(value),
+                                "MAX_NAME_LENGTH")
+    for k, ch in enumerate(value):
+        o = ord(ch)
+        if (o < 0x20 and ch not in "\t\n\r") or 0xD800 <= o <= 0xDFFF or o in (0xFFFE, 0xFFFF):
+            raise ModelError(f"{where}: field '{field}' holds the control character U+{o:04X} at "
+                             f"index {k} ({value[:40]!r}); names must be printable text")
+    return value
+
+
+def as_dh_links(links) -> tuple:
+    """``links`` as a non-empty tuple of at most ``limits.MAX_JOINTS`` :class:`DHLink`, or a ModelError."""
+    try:
+        links = tuple(links)
+    except TypeError:
+        raise ModelError(f"links: expected a sequence of DHLink, got {type(links).__name__}") from None
+    if not links:
+        raise ModelError("links: an arm needs at least one DHLink, got none")
+    if len(links) > limits.MAX_JOINTS:
+        raise limits.over_limit("links", "the number of links", len(links), "MAX_JOINTS")
+    for i, l in enumerate(links):
+        if not isinstance(l, DHLink):
+            raise ModelError(f"links[{i}]: expected a DHLink, got {type(l).__name__}")
+    return links
 
 
 def _qlim(value, where: str):
@@ -34,8 +71,8 @@ def _qlim(value, where: str):
         return None
     try:
         arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ModelError(f"{where}: field 'qlim' must be (lower, upper), got {value!r}") from None
+    except (TypeError, ValueError, OverflowError, RecursionError):
+        raise ModelError(f"{where}: field 'qlim' must be (lower, upper), got {value!r:.100}") from None
     if arr.shape != (2,):
         raise ModelError(f"{where}: field 'qlim' must have length 2 (lower, upper), got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
@@ -52,6 +89,9 @@ def _check_actuator(where, motor_inertia, gear_ratio, friction_viscous, friction
     g = _scalar(gear_ratio, where, "gear_ratio")
     if g == 0:
         raise ModelError(f"{where}: field 'gear_ratio' must be non-zero, got {g}")
+    if abs(g) ** 2 * jm > limits.MAX_MAGNITUDE:
+        raise ModelError(f"{where}: the reflected rotor inertia gear_ratio^2 * motor_inertia = "
+                         f"{abs(g) ** 2 * jm:g} is over {limits.MAX_MAGNITUDE:g} (manipdyn.limits.MAX_MAGNITUDE)")
     fv = _scalar(friction_viscous, where, "friction_viscous")
     fc = _scalar(friction_coulomb, where, "friction_coulomb")
     if fv < 0 or fc < 0:
@@ -131,15 +171,16 @@ class DHLink:
                  theta: float = 0.0, body: LinkInertia | None = None, *, mass=None, com=None,
                  inertia=None, qlim=None, motor_inertia: float = 0.0, gear_ratio: float = 1.0,
                  friction_viscous: float = 0.0, friction_coulomb: float = 0.0, name: str = ""):
-        name = str(name)
+        name = check_name(str(name), "DHLink", "name")
         where = f"link '{name}'" if name else "DHLink"
-        if joint not in JOINT_TYPES:
+        if not isinstance(joint, str) or joint not in JOINT_TYPES:
             raise ModelError(f"{where}: field 'joint' must be 'revolute' or 'prismatic', got {joint!r}")
         set_ = object.__setattr__
         set_(self, "joint", joint)
         set_(self, "name", name)
         for f, v in (("a", a), ("alpha", alpha), ("d", d), ("theta", theta)):
             set_(self, f, _scalar(v, where, f))
+            limits.check_range(getattr(self, f), where, f, "angle" if f in ("alpha", "theta") else "length")
         if body is not None and not isinstance(body, LinkInertia):
             raise ModelError(f"{where}: field 'body' must be a LinkInertia, got {type(body).__name__}")
         base = body if body is not None else LinkInertia(name=where)
@@ -149,6 +190,8 @@ class DHLink:
         _refuse_negative_moment(body.inertia, where)
         set_(self, "body", body)
         set_(self, "qlim", _qlim(qlim, where))
+        if self.qlim is not None:
+            limits.check_range(self.qlim, where, "qlim", "length" if joint == "prismatic" else "angle")
         jm, g, fv, fc = _check_actuator(where, motor_inertia, gear_ratio, friction_viscous, friction_coulomb)
         set_(self, "motor_inertia", jm)
         set_(self, "gear_ratio", g)
@@ -226,20 +269,39 @@ class ChainJoint:
 
     def __post_init__(self) -> None:
         where = f"joint '{self.name}'"
-        if self.joint not in JOINT_TYPES:
+        if not isinstance(self.joint, str) or self.joint not in JOINT_TYPES:
             raise ModelError(f"{where}: type must be 'revolute' or 'prismatic', got {self.joint!r}")
-        T = np.array(self.origin, dtype=np.float64)
+        try:
+            T = np.array(self.origin, dtype=np.float64)
+        except (TypeError, ValueError, OverflowError, RecursionError):
+            raise ModelError(f"{where}: origin must be a finite 4x4 transform") from None
         if T.shape != (4, 4) or not np.all(np.isfinite(T)):
             raise ModelError(f"{where}: origin must be a finite 4x4 transform")
+        limits.check_magnitude(T, where, "origin", " m")
         T.setflags(write=False)
         object.__setattr__(self, "origin", T)
         if not isinstance(self.body, LinkInertia):
             raise ModelError(f"{where}: body must be a LinkInertia, got {type(self.body).__name__}")
         ax = as_vector3(self.axis, where, "axis")
         nrm = float(np.linalg.norm(ax))
-        if nrm == 0:
-            raise ModelError(f"{where}: axis must be non-zero")
+        if not nrm >= 1e-9:  # a tinier axis loses digits when normalised (its squares underflow)
+            raise ModelError(f"{where}: axis must be a direction of length >= 1e-9, got {ax.tolist()}")
         ax = ax / nrm
         ax.setflags(write=False)
         object.__setattr__(self, "axis", ax)
         object.__setattr__(self, "qlim", _qlim(self.qlim, where))
+        if self.qlim is not None:
+            limits.check_range(self.qlim, where, "qlim", "length" if self.joint == "prismatic" else "angle")
+        for f in ("effort", "velocity"):
+            v = getattr(self, f)
+            if v is not None:
+                v = _scalar(v, where, f)
+                if v < 0:
+                    raise ModelError(f"{where}: field '{f}' must be >= 0 (a limit's magnitude), got {v}")
+                object.__setattr__(self, f, v)
+        for f in ("armature", "friction_viscous", "friction_coulomb"):
+            v = _scalar(getattr(self, f), where, f)
+            if v < 0:
+                raise ModelError(f"{where}: field '{f}' must be >= 0, got {v}")
+            object.__setattr__(self, f, v)
+        object.__setattr__(self, "name", check_name(self.name, where, "name"))

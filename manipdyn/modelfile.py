@@ -56,6 +56,7 @@ from pathlib import Path
 import numpy as np
 
 from ._files import atomic_write_text
+from . import limits
 from .arm import Manipulator
 from .errors import ModelError, SuspiciousValueWarning, warn_notes
 from .links import DHLink
@@ -98,9 +99,19 @@ def load_model_file(path, strict: bool = False) -> Manipulator:
     """Read a TOML model file (format in this module's docstring)."""
     path = os.fspath(path)
     try:
-        text = Path(path).read_text(encoding="utf-8")
+        with limits.open_regular(path, f"{path}: cannot read model file") as fh:
+            data = fh.read(limits.MAX_MODEL_FILE_BYTES + 1)
     except OSError as exc:
         raise ModelError(f"{path}: cannot read model file: {exc.strerror or exc}") from None
+    if len(data) > limits.MAX_MODEL_FILE_BYTES:
+        raise limits.over_limit(path, "the model file size", f"over {limits.MAX_MODEL_FILE_BYTES} bytes",
+                                "MAX_MODEL_FILE_BYTES")
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data[:exc.start].count(b"\n") + 1
+        raise ModelError(f"{path}: a model file is UTF-8 text; byte offset {exc.start} (line {line}) is "
+                         f"not: {exc.reason} (byte {data[exc.start:exc.start + 1]!r})") from None
     return parse_model(text, path, strict=strict)
 
 
@@ -110,9 +121,16 @@ def load_model_file(path, strict: bool = False) -> Manipulator:
 def _num(value, where: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ModelError(f"{where}: expected a number, got {type(value).__name__} {value!r}")
-    v = float(value)
+    try:
+        v = float(value)
+    except OverflowError:
+        raise ModelError(f"{where}: expected a finite number, got an integer of {len(str(abs(value)))} "
+                         "digits (beyond the float64 range)") from None
     if not math.isfinite(v):
         raise ModelError(f"{where}: expected a finite number, got {value!r}")
+    if abs(v) > limits.MAX_MAGNITUDE:
+        raise ModelError(f"{where}: magnitude {abs(v):g} is over {limits.MAX_MAGNITUDE:g} "
+                         "(manipdyn.limits.MAX_MAGNITUDE): products of such numbers overflow float64")
     return v
 
 
@@ -158,10 +176,17 @@ def _inertia(value, scale: float, where: str) -> np.ndarray:
 
 def parse_model(text: str, origin: str = "<model>", strict: bool = False) -> Manipulator:
     """Parse model-file text; ``origin`` names the file in error messages."""
+    if not isinstance(text, str):
+        raise ModelError(f"{origin}: model text must be a str, got {type(text).__name__}")
+    if len(text) > limits.MAX_MODEL_FILE_BYTES:
+        raise limits.over_limit(origin, "the model text length", f"{len(text)} characters",
+                                "MAX_MODEL_FILE_BYTES")
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ModelError(f"{origin}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise ModelError(f"{origin}: not a model file: arrays or tables nested too deeply") from None
     unknown = set(data) - _TOP_KEYS
     if unknown:
         raise ModelError(f"{origin}: unknown key(s) {sorted(unknown)}; expected some of {sorted(_TOP_KEYS)}")
@@ -241,8 +266,13 @@ def parse_model(text: str, origin: str = "<model>", strict: bool = False) -> Man
     unit_notes = _unit_notes(origin, raw_links, units, links)
     if strict and unit_notes:
         raise ModelError("; ".join(unit_notes) + " (strict)")
-    arm = Manipulator(links, convention=convention, gravity=gravity, name=name, strict=strict,
-                      source=source, sources=sources, description=description)
+    try:
+        arm = Manipulator(links, convention=convention, gravity=gravity, name=name, strict=strict,
+                          source=source, sources=sources, description=description)
+    except ModelError as exc:
+        if origin in str(exc):
+            raise
+        raise ModelError(f"{origin}: {exc}") from None  # always name the file
     arm.notes = tuple(unit_notes) + arm.notes
     warn_notes(name or origin, unit_notes, SuspiciousValueWarning)
     return arm

@@ -19,11 +19,14 @@ import os
 import numpy as np
 import pinocchio as pin
 
-from ._state import as_state, same_batch
+from ._state import as_state, check_result, same_batch
 from .errors import ModelError, SingularMassMatrixError
+from .pinocchio_agree import check_same_arm
 from .urdf_out import TOOL_LINK, arm_to_urdf
 
 _isfinite = math.isfinite
+_F64 = np.dtype(np.float64)  # native byte order: '>f8' is another object
+_ND = np.ndarray  # exactly: a masked array's data would reach Pinocchio without its mask
 _crba, _rnea, _aba, _gravity = pin.crba, pin.rnea, pin.aba, pin.computeGeneralizedGravity
 
 #: below this many states a batch runs on one thread (thread start-up costs
@@ -70,10 +73,17 @@ def model_for_arm(arm) -> "pin.Model":
     """Pinocchio's model of ``arm``: from the original URDF text when the arm came
     from a file (reduced by locking its off-chain joints at ``pin.neutral``, 0),
     otherwise from the URDF generated from the arm's chain."""
+    where = getattr(arm, "source", "") or arm.name or "arm"
     if arm.source_urdf is None:
-        return model_from_urdf(arm_to_urdf(arm), arm.gravity, arm.armature)
-    where = getattr(arm, "source", "") or arm.name
-    model = pin.buildModelFromXML(arm.source_urdf)
+        model = model_from_urdf(arm_to_urdf(arm), arm.gravity, arm.armature)
+        check_same_arm(model, arm, where)
+        return model
+    try:
+        model = pin.buildModelFromXML(arm.source_urdf)
+    except (RuntimeError, ValueError) as exc:
+        msg = " ".join(str(exc).split())
+        raise ModelError(f"{where}: Pinocchio's URDF reader (urdfdom) refuses the file that manipdyn "
+                         f"read: {msg}") from None
     if arm.locked_joints:
         ids = []
         for nm in arm.locked_joints:
@@ -89,6 +99,7 @@ def model_for_arm(arm) -> "pin.Model":
         )
     if not (model.nq == model.nv == arm.n):
         raise ModelError(f"{where}: Pinocchio's model has nq={model.nq}, nv={model.nv}; expected {arm.n}")
+    check_same_arm(model, arm, where)  # both readers must read the same arm
     model.gravity.linear = np.array(arm.gravity)
     model.armature = np.array(arm.armature)
     return model
@@ -132,6 +143,8 @@ class PinocchioEngine:
         self._model0.gravity.linear = np.zeros(3)
         self._data0 = self._model0.createData()
         self._zeros = np.zeros(self.n)
+        # a prismatic joint's huge q can overflow D and g: check those results
+        self._prismatic = any(j.shortname().startswith("JointModelP") for j in model.joints[1:])
         self.friction = None
         if friction is not None and np.any(friction):
             self.friction = np.asarray(friction, dtype=np.float64)
@@ -185,31 +198,35 @@ class PinocchioEngine:
         """Inertia matrix D(q) by CRBA, (n, n) or (N, n, n); full and symmetric."""
         q = as_state(q, "q", self.n)
         if q.ndim == 1:
-            return _crba(self.model, self.data, q)
+            return check_result(_crba(self.model, self.data, q), "mass_matrix", q=q)
         m, d = self.model, self.data
-        return np.array([pin.crba(m, d, qi) for qi in q]).reshape(len(q), self.n, self.n)
+        D = np.array([pin.crba(m, d, qi) for qi in q]).reshape(len(q), self.n, self.n)
+        return check_result(D, "mass_matrix", q=q)
 
     def coriolis_torque(self, q, qd) -> np.ndarray:
         """Coriolis and centripetal torque h(q, qd), (n,) or (N, n) (no friction)."""
         q = as_state(q, "q", self.n)
         qd = as_state(qd, "qd", self.n)
         if q.ndim == 1 and qd.ndim == 1:
-            return _rnea(self._model0, self._data0, q, qd, self._zeros)
+            return check_result(_rnea(self._model0, self._data0, q, qd, self._zeros), "coriolis_torque",
+                                q=q, qd=qd)
         same_batch((q, "q"), (qd, "qd"))
-        return self._rnea_batch(self._get_pool0(), q, qd, np.zeros(q.shape))
+        return check_result(self._rnea_batch(self._get_pool0(), q, qd, np.zeros(q.shape)),
+                            "coriolis_torque", q=q, qd=qd)
 
     def gravity_torque(self, q) -> np.ndarray:
         """Gravity torque g(q): the torque that holds the arm still, (n,) or (N, n)."""
         q = as_state(q, "q", self.n)
         if q.ndim == 1:
-            return _gravity(self.model, self.data, q)
+            return check_result(_gravity(self.model, self.data, q), "gravity_torque", q=q)
         zeros = np.zeros(q.shape)
-        return self._rnea_batch(self._get_pool(), q, zeros, zeros)  # g(q) = rnea(q, 0, 0)
+        g = self._rnea_batch(self._get_pool(), q, zeros, zeros)  # g(q) = rnea(q, 0, 0)
+        return check_result(g, "gravity_torque", q=q)
 
     def friction_torque(self, qd) -> np.ndarray:
         """Joint friction ``Fv qd + Fc sign(qd)`` (zero if none)."""
         qd = as_state(qd, "qd", self.n)
-        return np.zeros_like(qd) + self._friction(qd)
+        return check_result(np.zeros_like(qd) + self._friction(qd), "friction_torque", qd=qd)
 
     def dynamics_terms(self, q, qd):
         """``(D, h, g)`` for one state or a batch."""
@@ -227,7 +244,7 @@ class PinocchioEngine:
             tau = self._rnea_batch(self._get_pool(), q, qd, qdd)
         if self.friction is not None:
             tau = tau + self._friction(qd)
-        return tau
+        return check_result(tau, "inverse_dynamics", q=q, qd=qd, qdd=qdd)
 
     def forward_dynamics(self, q, qd, tau) -> np.ndarray:
         """Joint accelerations by ABA, solving ``D qdd = tau - h - g`` (- friction)."""
@@ -250,7 +267,7 @@ class PinocchioEngine:
             w = np.linalg.eigvalsh(D)
             if np.any(w[:, 0] <= 1e-12 * np.maximum(1.0, np.abs(w[:, -1]))):
                 raise SingularMassMatrixError.for_mass_matrix(D)
-        return qdd
+        return check_result(qdd, "forward_dynamics", q=q, qd=qd, tau=tau)
 
     def regressor(self, q, qd, qdd, armature: bool = False, friction: bool = False) -> np.ndarray:
         """Inverse-dynamics regressor ``Y`` with ``Y @ pi = tau``, (n, p) or (N, n, p).
@@ -284,24 +301,32 @@ class PinocchioEngine:
         qd = as_state(qd, "qd", self.n)
         same_batch((q, "q"), (qd, "qd"))
         if q.ndim == 1:
-            return float(pin.computeKineticEnergy(self.model, self.data, q, qd))
+            K = float(pin.computeKineticEnergy(self.model, self.data, q, qd))
+            return float(check_result(np.array([K]), "kinetic_energy", q=q, qd=qd)[0])
         m, d = self.model, self.data
-        return np.array([pin.computeKineticEnergy(m, d, qi, vi) for qi, vi in zip(q, qd)])
+        K = np.array([pin.computeKineticEnergy(m, d, qi, vi) for qi, vi in zip(q, qd)])
+        return check_result(K, "kinetic_energy", q=q, qd=qd)
 
     def potential_energy(self, q):
         """Potential energy (J), zero at the base origin height; scalar or (N,)."""
         q = as_state(q, "q", self.n)
         if q.ndim == 1:
-            return float(pin.computePotentialEnergy(self.model, self.data, q))
+            P = float(pin.computePotentialEnergy(self.model, self.data, q))
+            return float(check_result(np.array([P]), "potential_energy", q=q)[0])
         m, d = self.model, self.data
-        return np.array([pin.computePotentialEnergy(m, d, qi) for qi in q])
+        P = np.array([pin.computePotentialEnergy(m, d, qi) for qi in q])
+        return check_result(P, "potential_energy", q=q)
 
     def frame_placement(self, q, frame: str) -> np.ndarray:
         """Pose (4, 4) or (N, 4, 4) of a named URDF frame (link) in the base frame."""
         q = as_state(q, "q", self.n)
+        if not isinstance(frame, str):
+            raise ModelError(f"frame: expected a frame (link) name, got {type(frame).__name__}")
         fid = self.model.getFrameId(frame)
         if fid >= self.model.nframes:
-            raise KeyError(f"frame {frame!r} is not in the Pinocchio model")
+            names = [f.name for f in self.model.frames]
+            raise ModelError(f"frame: {frame!r} is not a frame of the model; frames are "
+                             f"{', '.join(repr(n) for n in names[:20])}{' ...' if len(names) > 20 else ''}")
         m, d = self.model, self.data
 
         def one(qi):
@@ -309,8 +334,8 @@ class PinocchioEngine:
             return d.oMf[fid].homogeneous.copy()
 
         if q.ndim == 1:
-            return one(q)
-        return np.array([one(qi) for qi in q])
+            return check_result(one(q), "frame_placement", q=q)
+        return check_result(np.array([one(qi) for qi in q]), "frame_placement", q=q)
 
     def fkine(self, q) -> np.ndarray:
         """The tool frame's pose in the base frame: (4, 4) or (N, 4, 4)."""
@@ -328,10 +353,11 @@ class PinocchioEngine:
         qd = as_state(qd, "qd", self.n)
         m, d = self.model, self.data
         if q.ndim == 1 and qd.ndim == 1:
-            return pin.computeCoriolisMatrix(m, d, q, qd).copy()
+            return check_result(pin.computeCoriolisMatrix(m, d, q, qd).copy(), "coriolis_matrix", q=q, qd=qd)
         same_batch((q, "q"), (qd, "qd"))
-        return np.array([pin.computeCoriolisMatrix(m, d, qi, vi).copy()
-                         for qi, vi in zip(q, qd)]).reshape(len(q), self.n, self.n)
+        C = np.array([pin.computeCoriolisMatrix(m, d, qi, vi).copy()
+                      for qi, vi in zip(q, qd)]).reshape(len(q), self.n, self.n)
+        return check_result(C, "coriolis_matrix", q=q, qd=qd)
 
 
 def _install_fast_path(eng: PinocchioEngine) -> None:

@@ -36,10 +36,15 @@ Rules (CONVENTIONS.md for frames and inertia):
   applied outside the Lagrangian by both engines.  URDF has no rotor
   inertia: the armature is zero.
 
-Security: a document whose DOCTYPE declares entities or points at an
-external DTD is refused before any expansion (XML external entities, the
-"billion laughs" bomb).  Pinocchio (whose XML reader does not guard against
-them) only ever sees text that passed this check.
+Security and agreement: a document with a DOCTYPE is refused before any
+parsing (entities, ATTLIST defaults and external DTDs are read differently
+by libxml2 and by urdfdom, and are how XML entity attacks work); numbers are
+ASCII, finite and within :data:`manipdyn.limits.MAX_MAGNITUDE`, vectors are
+separated by spaces only; files, link counts, chain lengths and runs of
+fixed joints are capped (:mod:`manipdyn.limits`).  Pinocchio only ever sees
+text that passed these checks, and the model it builds is compared with
+this reader's chain when the engine is built (both readers must read the
+same arm).
 """
 
 from __future__ import annotations
@@ -48,6 +53,7 @@ import warnings
 
 import numpy as np
 
+from . import limits
 from .arm import DEFAULT_QLIM, URDFArm
 from .errors import ModelError, PhysicalConsistencyWarning
 from .inertia import LinkInertia, transform_pseudo_inertia
@@ -73,6 +79,9 @@ def build_chain(tree: URDFTree, tip: str | None, strict: bool):
         raise ModelError(
             f"{tree.label}: no movable joint between the root link '{tree.root}' and the tip '{tip}'"
         )
+    if len(chain) > limits.MAX_JOINTS:
+        raise limits.over_limit(tree.label, f"the number of movable joints from '{tree.root}' to '{tip}'",
+                                len(chain), "MAX_JOINTS")
     index = {j.name: k for k, j in enumerate(chain)}
     locked = [j for j in tree.joints.values() if j.movable and j.name not in index]
     refuse_coupled_mimics(tree, index)

@@ -10,9 +10,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import limits
 from .errors import ModelError, TipError
 from .inertia import LinkInertia
-from .urdf_xml import (KNOWN_TYPES, MOVABLE, one_child, read_name, read_number, read_origin,
+from .links import check_name
+from .urdf_xml import (KNOWN_TYPES, MOVABLE, check_numbers, one_child, read_name, read_number, read_origin,
                        read_vector3, where_in)
 
 __all__ = ["URDFLink", "URDFJoint", "URDFTree", "read_link", "read_joint", "some_names", "default_tip",
@@ -51,6 +53,7 @@ def read_link(el, label: str) -> URDFLink:
     where0 = where_in(label, el, "<link>")
     name = read_name(el, where0)
     where = where_in(label, el, f"link '{name}'")
+    check_numbers(el, where)
     inert = one_child(el, "inertial", where, required=False)
     body = None
     if inert is not None:
@@ -72,6 +75,7 @@ def read_joint(el, label: str) -> URDFJoint:
     where0 = where_in(label, el, "<joint>")
     name = read_name(el, where0)
     where = where_in(label, el, f"joint '{name}'")
+    check_numbers(el, where)
     jtype = el.get("type")
     if jtype is None:
         raise ModelError(f"{where}: <joint> is missing the attribute 'type'")
@@ -98,16 +102,22 @@ def read_joint(el, label: str) -> URDFJoint:
         ax_el = one_child(el, "axis", where, required=False)
         if ax_el is not None:
             axis = read_vector3(ax_el, "xyz", where, (1.0, 0.0, 0.0))
-        if not np.linalg.norm(axis) > 0:
-            raise ModelError(f"{where}: <axis xyz> must be non-zero")
+        if not np.linalg.norm(axis) >= 1e-9:  # a tinier axis loses digits when normalised
+            raise ModelError(f"{where}: <axis xyz=\"{ax_el.get('xyz') if ax_el is not None else ''}\">: "
+                             "must be a direction of length >= 1e-9")
         lim = one_child(el, "limit", where, required=jtype != "continuous")
         if lim is not None:
             # URDF requires effort and velocity; Pinocchio's reader refuses the file without them
             effort = read_number(lim, "effort", where)
             velocity = read_number(lim, "velocity", where)
+            if effort < 0 or velocity < 0:
+                raise ModelError(f"{where}: <limit effort={effort} velocity={velocity}>: both must be >= 0 "
+                                 "(they are magnitudes; Pinocchio's reader refuses negative ones)")
             if jtype != "continuous" and (lim.get("lower") is not None or lim.get("upper") is not None):
                 lower = read_number(lim, "lower", where, default=0.0)
                 upper = read_number(lim, "upper", where, default=0.0)
+                limits.check_range((lower, upper), f"{where} <limit>", "lower/upper",
+                                   "length" if jtype == "prismatic" else "angle")
         dyn = one_child(el, "dynamics", where, required=False)
         if dyn is not None:
             damping = read_number(dyn, "damping", where, default=0.0)
@@ -141,7 +151,11 @@ class URDFTree:
         self.label = label
         if root_el.tag != "robot":
             raise ModelError(f"{label}: the root element is <{root_el.tag}>, expected <robot>")
-        self.robot_name = root_el.get("name") or ""
+        self.robot_name = check_name(root_el.get("name") or "", label, "<robot name>")
+        for tag in ("link", "joint"):
+            count = sum(1 for _ in root_el.iterchildren(tag))
+            if count > limits.MAX_LINKS:
+                raise limits.over_limit(label, f"the number of <{tag}> elements", count, "MAX_LINKS")
         self.links: dict[str, URDFLink] = {}
         for el in root_el.iterchildren("link"):
             link = read_link(el, label)
@@ -187,6 +201,19 @@ class URDFTree:
                 f"{label}: links {some_names(cut)} are not reachable from the root link "
                 f"'{self.root}': their joints form a kinematic loop"
             )
+        self.check_fixed_runs()
+
+    def check_fixed_runs(self) -> None:
+        """Refuse more than :data:`manipdyn.limits.MAX_FIXED_RUN` fixed joints in a row."""
+        stack = [(self.root, 0)]
+        while stack:
+            ln, run = stack.pop()
+            for j in self.children[ln]:
+                r = run + 1 if j.type == "fixed" else 0
+                if r > limits.MAX_FIXED_RUN:
+                    raise limits.over_limit(f"{j.where}", "the number of fixed joints in a row ending here",
+                                            r, "MAX_FIXED_RUN")
+                stack.append((j.child, r))
 
     def path(self, link: str) -> list[URDFJoint]:
         """Joints from the root down to ``link``."""

@@ -31,14 +31,14 @@ PACKAGES = ("manipdyn", "benchmarks")
 #: own layer or below.  Packages (``manipdyn.cli`` ...) give the layer of every
 #: module inside them.
 LAYERS = {
-    0: ("manipdyn.errors", "manipdyn._files", "manipdyn._state"),
+    0: ("manipdyn.errors", "manipdyn._files", "manipdyn._state", "manipdyn.limits"),
     1: ("manipdyn.kinematics",),
     2: ("manipdyn.inertia",),
     3: ("manipdyn.links", "manipdyn.arm", "manipdyn.parameters"),
     4: ("manipdyn.urdf_xml", "manipdyn.urdf_tree", "manipdyn.urdf_in", "manipdyn.urdf_out",
         "manipdyn.modelfile", "manipdyn.loading", "manipdyn.io", "manipdyn.erd", "manipdyn.models",
         "manipdyn.scale"),
-    5: ("manipdyn.engine", "manipdyn.lagrange", "manipdyn.pinocchio_engine"),
+    5: ("manipdyn.engine", "manipdyn.lagrange", "manipdyn.pinocchio_engine", "manipdyn.pinocchio_agree"),
     6: ("manipdyn.check",),
     7: ("manipdyn.comparison", "manipdyn.compare", "manipdyn.control", "manipdyn.identification",
         "manipdyn.montecarlo", "manipdyn.random_arms"),

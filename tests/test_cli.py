@@ -119,9 +119,10 @@ def test_singular_mass_matrix_is_named_not_a_crash(tmp_path, capsys):
 
     path = tmp_path / "nomass.urdf"
     path.write_text(NOMASS)
-    assert main(["check", str(path), "--samples", "10", "--timing-calls", "2"]) == 0
+    # a quantity that cannot be compared is a failed condition (exit 1), never "all agree" (issue 11)
+    assert main(["check", str(path), "--samples", "10", "--timing-calls", "2"]) == 1
     out = capsys.readouterr().out
-    assert "qdd not compared" in out and "joint(s) [2] move no mass" in out
+    assert "qdd not compared" in out and "joint(s) [2] move no mass" in out and "all agree" not in out
     with pytest.warns(md.PhysicalConsistencyWarning, match="moves no mass"):
         arm = md.load(str(path))
     for eng in (arm.pinocchio, arm.lagrange, arm):

@@ -5,8 +5,9 @@ Layer: CLI (the top).  Each subcommand is a module of this package with
 ``run(args) -> int``; :data:`COMMANDS` lists them in ``--help`` order.
 
 Exit codes: 0 success (engines agree), 1 some quantity disagrees or a checked
-condition fails, 2 usage or model error (one line on stderr, no traceback),
-3 an unexpected internal error (one line; ``--debug`` shows the traceback).
+condition fails, 2 usage or model error (one line on stderr, no traceback;
+a singular mass matrix and dynamics that overflow are model errors),
+3 an unexpected internal error, a bug (one line; ``--debug`` shows the traceback).
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import argparse
 import os
 import sys
 
-from ..errors import ModelError
+from ..errors import ModelError, SingularMassMatrixError, StateError
 from . import bench, check, compare, excite, identify, models, montecarlo, track, urdf
 from .common import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE
 
@@ -55,7 +56,9 @@ def main(argv=None) -> int:
         except OSError:
             pass
         return EXIT_OK
-    except ModelError as exc:
+    except (ModelError, StateError, SingularMassMatrixError) as exc:
+        # a model problem (a singular mass matrix, dynamics that overflow on the
+        # states the command drew, a malformed file): the input's fault, not ours
         print(f"manipdyn {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     except OSError as exc:

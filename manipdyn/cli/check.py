@@ -103,7 +103,9 @@ def run(args) -> int:
         report = _crosscheck(arm, args, Progress(arm.name or spec, show_progress))
         timing = _timings(arm, calls=args.timing_calls) if args.timing_calls > 0 else {}
         strict_failed = bool(args.strict and notes)
-        if not report.ok or strict_failed:
+        if not report.ok or strict_failed or report.not_compared:
+            # a quantity that could not be compared (forward dynamics of a
+            # singular D) is a failed condition, never "all agree"
             worst = EXIT_DISAGREE
         results.append({"model": spec, "notes": notes, "urdf": urdf_path, "timing": timing,
                         "strict_failed": strict_failed, "report": report})
@@ -113,8 +115,11 @@ def run(args) -> int:
         print(json.dumps([{**r, "report": r["report"].to_dict()} for r in results], indent=2))
     else:
         bad = [r["model"] for r in results if not r["report"].ok]
-        print(f"{len(results) - len(bad)}/{len(results)} arms agree"
-              + (f"; DISAGREEMENT: {', '.join(bad)}" if bad else ""))
+        failed = [r["model"] for r in results if r["report"].ok and r["report"].not_compared]
+        print(f"{len(results) - len(bad) - len(failed)}/{len(results)} arms agree"
+              + (f"; DISAGREEMENT: {', '.join(bad)}" if bad else "")
+              + (f"; FAILED (a quantity could not be compared, see the notes): {', '.join(failed)}"
+                 if failed else ""))
         strict = [r["model"] for r in results if r["strict_failed"]]
         if strict:
             print(f"--strict: {', '.join(strict)} have notes (physically impossible or suspicious values)")
@@ -126,8 +131,11 @@ def register(sub) -> None:
     c = sub.add_parser("check", help="cross-check both engines on arms",
                        description="For each arm: build the URDF, load both engines, compare D, h, g, "
                                    "tau, forward dynamics and FK on random states, and time both engines. "
-                                   "Every model is loaded before the first is run. Exit 0 all agree, "
-                                   "1 a quantity disagrees (or a note under --strict), 2 usage or model error.")
+                                   "Every model is loaded before the first is run.",
+                       epilog="Exit codes: 0 every arm agrees; 1 a quantity disagrees, or could not be "
+                              "compared (forward dynamics of an arm whose mass matrix is singular: a "
+                              "failed condition, never 'all agree'), or a note under --strict; 2 usage "
+                              "or model error; 3 a bug.")
     c.add_argument("models", nargs="*", metavar="MODEL_OR_FILE",
                    help="bundled model name, .toml model file, or .urdf file")
     c.add_argument("--all", action="store_true", help="check every bundled model")

@@ -220,6 +220,8 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
     t = np.arange(N + 1) * dt
     q_d, qd_d, qdd_d = _finite_reference(trajectory, t, n)
     q, qd = _initial_state(q_d, qd_d, q0, qd0, n)
+    # once, checked: a model problem (a singular D) is named here, not met as a NaN in the loop
+    plant.forward_dynamics(q, qd, np.zeros(n))
     log = SimulationLog(t, np.empty((N + 1, n)), np.empty((N + 1, n)), q_d, qd_d, qdd_d,
                         np.empty((N + 1, n)), dt, _name(controller), plant.name or "plant",
                         tuple(plant.joint_types))

@@ -1,0 +1,118 @@
+"""Limits that keep the process alive on hostile or careless input.
+
+Layer: bottom (beside errors).  Every limit is a module attribute: raise it
+for an unusual but trusted model, e.g. ``manipdyn.limits.MAX_LINKS = 5000``
+before ``md.load``.  A model over a limit is refused with a
+:class:`~manipdyn.ModelError` that names the limit and says how to raise it.
+
+Why these numbers: real arms have under 50 links; Pinocchio's URDF reader
+recurses once per link and crashes the interpreter (a segfault, not an
+exception) on chains of some ten thousand links; the trace-form and
+cross-check memory grow with ``n**2`` per state.
+"""
+
+from __future__ import annotations
+
+from .errors import ModelError
+
+__all__ = ["MAX_FILE_BYTES", "MAX_MODEL_FILE_BYTES", "MAX_LINKS", "MAX_JOINTS", "MAX_FIXED_RUN",
+           "MAX_NAME_LENGTH", "MAX_LENGTH", "MAX_ANGLE", "MAX_GRAVITY", "MAX_MASS", "MAX_INERTIA",
+           "MAX_MAGNITUDE", "over_limit", "check_magnitude", "check_range", "open_regular"]
+
+#: largest URDF or model file read, bytes (16 MiB; real ones are under 1 MiB)
+MAX_FILE_BYTES = 16 * 1024 * 1024
+#: largest model file (.toml) read, bytes (1 MiB; the bundled ones are under 10 kB)
+MAX_MODEL_FILE_BYTES = 1024 * 1024
+#: most ``<link>`` (and so ``<joint>``) elements in a URDF
+MAX_LINKS = 1000
+#: most movable joints in an arm's chain (URDF chain, DH table, model file).
+#: Pinocchio's ``Data`` holds four n x n x n tensors (second-order derivatives):
+#: 32 MB at n = 100, 860 MB at n = 300, and an engine holds up to six of them
+#: (its own, the gravity-free twin's, one per thread of each batch pool)
+MAX_JOINTS = 100
+#: most fixed joints in a row along any root-to-leaf path of a URDF
+MAX_FIXED_RUN = 200
+#: largest length (m): origins, DH a and d, centres of mass, prismatic limits.
+#: float64 holds 16 digits: a 10 km offset beside a 1 mm link leaves the 1e-9 the
+#: cross-check asks for; beyond, the engines' different sums round differently
+MAX_LENGTH = 1e4
+#: largest angle (rad): rpy, DH alpha and theta, revolute limits (q + theta loses
+#: the digits of q when theta is huge)
+MAX_ANGLE = 1e4
+#: largest gravity component (m/s^2): tau - g cancels digits in forward dynamics
+MAX_GRAVITY = 1e4
+#: largest mass (kg) and inertia entry (kg m^2) of one body: a link a billion
+#: times heavier than the next one leaves its neighbours' torques at the mercy of
+#: its rounding (1e-16 * 1e9 * ...), beyond the cross-check's 1e-9
+MAX_MASS = 1e9
+MAX_INERTIA = 1e9
+#: longest name (arm, link, joint) in characters: names go into URDF text and messages
+MAX_NAME_LENGTH = 1000
+#: largest magnitude of any model number (lengths in m, masses in kg, inertias
+#: in kg m^2, gear ratios, rotor inertias, friction): products of three of them
+#: (m r^2 v^2 ...) stay far from float64 overflow (1.8e308)
+MAX_MAGNITUDE = 1e60
+
+
+def over_limit(where: str, what: str, value, name: str) -> ModelError:
+    """The error for ``what`` (= ``value``) beyond the limit ``name`` of this module."""
+    limit = globals()[name]
+    return ModelError(
+        f"{where}: {what} is {value}, over the limit of {limit:g} (manipdyn.limits.{name}); "
+        f"if the model is trusted, raise it: manipdyn.limits.{name} = ..."
+    )
+
+
+def check_magnitude(value, where: str, field: str, unit: str = "") -> None:
+    """Raise :class:`ModelError` if any entry of ``value`` exceeds :data:`MAX_MAGNITUDE`."""
+    import numpy as np
+
+    arr = np.abs(np.asarray(value, dtype=np.float64))
+    if arr.size and not float(arr.max()) <= MAX_MAGNITUDE:
+        worst = float(arr.reshape(-1)[int(np.argmax(arr))])
+        raise ModelError(
+            f"{where}: field '{field}' has magnitude {worst:g}{unit}, over {MAX_MAGNITUDE:g} "
+            "(manipdyn.limits.MAX_MAGNITUDE): products of such numbers overflow float64; "
+            "check the units, or raise the limit for a trusted model"
+        )
+
+
+_RANGES = {"length": ("MAX_LENGTH", " m"), "angle": ("MAX_ANGLE", " rad"), "acceleration": ("MAX_GRAVITY", " m/s^2"),
+           "mass": ("MAX_MASS", " kg"), "inertia": ("MAX_INERTIA", " kg m^2")}
+
+
+def check_range(value, where: str, field: str, kind: str) -> None:
+    """Raise :class:`ModelError` if a length, angle or acceleration is beyond its limit."""
+    import numpy as np
+
+    name, unit = _RANGES[kind]
+    limit = globals()[name]
+    arr = np.abs(np.asarray(value, dtype=np.float64))
+    if arr.size and not float(arr.max()) <= limit:
+        worst = float(arr.reshape(-1)[int(np.argmax(arr))])
+        raise ModelError(
+            f"{where}: field '{field}' has the {kind} {worst:g}{unit}, over {limit:g}{unit} "
+            f"(manipdyn.limits.{name}): float64 cannot hold it beside the arm's other {kind}s to the "
+            "cross-check's 1e-9; check the units, or raise the limit for a trusted model"
+        )
+
+
+def open_regular(path: str, label: str):
+    """Open ``path`` for reading bytes, refusing anything but a regular file.
+
+    A FIFO would block ``open`` forever and a device (``/dev/zero``) never
+    ends; the file is opened non-blocking, checked with ``fstat``, then read.
+    """
+    import os
+    import stat
+
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    except OSError as exc:
+        raise ModelError(f"{label}: {exc.strerror or exc}") from None
+    st = os.fstat(fd)
+    if not stat.S_ISREG(st.st_mode):
+        os.close(fd)
+        kind = "a directory" if stat.S_ISDIR(st.st_mode) else "not a regular file (a device, FIFO or socket)"
+        raise ModelError(f"{label}: {kind}")
+    return os.fdopen(fd, "rb")
