@@ -51,7 +51,6 @@ import os
 import re
 import tomllib
 from importlib import resources
-from pathlib import Path
 
 import numpy as np
 
@@ -175,7 +174,42 @@ def _inertia(value, scale: float, where: str) -> np.ndarray:
 
 
 def parse_model(text: str, origin: str = "<model>", strict: bool = False) -> Manipulator:
-    """Parse model-file text; ``origin`` names the file in error messages."""
+    """Parse model-file text; ``origin`` names the file in error messages.
+
+    Named steps: the TOML document (:func:`_read_toml`), the top-level keys
+    and units (:func:`_top_level`), one :class:`DHLink` per ``[[links]]``
+    table (:func:`_parse_link`), then the unit checks and the arm.
+    """
+    data = _read_toml(text, origin)
+    name, convention, source, sources, units, (L, A, M), gravity = _top_level(data, origin)
+    raw_links = data["links"]
+    if not isinstance(raw_links, list) or not raw_links or not all(isinstance(l, dict) for l in raw_links):
+        raise ModelError(f"{origin}: key 'links' must be a non-empty array of tables ([[links]])")
+    links = [_parse_link(raw, i, origin, L, A, M) for i, raw in enumerate(raw_links)]
+    description = _str(data.get("description", ""), f"{origin}: key 'description'")
+    unit_notes = _unit_notes(origin, raw_links, units, links)
+    if strict and unit_notes:
+        raise ModelError("; ".join(unit_notes) + " (strict)")
+    try:
+        arm = Manipulator(links, convention=convention, gravity=gravity, name=name, strict=strict,
+                          source=source, sources=sources, description=description)
+    except ModelError as exc:
+        if origin in str(exc):
+            raise
+        raise ModelError(f"{origin}: {exc}") from None  # always name the file
+    arm.notes = tuple(unit_notes) + arm.notes
+    warn_notes(name or origin, unit_notes, SuspiciousValueWarning)
+    return arm
+
+
+#: a DH length above this (m) looks like millimetres (or cm) read as metres
+_LONGEST_PLAUSIBLE = 10.0
+#: an arm whose every non-zero DH length is below this (m) looks like metres read as mm
+_SHORTEST_PLAUSIBLE = 5e-3
+
+
+def _read_toml(text, origin: str) -> dict:
+    """The TOML document of a model file, or a ModelError naming ``origin``."""
     if not isinstance(text, str):
         raise ModelError(f"{origin}: model text must be a str, got {type(text).__name__}")
     if len(text) > limits.MAX_MODEL_FILE_BYTES:
@@ -187,6 +221,12 @@ def parse_model(text: str, origin: str = "<model>", strict: bool = False) -> Man
         raise ModelError(f"{origin}: not valid TOML: {exc}") from None
     except RecursionError:
         raise ModelError(f"{origin}: not a model file: arrays or tables nested too deeply") from None
+    return data
+
+
+def _top_level(data: dict, origin: str):
+    """Checked top-level keys: ``(name, convention, source, sources, units, (L, A, M), gravity)``,
+    with ``L, A, M`` the factors from the file's units to m, rad and kg."""
     unknown = set(data) - _TOP_KEYS
     if unknown:
         raise ModelError(f"{origin}: unknown key(s) {sorted(unknown)}; expected some of {sorted(_TOP_KEYS)}")
@@ -218,70 +258,50 @@ def parse_model(text: str, origin: str = "<model>", strict: bool = False) -> Man
     M = _unit(units, "mass", _MASS, "kg", origin)
     gravity = _nums(data.get("gravity", [0.0, 0.0, -9.81]), 3, f"{origin}: key 'gravity'")
 
-    raw_links = data["links"]
-    if not isinstance(raw_links, list) or not raw_links or not all(isinstance(l, dict) for l in raw_links):
-        raise ModelError(f"{origin}: key 'links' must be a non-empty array of tables ([[links]])")
-    links = []
-    for i, raw in enumerate(raw_links):
-        w = f"{origin}: links[{i}]" + (f" ({raw['name']})" if isinstance(raw.get("name"), str) else "")
-        unknown = set(raw) - set(_LINK_REQUIRED) - set(_LINK_OPTIONAL)
-        if unknown:
-            raise ModelError(f"{w}: unknown key(s) {sorted(unknown)}; expected some of "
-                             f"{', '.join(_LINK_REQUIRED + _LINK_OPTIONAL)}")
-        for key in _LINK_REQUIRED:
+    return name, convention, source, sources, units, (L, A, M), gravity
+
+
+def _parse_link(raw: dict, i: int, origin: str, L: float, A: float, M: float) -> DHLink:
+    """One ``[[links]]`` table as a :class:`DHLink` in SI units; errors name ``links[i]``."""
+    w = f"{origin}: links[{i}]" + (f" ({raw['name']})" if isinstance(raw.get("name"), str) else "")
+    unknown = set(raw) - set(_LINK_REQUIRED) - set(_LINK_OPTIONAL)
+    if unknown:
+        raise ModelError(f"{w}: unknown key(s) {sorted(unknown)}; expected some of "
+                         f"{', '.join(_LINK_REQUIRED + _LINK_OPTIONAL)}")
+    for key in _LINK_REQUIRED:
+        if key not in raw:
+            raise ModelError(f"{w}: missing key '{key}'")
+    joint = _str(raw["joint"], f"{w}: key 'joint'")
+    if joint not in ("revolute", "prismatic"):
+        raise ModelError(f"{w}: key 'joint' must be 'revolute' or 'prismatic', got {joint!r}")
+    mass = _num(raw["mass"], f"{w}: key 'mass'") * M
+    if mass > 0:
+        for key in ("com", "inertia"):
             if key not in raw:
-                raise ModelError(f"{w}: missing key '{key}'")
-        joint = _str(raw["joint"], f"{w}: key 'joint'")
-        if joint not in ("revolute", "prismatic"):
-            raise ModelError(f"{w}: key 'joint' must be 'revolute' or 'prismatic', got {joint!r}")
-        mass = _num(raw["mass"], f"{w}: key 'mass'") * M
-        if mass > 0:
-            for key in ("com", "inertia"):
-                if key not in raw:
-                    raise ModelError(f"{w}: missing key '{key}' (required when mass > 0)")
-        com = np.array(_nums(raw.get("com", [0.0, 0.0, 0.0]), 3, f"{w}: key 'com'")) * L
-        inertia = _inertia(raw.get("inertia", {"ixx": 0.0, "iyy": 0.0, "izz": 0.0}), M * L * L, f"{w}: key 'inertia'")
-        qlim = None
-        if "qlim" in raw:
-            qs = L if joint == "prismatic" else A
-            qlim = tuple(v * qs for v in _nums(raw["qlim"], 2, f"{w}: key 'qlim'"))
-        kw = {}
-        for key, scale in (("motor_inertia", M * L * L), ("gear_ratio", 1.0),
-                           ("friction_viscous", 1.0), ("friction_coulomb", 1.0)):
-            if key in raw:
-                kw[key] = _num(raw[key], f"{w}: key '{key}'") * scale
-        try:
-            links.append(DHLink(
-                joint=joint,
-                a=_num(raw["a"], f"{w}: key 'a'") * L,
-                alpha=_num(raw["alpha"], f"{w}: key 'alpha'") * A,
-                d=_num(raw["d"], f"{w}: key 'd'") * L,
-                theta=_num(raw["theta"], f"{w}: key 'theta'") * A,
-                mass=mass, com=com, inertia=inertia, qlim=qlim,
-                name=_str(raw.get("name", ""), f"{w}: key 'name'"), **kw,
-            ))
-        except ModelError as exc:
-            raise ModelError(f"{w}: {exc}") from None
-    description = _str(data.get("description", ""), f"{origin}: key 'description'")
-    unit_notes = _unit_notes(origin, raw_links, units, links)
-    if strict and unit_notes:
-        raise ModelError("; ".join(unit_notes) + " (strict)")
+                raise ModelError(f"{w}: missing key '{key}' (required when mass > 0)")
+    com = np.array(_nums(raw.get("com", [0.0, 0.0, 0.0]), 3, f"{w}: key 'com'")) * L
+    inertia = _inertia(raw.get("inertia", {"ixx": 0.0, "iyy": 0.0, "izz": 0.0}), M * L * L, f"{w}: key 'inertia'")
+    qlim = None
+    if "qlim" in raw:
+        qs = L if joint == "prismatic" else A
+        qlim = tuple(v * qs for v in _nums(raw["qlim"], 2, f"{w}: key 'qlim'"))
+    kw = {}
+    for key, scale in (("motor_inertia", M * L * L), ("gear_ratio", 1.0),
+                       ("friction_viscous", 1.0), ("friction_coulomb", 1.0)):
+        if key in raw:
+            kw[key] = _num(raw[key], f"{w}: key '{key}'") * scale
     try:
-        arm = Manipulator(links, convention=convention, gravity=gravity, name=name, strict=strict,
-                          source=source, sources=sources, description=description)
+        return DHLink(
+            joint=joint,
+            a=_num(raw["a"], f"{w}: key 'a'") * L,
+            alpha=_num(raw["alpha"], f"{w}: key 'alpha'") * A,
+            d=_num(raw["d"], f"{w}: key 'd'") * L,
+            theta=_num(raw["theta"], f"{w}: key 'theta'") * A,
+            mass=mass, com=com, inertia=inertia, qlim=qlim,
+            name=_str(raw.get("name", ""), f"{w}: key 'name'"), **kw,
+        )
     except ModelError as exc:
-        if origin in str(exc):
-            raise
-        raise ModelError(f"{origin}: {exc}") from None  # always name the file
-    arm.notes = tuple(unit_notes) + arm.notes
-    warn_notes(name or origin, unit_notes, SuspiciousValueWarning)
-    return arm
-
-
-#: a DH length above this (m) looks like millimetres (or cm) read as metres
-_LONGEST_PLAUSIBLE = 10.0
-#: an arm whose every non-zero DH length is below this (m) looks like metres read as mm
-_SHORTEST_PLAUSIBLE = 5e-3
+        raise ModelError(f"{w}: {exc}") from None
 
 
 def _unit_notes(origin: str, raw_links: list, units: dict, links: list) -> list[str]:

@@ -94,7 +94,6 @@ def build_chain(tree: URDFTree, tip: str | None, strict: bool):
 
 def resolve_tip(tree: URDFTree, tip: str | None) -> str:
     """``tip`` checked against the tree's links, or the default tip when None."""
-    label = tree.label
     if tip is None:
         tip = default_tip(tree)
     else:

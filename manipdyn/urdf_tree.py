@@ -252,7 +252,6 @@ def default_tip(tree: URDFTree) -> str:
         mp = tree.path(m.child)
         k = next(i for i, j in enumerate(mp) if j.name not in on_path)
         branch = mp[k].parent
-        ends = [deepest.child, m.child]
         raise TipError(
             label, f"the movable joints are not serial: they branch at link '{branch}' "
                    f"(towards joint '{m.name}' and joint '{deepest.name}'); the joints off the chosen "

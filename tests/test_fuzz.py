@@ -9,7 +9,6 @@ prints its file).
 
 from __future__ import annotations
 
-import pytest
 
 from tests import fuzz
 
