@@ -116,3 +116,22 @@ def open_regular(path: str, label: str):
         kind = "a directory" if stat.S_ISDIR(st.st_mode) else "not a regular file (a device, FIFO or socket)"
         raise ModelError(f"{label}: {kind}")
     return os.fdopen(fd, "rb")
+
+
+def read_regular(path: str, label: str, limit_name: str, what: str = "the file",
+                 size_of: str = "the file") -> bytes:
+    """The bytes of the regular file ``path``, at most the limit ``limit_name`` of them.
+
+    A ModelError starting with ``label`` says ``cannot read <what>`` when the
+    file cannot be read or is not a regular file (:func:`open_regular`), and
+    ``<size_of> size`` when it is larger than the limit.
+    """
+    cap = globals()[limit_name]
+    try:
+        with open_regular(path, f"{label}: cannot read {what}") as fh:
+            data = fh.read(cap + 1)
+    except OSError as exc:
+        raise ModelError(f"{label}: cannot read {what}: {exc.strerror or exc}") from None
+    if len(data) > cap:
+        raise over_limit(label, f"{size_of} size", f"over {cap} bytes", limit_name)
+    return data

@@ -97,14 +97,7 @@ def load_bundled(name: str, strict: bool = False) -> Manipulator:
 def load_model_file(path, strict: bool = False) -> Manipulator:
     """Read a TOML model file (format in this module's docstring)."""
     path = os.fspath(path)
-    try:
-        with limits.open_regular(path, f"{path}: cannot read model file") as fh:
-            data = fh.read(limits.MAX_MODEL_FILE_BYTES + 1)
-    except OSError as exc:
-        raise ModelError(f"{path}: cannot read model file: {exc.strerror or exc}") from None
-    if len(data) > limits.MAX_MODEL_FILE_BYTES:
-        raise limits.over_limit(path, "the model file size", f"over {limits.MAX_MODEL_FILE_BYTES} bytes",
-                                "MAX_MODEL_FILE_BYTES")
+    data = limits.read_regular(path, path, "MAX_MODEL_FILE_BYTES", "model file", "the model file")
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as exc:

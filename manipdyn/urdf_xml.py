@@ -52,15 +52,7 @@ def read_source(source):
     if isinstance(source, (str, os.PathLike)):
         path = os.fspath(source)
         label = f"URDF file {os.path.basename(path)}"
-        try:
-            with limits.open_regular(path, f"{label}: cannot read {path!r}") as fh:
-                data = fh.read(limits.MAX_FILE_BYTES + 1)
-        except OSError as exc:
-            raise ModelError(f"{label}: cannot read {path!r}: {exc.strerror or exc}") from None
-        if len(data) > limits.MAX_FILE_BYTES:
-            raise limits.over_limit(label, "the file size", f"over {limits.MAX_FILE_BYTES} bytes",
-                                    "MAX_FILE_BYTES")
-        return data, label, path
+        return limits.read_regular(path, label, "MAX_FILE_BYTES", repr(path)), label, path
     raise ModelError(
         f"URDF source: expected a path or URDF text, got {type(source).__name__}"
     )
