@@ -13,6 +13,8 @@ cross-check memory grow with ``n**2`` per state.
 
 from __future__ import annotations
 
+import math
+
 from .errors import ModelError
 
 __all__ = ["MAX_FILE_BYTES", "MAX_MODEL_FILE_BYTES", "MAX_LINKS", "MAX_JOINTS", "MAX_FIXED_RUN",
@@ -135,3 +137,14 @@ def read_regular(path: str, label: str, limit_name: str, what: str = "the file",
     if len(data) > cap:
         raise over_limit(label, f"{size_of} size", f"over {cap} bytes", limit_name)
     return data
+
+
+def nonnegative(value, where: str, unit: str = "") -> float:
+    """``value`` as a finite float >= 0, or a ModelError (a ValueError) naming ``where``."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError, OverflowError):
+        raise ModelError(f"{where}: expected a number{' in ' + unit if unit else ''}, got {value!r:.60}") from None
+    if not (math.isfinite(x) and x >= 0):
+        raise ModelError(f"{where}: must be finite and >= 0{' ' + unit if unit else ''}, got {value!r:.60}")
+    return x

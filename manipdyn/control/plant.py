@@ -11,7 +11,6 @@ links.
 from __future__ import annotations
 
 import dataclasses
-import math
 import warnings
 
 import numpy as np
@@ -19,6 +18,7 @@ import numpy as np
 from ..arm import Manipulator
 from ..errors import ModelError, PhysicalConsistencyWarning
 from ..inertia import LinkInertia
+from ..limits import nonnegative
 
 __all__ = ["with_payload", "with_scaled_inertia"]
 
@@ -58,12 +58,7 @@ def with_payload(arm, mass: float, com=(0.0, 0.0, 0.0), inertia=None, name=None)
     n), converted back by :meth:`LinkInertia.from_pseudo_inertia`.
     """
     arm = _dh_arm(arm, "with_payload")
-    try:
-        mass = float(mass)
-    except (TypeError, ValueError):
-        raise ModelError(f"with_payload: mass must be a number in kg, got {mass!r}") from None
-    if not (math.isfinite(mass) and mass >= 0):
-        raise ModelError(f"with_payload: mass must be >= 0 kg and finite, got {mass}")
+    mass = nonnegative(mass, "with_payload: mass", "kg")
     payload = LinkInertia(mass, com, np.zeros((3, 3)) if inertia is None else inertia, name="payload")
     payload.check_physical(strict=True, where="with_payload: payload")
     last = arm.links[-1]

@@ -21,22 +21,13 @@ then the Coulomb friction coefficients (n each), the initial position offset
 
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from ..limits import nonnegative
+
 __all__ = ["Distributions", "RunDraw", "draw", "run_rng", "DISTRIBUTIONS_HELP"]
-
-
-def _nonneg(value, name: str) -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected a number, got {value!r}") from None
-    if not (math.isfinite(x) and x >= 0):
-        raise ValueError(f"{name}: must be finite and >= 0, got {value!r}")
-    return x
 
 
 @dataclass(frozen=True)
@@ -81,7 +72,7 @@ class Distributions:
     def __post_init__(self):
         for name in ("payload_mass", "link_scale", "friction_viscous", "friction_coulomb",
                      "q0_offset", "torque_noise"):
-            object.__setattr__(self, name, _nonneg(getattr(self, name), name))
+            object.__setattr__(self, name, nonnegative(getattr(self, name), name))
         if self.link_scale >= 1.0:
             raise ValueError(f"link_scale: must be < 1 (a factor 1 - link_scale must stay > 0), "
                              f"got {self.link_scale}")
@@ -89,7 +80,7 @@ class Distributions:
         if len(com) != 3:
             raise ValueError(f"payload_com: expected 3 numbers (cx, cy, cz) in m, got {self.payload_com!r}")
         object.__setattr__(self, "payload_com",
-                           tuple(_nonneg(c, f"payload_com[{i}]") for i, c in enumerate(com)))
+                           tuple(nonnegative(c, f"payload_com[{i}]") for i, c in enumerate(com)))
 
     def to_dict(self) -> dict:
         d = asdict(self)
