@@ -374,16 +374,33 @@ def _install_fast_path(eng: PinocchioEngine) -> None:
     g_mass, g_cor, g_grav, g_id, g_fd = (getattr(cls, nm).__get__(eng) for nm in (
         "mass_matrix", "coriolis_torque", "gravity_torque", "inverse_dynamics", "forward_dynamics"))
 
-    def mass_matrix(q):
-        try:
-            if type(q) is ND and q.dtype is F64 and q.ndim == 1:
-                M = crba(model, data, q)
-                # q_2..q_n non-finite -> D_11 non-finite; q_1 (no effect on D) by the product
-                if isf(M.item(0) * q.item(0)):
-                    return M
-        except errors:
-            pass
-        return g_mass(q)
+    def state_only(call, model, data, general):
+        # D and g do not depend on q_1: q_1's finiteness is read off the product
+        def f(q):
+            try:
+                if type(q) is ND and q.dtype is F64 and q.ndim == 1:
+                    r = call(model, data, q)
+                    # q_2..q_n non-finite -> r_1 non-finite; q_1 (no effect on D or g) by the product
+                    if isf(r.item(0) * q.item(0)):
+                        return r
+            except errors:
+                pass
+            return general(q)
+        return f
+
+    def three_states(call, model, data, general):
+        # RNEA / ABA: a NaN or inf in any argument reaches the first output
+        def f(q, qd, x):
+            try:
+                if (type(q) is type(qd) is type(x) is ND and q.dtype is qd.dtype is x.dtype is F64
+                        and q.ndim == qd.ndim == x.ndim == 1):
+                    r = call(model, data, q, qd, x)
+                    if isf(r.item(0)):
+                        return r
+            except errors:
+                pass
+            return general(q, qd, x)
+        return f
 
     def coriolis_torque(q, qd):
         try:
@@ -396,37 +413,10 @@ def _install_fast_path(eng: PinocchioEngine) -> None:
             pass
         return g_cor(q, qd)
 
-    def gravity_torque(q):
-        try:
-            if type(q) is ND and q.dtype is F64 and q.ndim == 1:
-                g = grav(model, data, q)
-                if isf(g.item(0) * q.item(0)):
-                    return g
-        except errors:
-            pass
-        return g_grav(q)
-
-    def inverse_dynamics(q, qd, qdd):
-        try:
-            if (type(q) is type(qd) is type(qdd) is ND and q.dtype is qd.dtype is qdd.dtype is F64
-                    and q.ndim == qd.ndim == qdd.ndim == 1):
-                tau = rnea(model, data, q, qd, qdd)
-                if isf(tau.item(0)):
-                    return tau
-        except errors:
-            pass
-        return g_id(q, qd, qdd)
-
-    def forward_dynamics(q, qd, tau):
-        try:
-            if (type(q) is type(qd) is type(tau) is ND and q.dtype is qd.dtype is tau.dtype is F64
-                    and q.ndim == qd.ndim == tau.ndim == 1):
-                qdd = aba(model, data, q, qd, tau)
-                if isf(qdd.item(0)):
-                    return qdd
-        except errors:
-            pass
-        return g_fd(q, qd, tau)
+    mass_matrix = state_only(crba, model, data, g_mass)
+    gravity_torque = state_only(grav, model, data, g_grav)
+    inverse_dynamics = three_states(rnea, model, data, g_id)
+    forward_dynamics = three_states(aba, model, data, g_fd)
 
     fast = {"mass_matrix": mass_matrix, "coriolis_torque": coriolis_torque,
             "gravity_torque": gravity_torque}

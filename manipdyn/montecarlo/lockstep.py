@@ -107,6 +107,14 @@ def simulate_lockstep(setups, max_position: float = DEFAULT_MAX_POSITION,
         return (np.isfinite(q).all() and np.isfinite(qd).all()
                 and np.abs(q).max() <= max_position and np.abs(qd).max() <= max_velocity)
 
+    def stage(c, a_prev, v_prev, v_out, v_rows, a_out):
+        # one Runge-Kutta stage: v = qd + c a_prev, evaluated at q + c v_prev
+        add(qd, mul(c, a_prev, out=W), out=v_out)
+        add(q, mul(c, v_prev, out=W), out=X)
+        less_friction(v_out)
+        for i in active:
+            a_out[i] = aba(models[i], datas[i], Xr[i], v_rows[i], tin[i])
+
     with np.errstate(over="ignore", invalid="ignore"):
         for k in range(N):
             if not active:
@@ -126,21 +134,9 @@ def simulate_lockstep(setups, max_position: float = DEFAULT_MAX_POSITION,
             less_friction(qd)
             for i in active:
                 A1[i] = aba(models[i], datas[i], qr[i], qdr[i], tin[i])
-            add(qd, mul(h2, A1, out=W), out=V2)            # v2 = qd + h2 a1
-            add(q, mul(h2, qd, out=W), out=X)              # q + h2 qd
-            less_friction(V2)
-            for i in active:
-                A2[i] = aba(models[i], datas[i], Xr[i], V2r[i], tin[i])
-            add(qd, mul(h2, A2, out=W), out=V3)            # v3 = qd + h2 a2
-            add(q, mul(h2, V2, out=W), out=X)              # q + h2 v2
-            less_friction(V3)
-            for i in active:
-                A3[i] = aba(models[i], datas[i], Xr[i], V3r[i], tin[i])
-            add(qd, mul(h, A3, out=W), out=V4)             # v4 = qd + h a3
-            add(q, mul(h, V3, out=W), out=X)               # q + h v3
-            less_friction(V4)
-            for i in active:
-                A4[i] = aba(models[i], datas[i], Xr[i], V4r[i], tin[i])
+            stage(h2, A1, qd, V2, V2r, A2)                 # v2 = qd + h2 a1 at q + h2 qd
+            stage(h2, A2, V2, V3, V3r, A3)                 # v3 = qd + h2 a2 at q + h2 v2
+            stage(h, A3, V3, V4, V4r, A4)                  # v4 = qd + h a3  at q + h v3
             # q + h6 (qd + 2 (v2 + v3) + v4), and qd + h6 (a1 + 2 (a2 + a3) + a4), in that order
             add(add(qd, mul(2.0, add(V2, V3, out=S), out=S), out=S), V4, out=S)
             add(add(A1, mul(2.0, add(A2, A3, out=W), out=W), out=W), A4, out=W)
