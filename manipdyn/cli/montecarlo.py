@@ -56,9 +56,7 @@ def run(args) -> int:
             raise ModelError(f"--plot {args.plot}: expected a writable file path (its folder must exist)")
         pyplot()  # matplotlib present? fail before the study, not after it
     try:
-        dist = Distributions(payload_mass=args.payload_mass, link_scale=args.link_scale,
-                             friction_viscous=args.friction_viscous, friction_coulomb=args.friction_coulomb,
-                             q0_offset=args.q0_offset, torque_noise=args.torque_noise)
+        dist = Distributions(**{field: getattr(args, field) for field, _, _ in _DISTRIBUTION_OPTIONS})
     except ValueError as exc:
         raise ModelError(f"distributions: {exc}") from None
     tau_max = None
@@ -90,6 +88,17 @@ def run(args) -> int:
         if not args.json:
             print(f"figure written to {args.plot}")
     return EXIT_OK
+
+
+#: the options of the plant distributions: (Distributions field, metavar, what it draws)
+_DISTRIBUTION_OPTIONS = (
+    ("payload_mass", "KG", "payload mass uniform in [0, KG]"),
+    ("link_scale", "F", "link mass/inertia factor uniform in [1-F, 1+F]"),
+    ("friction_viscous", "NMS", "added viscous friction uniform in [0, NMS]"),
+    ("friction_coulomb", "NM", "added Coulomb friction uniform in [0, NM]"),
+    ("q0_offset", "RAD", "standard deviation of the initial position offset"),
+    ("torque_noise", "NM", "standard deviation of the applied-torque noise"),
+)
 
 
 def register(subparsers) -> None:
@@ -126,18 +135,10 @@ def register(subparsers) -> None:
                    help=f"closed-loop bandwidth of the controllers (default {DEFAULT_BANDWIDTH:g})")
     p.add_argument("--tau-max", type=float, default=None, metavar="NM",
                    help="torque limit of every joint for every controller (default: the model's own, if any)")
-    p.add_argument("--payload-mass", type=float, default=d.payload_mass, metavar="KG",
-                   help=f"payload mass uniform in [0, KG] (default {d.payload_mass:g})")
-    p.add_argument("--link-scale", type=float, default=d.link_scale, metavar="F",
-                   help=f"link mass/inertia factor uniform in [1-F, 1+F] (default {d.link_scale:g})")
-    p.add_argument("--friction-viscous", type=float, default=d.friction_viscous, metavar="NMS",
-                   help=f"added viscous friction uniform in [0, NMS] (default {d.friction_viscous:g})")
-    p.add_argument("--friction-coulomb", type=float, default=d.friction_coulomb, metavar="NM",
-                   help=f"added Coulomb friction uniform in [0, NM] (default {d.friction_coulomb:g})")
-    p.add_argument("--q0-offset", type=float, default=d.q0_offset, metavar="RAD",
-                   help=f"standard deviation of the initial position offset (default {d.q0_offset:g})")
-    p.add_argument("--torque-noise", type=float, default=d.torque_noise, metavar="NM",
-                   help=f"standard deviation of the applied-torque noise (default {d.torque_noise:g})")
+    for field, metavar, what in _DISTRIBUTION_OPTIONS:
+        default = getattr(d, field)
+        p.add_argument("--" + field.replace("_", "-"), type=float, default=default, metavar=metavar,
+                       help=f"{what} (default {default:g})")
     p.add_argument("--json", action="store_true", help="print one JSON document instead of tables")
     p.add_argument("--plot", metavar="FILE.png", default=None, help="write the CDFs per controller (needs matplotlib)")
     add_progress_options(p, "the progress bar")
