@@ -251,7 +251,7 @@ def blas_info() -> list:
     except ImportError:
         return [{"note": "threadpoolctl not installed"}]
     return [{k: v for k, v in d.items() if k in ("internal_api", "version", "num_threads",
-                                                  "threading_layer", "architecture", "filepath")}
+                                                  "threading_layer", "architecture")}
             for d in threadpool_info()]
 
 
