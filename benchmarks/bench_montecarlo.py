@@ -263,7 +263,10 @@ def main(argv=None) -> int:
     p.add_argument("--against", default=None, metavar="REV",
                    help="base revision for the one-simulation comparison (default: the merge base "
                         "with main; '' to skip)")
-    p.add_argument("--out", default=os.path.join(ROOT, "benchmarks", "results", "montecarlo_latest.json"))
+    p.add_argument("--out", default=os.path.join(ROOT, "benchmarks", "results", "runs", "montecarlo_latest.json"),
+                   help="results file (default: benchmarks/results/runs/montecarlo_latest.json, ignored by git)")
+    p.add_argument("--publish", action="store_true",
+                   help="also rewrite the committed reference benchmarks/results/montecarlo_reference.json")
     args = p.parse_args(argv)
     env_note = {k: os.environ.get(k) for k in ("OPENBLAS_CORETYPE", "OPENBLAS_L2_SIZE")}
     result = {"machine": {"platform": platform.platform(), "python": platform.python_version(),
@@ -323,7 +326,11 @@ def main(argv=None) -> int:
     result["machine"]["load_average_at_end"] = os.getloadavg()
     print(f"load average (1, 5, 15 min): {result['machine']['load_average_at_start']} at the start, "
           f"{result['machine']['load_average_at_end']} at the end (other work on this machine)")
+    os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
     atomic_write_text(args.out, json.dumps(result, indent=2) + "\n")
+    if args.publish:
+        atomic_write_text(os.path.join(ROOT, "benchmarks", "results", "montecarlo_reference.json"),
+                          json.dumps(result, indent=2) + "\n")
     print(f"BLAS: {result['machine']['blas']}")
     print(f"results written to {os.path.relpath(args.out, ROOT)}")
     return 0
