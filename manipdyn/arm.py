@@ -136,6 +136,11 @@ class Arm:
         """The kinematics, pseudo-inertias, armature and friction the trace form runs on."""
         raise NotImplementedError
 
+    def urdf_link_offsets(self) -> np.ndarray:
+        """``S_i`` (n, 4, 4), ``T_i = L_i S_i``: identity, as a URDF chain's trace form runs in
+        its URDF link frames; a standard-DH :class:`Manipulator` overrides it."""
+        return np.tile(np.eye(4), (self.n, 1, 1))
+
     #: URDF text for Pinocchio when the arm came from a file (None: generate it from :meth:`chain`)
     source_urdf: str | None = None
     #: movable joints of the source URDF held at 0 (their subtrees lumped into the chain)
@@ -391,7 +396,7 @@ class Manipulator(Arm):
     def urdf_link_offsets(self) -> np.ndarray:
         """``S_i`` (n, 4, 4): DH frame i = URDF link i frame @ S_i (identity for modified DH)."""
         if self.convention == "modified":
-            return np.tile(np.eye(4), (self.n, 1, 1))
+            return super().urdf_link_offsets()
         return np.array([trans(l.a, 0, 0) @ rot_x(l.alpha) for l in self.links])
 
 

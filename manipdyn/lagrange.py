@@ -22,6 +22,8 @@ import numpy as np
 
 from ._state import as_state, check_result, same_batch
 from .errors import SingularMassMatrixError
+from .kinematics import transform_inverse
+from .parameters import PARAMETER_BASIS, extra_columns
 
 __all__ = ["TraceFormEngine", "trace_form_engine", "CHUNK"]
 
@@ -42,12 +44,6 @@ def _link_sum(S: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 
 _isfinite = math.isfinite
-#: the public name of each batch kernel, for overflow messages
-_KERNEL_NAMES = {"_k_mass": "mass_matrix", "_k_coriolis": "coriolis_torque", "_k_gravity": "gravity_torque",
-                 "_k_terms": "dynamics_terms", "_k_inverse": "inverse_dynamics",
-                 "_k_forward": "forward_dynamics", "_k_kinetic": "kinetic_energy",
-                 "_k_potential": "potential_energy", "poses": "link_poses",
-                 "_k_christoffel": "christoffel_symbols", "_k_coriolis_matrix": "coriolis_matrix"}
 
 class TraceFormEngine:
     """Trace-form Lagrange-Euler dynamics of one arm.
@@ -68,7 +64,7 @@ class TraceFormEngine:
         Viscous and Coulomb friction coefficients per joint.
     link_offsets : (n, 4, 4) or None
         ``S_p`` with ``T_p = L_p S_p``, ``L_p`` link p's frame in the arm's URDF
-        (:meth:`manipdyn.Manipulator.urdf_link_offsets`; identity when None).
+        (:meth:`manipdyn.Arm.urdf_link_offsets`; identity when None).
         Only :meth:`regressor` uses it: its parameters are about ``L_p``.
     """
 
@@ -100,14 +96,8 @@ class TraceFormEngine:
             self.friction = None
         # S_p^-1 (T_p S_p^-1 = L_p); None when every S_p is the identity
         self._S_inv = None
-        if link_offsets is not None and not np.allclose(link_offsets, np.eye(4), rtol=0, atol=0):
-            S = np.asarray(link_offsets, dtype=np.float64)
-            R_t = np.swapaxes(S[:, :3, :3], -1, -2)
-            S_inv = np.zeros_like(S)
-            S_inv[:, :3, :3] = R_t                               # eq. 2.2: [[R^T, -R^T p], [0, 1]]
-            S_inv[:, :3, 3] = -(R_t @ S[:, :3, 3:])[..., 0]
-            S_inv[:, 3, 3] = 1.0
-            self._S_inv = S_inv
+        if link_offsets is not None and np.any(np.asarray(link_offsets) != np.eye(4)):
+            self._S_inv = transform_inverse(link_offsets)       # eq. 2.2
 
     # -- internals ---------------------------------------------------------
     def _frames(self, qb):
@@ -174,7 +164,7 @@ class TraceFormEngine:
         return self.friction[0] * qd + self.friction[1] * np.sign(qd)
 
     # -- batching ------------------------------------------------------------
-    def _run(self, kernel, single, *arrays):
+    def _run(self, kernel, single, *arrays, what: str = "trace form", names=(), chunk=None):
         """Apply a batch kernel to (B, n) arrays, :data:`CHUNK` states at a time.
 
         Small blocks keep every temporary (B * n * 16 doubles) in reused heap
@@ -182,8 +172,7 @@ class TraceFormEngine:
         twice as fast as one pass.  ``single`` strips the batch axis again.
         """
         B = arrays[0].shape[0]
-        # the Christoffel symbols hold n^3 numbers per state: fewer states per block
-        CHUNK = self._chunk3 if getattr(kernel, "__name__", "") == "_k_christoffel" else self._chunk
+        CHUNK = self._chunk if chunk is None else chunk
         with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported below, by state
             if B <= CHUNK:
                 out = kernel(*arrays)
@@ -195,18 +184,18 @@ class TraceFormEngine:
                     out = np.concatenate(parts)
         for x in (out if isinstance(out, tuple) else (out,)):
             if not _isfinite(np.add.reduce(x.reshape(-1))):  # finite states in: say where it overflowed
-                code = getattr(kernel, "__code__", None)
-                names = code.co_varnames[1:1 + len(arrays)] if code is not None else ()
-                what = _KERNEL_NAMES.get(getattr(kernel, "__name__", ""), "trace form")
                 check_result(x, what, **{nm: (a[0] if single else a) for nm, a in zip(names, arrays)})
         if single:
             return tuple(x[0] for x in out) if isinstance(out, tuple) else out[0]
         return out
 
-    def _call(self, kernel, **named):
-        """Validate the named states and run ``kernel`` on them as a batch (:meth:`_run`)."""
+    def _call(self, kernel, what: str, chunk=None, **named):
+        """Validate the named states and run ``kernel`` on them as a batch (:meth:`_run`).
+
+        ``what`` is the public method's name, for overflow messages.
+        """
         single, arrays = self._states(**named)
-        return self._run(kernel, single, *arrays)
+        return self._run(kernel, single, *arrays, what=what, names=tuple(named), chunk=chunk)
 
     def _states(self, **named):
         """Validate named states; return ``(single, [batch arrays])`` in order."""
@@ -266,18 +255,18 @@ class TraceFormEngine:
     # -- public API ---------------------------------------------------------
     def mass_matrix(self, q) -> np.ndarray:
         """Inertia matrix D(q) (eq. 2.39, D_ij), (n, n) or (N, n, n), SI units."""
-        return self._call(self._k_mass, q=q)
+        return self._call(self._k_mass, "mass_matrix", q=q)
 
     def coriolis_torque(self, q, qd) -> np.ndarray:
         """Coriolis and centripetal torque h(q, qd) (eq. 2.39, D_ijk), (n,) or (N, n).
 
         Friction, if the model has it, is not included (see :meth:`friction_torque`).
         """
-        return self._call(self._k_coriolis, q=q, qd=qd)
+        return self._call(self._k_coriolis, "coriolis_torque", q=q, qd=qd)
 
     def gravity_torque(self, q) -> np.ndarray:
         """Gravity torque g(q) (eq. 2.39, D_i): the torque that holds the arm still."""
-        return self._call(self._k_gravity, q=q)
+        return self._call(self._k_gravity, "gravity_torque", q=q)
 
     def friction_torque(self, qd) -> np.ndarray:
         """Joint friction ``Fv qd + Fc sign(qd)``, outside the Lagrangian (zero if none)."""
@@ -286,15 +275,15 @@ class TraceFormEngine:
 
     def dynamics_terms(self, q, qd):
         """``(D, h, g)`` in one pass over the kinematics (the cheap way to get all three)."""
-        return self._call(self._k_terms, q=q, qd=qd)
+        return self._call(self._k_terms, "dynamics_terms", q=q, qd=qd)
 
     def inverse_dynamics(self, q, qd, qdd) -> np.ndarray:
         """Joint torques ``tau = D qdd + h + g`` (eq. 2.39), plus friction if modelled."""
-        return self._call(self._k_inverse, q=q, qd=qd, qdd=qdd)
+        return self._call(self._k_inverse, "inverse_dynamics", q=q, qd=qd, qdd=qdd)
 
     def forward_dynamics(self, q, qd, tau) -> np.ndarray:
         """Joint accelerations solving ``D qdd = tau - h - g`` (minus friction)."""
-        return self._call(self._k_forward, q=q, qd=qd, tau=tau)
+        return self._call(self._k_forward, "forward_dynamics", q=q, qd=qd, tau=tau)
 
     def kinetic_energy(self, q, qd) -> np.ndarray:
         """Kinetic energy K (eq. 2.22, plus rotors), J; scalar or (N,).
@@ -303,11 +292,11 @@ class TraceFormEngine:
         tr(Tdot_i J_i Tdot_i^T)`` with ``Tdot_i = (sum_j Delta_j qd_j) T_i``,
         not from D, so that ``K = qd^T D qd / 2`` is a real check.
         """
-        return self._call(self._k_kinetic, q=q, qd=qd)
+        return self._call(self._k_kinetic, "kinetic_energy", q=q, qd=qd)
 
     def potential_energy(self, q) -> np.ndarray:
         """Potential energy P = -sum_i m_i g^T T_i r_bar_i (eq. 2.24), J; scalar or (N,)."""
-        return self._call(self._k_potential, q=q)
+        return self._call(self._k_potential, "potential_energy", q=q)
 
     # -- regressor ----------------------------------------------------------------
     def regressor(self, q, qd, qdd, armature: bool = False, friction: bool = False) -> np.ndarray:
@@ -335,16 +324,12 @@ class TraceFormEngine:
         ``qd_j``, ``sign(qd_j)``) when asked for.  SI units.
         """
         single, arrays = self._states(q=q, qd=qd, qdd=qdd)
-        Y = self._run(self._k_regressor, single, *arrays)
-        from .parameters import extra_columns   # the model layer (below this engine)
-
+        Y = self._run(self._k_regressor, single, *arrays, names=("q", "qd", "qdd"))
         qd_, qdd_ = (arrays[1][0], arrays[2][0]) if single else (arrays[1], arrays[2])
         extra = extra_columns(qd_, qdd_, armature, friction)
         return np.concatenate([Y, extra], axis=-1) if extra.shape[-1] else Y
 
     def _k_regressor(self, q, qd, qdd):
-        from .parameters import PARAMETER_BASIS
-
         T, Delta = self._kin.frames(q)
         B, n = qd.shape
         V = Delta * qd[:, :, None, None]
@@ -364,11 +349,11 @@ class TraceFormEngine:
     # -- kinematics passthrough -------------------------------------------
     def link_poses(self, q) -> np.ndarray:
         """Link frames T_1..T_n in the base frame (eq. 2.7), (n, 4, 4) or (N, n, 4, 4)."""
-        return self._call(self._kin.poses, q=q)
+        return self._call(self._kin.poses, "link_poses", q=q)
 
     def fkine(self, q) -> np.ndarray:
         """End pose (4, 4) or (N, 4, 4) in the base frame."""
-        return self._call(lambda x: self._kin.tool(self._kin.poses(x)), q=q)
+        return self._call(lambda x: self._kin.tool(self._kin.poses(x)), "trace form", q=q)
 
     # -- Coriolis matrix ---------------------------------------------------------
     def christoffel_symbols(self, q) -> np.ndarray:
@@ -382,7 +367,8 @@ class TraceFormEngine:
         :meth:`coriolis_matrix`; ``tests/test_coriolis.py`` proves it).
         O(n^3) small traces: for tests and analysis, not for control loops.
         """
-        return self._call(self._k_christoffel, q=q)
+        # n^3 numbers per state: fewer states per block
+        return self._call(self._k_christoffel, "christoffel_symbols", chunk=self._chunk3, q=q)
 
     def _k_christoffel(self, q):
         _, Delta, W = self._frames(q)
@@ -437,7 +423,7 @@ class TraceFormEngine:
         ``i > j`` is ``<Delta_j_dot, Delta_i Wbar_i> + <Delta_j, Delta_i Ubar_i^T>``
         per row: n^2 traces, every step batched.
         """
-        return self._call(self._k_coriolis_matrix, q=q, qd=qd)
+        return self._call(self._k_coriolis_matrix, "coriolis_matrix", q=q, qd=qd)
 
     def _k_coriolis_matrix(self, q, qdb):
         _, Delta, W = self._frames(q)
@@ -462,7 +448,6 @@ def trace_form_engine(arm) -> TraceFormEngine:
     """The trace-form engine of ``arm`` (the factory behind ``arm.lagrange``)."""
     kin, J, armature, friction = arm.trace_form_data()
     # a DH arm's trace form runs in DH frames, its URDF (and regressor) in URDF link frames
-    offsets = arm.urdf_link_offsets() if hasattr(arm, "urdf_link_offsets") else None
     return TraceFormEngine(kin, J, arm.gravity, armature=armature, friction=friction,
-                           link_offsets=offsets)
+                           link_offsets=arm.urdf_link_offsets())
 

@@ -21,6 +21,7 @@ import pinocchio as pin
 
 from ._state import as_state, check_result, same_batch
 from .errors import ModelError, SingularMassMatrixError
+from .parameters import extra_columns
 from .pinocchio_agree import check_same_arm
 from .urdf_out import TOOL_LINK, arm_to_urdf
 
@@ -56,8 +57,6 @@ PARALLEL_MIN_STATES = 2048
 # non-finite answer, or any error, sends the call down the general path, which
 # names the offending argument.
 _FAST_ERRORS = (AttributeError, TypeError, ValueError)
-_F64 = np.dtype(np.float64)
-_ND = np.ndarray
 
 
 def model_from_urdf(urdf_text: str, gravity, armature=None) -> "pin.Model":
@@ -135,7 +134,7 @@ class PinocchioEngine:
 
     def __init__(self, model, friction=None, num_threads=None, tool_frame: str | None = None):
         self.model = model
-        self.tool_frame = tool_frame
+        self.tool_frame = tool_frame if tool_frame is not None else model.frames[model.nframes - 1].name
         self.data = model.createData()
         self.n = model.nv
         # a gravity-free twin: h(q, qd) = rnea(q, qd, 0) without gravity, one call
@@ -143,8 +142,6 @@ class PinocchioEngine:
         self._model0.gravity.linear = np.zeros(3)
         self._data0 = self._model0.createData()
         self._zeros = np.zeros(self.n)
-        # a prismatic joint's huge q can overflow D and g: check those results
-        self._prismatic = any(j.shortname().startswith("JointModelP") for j in model.joints[1:])
         self.friction = None
         if friction is not None and np.any(friction):
             self.friction = np.asarray(friction, dtype=np.float64)
@@ -278,8 +275,6 @@ class PinocchioEngine:
         ``friction`` 2n columns ``diag(qd)``, ``diag(sign(qd))`` (layout:
         :mod:`manipdyn.parameters`).  A batch is a loop over states.
         """
-        from .parameters import extra_columns
-
         q = as_state(q, "q", self.n)
         qd = as_state(qd, "qd", self.n)
         qdd = as_state(qdd, "qdd", self.n)
@@ -339,8 +334,7 @@ class PinocchioEngine:
 
     def fkine(self, q) -> np.ndarray:
         """The tool frame's pose in the base frame: (4, 4) or (N, 4, 4)."""
-        frame = self.tool_frame if self.tool_frame is not None else self.model.frames[self.model.nframes - 1].name
-        return self.frame_placement(q, frame)
+        return self.frame_placement(q, self.tool_frame)
 
     # -- Coriolis matrix ---------------------------------------------------------
     def coriolis_matrix(self, q, qd) -> np.ndarray:

@@ -51,7 +51,7 @@ def arm_with_parameters(arm, pi, armature: bool = False, friction: bool = False,
                          f"(armature={armature}, friction={friction}), got {pi.shape}")
     J_urdf = pseudo_inertia_from_parameters(pi[:10 * n].reshape(n, 10))
     S = arm.urdf_link_offsets()
-    S_inv = np.array([transform_inverse(s) for s in S])
+    S_inv = transform_inverse(S)                         # eq. 2.2, batched
     J_dh = transform_pseudo_inertia(J_urdf, S_inv)      # URDF link frame -> DH frame i
     col = 10 * n
     arm_vals = fv = fc = None
