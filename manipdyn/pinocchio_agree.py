@@ -31,6 +31,7 @@ import numpy as np
 import pinocchio as pin
 
 from .errors import ModelError
+from .inertia import inertia_about_origin_from_com
 
 __all__ = ["check_same_arm", "REL_TOL"]
 
@@ -70,11 +71,6 @@ def _motion_axis(model, data, i):
     if np.any(v) and not np.any(w):
         return "prismatic", v
     return "?", S[:, 0]
-
-
-def _about_origin(m, c, I_c):
-    c = np.asarray(c, dtype=np.float64)
-    return np.asarray(I_c, dtype=np.float64) + m * (c @ c * np.eye(3) - np.outer(c, c))
 
 
 def check_same_arm(model, arm, where: str) -> None:
@@ -130,8 +126,8 @@ def check_same_arm(model, arm, where: str) -> None:
         if _differs(mc_p, mc_o, M * L):
             fail(j, "centre of mass (as mass x com)", f"mass {_fmt(Y.mass)} at {_fmt(Y.lever)}",
                  f"mass {_fmt(j.body.mass)} at {_fmt(j.body.com)}")
-        if _differs(_about_origin(Y.mass, Y.lever, Y.inertia),
-                    _about_origin(j.body.mass, j.body.com, j.body.inertia), Imax + M * L * L):
+        if _differs(inertia_about_origin_from_com(Y.mass, Y.lever, Y.inertia),
+                    j.body.inertia_about_origin(), Imax + M * L * L):
             fail(j, "inertia tensor about the centre of mass", _fmt(Y.inertia), _fmt(j.body.inertia))
         lo, hi = float(model.lowerPositionLimit[k]), float(model.upperPositionLimit[k])
         if j.qlim is not None and lo < hi and _differs((lo, hi), j.qlim, 1.0):

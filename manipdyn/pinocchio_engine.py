@@ -90,15 +90,7 @@ def model_for_arm(arm) -> "pin.Model":
                 raise ModelError(f"{where}: Pinocchio's model has no joint {nm!r} to lock")
             ids.append(model.getJointId(nm))
         model = pin.buildReducedModel(model, ids, pin.neutral(model))
-    names = tuple(model.names)[1:]
-    if names != tuple(arm.joint_names):
-        raise ModelError(
-            f"{where}: Pinocchio's joint order {list(names)} differs from the chain's "
-            f"root-to-tip order {list(arm.joint_names)}"
-        )
-    if not (model.nq == model.nv == arm.n):
-        raise ModelError(f"{where}: Pinocchio's model has nq={model.nq}, nv={model.nv}; expected {arm.n}")
-    check_same_arm(model, arm, where)  # both readers must read the same arm
+    check_same_arm(model, arm, where)  # both readers must read the same arm (joints, order, nq, ...)
     model.gravity.linear = np.array(arm.gravity)
     model.armature = np.array(arm.armature)
     return model
