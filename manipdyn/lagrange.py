@@ -23,7 +23,7 @@ import numpy as np
 from ._state import as_state, check_result, same_batch
 from .errors import SingularMassMatrixError
 from .kinematics import transform_inverse
-from .parameters import PARAMETER_BASIS, extra_columns
+from .parameters import PARAMETER_BASIS, with_extra_columns
 
 __all__ = ["TraceFormEngine", "trace_form_engine", "CHUNK"]
 
@@ -134,15 +134,19 @@ class TraceFormEngine:
         same trace is ``(D qdd)_i + h_i`` without the rotor term (the
         ``sum_j D_ij qdd_j`` of eq. 2.37, in the same pass).
         """
+        A = self._accel_terms(Delta, qd, qdd)                  # A_p
+        F = _link_sum(self._tail, A @ W)                       # F_i
+        B, n = qd.shape
+        return (F.reshape(B, n, 1, 16) @ Delta.reshape(B, n, 16, 1))[..., 0, 0]
+
+    def _accel_terms(self, Delta, qd, qdd=None):
+        """``A_p`` (B, n, 4, 4) of :meth:`_h`: the velocity (and acceleration) terms of link p."""
         V = Delta * qd[:, :, None, None]                       # Delta_k qd_k
         Omega2 = _link_sum(self._head_strict2, V)              # 2 sum_{j<k} Delta_j qd_j
         X = (Omega2 + V) @ V
         if qdd is not None:
             X += Delta * qdd[:, :, None, None]                 # Delta_k qdd_k
-        A = _link_sum(self._head, X)                           # A_p
-        F = _link_sum(self._tail, A @ W)                       # F_i
-        B, n = qd.shape
-        return (F.reshape(B, n, 1, 16) @ Delta.reshape(B, n, 16, 1))[..., 0, 0]
+        return _link_sum(self._head, X)
 
     def _g(self, Delta, cbar):
         """g_i = -sum_{p>=i} m_p g^T (dT_p/dq_i) r_bar_p (eq. 2.39, D_i).
@@ -326,16 +330,12 @@ class TraceFormEngine:
         single, arrays = self._states(q=q, qd=qd, qdd=qdd)
         Y = self._run(self._k_regressor, single, *arrays, names=("q", "qd", "qdd"))
         qd_, qdd_ = (arrays[1][0], arrays[2][0]) if single else (arrays[1], arrays[2])
-        extra = extra_columns(qd_, qdd_, armature, friction)
-        return np.concatenate([Y, extra], axis=-1) if extra.shape[-1] else Y
+        return with_extra_columns(Y, qd_, qdd_, armature, friction)
 
     def _k_regressor(self, q, qd, qdd):
         T, Delta = self._kin.frames(q)
         B, n = qd.shape
-        V = Delta * qd[:, :, None, None]
-        Omega2 = _link_sum(self._head_strict2, V)
-        X = (Omega2 + V) @ V + Delta * qdd[:, :, None, None]
-        A = _link_sum(self._head, X)                               # A_p, (B, n, 4, 4)
+        A = self._accel_terms(Delta, qd, qdd)                      # A_p, (B, n, 4, 4)
         L = T if self._S_inv is None else T @ self._S_inv          # URDF link frames L_p
         # M_ip = A_p^T Delta_i - (Delta_i^T g) e_4^T, indexed [b, p, i]
         M = np.swapaxes(A, -1, -2)[:, :, None] @ Delta[:, None, :]

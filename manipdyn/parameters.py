@@ -30,7 +30,7 @@ import numpy as np
 
 from .inertia import LINK_PARAMETERS, parameters_from_pseudo_inertia, pseudo_inertia_from_parameters
 
-__all__ = ["parameter_names", "parameter_count", "arm_parameters", "extra_columns", "PARAMETER_BASIS"]
+__all__ = ["parameter_names", "parameter_count", "arm_parameters", "with_extra_columns", "PARAMETER_BASIS"]
 
 #: ``PARAMETER_BASIS[k]`` (4, 4) is the pseudo-inertia of the unit vector e_k of
 #: the 10 parameters: J = sum_k p_k PARAMETER_BASIS[k] (the map is linear).
@@ -70,11 +70,13 @@ def arm_parameters(arm, armature: bool = False, friction: bool = False) -> np.nd
     return np.concatenate(parts)
 
 
-def extra_columns(qd: np.ndarray, qdd: np.ndarray, armature: bool, friction: bool) -> np.ndarray:
-    """Regressor columns of armature and friction, (..., n, k) with k = n, 2n, 3n or 0.
+def with_extra_columns(Y: np.ndarray, qd: np.ndarray, qdd: np.ndarray, armature: bool,
+                       friction: bool) -> np.ndarray:
+    """The link regressor ``Y`` (..., n, 10n) with the armature and friction columns appended.
 
-    ``qd``, ``qdd`` are (..., n).  Armature: ``diag(qdd)``; friction:
-    ``diag(qd)`` then ``diag(sign(qd))``.
+    ``qd``, ``qdd`` are (..., n).  Armature: ``diag(qdd)`` (n columns);
+    friction: ``diag(qd)`` then ``diag(sign(qd))`` (2n).  ``Y`` itself when
+    neither is asked for.
     """
     blocks = []
     eye = np.eye(qd.shape[-1])
@@ -82,6 +84,4 @@ def extra_columns(qd: np.ndarray, qdd: np.ndarray, armature: bool, friction: boo
         blocks.append(qdd[..., :, None] * eye)
     if friction:
         blocks += [qd[..., :, None] * eye, np.sign(qd)[..., :, None] * eye]
-    if not blocks:
-        return np.zeros(qd.shape + (0,))
-    return np.concatenate(blocks, axis=-1)
+    return np.concatenate([Y] + blocks, axis=-1) if blocks else Y

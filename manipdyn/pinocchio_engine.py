@@ -21,7 +21,7 @@ import pinocchio as pin
 
 from ._state import as_state, check_result, same_batch
 from .errors import ModelError, SingularMassMatrixError
-from .parameters import extra_columns
+from .parameters import with_extra_columns
 from .pinocchio_agree import check_same_arm
 from .urdf_out import TOOL_LINK, arm_to_urdf
 
@@ -279,8 +279,7 @@ class PinocchioEngine:
             Y = np.empty((len(q), self.n, 10 * self.n))
             for k in range(len(q)):
                 Y[k] = reg(m, d, q[k], qd[k], qdd[k])
-        extra = extra_columns(qd, qdd, armature, friction)
-        return np.concatenate([Y, extra], axis=-1) if extra.shape[-1] else Y
+        return with_extra_columns(Y, qd, qdd, armature, friction)
 
     def kinetic_energy(self, q, qd):
         """Kinetic energy (J), rotors included; scalar or (N,)."""
