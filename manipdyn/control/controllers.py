@@ -100,13 +100,14 @@ def adaptation_gains(arm, gamma: float, regressor=None, q=None) -> np.ndarray:
     ``q`` defaults to the middle of the joint limits; ``regressor`` to
     ``Regressor(arm)``.
     """
-    reg = Regressor(arm) if regressor is None else regressor
+    armature, friction = (Regressor.default_flags(arm) if regressor is None
+                          else (regressor.armature, regressor.friction))
     q = np.mean(arm.qlim, axis=1) if q is None else as_state(q, "q", arm.n)
     d = np.diag(arm.mass_matrix(q))
     parts = [np.repeat(np.minimum.accumulate(d), 10)]
-    if reg.armature:
+    if armature:
         parts.append(d)
-    if reg.friction:
+    if friction:
         parts += [d, d]
     return float(gamma) * np.concatenate(parts)
 
@@ -159,11 +160,11 @@ class Controller:
         :meth:`reset`.  Model calls go to the arm's unchecked Pinocchio path.
         ``controller(t, q, qd)`` is ``step(t, q, qd, *trajectory(t))`` after checking.
         """
-        tau = self._law_unchecked(t, q, qd, q_d, qd_d, qdd_d)
+        return self._saturate(self._law_unchecked(t, q, qd, q_d, qd_d, qdd_d))
+
+    def _saturate(self, tau):
         lim = self.tau_max
-        if lim is not None:
-            tau = np.minimum(np.maximum(tau, -lim), lim)
-        return tau
+        return tau if lim is None else np.minimum(np.maximum(tau, -lim), lim)
 
     def _law_unchecked(self, t, q, qd, q_d, qd_d, qdd_d):
         # subclasses whose law calls the model override this with the unchecked calls
@@ -178,11 +179,7 @@ class Controller:
         if q.ndim != 1 or qd.ndim != 1:
             raise ValueError(f"{type(self).__name__}: one state at a time, q and qd of shape ({self.n},)")
         q_d, qd_d, qdd_d = self.trajectory(t)
-        tau = self.law(t, q, qd, q_d, qd_d, qdd_d)
-        lim = self.tau_max
-        if lim is not None:
-            tau = np.minimum(np.maximum(tau, -lim), lim)
-        return tau
+        return self._saturate(self.law(t, q, qd, q_d, qd_d, qdd_d))
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} for {self.arm.name or 'arm'}>"

@@ -53,11 +53,16 @@ class Regressor:
     inverse-dynamics regressor.
     """
 
+    @staticmethod
+    def default_flags(arm, armature=None, friction=None) -> tuple[bool, bool]:
+        """``(armature, friction)``: the given flags, or by default whether the arm has any."""
+        return (bool(np.any(arm.armature)) if armature is None else bool(armature),
+                (arm.friction is not None) if friction is None else bool(friction))
+
     def __init__(self, arm, armature=None, friction=None):
         self.n = n = arm.n
         self._arm = arm
-        self.armature = bool(np.any(arm.armature)) if armature is None else bool(armature)
-        self.friction = (arm.friction is not None) if friction is None else bool(friction)
+        self.armature, self.friction = self.default_flags(arm, armature, friction)
         model = arm.pinocchio.model
         # Two copies of the model: gravity x4 and gravity 0 (see __call__)
         self._m4, self._m0 = model.copy(), model.copy()
