@@ -57,14 +57,8 @@ def run(args) -> int:
         return usage_error("excite", f"--iterations: expected >= 0, got {args.iterations}")
     try:
         arm, _ = load_with_notes(args.model)
-        vmax = None if args.vmax is None else (args.vmax[0] if len(args.vmax) == 1 else args.vmax)
-        amax = None if args.amax is None else (args.amax[0] if len(args.amax) == 1 else args.amax)
-        if vmax is not None and not isinstance(vmax, float) and len(vmax) != arm.n:
-            raise ModelError(f"--vmax: expected 1 or {arm.n} values, got {len(vmax)}")
-        if amax is not None and not isinstance(amax, float) and len(amax) != arm.n:
-            raise ModelError(f"--amax: expected 1 or {arm.n} values, got {len(amax)}")
         ex = excitation(arm, duration=args.duration, harmonics=args.harmonics, rate=args.rate,
-                        seed=args.seed, vmax=vmax, amax=amax, iterations=args.iterations,
+                        seed=args.seed, vmax=args.vmax, amax=args.amax, iterations=args.iterations,
                         friction=args.friction, progress=Progress("optimising", progress_wanted(args), unit="iterations"))
         ex.to_csv(args.output)
     except (ModelError, MissingExtraError) as exc:

@@ -76,13 +76,14 @@ def measure(arm, traj, rng, tau_noise: float = 0.01, q_noise: float = 1e-4, peak
 def run_demo(name: str = "ur5", seed: int = 0, iterations: int = 15, plot: str | None = None,
              out=sys.stdout) -> dict:
     """Run the demo; print the figures to ``out`` and return them as a dict."""
-    from . import excitation, fit
+    from . import base_parameters, excitation, fit
     from .trajectory import fourier_trajectory, Excitation
 
     prior = load(name)
     truth = true_arm(prior, seed)
     rng = np.random.default_rng(seed)
-    kw = dict(duration=10.0, harmonics=5, rate=200.0, friction=True)
+    base = base_parameters(prior, friction=True)        # one base for every excitation and fit
+    kw = dict(duration=10.0, harmonics=5, rate=200.0, friction=True, base=base)
     train = excitation(prior, seed=seed, iterations=iterations, **kw)
     test = excitation(prior, seed=seed + 1, iterations=0, **kw)     # held out: not optimised
     data, _, peak = measure(truth, train, rng)
@@ -92,8 +93,10 @@ def run_demo(name: str = "ur5", seed: int = 0, iterations: int = 15, plot: str |
           f"torque on tau, 1e-4 rad on q; {len(data)} training samples, condition number "
           f"{train.condition_number:.3g}", file=out)
     figures = {"noise": sigma.tolist(), "methods": {}}
+    fits = {}
     for method in ("ols", "wls", "consistent"):
-        r = fit(prior, data.q, data.qd, data.qdd, data.tau, method=method, friction=True)
+        r = fits[method] = fit(prior, data.q, data.qd, data.qdd, data.tau, method=method, friction=True,
+                               base=base)
         beta_true = r.base.from_full(truth.parameters(friction=True))
         beta_err = float(np.linalg.norm(r.beta - beta_true) / np.linalg.norm(beta_true))
         rms = np.sqrt(np.mean((r.predict(held.q, held.qd, held.qdd) - held_tau) ** 2, axis=0))
@@ -113,7 +116,7 @@ def run_demo(name: str = "ur5", seed: int = 0, iterations: int = 15, plot: str |
     pdata, _, _ = measure(truth, poor, rng, peak=peak)
     figures["poor"] = {}
     for method in ("ols", "consistent"):
-        r = fit(prior, pdata.q, pdata.qd, pdata.qdd, pdata.tau, method=method, friction=True)
+        r = fit(prior, pdata.q, pdata.qd, pdata.qdd, pdata.tau, method=method, friction=True, base=base)
         figures["poor"][method] = r.consistent
         print(f"poorly exciting data (condition number {r.condition_number:.3g}), {method}: "
               f"physically consistent: {r.consistent}", file=out)
@@ -125,8 +128,7 @@ def run_demo(name: str = "ur5", seed: int = 0, iterations: int = 15, plot: str |
             import matplotlib.pyplot as plt
         except ImportError:
             raise MissingExtraError("--plot needs matplotlib: pip install 'manipdyn[plot]'") from None
-        r = fit(prior, data.q, data.qd, data.qdd, data.tau, method="consistent", friction=True)
-        pred = r.predict(held.q, held.qd, held.qdd)
+        pred = fits["consistent"].predict(held.q, held.qd, held.qdd)
         fig, axes = plt.subplots(prior.n, 1, figsize=(8, 2 * prior.n), sharex=True)
         for j, ax in enumerate(axes):
             ax.plot(held.t, held_tau[:, j], lw=0.6, label="measured")

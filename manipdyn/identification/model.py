@@ -37,8 +37,9 @@ def arm_with_parameters(arm, pi, armature: bool = False, friction: bool = False,
     strict : bool
         Passed to :class:`Manipulator` (a physically impossible link raises).
 
-    Raises :class:`ModelError` if a link's mass is negative or a massless
-    link has first moments (no file can hold that), naming the link.
+    Raises :class:`ModelError` if a link's mass is negative (no file can hold
+    that), naming the link.  A link whose identified mass is exactly 0 has no
+    centre of mass: its first moments are dropped.
     """
     if not isinstance(arm, Manipulator):
         raise ModelError(f"arm: writing identified parameters needs a DH arm (a Manipulator), "

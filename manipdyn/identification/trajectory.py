@@ -109,7 +109,10 @@ def _limits(arm, vmax, amax, margin):
     def per_joint(value, default, what):
         if value is None:
             return np.array([default[t] for t in arm.joint_types])
-        v = np.broadcast_to(np.asarray(value, dtype=np.float64), (n,)).copy()
+        v = np.asarray(value, dtype=np.float64).reshape(-1)
+        if v.size not in (1, n):
+            raise ModelError(f"{what}: expected 1 or {n} values, got {v.size}")
+        v = np.broadcast_to(v, (n,)).copy()
         if not np.all(np.isfinite(v)) or np.any(v <= 0):
             raise ModelError(f"{what}: expected positive finite limits (one or {n} values), got {value!r}")
         return v
@@ -139,7 +142,7 @@ def _feasible(q0, a, b, period, t, vmax, amax, lo, hi):
 def excitation(arm, duration: float = 10.0, harmonics: int = 5, rate: float = 100.0, seed: int = 0,
                vmax=None, amax=None, margin: float = 0.05, armature: bool = False,
                friction: bool = False, iterations: int = 60, grid: int = 120,
-               progress=None) -> Excitation:
+               progress=None, base=None) -> Excitation:
     """Optimise a Fourier-series excitation trajectory for ``arm``.
 
     Parameters
@@ -167,6 +170,8 @@ def excitation(arm, duration: float = 10.0, harmonics: int = 5, rate: float = 10
         evaluated during the optimisation (the final figure uses all samples).
     progress : callable, optional
         ``progress(done, total)`` after each iteration.
+    base : BaseParameters, optional
+        Reuse a :func:`base_parameters` result (same armature/friction flags).
     """
     from ._deps import require
 
@@ -179,7 +184,10 @@ def excitation(arm, duration: float = 10.0, harmonics: int = 5, rate: float = 10
     n, K = arm.n, int(harmonics)
     vmax, amax, lo, hi = _limits(arm, vmax, amax, margin)
     q0 = 0.5 * (lo + hi)
-    base = base_parameters(arm, armature=armature, friction=friction)
+    if base is None:
+        base = base_parameters(arm, armature=armature, friction=friction)
+    elif (base.armature, base.friction) != (bool(armature), bool(friction)):
+        raise ModelError("base: computed with other armature/friction flags than this excitation")
     tg = np.arange(grid) * (duration / grid)
 
     def unpack(x):
