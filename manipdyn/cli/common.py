@@ -10,10 +10,11 @@ import re
 import sys
 import time
 
+from ..control.plots import pyplot
 from ..errors import ModelError, TipError
 from ..loading import load_with_notes
 
-__all__ = ["add_progress_options", "progress_wanted", "EXIT_OK", "EXIT_DISAGREE", "EXIT_USAGE", "EXIT_INTERNAL", "Progress", "output_folder",
+__all__ = ["check_plot_target", "add_progress_options", "progress_wanted", "EXIT_OK", "EXIT_DISAGREE", "EXIT_USAGE", "EXIT_INTERNAL", "Progress", "output_folder",
            "urdf_target", "usage_error", "load_arm", "load_all", "is_urdf", "TIP_HELP"]
 
 #: help of every ``--tip`` option
@@ -123,3 +124,11 @@ def add_progress_options(parser, what: str = "the progress bar") -> None:
 def progress_wanted(args) -> bool:
     """Whether to draw progress bars: ``--progress``, ``--no-progress``, or stderr is a terminal."""
     return args.progress if args.progress is not None else sys.stderr.isatty()
+
+
+def check_plot_target(path: str) -> None:
+    """Before a long run: ``--plot`` must be a writable file path and matplotlib importable."""
+    folder = os.path.dirname(os.path.abspath(path))
+    if os.path.isdir(path) or not os.path.isdir(folder) or not os.access(folder, os.W_OK):
+        raise ModelError(f"--plot {path}: expected a writable file path (its folder must exist)")
+    pyplot()  # matplotlib installed?

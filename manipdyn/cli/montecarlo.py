@@ -14,14 +14,12 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 
 from ..control.demo import CONTROLLERS, DEFAULT_BANDWIDTH
 from ..errors import ModelError
-from ..loading import load_with_notes
 from ..montecarlo import DISTRIBUTIONS_HELP, Distributions, MissingExtraError, run as run_study, study
-from ..montecarlo.plot import plot_report, pyplot
-from .common import EXIT_OK, Progress, add_progress_options, progress_wanted
+from ..montecarlo.plot import plot_report
+from .common import EXIT_OK, TIP_HELP, Progress, add_progress_options, check_plot_target, load_arm, progress_wanted
 
 __all__ = ["register", "run"]
 
@@ -50,11 +48,8 @@ def run(args) -> int:
         raise ModelError(f"--dt: must be at most --duration, got {args.dt}")
     if args.workers is not None and args.workers < 1:
         raise ModelError(f"--workers: must be >= 1, got {args.workers}")
-    if args.plot:
-        folder = os.path.dirname(os.path.abspath(args.plot))
-        if os.path.isdir(args.plot) or not os.path.isdir(folder) or not os.access(folder, os.W_OK):
-            raise ModelError(f"--plot {args.plot}: expected a writable file path (its folder must exist)")
-        pyplot()  # matplotlib present? fail before the study, not after it
+    if args.plot:  # fail before a long run, not after it
+        check_plot_target(args.plot)
     try:
         dist = Distributions(**{field: getattr(args, field) for field, _, _ in _DISTRIBUTION_OPTIONS})
     except ValueError as exc:
@@ -65,7 +60,7 @@ def run(args) -> int:
             raise ModelError(f"--tau-max: must be > 0 N m, got {args.tau_max}")
         tau_max = args.tau_max
 
-    arm, _notes = load_with_notes(args.model, tip=args.tip)   # consistency notes: not this command's business
+    arm, _notes = load_arm(args.model, args.tip)   # consistency notes: not this command's business
     try:
         s = study(arm, args.runs, seed=args.seed, controllers=keys, duration=args.duration, dt=args.dt,
                   distributions=dist, tau_max=tau_max, bandwidth=args.bandwidth)
@@ -117,7 +112,7 @@ def register(subparsers) -> None:
         epilog=DISTRIBUTIONS_HELP + "\n\nExit codes: 0 study completed (divergences are results), "
                "2 usage or model error, 3 internal error.")
     p.add_argument("model", metavar="MODEL", help="bundled model name, .toml model file, or .urdf file")
-    p.add_argument("--tip", default=None, help="URDF files: the tip link of the chain to keep")
+    p.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
     p.add_argument("--runs", type=int, default=100, help="runs (plants) per controller (default 100)")
     p.add_argument("--controllers", default="pd,pdg,ct,adaptive", metavar="LIST",
                    help="comma-separated subset of pd, pdg (PD + gravity), ct (computed torque), "

@@ -16,17 +16,16 @@ unstable (reported, the other runs of ``--compare`` still shown), 2 bad input.
 from __future__ import annotations
 
 import math
-import os
 import sys
 
 import numpy as np
 
 from ..control.demo import CONTROLLERS, DEFAULT_BANDWIDTH, DEFAULT_GAMMA, DEFAULT_PAYLOAD_COM, demo_path, make_controller
 from ..control.plant import with_payload
-from ..control.plots import PLOT_INSTALL, plot_compare, plot_single, pyplot
+from ..control.plots import PLOT_INSTALL, plot_compare, plot_single
 from ..control.simulate import SimulationDiverged, simulate
 from ..errors import ModelError
-from .common import TIP_HELP, Progress, add_progress_options, load_arm, progress_wanted
+from .common import TIP_HELP, Progress, add_progress_options, check_plot_target, load_arm, progress_wanted
 
 __all__ = ["register", "run"]
 
@@ -69,10 +68,7 @@ def check_options(args) -> None:
     if not (args.gamma >= 0):
         raise ModelError(f"--gamma: must be >= 0, got {args.gamma}")
     if args.plot:  # fail before a long run, not after it
-        folder = os.path.dirname(os.path.abspath(args.plot))
-        if os.path.isdir(args.plot) or not os.path.isdir(folder) or not os.access(folder, os.W_OK):
-            raise ModelError(f"--plot {args.plot}: expected a writable file path (its folder must exist)")
-        pyplot()  # matplotlib installed?
+        check_plot_target(args.plot)
 
 
 def run(args) -> int:

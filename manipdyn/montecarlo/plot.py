@@ -5,32 +5,17 @@ Layer: 7 (applications).
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
+
+
+from ..control.demo import CONTROLLERS
+from ..control.plots import pyplot, save_figure
 
 __all__ = ["plot_report", "pyplot"]
 
 
-def pyplot():
-    """matplotlib's pyplot on the Agg backend, or a ModelError saying what to install."""
-    try:
-        import matplotlib
-    except ImportError:
-        from ..errors import ModelError
-
-        raise ModelError("--plot needs matplotlib: pip install 'manipdyn[plot]'") from None
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
 def plot_report(report, path: str) -> None:
     """Write ``path`` (format from its extension; atomically): one panel per per-run figure of the report."""
-    from .._files import atomic_write
-    from ..control.demo import CONTROLLERS
-
     plt = pyplot()
     metrics = report.metrics
     fig, axes = plt.subplots(1, len(metrics), figsize=(5 * len(metrics), 4.2))
@@ -54,6 +39,5 @@ def plot_report(report, path: str) -> None:
     s = report.study
     fig.suptitle(f"{s.model[3]}: {s.runs} runs, seed {s.seed}, demo path {s.duration:g} s at {1 / s.dt:g} Hz")
     fig.tight_layout()
-    ext = os.path.splitext(os.fspath(path))[1].lstrip(".").lower() or "png"
-    atomic_write(path, lambda fh: fig.savefig(fh, format=ext, dpi=120), binary=True)
+    save_figure(fig, path)
     plt.close(fig)
