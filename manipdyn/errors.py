@@ -15,7 +15,7 @@ import warnings
 _PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__)) + os.sep
 
 __all__ = ["ModelError", "TipError", "ModelNoteWarning", "PhysicalConsistencyWarning", "SuspiciousValueWarning",
-           "SingularMassMatrixError", "StateError", "warn_at_caller", "warn_notes"]
+           "SingularMassMatrixError", "StateError", "warn_at_caller", "warn_notes", "MissingExtraError"]
 
 
 class ModelError(ValueError):
@@ -126,3 +126,8 @@ class SingularMassMatrixError(ValueError):
             f"forward dynamics: the mass matrix D(q) is singular{which}; give the links after "
             "them mass or the joints rotor inertia"
         )
+
+
+class MissingExtraError(ImportError):
+    """An optional dependency (an extra: ``identify``, ``scale``, ``plot``) is not installed;
+    the message says what needs it and the install command."""

@@ -23,17 +23,13 @@ import os
 import time
 import warnings
 
-from .errors import ModelError
+from .errors import MissingExtraError, ModelError
 
 __all__ = ["MissingExtraError", "require_distributed", "local_cores", "chunks", "map_chunks",
            "model_text", "arm_from_text", "MAX_CHUNK"]
 
 #: the most items (runs) in one part by default (a part is the unit of work lost with a worker)
 MAX_CHUNK = 25
-
-
-class MissingExtraError(ImportError):
-    """An optional dependency is missing; the message says what to install."""
 
 
 def require_distributed():

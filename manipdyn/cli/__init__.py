@@ -16,7 +16,7 @@ import argparse
 import os
 import sys
 
-from ..errors import ModelError, SingularMassMatrixError, StateError
+from ..errors import MissingExtraError, ModelError, SingularMassMatrixError, StateError
 from . import bench, check, compare, excite, identify, models, montecarlo, track, urdf
 from .common import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE
 
@@ -56,8 +56,8 @@ def main(argv=None) -> int:
         except OSError:
             pass
         return EXIT_OK
-    except (ModelError, StateError, SingularMassMatrixError) as exc:
-        # a model problem (a singular mass matrix, dynamics that overflow on the
+    except (ModelError, StateError, SingularMassMatrixError, MissingExtraError) as exc:
+        # a missing extra (the message gives the install command), or a model problem (a singular mass matrix, dynamics that overflow on the
         # states the command drew, a malformed file): the input's fault, not ours
         print(f"manipdyn {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_USAGE

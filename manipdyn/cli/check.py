@@ -15,7 +15,6 @@ from ..check import crosscheck
 from ..errors import ModelError, SingularMassMatrixError
 from ..io import write_urdf
 from ..loading import models
-from ..scale import MissingExtraError
 from .common import (EXIT_DISAGREE, EXIT_OK, TIP_HELP, Progress, add_progress_options, load_all,
                      output_folder, progress_wanted, urdf_target, usage_error)
 
@@ -57,11 +56,8 @@ def _crosscheck(arm, args, progress):
         scheduler = "local"
     if args.workers is not None and args.workers < 1:
         raise ModelError(f"--workers: must be >= 1, got {args.workers}")
-    try:
-        return crosscheck(arm, samples=args.samples, seed=args.seed, progress=progress,
-                          scheduler=scheduler, workers=args.workers)
-    except MissingExtraError as exc:
-        raise ModelError(str(exc)) from None
+    return crosscheck(arm, samples=args.samples, seed=args.seed, progress=progress,
+                      scheduler=scheduler, workers=args.workers)
 
 
 def _print_result(report, timing, urdf_path, strict_failed: bool) -> None:

@@ -13,7 +13,6 @@ import json
 import sys
 
 from ..errors import ModelError
-from ..identification import MissingExtraError
 from ..loading import load_with_notes
 from .common import EXIT_OK, Progress, add_progress_options, progress_wanted, usage_error
 
@@ -61,7 +60,7 @@ def run(args) -> int:
                         seed=args.seed, vmax=args.vmax, amax=args.amax, iterations=args.iterations,
                         friction=args.friction, progress=Progress("optimising", progress_wanted(args), unit="iterations"))
         ex.to_csv(args.output)
-    except (ModelError, MissingExtraError) as exc:
+    except ModelError as exc:
         return usage_error("excite", str(exc))
     except OSError as exc:
         return usage_error("excite", f"{args.output}: cannot write: {exc.strerror or exc}")

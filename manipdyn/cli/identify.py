@@ -18,7 +18,6 @@ import json
 import os
 
 from ..errors import ModelError
-from ..identification import MissingExtraError
 from ..io import save, write_urdf
 from ..loading import load_with_notes
 from .common import EXIT_DISAGREE as EXIT_FAILED
@@ -82,7 +81,7 @@ def run(args) -> int:
         name = os.path.splitext(os.path.basename(out))[0] or arm.name
         result = fit(arm, data.q, data.qd, data.qdd, data.tau, method=args.method,
                      friction=args.friction, armature=args.armature, bounds=bounds, name=name)
-    except (ModelError, MissingExtraError) as exc:
+    except ModelError as exc:
         return usage_error("identify", str(exc))
     rep = dict(result.report)
     rep.update({"model": args.model, "data": args.data, "output": None,

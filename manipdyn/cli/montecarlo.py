@@ -17,7 +17,7 @@ import math
 
 from ..control.demo import CONTROLLERS, DEFAULT_BANDWIDTH
 from ..errors import ModelError
-from ..montecarlo import DISTRIBUTIONS_HELP, Distributions, MissingExtraError, run as run_study, study
+from ..montecarlo import DISTRIBUTIONS_HELP, Distributions, run as run_study, study
 from ..montecarlo.plot import plot_report
 from .common import EXIT_OK, TIP_HELP, Progress, add_progress_options, check_plot_target, load_arm, progress_wanted
 
@@ -67,13 +67,8 @@ def run(args) -> int:
     except ValueError as exc:
         raise ModelError(str(exc)) from None
     show = progress_wanted(args)
-    try:
-        report = run_study(s, scheduler=args.scheduler, workers=args.workers, chunk_size=args.chunk_size,
-                           progress=Progress(arm.name or args.model, show, unit="runs"))
-    except MissingExtraError as exc:
-        raise ModelError(str(exc)) from None
-    except ConnectionError as exc:
-        raise ModelError(str(exc)) from None
+    report = run_study(s, scheduler=args.scheduler, workers=args.workers, chunk_size=args.chunk_size,
+                       progress=Progress(arm.name or args.model, show, unit="runs"))
     if args.json:
         print(report.to_json())
     else:

@@ -10,14 +10,12 @@ from __future__ import annotations
 
 import importlib
 
+from ..errors import MissingExtraError
+
 __all__ = ["MissingExtraError", "require", "INSTALL"]
 
 #: the command that installs what identification needs
 INSTALL = "pip install 'manipdyn[identify]'"
-
-
-class MissingExtraError(ImportError):
-    """An optional dependency of :mod:`manipdyn.identification` is not installed."""
 
 
 def require(module: str, what: str):
