@@ -162,13 +162,6 @@ def _reference(trajectory, t: np.ndarray, n: int):
     return tuple(np.array([r[i] for r in rows], dtype=np.float64).reshape(len(t), n) for i in range(3))
 
 
-def _native(x: np.ndarray) -> np.ndarray:
-    """``x`` (float64) in native byte order, so that the unchecked calls may take it."""
-    return x if x.dtype is _F64 else x.astype(_F64)
-
-
-_F64 = np.dtype(np.float64)
-
 
 def _name(x) -> str:
     return getattr(x, "name", "") or getattr(x, "__name__", "") or type(x).__name__
@@ -278,7 +271,7 @@ def _initial_state(q_d, qd_d, q0, qd0, n):
     qd = (qd_d[0] if qd0 is None else as_state(qd0, "qd0", n)).astype(np.float64, copy=True)
     if q.shape != (n,) or qd.shape != (n,):
         raise ValueError(f"q0, qd0: expected shape ({n},)")
-    return _native(q), _native(qd)
+    return q, qd                     # native float64: as_state / astype made them so
 
 
 class _Divergence:
@@ -355,7 +348,6 @@ def _integrate(log, watch, plant, controller, trajectory, q, qd, progress) -> No
             if tau.shape != (n,):
                 raise ValueError(f"controller: returned shape {tau.shape}, expected ({n},)")
             watch.check_torque(k, tau)
-            tau = _native(tau)
             TAU[k] = tau
             try:
                 a1 = fd(q, qd, tau)

@@ -76,15 +76,13 @@ def simulate_lockstep(setups, max_position: float = DEFAULT_MAX_POSITION,
     qd = np.tile(qd_d[0], (K, 1))
     Q, V, TAU = np.empty((K, N + 1, n)), np.empty((K, N + 1, n)), np.empty((K, N + 1, n))
     T, X, V2, V3, V4, A1, A2, A3, A4, S, W, TE, F = (np.empty((K, n)) for _ in range(13))
-    rows = {name: [buf[i] for i in range(K)]
-            for name, buf in (("q", q), ("qd", qd), ("T", T), ("X", X), ("V2", V2), ("V3", V3), ("V4", V4),
-                              ("TE", TE))}
-    qr, qdr, Tr, Xr = rows["q"], rows["qd"], rows["T"], rows["X"]
-    V2r, V3r, V4r = rows["V2"], rows["V3"], rows["V4"]
+    # per-run row views of the buffers, for the per-run Pinocchio calls
+    qr, qdr, Tr, Xr, V2r, V3r, V4r, TEr = (list(buf) for buf in (q, qd, T, X, V2, V3, V4, TE))
     # the torque each plant's ABA receives: tau - (Fv v + Fc sign(v)) with friction
     # (PinocchioEngine.unchecked.forward_dynamics), tau itself without
-    tin = [rows["TE"][i] if has_fr[i] else Tr[i] for i in range(K)]
+    tin = [TEr[i] if has_fr[i] else Tr[i] for i in range(K)]
     any_fr = any(has_fr)
+    add, mul = np.add, np.multiply
 
     def less_friction(vel):
         if any_fr:
@@ -93,7 +91,6 @@ def simulate_lockstep(setups, max_position: float = DEFAULT_MAX_POSITION,
     stop = [N + 1] * K                         # samples kept per run
     active = list(range(K))
     h, h2, h6 = dt, 0.5 * dt, dt / 6.0
-    add, mul = np.add, np.multiply
 
     def end(i, k):
         # the run's log stops at sample k; its rows are zeroed so that stepping
