@@ -24,6 +24,9 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
+import socket
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -31,6 +34,7 @@ import numpy as np
 from .arm import register_service
 from .engine import DynamicsEngine
 from .errors import SingularMassMatrixError, StateError
+from .scale import arm_from_text, chunks, local_cores, map_chunks, model_text
 
 __all__ = ["crosscheck", "CrosscheckReport", "QuantityError", "TOLERANCE", "draw_states"]
 
@@ -342,12 +346,6 @@ def _crosscheck_states(arm, samples, seed, chunk, progress, first, stop) -> Cros
 
 def _crosscheck_part(model, samples, seed, chunk, size, part) -> dict:
     """One part of a distributed cross-check: ``{part index: report, "timing": ...}``."""
-    import os
-    import socket
-    import time
-
-    from .scale import arm_from_text
-
     t0 = time.perf_counter()
     arm = arm_from_text(*model)
     report = _crosscheck_states(arm, samples, seed, chunk, None, part.start, part.stop)
@@ -358,11 +356,9 @@ def _crosscheck_part(model, samples, seed, chunk, size, part) -> dict:
 
 def _crosscheck_distributed(arm, samples, seed, chunk, progress, scheduler, workers) -> CrosscheckReport:
     """Parts of whole chunks on Dask workers, merged: the report a local run gives."""
-    from .scale import local_cores, map_chunks, model_text
-
     nparts = 4 * (local_cores() if workers is None else int(workers))
     size = chunk * max(1, -(-samples // (chunk * nparts)))    # whole chunks: the same batches as a local run
-    parts = [range(a, min(samples, a + size)) for a in range(0, samples, size)]
+    parts = chunks(samples, 1, size)
 
     def on_part(done, total):  # done counts parts; report states
         if progress is not None:
