@@ -146,7 +146,7 @@ def lump_bodies(tree: URDFTree, index: dict, n: int, strict: bool):
     label = tree.label
     J = np.zeros((n, 4, 4))
     members: list[list[str]] = [[] for _ in range(n)]
-    with_inertial = [False] * n
+    any_inertial = False
     stack = [(tree.root, -1, np.eye(4))]
     while stack:
         ln, owner, X = stack.pop()
@@ -155,15 +155,15 @@ def lump_bodies(tree: URDFTree, index: dict, n: int, strict: bool):
             body = tree.links[ln].body
             if body is not None:
                 # only moving bodies matter: a base link's inertia is never used
-                body.check_physical(strict=strict, where=body.name)
+                body.check_physical(strict=strict)
                 J[owner] += transform_pseudo_inertia(body.J, X)
-                with_inertial[owner] = True
+                any_inertial = True
         for j in tree.children[ln]:
             if j.name in index:
                 stack.append((j.child, index[j.name], np.eye(4)))
             else:
                 stack.append((j.child, owner, X @ j.origin))
-    if not any(with_inertial):
+    if not any_inertial:
         moving = [m for ms in members for m in ms]
         raise ModelError(
             f"{label}: no <inertial> on any moving link ({some_names(moving)}): "

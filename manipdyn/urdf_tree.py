@@ -23,7 +23,6 @@ __all__ = ["URDFLink", "URDFJoint", "URDFTree", "read_link", "read_joint", "some
 @dataclass
 class URDFLink:
     name: str
-    line: int | None
     body: LinkInertia | None  # in the link frame; None: no <inertial>
 
 
@@ -68,7 +67,7 @@ def read_link(el, label: str) -> URDFLink:
         R = X[:3, :3]
         # URDF: tensor about the COM in the <inertial><origin> frame -> link frame
         body = LinkInertia(mass, X[:3, 3], R @ I @ R.T, name=wi)
-    return URDFLink(name=name, line=el.sourceline, body=body)
+    return URDFLink(name=name, body=body)
 
 
 def read_joint(el, label: str) -> URDFJoint:

@@ -40,7 +40,7 @@ import numpy as np
 from ..errors import ModelError
 from .align import choose_alignment, mapped_fk, pose_errors
 from .canonical import canonical_chain
-from .dynamics import compare_dynamics, gravity_note, link_table, rotor_diff
+from .dynamics import compare_dynamics, gravity_in_a, gravity_note, link_table, rotor_diff
 from .report import (DYN_TOLERANCE, KIN_DIFFERENT, KIN_REMAPPED, KIN_SAME, KIN_TOLERANCE,
                      ROT_TOLERANCE, CompareReport, QuantityDiff, display_names)
 
@@ -137,6 +137,6 @@ def compare(a, b, samples: int = 200, seed: int = 0, *, names=None) -> CompareRe
         masses=masses, responsible=responsible,
         armature_a=np.array(a.armature, dtype=np.float64), armature_b=np.array(b.armature, dtype=np.float64),
         gravity_a=np.array(a.gravity, dtype=np.float64),
-        gravity_used_a=best.base[:3, :3].T @ np.asarray(b.gravity, dtype=np.float64),
+        gravity_used_a=gravity_in_a(best, b),
         candidates=n_candidates, notes=notes,
     )

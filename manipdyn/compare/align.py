@@ -109,7 +109,7 @@ def sign_vectors(ca: Chain, cb: Chain, scale: float, tol_len: float, tol_cos: fl
     return out
 
 
-def _frame_equations(ca: Chain, cb: Chain, signs, scale: float, rev, idx_left, idx_right, nv):
+def _frame_equations(ca: Chain, cb: Chain, signs, scale: float, idx_left, idx_right, nv):
     """Rotations phi (left) and rho (right) of every joint frame, and the rows of the
     least-squares problem for the translations along the axes."""
     n = len(signs)
@@ -146,7 +146,7 @@ def solve_signs(ca: Chain, cb: Chain, signs, scale: float) -> Alignment:
         if not rev[i]:
             idx_right[i] = nv
             nv += 1
-    phi, rho, rows, rhs = _frame_equations(ca, cb, signs, scale, rev, idx_left, idx_right, nv)
+    phi, rho, rows, rhs = _frame_equations(ca, cb, signs, scale, idx_left, idx_right, nv)
     x = np.linalg.lstsq(np.array(rows), np.array(rhs), rcond=None)[0] if rows else np.zeros(nv)
     t_left, t_right = x[idx_left], x[idx_right]
     offsets = np.zeros(n)

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..kinematics import rot_x, rot_z, trans, transform_inverse
+from ..kinematics import dh_standard, rot_z, trans, transform_inverse
 
 __all__ = ["Chain", "LinkSplit", "canonical_chain", "place_prismatic_lines", "split_link",
            "joint_motion", "flip", "wrap_angle", "z_frame", "PARALLEL_SIN", "COINCIDENT_LEN"]
@@ -215,7 +215,7 @@ def split_link(G: np.ndarray, len_scale: float) -> LinkSplit:
             theta, a, kind = math.atan2(p[1], p[0]), rxy, "parallel"
         else:
             theta, a, kind = 0.0, 0.0, "coincident"
-    N = rot_z(theta) @ trans(0.0, 0.0, d) @ trans(a) @ rot_x(alpha)
+    N = dh_standard(theta, d, a, alpha)               # Rz(theta) Tz(d) Tx(a) Rx(alpha), eq. 2.3
     Rm = transform_inverse(N) @ G
     psi = math.atan2(Rm[1, 0], Rm[0, 0])
     return LinkSplit(kind, theta, d, a, alpha, psi, float(Rm[2, 3]))

@@ -32,7 +32,7 @@ from ..inertia import tensor_from_pseudo_inertia, transform_pseudo_inertia
 from ..kinematics import transform_inverse
 from .report import QuantityDiff
 
-__all__ = ["rigid_engine", "quantity_diff", "dynamics_mismatch", "compare_dynamics",
+__all__ = ["rigid_engine", "quantity_diff", "dynamics_mismatch", "compare_dynamics", "gravity_in_a",
            "gravity_note", "rotor_diff", "link_table"]
 
 
@@ -59,7 +59,8 @@ def quantity_diff(name: str, xb, xa) -> QuantityDiff:
     return QuantityDiff(name, float(diff.max()), float(rel[i]), i)
 
 
-def _gravity_in_a(alignment, b) -> np.ndarray:
+def gravity_in_a(alignment, b) -> np.ndarray:
+    """B's gravity in A's base frame under ``alignment`` (3,), m/s^2."""
     return alignment.base[:3, :3].T @ np.asarray(b.gravity, dtype=np.float64)
 
 
@@ -67,7 +68,7 @@ def dynamics_mismatch(a, b, alignment, q: np.ndarray) -> float:
     """Relative D and g mismatch of one alignment on a few states q (N, n) (tie-breaking)."""
     S = np.asarray(alignment.signs, dtype=np.float64)
     qa = S * q + alignment.offsets
-    eb, ea = rigid_engine(b, b.gravity), rigid_engine(a, _gravity_in_a(alignment, b))
+    eb, ea = rigid_engine(b, b.gravity), rigid_engine(a, gravity_in_a(alignment, b))
     Da = S[:, None] * ea.mass_matrix(qa) * S[None, :]
     ga = S * ea.gravity_torque(qa)
     return float(quantity_diff("D", eb.mass_matrix(q), Da).max_rel
@@ -81,7 +82,7 @@ def compare_dynamics(a, b, alignment, q: np.ndarray, qd: np.ndarray) -> dict:
     """
     S = np.asarray(alignment.signs, dtype=np.float64)
     eb = rigid_engine(b, b.gravity)
-    ea = rigid_engine(a, _gravity_in_a(alignment, b))
+    ea = rigid_engine(a, gravity_in_a(alignment, b))
     Db, hb, gb = eb.dynamics_terms(q, qd)
     Da, ha, ga = ea.dynamics_terms(S * q + alignment.offsets, S * qd)
     return {"D": quantity_diff("D", Db, S[:, None] * Da * S[None, :]),
@@ -96,7 +97,7 @@ def _fmt_vec(v) -> str:
 def gravity_note(a, b, alignment) -> str | None:
     """A note when a's declared gravity is not b's gravity seen in a's base; else None."""
     g_decl = np.asarray(a.gravity, dtype=np.float64)
-    g_used = _gravity_in_a(alignment, b)
+    g_used = gravity_in_a(alignment, b)
     na, nb = float(np.linalg.norm(g_decl)), float(np.linalg.norm(g_used))
     tilt = math.atan2(float(np.linalg.norm(np.cross(g_decl, g_used))), float(g_decl @ g_used)) \
         if na > 0 and nb > 0 else 0.0
