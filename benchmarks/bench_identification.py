@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 import manipdyn as md
-from benchmarks.timing import interleaved, paired_ratio
+from benchmarks.timing import blas_config, interleaved, paired_ratio
 from manipdyn.identification import excitation, fit
 from manipdyn.identification.demo import measure, true_arm
 
@@ -54,8 +54,6 @@ def _load(name):
 
 def environment() -> dict:
     """Versions, BLAS threading (threadpoolctl) and the load average."""
-    from threadpoolctl import threadpool_info
-
     import cvxpy
     import pinocchio
     import scipy
@@ -63,8 +61,7 @@ def environment() -> dict:
     return {
         "python": platform.python_version(), "numpy": np.__version__, "scipy": scipy.__version__,
         "cvxpy": cvxpy.__version__, "pinocchio": pinocchio.__version__,
-        "blas": [{k: d.get(k) for k in ("internal_api", "version", "num_threads", "threading_layer",
-                                        "architecture")} for d in threadpool_info()],
+        "blas": blas_config(),
         "OPENBLAS_CORETYPE": os.environ.get("OPENBLAS_CORETYPE"),
         "OPENBLAS_L2_SIZE": os.environ.get("OPENBLAS_L2_SIZE"),
         "cpus": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count(),

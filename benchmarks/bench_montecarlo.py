@@ -49,6 +49,8 @@ import numpy as np
 import manipdyn as md
 from manipdyn import montecarlo as mc
 
+from .timing import blas_config
+
 from manipdyn._files import atomic_write_text
 from manipdyn.scale import local_cores
 
@@ -245,16 +247,6 @@ def parallelism_probe() -> float:
     return times[1] / times[2]
 
 
-def blas_info() -> list:
-    try:
-        from threadpoolctl import threadpool_info
-    except ImportError:
-        return [{"note": "threadpoolctl not installed"}]
-    return [{k: v for k, v in d.items() if k in ("internal_api", "version", "num_threads",
-                                                  "threading_layer", "architecture")}
-            for d in threadpool_info()]
-
-
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--runs", type=int, default=200, help="runs of the study (default 200)")
@@ -270,7 +262,7 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     env_note = {k: os.environ.get(k) for k in ("OPENBLAS_CORETYPE", "OPENBLAS_L2_SIZE")}
     result = {"machine": {"platform": platform.platform(), "python": platform.python_version(),
-                          "cpus": local_cores(), "blas": blas_info(), "env": env_note,
+                          "cpus": local_cores(), "blas": blas_config(), "env": env_note,
                           "load_average_at_start": os.getloadavg()}}
 
     print("1. per-call ratios against raw Pinocchio (median of paired ratios)")

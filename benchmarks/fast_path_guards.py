@@ -20,6 +20,8 @@ import time
 
 import numpy as np
 
+from .timing import blas_config
+
 
 def _block(f, k: int) -> float:
     t = time.perf_counter()
@@ -64,11 +66,8 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="python -m benchmarks.fast_path_guards", description=__doc__.split("\n\n")[0])
     p.add_argument("--arm", default="ur5")
     args = p.parse_args(argv)
-    try:
-        from threadpoolctl import threadpool_info
-        blas = [(i.get("internal_api"), i.get("num_threads")) for i in threadpool_info()]
-    except ImportError:
-        blas = "threadpoolctl not installed"
+    pools = blas_config()
+    blas = pools if isinstance(pools, str) else [(i.get("internal_api"), i.get("num_threads")) for i in pools]
     print(f"arm {args.arm}; BLAS/OpenMP pools: {blas or 'none loaded'}")
     print(f"{'manipdyn call / raw Pinocchio':45s} {'median ratio':>12s} {'best us':>9s} {'raw us':>8s}")
     for label, r, a, b in measure(args.arm):

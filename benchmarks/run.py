@@ -42,7 +42,7 @@ from . import arm_set as bench_arms_mod
 from . import report, rtb_adapter
 from .cases import ARGS, IMPL_LABEL, IMPLS, OPS
 from .referee import Referee
-from .timing import interleaved, loop_overhead, paired_ratio, profile_top
+from .timing import blas_config, interleaved, loop_overhead, paired_ratio, profile_top
 
 SCHEMA = "manipdyn-bench/1"
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -95,20 +95,6 @@ def loud(msg):
 # ---------------------------------------------------------------------------
 # machine
 # ---------------------------------------------------------------------------
-def blas_config() -> list | str:
-    """The BLAS/OpenMP thread pools this process runs with (threadpoolctl), without file paths.
-
-    OPENBLAS_CORETYPE changes which kernels OpenBLAS uses (on some machines it
-    halves the speed of numpy's small matrix products), so every result records it.
-    """
-    try:
-        from threadpoolctl import threadpool_info
-    except ImportError:
-        return "threadpoolctl not installed (pip install 'manipdyn[bench]')"
-    keep = ("user_api", "internal_api", "prefix", "version", "num_threads", "threading_layer", "architecture")
-    return [{k: v for k, v in pool.items() if k in keep} for pool in threadpool_info()]
-
-
 def machine_info():
     import pinocchio as pin
 

@@ -137,3 +137,17 @@ def profile_top(fn, calls, top=8):
                      "share": float(tt / total), "us_per_call": float(tt / calls * 1e6)})
     rows.sort(key=lambda r: -r["tottime_s"])
     return rows[:top]
+
+
+def blas_config() -> list | str:
+    """The BLAS/OpenMP thread pools this process runs with (threadpoolctl), without file paths.
+
+    OPENBLAS_CORETYPE changes which kernels OpenBLAS uses (on some machines it
+    halves the speed of numpy's small matrix products), so every result records it.
+    """
+    try:
+        from threadpoolctl import threadpool_info
+    except ImportError:
+        return "threadpoolctl not installed (pip install 'manipdyn[bench]')"
+    keep = ("user_api", "internal_api", "prefix", "version", "num_threads", "threading_layer", "architecture")
+    return [{k: v for k, v in pool.items() if k in keep} for pool in threadpool_info()]
