@@ -112,16 +112,20 @@ def small_report(puma):
     return mc.run(s, scheduler="sync", chunk_size=4)
 
 
+def _replay_log(s, rec):
+    """The log of ``rec``'s run replayed alone; a diverged run must diverge again (its log up to then)."""
+    if rec["diverged"]:   # the replay diverges the same way; the figures cover its log
+        with pytest.raises(SimulationDiverged) as info:
+            s.replay(rec["run"], rec["controller"])
+        return info.value.log
+    return s.replay(rec["run"], rec["controller"])
+
+
 def _replays_match(report):
     """Every record of ``report`` is what ``study.replay`` (one md.simulate) gives, bit for bit."""
     s = report.study
     for rec in report.per_run:
-        if rec["diverged"]:   # the replay diverges the same way; the figures cover its log
-            with pytest.raises(SimulationDiverged) as info:
-                s.replay(rec["run"], rec["controller"])
-            log = info.value.log
-        else:
-            log = s.replay(rec["run"], rec["controller"])
+        log = _replay_log(s, rec)
         e = log.e
         assert rec["rms_error"] == float(np.sqrt(np.mean(np.einsum("ij,ij->i", e, e)))), rec
         assert rec["max_error"] == float(np.abs(e).max()), rec
@@ -145,12 +149,7 @@ def test_replay_gives_the_studys_numbers_bit_for_bit(small_report):
     _replays_match(small_report)
     s = small_report.study
     for rec in small_report.per_run[::5]:
-        if rec["diverged"]:   # the replay diverges the same way; the figures cover its log
-            with pytest.raises(SimulationDiverged) as info:
-                s.replay(rec["run"], rec["controller"])
-            log = info.value.log
-        else:
-            log = s.replay(rec["run"], rec["controller"])
+        log = _replay_log(s, rec)
         e = log.e
         # the study's own formula (einsum), so that equality is bit for bit ...
         assert rec["rms_error"] == float(np.sqrt(np.mean(np.einsum("ij,ij->i", e, e))))
