@@ -37,10 +37,10 @@ def require_distributed():
     try:
         import distributed
     except ImportError:
-        raise MissingExtraError(
-            "Monte-Carlo studies and cluster cross-checks on Dask need dask.distributed: "
-            "pip install 'manipdyn[scale]'  (or pass scheduler='sync' to run in this process)"
-        ) from None
+        need = ("Monte-Carlo studies and cluster cross-checks on Dask need dask.distributed: "
+                "pip install 'manipdyn[scale]'")
+        raise MissingExtraError(need + "  (or pass scheduler='sync' to run in this process)",
+                                cli_message=need + "  (or pass --scheduler sync to run in this process)") from None
     return distributed
 
 

@@ -56,8 +56,12 @@ def main(argv=None) -> int:
         except OSError:
             pass
         return EXIT_OK
-    except (ModelError, StateError, SingularMassMatrixError, MissingExtraError) as exc:
-        # a missing extra (the message gives the install command), or a model problem (a singular mass matrix, dynamics that overflow on the
+    except MissingExtraError as exc:
+        # the message gives the install command, in command-line terms
+        print(f"manipdyn {args.command}: error: {exc.cli_message}", file=sys.stderr)
+        return EXIT_USAGE
+    except (ModelError, StateError, SingularMassMatrixError) as exc:
+        # a model problem (a singular mass matrix, dynamics that overflow on the
         # states the command drew, a malformed file): the input's fault, not ours
         print(f"manipdyn {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_USAGE

@@ -85,6 +85,8 @@ def run(args) -> int:
         return usage_error("check", "name at least one model or file, or pass --all")
     if args.samples < 1:
         return usage_error("check", f"--samples must be >= 1, got {args.samples}")
+    if args.timing_calls < 0:
+        return usage_error("check", f"--timing-calls must be >= 0 (0 skips the timing), got {args.timing_calls}")
     if args.urdf_out:
         output_folder(args.urdf_out, "--urdf-out")
     loaded = load_all(specs, args.tip)         # every name checked before any arm runs

@@ -37,11 +37,13 @@ def run(args) -> int:
         raise ModelError(f"--runs: must be >= 1, got {args.runs}")
     if args.seed < 0:
         raise ModelError(f"--seed: must be >= 0, got {args.seed}")
-    keys = [k.strip() for k in args.controllers.split(",") if k.strip()]
+    keys = [k.strip().lower() for k in args.controllers.split(",") if k.strip()]  # names in any case
     bad = [k for k in keys if k not in CONTROLLERS]
     if not keys or bad or len(set(keys)) != len(keys):
         raise ModelError(f"--controllers: expected distinct names among {','.join(CONTROLLERS)}, "
                          f"got {args.controllers!r}")
+    if args.chunk_size is not None and args.chunk_size < 1:
+        raise ModelError(f"--chunk-size: must be >= 1 run, got {args.chunk_size}")
     for name in ("duration", "dt", "bandwidth"):
         _finite(args, name, 0.0, strict=True)
     if args.dt > args.duration:
