@@ -17,7 +17,8 @@ import math
 
 from ..control.demo import CONTROLLERS, DEFAULT_BANDWIDTH
 from ..errors import ModelError
-from ..montecarlo import DISTRIBUTIONS_HELP, Distributions, run as run_study, study
+from ..montecarlo import DISTRIBUTIONS_HELP, Distributions, check_study_size, run as run_study, study
+from ..scale import check_scheduler
 from ..montecarlo.plot import plot_report
 from .common import EXIT_OK, TIP_HELP, Progress, add_progress_options, check_plot_target, load_arm, progress_wanted
 
@@ -50,6 +51,8 @@ def run(args) -> int:
         raise ModelError(f"--dt: must be at most --duration, got {args.dt}")
     if args.workers is not None and args.workers < 1:
         raise ModelError(f"--workers: must be >= 1, got {args.workers}")
+    check_scheduler(args.scheduler, "--scheduler")
+    check_study_size(args.runs, len(keys), args.duration, args.dt, args.bandwidth, cli=True)
     if args.plot:  # fail before a long run, not after it
         check_plot_target(args.plot)
     try:
