@@ -324,14 +324,34 @@ def _unit_notes(origin: str, raw_links: list, units: dict, links: list) -> list[
 # ---------------------------------------------------------------------------
 # Writing
 # ---------------------------------------------------------------------------
-def _toml_str(s: str) -> str:
-    out = s.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n").replace("\t", "\\t")
-    return f'"{out}"'
+#: the short escapes of TOML basic strings; every other control character is written \uXXXX
+_TOML_ESCAPES = {"\\": "\\\\", '"': '\\"', "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
+
+
+def _toml_str(s: str, where: str = "text") -> str:
+    """A TOML basic string holding ``s`` exactly: every control character (U+0000 to U+001F,
+    U+007F) escaped, so that the file reads back; a ModelError naming ``where`` for a value
+    that is not a string or holds a lone surrogate (not Unicode text: no file can hold it)."""
+    if not isinstance(s, str):
+        raise ModelError(f"save: {where} must be a string, got {type(s).__name__} {s!r:.60}")
+    out = []
+    for k, ch in enumerate(s):
+        o = ord(ch)
+        if ch in _TOML_ESCAPES:
+            out.append(_TOML_ESCAPES[ch])
+        elif o < 0x20 or o == 0x7F:
+            out.append(f"\\u{o:04X}")
+        elif 0xD800 <= o <= 0xDFFF:
+            raise ModelError(f"save: {where} holds the lone surrogate U+{o:04X} at index {k} "
+                             f"({s[max(0, k - 20):k + 20]!r}), which is not Unicode text: no file can hold it")
+        else:
+            out.append(ch)
+    return '"' + "".join(out) + '"'
 
 
 def _toml_key(k: str) -> str:
     """A TOML key: bare when it can be, quoted otherwise."""
-    return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else _toml_str(k)
+    return k if isinstance(k, str) and re.fullmatch(r"[A-Za-z0-9_-]+", k) else _toml_str(k, "a key of sources")
 
 
 def _toml_num(x: float) -> str:
@@ -349,22 +369,25 @@ def model_to_toml(arm: Manipulator) -> str:
                          f"{type(arm).__name__} {arm.name!r} can be written with write_urdf()")
     lines = [
         f"format = {_toml_str(FORMAT)}",
-        f"name = {_toml_str(arm.name)}",
+        f"name = {_toml_str(arm.name, 'name')}",
         f"convention = {_toml_str(arm.convention)}",
         f"gravity = {_toml_list(arm.gravity)}",
-        f"source = {_toml_str(arm.source)}",
+        f"source = {_toml_str(arm.source, 'source')}",
     ]
     if arm.description:
-        lines.append(f"description = {_toml_str(arm.description)}")
+        lines.append(f"description = {_toml_str(arm.description, 'description')}")
     sources = arm.sources
     if sources:
-        lines += ["", "[sources]"] + [f"{_toml_key(k)} = {_toml_str(v)}" for k, v in sources.items()]
+        if not isinstance(sources, dict):
+            raise ModelError(f"save: sources must be a dict of strings, got {type(sources).__name__}")
+        lines += ["", "[sources]"] + [f"{_toml_key(k)} = {_toml_str(v, f'sources[{k!r}]')}"
+                                      for k, v in sources.items()]
     lines += ["", "[units]", 'length = "m"', 'angle = "rad"', 'mass = "kg"']
     for l in arm.links:
         I = l.inertia
         lines += [
             "", "[[links]]",
-            *( [f"name = {_toml_str(l.name)}"] if l.name else [] ),
+            *( [f"name = {_toml_str(l.name, 'a link name')}"] if l.name else [] ),
             f"joint = {_toml_str(l.joint)}",
             f"a = {_toml_num(l.a)}", f"alpha = {_toml_num(l.alpha)}",
             f"d = {_toml_num(l.d)}", f"theta = {_toml_num(l.theta)}",
@@ -384,5 +407,17 @@ def model_to_toml(arm: Manipulator) -> str:
 
 
 def save_model(arm: Manipulator, path) -> None:
-    """Write ``arm`` as a model file, atomically."""
-    atomic_write_text(path, model_to_toml(arm))
+    """Write ``arm`` as a model file, atomically.
+
+    Whatever this writes, :func:`load_model_file` reads back: a model whose file
+    would be over :data:`manipdyn.limits.MAX_MODEL_FILE_BYTES` (e.g. a description
+    of megabytes) is refused here, before anything is written, with how to raise it.
+    """
+    text = model_to_toml(arm)
+    size = len(text.encode("utf-8"))
+    if size > limits.MAX_MODEL_FILE_BYTES:
+        raise ModelError(
+            f"save {os.fspath(path)}: the model file would be {size} bytes, over the {limits.MAX_MODEL_FILE_BYTES} "
+            "bytes that load reads (manipdyn.limits.MAX_MODEL_FILE_BYTES); shorten the description or "
+            "sources, or raise the limit (manipdyn.limits.MAX_MODEL_FILE_BYTES = ...) where it is saved and loaded")
+    atomic_write_text(path, text)

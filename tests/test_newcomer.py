@@ -122,3 +122,108 @@ def test_item19_bad_options_exit_2(argv, culprit, tmp_path, capsys):
     assert main(argv) == 2
     assert culprit in _err_line(capsys)
     assert not (tmp_path / "t.csv").exists()
+
+
+# -- item 3: whatever md.save writes, md.load reads back --------------------------------------
+def _arm_like(arm, **kw):
+    import manipdyn as md
+
+    base = dict(convention=arm.convention, gravity=arm.gravity, name=arm.name, source=arm.source,
+                sources=arm.sources, description=arm.description)
+    base.update(kw)
+    return md.Manipulator(kw.pop("links", arm.links), **{k: v for k, v in base.items() if k != "links"})
+
+
+def test_item3_save_refuses_what_load_would_refuse(tmp_path):
+    import manipdyn as md
+    from manipdyn.errors import ModelError
+
+    arm = _arm_like(md.load("ur5"), description="x" * (2 * 1024 * 1024))
+    with pytest.raises(ModelError, match="MAX_MODEL_FILE_BYTES"):
+        md.save(arm, tmp_path / "long.toml")
+    assert not (tmp_path / "long.toml").exists()
+
+
+def test_item3_extreme_valid_models_round_trip(tmp_path):
+    import dataclasses
+
+    import numpy as np
+
+    import manipdyn as md
+    import manipdyn.limits as limits
+
+    ur5 = md.load("ur5")
+    # 100 joints (MAX_JOINTS), names at MAX_NAME_LENGTH, non-ASCII text, the heaviest
+    # allowed body, subnormal and exactly-representable numbers, a description that
+    # fills the file up to just under the load limit (multi-byte characters counted as bytes)
+    link = dataclasses.replace(ur5.links[1], name="ł" * limits.MAX_NAME_LENGTH)
+    heavy = dataclasses.replace(ur5.links[2], mass=limits.MAX_MASS, com=(5e-324, -0.0, 0.1),
+                                inertia=np.diag([limits.MAX_INERTIA, limits.MAX_INERTIA, 1.0]))
+    links = [link if k % 2 else heavy for k in range(limits.MAX_JOINTS)]
+    arm = _arm_like(ur5, links=links, name="Ω arm\r", source="tab\there \x7f\x1b[31m",
+                    sources={"kinematics": "a\rb\x00c", "key with space": "é"}, description="")
+    room = limits.MAX_MODEL_FILE_BYTES - len(md.to_toml(arm).encode()) - 64
+    arm = _arm_like(arm, links=links, description="€" * (room // 3))
+    md.save(arm, tmp_path / "extreme.toml")
+    assert (tmp_path / "extreme.toml").stat().st_size <= limits.MAX_MODEL_FILE_BYTES
+    back = md.load(tmp_path / "extreme.toml")
+    assert (back.name, back.source, back.sources, back.description) == \
+        (arm.name, arm.source, arm.sources, arm.description)
+    for a, b in zip(arm.links, back.links):
+        assert a.name == b.name and a.mass == b.mass
+        assert np.array_equal(a.com, b.com) and np.array_equal(a.inertia, b.inertia)
+
+
+# -- item 18: control characters and foreign values at save ------------------------------------
+@pytest.mark.parametrize("field", ["name", "source", "description", "sources"])
+@pytest.mark.parametrize("ch", ["\r", "\x7f", "\x00", "\x0b", "\x1f", "\b", "\f", "\\", '"', "\u2028"])
+def test_item18_toml_writer_escapes_every_control_character(field, ch, tmp_path):
+    import manipdyn as md
+
+    value = {"kinematics": f"a{ch}b"} if field == "sources" else f"a{ch}b"
+    if field == "name" and ch in "\x00\x0b\x1f\b\f\x7f":
+        pytest.skip("names refuse control characters at construction (links.check_name)")
+    arm = _arm_like(md.load("ur5"), **{field: value})
+    md.save(arm, tmp_path / "m.toml")
+    assert getattr(md.load(tmp_path / "m.toml"), field) == value
+
+
+@pytest.mark.parametrize("kw, culprit", [
+    ({"sources": {"k": 1}}, "sources['k']"),
+    ({"source": "a\ud800b"}, "source"),
+    ({"description": "\udcff"}, "description"),
+])
+def test_item18_save_names_the_bad_field(kw, culprit, tmp_path):
+    import manipdyn as md
+    from manipdyn.errors import ModelError
+
+    try:
+        arm = _arm_like(md.load("ur5"), **kw)
+    except ModelError:
+        return                                # refused at construction: as good
+    with pytest.raises(ModelError, match=f"save: {pytest.importorskip('re').escape(culprit)}"):
+        md.save(arm, tmp_path / "m.toml")
+    assert not (tmp_path / "m.toml").exists()
+
+
+@pytest.mark.parametrize("source", ["a\x01b", "a\ud800b", "x\x7f\x9f--y-"])
+def test_item18_write_urdf_holds_any_source_text(source, tmp_path):
+    import manipdyn as md
+
+    arm = _arm_like(md.load("ur5"), source=source)
+    md.write_urdf(arm, tmp_path / "a.urdf")
+    back = md.load(tmp_path / "a.urdf")
+    assert back.n == 6
+
+
+# -- item 13: generated URDFs write round-off as 0 ---------------------------------------------
+@pytest.mark.parametrize("name", ["stanford", "ur10", "puma560", "panda"])
+def test_item13_generated_urdf_has_no_round_off(name):
+    import re
+
+    import manipdyn as md
+
+    text = md.to_urdf(md.load(name))
+    tiny = [m for m in re.findall(r"-?[0-9.]+e-[0-9]+", text) if abs(float(m)) < 1e-12]
+    assert not tiny, tiny
+    assert not re.findall(r'[" ]-0\.0[" ]', text)          # no negative zeros either
