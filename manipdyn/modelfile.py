@@ -89,7 +89,11 @@ def models() -> list[str]:
 def load_bundled(name: str, strict: bool = False) -> Manipulator:
     """A bundled model by name (see :func:`models`)."""
     if name not in models():
-        raise ModelError(f"unknown model {name!r}: not a bundled model ({', '.join(models())})")
+        import difflib
+
+        close = difflib.get_close_matches(str(name), models(), n=3, cutoff=0.6)
+        hint = f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
+        raise ModelError(f"unknown model {name!r}: not a bundled model ({', '.join(models())}){hint}")
     path = _bundled_dir() / f"{name}.toml"
     return parse_model(path.read_text(encoding="utf-8"), f"bundled model {name}", strict=strict)
 

@@ -227,3 +227,39 @@ def test_item13_generated_urdf_has_no_round_off(name):
     tiny = [m for m in re.findall(r"-?[0-9.]+e-[0-9]+", text) if abs(float(m)) < 1e-12]
     assert not tiny, tiny
     assert not re.findall(r'[" ]-0\.0[" ]', text)          # no negative zeros either
+
+
+# -- item 11: model names: did-you-mean, erd:NAME everywhere, models --erd, labels ---------------
+def test_item11_model_typo_gets_did_you_mean(capsys):
+    assert main(["check", "puma650"]) == 2
+    assert "did you mean 'puma560'" in _err_line(capsys)
+    assert main(["check", "erd:ur5_robt"]) == 2
+    assert "did you mean 'ur5_robot'" in _err_line(capsys)
+
+
+@pytest.mark.parametrize("argv", [
+    ["check", "erd:ur5_robot", "--samples", "3", "--timing-calls", "0"],
+    ["check", "erd:panda", "--tip", "panda_hand", "--samples", "3", "--timing-calls", "0"],
+    ["urdf", "erd:ur5_robot", "{tmp}"],
+    ["track", "erd:ur5_robot", "--duration", "0.05"],
+    ["montecarlo", "erd:ur5_robot", "--runs", "1", "--duration", "0.05", "--scheduler", "sync",
+     "--controllers", "pd"],
+    ["excite", "erd:ur5_robot", "-o", "{tmp}/t.csv", "--iterations", "0", "--duration", "1"],
+])
+def test_item11_erd_names_work_in_every_subcommand(argv, tmp_path, capsys):
+    pytest.importorskip("scipy", reason="excite needs the identify extra")
+    assert main([a.replace("{tmp}", str(tmp_path)) for a in argv]) == 0, capsys.readouterr().err
+
+
+def test_item11_models_erd_lists_names(capsys):
+    from manipdyn.erd import urdf_names
+
+    assert main(["models", "--erd"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == len(urdf_names()) and any(l.startswith("erd:ur5_robot ") for l in lines)
+
+
+def test_item11_labels_tell_bundled_from_erd(capsys):
+    assert main(["compare", "ur5", "erd:ur5_robot"]) == 1            # NOT THE SAME ARM (README)
+    out = capsys.readouterr().out
+    assert "a = 'ur5' with b = 'erd:ur5_robot'" in out

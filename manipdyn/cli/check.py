@@ -135,7 +135,7 @@ def register(sub) -> None:
                               "failed condition, never 'all agree'), or a note under --strict; 2 usage "
                               "or model error; 3 a bug.")
     c.add_argument("models", nargs="*", metavar="MODEL_OR_FILE",
-                   help="bundled model name, .toml model file, or .urdf file")
+                   help="bundled model name, .toml model file, .urdf file or erd:NAME (manipdyn models --erd)")
     c.add_argument("--all", action="store_true", help="check every bundled model")
     c.add_argument("--samples", type=int, default=1000, help="random states per arm (default 1000)")
     c.add_argument("--seed", type=int, default=0, help="seed of the random states (default 0)")

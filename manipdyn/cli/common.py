@@ -86,8 +86,8 @@ def output_folder(path: str, option: str) -> str:
 
 
 def is_urdf(spec: str) -> bool:
-    """True when ``spec`` names a URDF file (by its extension)."""
-    return str(spec).lower().endswith((".urdf", ".xml"))
+    """True when ``spec`` names a URDF file (by its extension) or an example-robot-data URDF (``erd:NAME``)."""
+    return str(spec).lower().endswith((".urdf", ".xml")) or str(spec).startswith("erd:")
 
 
 def load_arm(spec: str, tip: str | None = None, option: str = "--tip"):

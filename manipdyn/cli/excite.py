@@ -31,7 +31,7 @@ def register(subparsers) -> None:
                     "the condition number of the stacked base regressor, within the model's joint "
                     "limits and the velocity and acceleration limits; write it as CSV "
                     "(t,q1..qn,qd1..qdn,qdd1..qddn). Exit codes: 0 written, 2 usage or model error.")
-    p.add_argument("model", metavar="MODEL", help="bundled model name, .toml model file or .urdf file")
+    p.add_argument("model", metavar="MODEL", help="bundled model name, .toml model file, .urdf file or erd:NAME (manipdyn models --erd)")
     p.add_argument("-o", "--output", required=True, metavar="TRAJ.csv", help="CSV file to write")
     p.add_argument("--duration", type=float, default=10.0, metavar="S", help="period and length, s (default 10)")
     p.add_argument("--harmonics", type=int, default=5, metavar="K", help=f"harmonics per joint (default 5, at most {limits.MAX_HARMONICS})")

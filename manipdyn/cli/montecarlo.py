@@ -111,7 +111,7 @@ def register(subparsers) -> None:
                     "the results are bit-identical either way.",
         epilog=DISTRIBUTIONS_HELP + "\n\nExit codes: 0 study completed (divergences are results), "
                "2 usage or model error, 3 internal error.")
-    p.add_argument("model", metavar="MODEL", help="bundled model name, .toml model file, or .urdf file")
+    p.add_argument("model", metavar="MODEL", help="bundled model name, .toml model file, .urdf file or erd:NAME (manipdyn models --erd)")
     p.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
     p.add_argument("--runs", type=int, default=100, help="runs (plants) per controller (default 100)")
     p.add_argument("--controllers", default="pd,pdg,ct,adaptive", metavar="LIST",

@@ -137,7 +137,7 @@ def register(subparsers) -> None:
         description="Simulate a joint-space tracking controller on the standard demo path "
                     "(fixed-step RK4, zero-order hold) and report tracking errors and torques. "
                     "Exit codes: 0 finished, 1 a controller diverged, 2 bad input.")
-    p.add_argument("model", metavar="MODEL_OR_FILE", help="bundled model name, .toml model file, or .urdf file")
+    p.add_argument("model", metavar="MODEL_OR_FILE", help="bundled model name, .toml model file, .urdf file or erd:NAME (manipdyn models --erd)")
     p.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
     p.add_argument("--controller", choices=list(CONTROLLERS), default="ct",
                    help="pd, pdg (PD + gravity), ct (computed torque, default), adaptive (Slotine-Li)")

@@ -46,7 +46,7 @@ def register(sub) -> None:
                                    "The URDF carries the arm's joint limits and says in a comment which "
                                    "values are manipdyn's defaults. Exit 0 written, 2 usage or model error.")
     u.add_argument("models", nargs="*", metavar="MODEL_OR_FILE",
-                   help="bundled model name, .toml model file or .urdf file (several allowed)")
+                   help="bundled model name, .toml model file, .urdf file or erd:NAME (manipdyn models --erd) (several allowed)")
     u.add_argument("outdir", metavar="OUTDIR", help="the folder to write the .urdf files into")
     u.add_argument("--all", action="store_true", help="every bundled model")
     u.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
