@@ -263,3 +263,28 @@ def test_item11_labels_tell_bundled_from_erd(capsys):
     assert main(["compare", "ur5", "erd:ur5_robot"]) == 1            # NOT THE SAME ARM (README)
     out = capsys.readouterr().out
     assert "a = 'ur5' with b = 'erd:ur5_robot'" in out
+
+
+# -- item 12: --version, track --json (bench: tests/test_bench_smoke.py) -------------------------
+def test_item12_version(capsys):
+    import manipdyn
+
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0
+    assert capsys.readouterr().out.strip() == f"manipdyn {manipdyn.__version__}"
+
+
+def test_item12_track_json_is_one_strict_document(capsys):
+    import json
+
+    strict = {"parse_constant": lambda c: pytest.fail(f"not strict JSON: {c}")}
+    assert main(["track", "puma560", "--duration", "1", "--compare", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out, **strict)
+    assert set(doc["controllers"]) == {"PD", "PD + gravity", "computed torque", "adaptive (Slotine-Li)"}
+    ct = doc["controllers"]["computed torque"]
+    assert len(ct["rms_error"]) == 6 and all(x >= 0 for x in ct["peak_torque"])
+    # a 0.2 s demo path is too fast for the adaptive controller: exit 1, still one document
+    assert main(["track", "puma560", "--duration", "0.2", "--controller", "adaptive", "--json"]) == 1
+    doc = json.loads(capsys.readouterr().out, **strict)
+    assert doc["controllers"]["adaptive (Slotine-Li)"]["diverged"] is True
