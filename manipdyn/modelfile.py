@@ -203,6 +203,15 @@ def parse_model(text: str, origin: str = "<model>", strict: bool = False) -> Man
 _LONGEST_PLAUSIBLE = 10.0
 #: an arm whose every non-zero DH length is below this (m) looks like metres read as mm
 _SHORTEST_PLAUSIBLE = 5e-3
+#: a link's radius of gyration ``sqrt(I_max / m)`` (largest principal moment about its
+#: COM) beyond this many times the arm's size looks like inertias in a smaller unit
+#: (kg mm^2, g cm^2, g mm^2 read as kg m^2: 1e3 to 3e4 times too large a radius).  The
+#: bundled arms' radii are 0.09 to 0.27 times their size
+_GYRATION_LARGEST = 2.0
+#: ... and below this many times the arm's size (but not zero: point masses are fine),
+#: like inertias in a larger unit (kg m^2 in a file of g and mm: 3e4 times too small).
+#: The bundled arms' smallest is 0.006
+_GYRATION_SMALLEST = 1e-4
 
 
 def _read_toml(text, origin: str) -> dict:
@@ -322,6 +331,30 @@ def _unit_notes(origin: str, raw_links: list, units: dict, links: list) -> list[
         notes.append(f"{origin}: every DH length is under {_SHORTEST_PLAUSIBLE * 1000:g} mm (largest "
                      f"{nonzero.max():.6g} m after units.length = \"{length_unit}\"): the lengths look "
                      "like they are in a larger unit")
+    return notes + _gyration_notes(origin, units, links)
+
+
+def _gyration_notes(origin: str, units: dict, links: list) -> list[str]:
+    """Notes on links whose radius of gyration is implausible for their mass and the arm's size
+    (inertias pasted in another unit than ``units.mass * units.length^2``)."""
+    size = max(sum(abs(l.a) + abs(l.d) for l in links)
+               + max(float(np.linalg.norm(l.com)) for l in links), 1e-3)
+    unit = f"{units.get('mass', 'kg')} {units.get('length', 'm')}^2"
+    notes = []
+    for i, l in enumerate(links):
+        if not l.mass > 0:
+            continue
+        k = math.sqrt(max(float(np.linalg.eigvalsh(l.inertia).max()), 0.0) / l.mass)
+        if k > _GYRATION_LARGEST * size:
+            what = (f"more than {_GYRATION_LARGEST:g} times the arm's size ({size:.3g} m)", "smaller",
+                    "kg mm^2, g cm^2 or g mm^2")
+        elif 0 < k < _GYRATION_SMALLEST * size:
+            what = (f"under {_GYRATION_SMALLEST:g} times the arm's size ({size:.3g} m)", "larger", "kg m^2")
+        else:
+            continue
+        notes.append(f"{origin}: links[{i}] key 'inertia': the radius of gyration sqrt(I_max / mass) = "
+                     f"{k:.3g} m for {l.mass:.6g} kg is {what[0]}: the inertias look like they are in a "
+                     f"{what[1]} unit than the file's {unit} (e.g. {what[2]})")
     return notes
 
 

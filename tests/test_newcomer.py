@@ -288,3 +288,58 @@ def test_item12_track_json_is_one_strict_document(capsys):
     assert main(["track", "puma560", "--duration", "0.2", "--controller", "adaptive", "--json"]) == 1
     doc = json.loads(capsys.readouterr().out, **strict)
     assert doc["controllers"]["adaptive (Slotine-Li)"]["diverged"] is True
+
+
+# -- item 1: inertias in the wrong unit are flagged, and refused under --strict -------------------
+def _ur5_text(inertia_factor: float, units: str = "") -> str:
+    import dataclasses
+
+    import manipdyn as md
+
+    ur5 = md.load("ur5")
+    links = [dataclasses.replace(l, inertia=l.inertia * inertia_factor) for l in ur5.links]
+    text = md.to_toml(_arm_like(ur5, links=links))
+    if units:
+        text = text.replace('length = "m"\nangle = "rad"\nmass = "kg"', units)
+    return text
+
+
+@pytest.mark.parametrize("factor, units, direction", [
+    (1e6, "", "smaller"),          # kg mm^2 pasted into an SI file
+    (1e7, "", "smaller"),          # g cm^2
+    (1e9, "", "smaller"),          # g mm^2
+    # SI values pasted into a file of mm and g (and lengths converted by hand to mm)
+    (1.0, 'length = "m"\nangle = "rad"\nmass = "g"', "larger"),
+])
+def test_item1_implausible_inertia_units_are_flagged(factor, units, direction, tmp_path, capsys):
+    import manipdyn as md
+    from manipdyn.errors import ModelError
+
+    path = tmp_path / "ur5_units.toml"
+    text = _ur5_text(factor, units)
+    if units:   # masses in g: multiply them so the arm keeps its kg, inertias stay "kg m^2" numbers
+        import re
+        text = re.sub(r"^mass = ([0-9.e+-]+)$", lambda m: f"mass = {float(m.group(1)) * 1000!r}", text,
+                      flags=re.M)
+        text = re.sub(r"(i[xyz]{2}) = ([0-9.e+-]+)", lambda m: f"{m.group(1)} = {float(m.group(2)) * 1e-6!r}",
+                      text)   # kg m^2 -> (g m^2 = 1e3 kg m^2 ...): a 1e-6 slip, 1e-3 in the radius
+    path.write_text(text)
+    _arm, notes = md.load_with_notes(path)
+    assert any("radius of gyration" in n and f"in a {direction} unit" in n for n in notes), notes
+    with pytest.raises(ModelError, match="radius of gyration"):
+        md.load(path, strict=True)
+    # check --strict: notes are a failed condition (exit 1), as angle and length notes are
+    assert main(["check", str(path), "--strict", "--samples", "2", "--timing-calls", "0"]) == 1
+    out = capsys.readouterr().out
+    assert "radius of gyration" in out and "STRICT" in out
+
+
+def test_item1_bundled_and_saved_arms_have_no_gyration_note(tmp_path):
+    import manipdyn as md
+
+    for name in md.models():
+        _arm, notes = md.load_with_notes(name)
+        assert not [n for n in notes if "gyration" in n], (name, notes)
+    path = tmp_path / "ur5.toml"
+    path.write_text(_ur5_text(1.0))
+    assert md.load_with_notes(path)[1] == []
