@@ -20,7 +20,7 @@ from .errors import ModelError
 __all__ = ["MAX_FILE_BYTES", "MAX_MODEL_FILE_BYTES", "MAX_LINKS", "MAX_JOINTS", "MAX_FIXED_RUN",
            "MAX_NAME_LENGTH", "MAX_LENGTH", "MAX_ANGLE", "MAX_GRAVITY", "MAX_MASS", "MAX_INERTIA",
            "MAX_MAGNITUDE", "MAX_HARMONICS", "MAX_EXCITATION_SAMPLES", "MAX_RUN_STEPS", "MAX_STUDY_STEPS",
-           "MAX_BANDWIDTH", "CLI_RAISE", "over_limit", "check_count", "check_magnitude", "check_range", "open_regular"]
+           "MAX_BANDWIDTH", "MAX_TRAJECTORY_BYTES", "CLI_RAISE", "over_limit", "check_count", "check_magnitude", "check_range", "open_regular"]
 
 #: largest URDF or model file read, bytes (16 MiB; real ones are under 1 MiB)
 MAX_FILE_BYTES = 16 * 1024 * 1024
@@ -69,6 +69,9 @@ MAX_RUN_STEPS = 2_000_000
 #: most integration steps of a whole Monte-Carlo study (runs x controllers x steps):
 #: at some 20 microseconds a step, 1e9 steps are about 6 core-hours
 MAX_STUDY_STEPS = 1e9
+#: largest trajectory CSV read by ``manipdyn synthesize`` (64 MiB: 100 000 samples
+#: of a 7-joint arm, 22 columns of full-precision numbers, are about 40 MB)
+MAX_TRAJECTORY_BYTES = 64 * 1024 * 1024
 #: largest controller bandwidth (rad/s): the gains grow with its square, and a loop
 #: this fast is far beyond any real arm's (it diverges at any practical step anyway)
 MAX_BANDWIDTH = 1e6

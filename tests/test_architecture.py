@@ -31,7 +31,7 @@ PACKAGES = ("manipdyn", "benchmarks")
 #: own layer or below.  Packages (``manipdyn.cli`` ...) give the layer of every
 #: module inside them.
 LAYERS = {
-    0: ("manipdyn.errors", "manipdyn._files", "manipdyn._state", "manipdyn.limits"),
+    0: ("manipdyn.errors", "manipdyn._files", "manipdyn._state", "manipdyn.limits", "manipdyn._threads"),
     1: ("manipdyn.kinematics",),
     2: ("manipdyn.inertia",),
     3: ("manipdyn.links", "manipdyn.arm", "manipdyn.parameters"),

@@ -343,3 +343,110 @@ def test_item1_bundled_and_saved_arms_have_no_gyration_note(tmp_path):
     path = tmp_path / "ur5.toml"
     path.write_text(_ur5_text(1.0))
     assert md.load_with_notes(path)[1] == []
+
+
+# -- item 7: one BLAS thread where it pays; threadpoolctl optional; progress in the demo ----------
+def _blas_threads_now():
+    threadpoolctl = pytest.importorskip("threadpoolctl", reason="threadpoolctl (identify extra) not installed")
+    pools = [p["num_threads"] for p in threadpoolctl.threadpool_info() if p["user_api"] == "blas"]
+    if not pools:
+        pytest.skip("no BLAS thread pool in this process")
+    return pools
+
+
+def test_item7_blas_threads_limits_and_restores():
+    from manipdyn._threads import blas_threads
+
+    before = _blas_threads_now()
+    with blas_threads(1) as lim:
+        assert lim.limited and _blas_threads_now() == [1] * len(before)
+    assert _blas_threads_now() == before
+
+
+def test_item7_without_threadpoolctl_nothing_breaks(monkeypatch):
+    from manipdyn._threads import blas_threads
+
+    monkeypatch.setitem(sys.modules, "threadpoolctl", None)
+    with blas_threads(1) as lim:
+        assert lim.limited is False
+    assert main(["models"]) == 0
+
+
+def test_item7_cli_runs_commands_on_one_blas_thread(monkeypatch):
+    import manipdyn.cli.models as models_cli
+
+    _blas_threads_now()
+    seen = []
+    monkeypatch.setattr(models_cli, "run", lambda args: seen.append(_blas_threads_now()) or 0)
+    assert main(["models"]) == 0 and set(seen[0]) == {1}
+    assert main(["--blas-threads", "0", "models"]) == 0 and seen[1] == _blas_threads_now()
+
+
+def test_item7_demo_shows_progress(capsys):
+    pytest.importorskip("cvxpy", reason="the demo needs the identify extra")
+    from manipdyn.identification.demo import run_demo
+
+    run_demo("ur5", iterations=1, progress=True)
+    err = capsys.readouterr().err
+    for stage in ("optimising the excitation", "1/1 iterations", "fit: ols", "fit: consistent"):
+        assert stage in err
+
+
+# -- item 5: the README's identification commands run as written -----------------------------------
+def _readme_block(after: str, lang: str) -> str:
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    start = text.index(f"```{lang}\n", text.index(after)) + len(lang) + 4
+    return text[start:text.index("```", start)]
+
+
+def test_item5_readme_identification_commands_run_as_written(tmp_path, monkeypatch, capsys):
+    import json
+    import shlex
+
+    pytest.importorskip("cvxpy", reason="identification needs the identify extra")
+    monkeypatch.chdir(tmp_path)
+    lines = [l.split("#")[0].strip() for l in _readme_block("## Identification", "sh").splitlines()]
+    commands = [shlex.split(l) for l in lines if l]
+    assert [c[1] for c in commands] == ["excite", "synthesize", "identify", "check"]
+    for argv in commands:
+        assert argv[0] == "manipdyn"
+        code = main(argv[1:])
+        out = capsys.readouterr().out
+        assert code == 0, (argv, out)
+        if argv[1] == "identify":                         # --json: the fit, strict JSON
+            import numpy as np
+
+            doc = json.loads(out)
+            tau = np.loadtxt(tmp_path / "data.csv", delimiter=",", skiprows=1)[:, -6:]
+            sigma = 0.01 * np.abs(tau).max(axis=0)        # the noise synthesize added (--noise 0.01)
+            # the fit explains everything but that noise: residual RMS / sigma within 10 %
+            # (some 1700 samples: the RMS of Gaussian noise is within a few % of sigma; the
+            # peak read back carries the noise too, 1 % of itself at most a few times over)
+            ratio = np.array(doc["rms_residual"]) / sigma
+            assert np.all(np.abs(ratio - 1) < 0.1), ratio
+    assert (tmp_path / "ur5_identified.toml").is_file()
+
+
+def test_item5_synthesize_is_exact_without_noise_and_names_bad_rows(tmp_path):
+    import numpy as np
+
+    import manipdyn as md
+    from manipdyn.errors import ModelError
+    from manipdyn.identification import read_trajectory, synthesize
+
+    arm = md.load("ur5")
+    rng = np.random.default_rng(0)
+    q, qd, qdd = (rng.standard_normal((50, 6)) for _ in range(3))
+    assert np.array_equal(synthesize(arm, q, qd, qdd, noise=0.0), arm.inverse_dynamics(q, qd, qdd))
+    a, b = synthesize(arm, q, qd, qdd, seed=3), synthesize(arm, q, qd, qdd, seed=3)
+    assert np.array_equal(a, b) and not np.array_equal(a, synthesize(arm, q, qd, qdd, seed=4))
+    header = "t," + ",".join(f"{p}{i}" for p in ("q", "qd", "qdd") for i in range(1, 7))
+    rows = [",".join(["0"] * 19), ",".join(["0.01"] * 18 + ["x"])]
+    (tmp_path / "t.csv").write_text(header + "\n" + "\n".join(rows) + "\n")
+    with pytest.raises(ModelError, match=r"row 3, column 'qdd6'"):
+        read_trajectory(tmp_path / "t.csv", 6)
+    with pytest.raises(ModelError, match="expected the header"):
+        read_trajectory(tmp_path / "t.csv", 7)
+    assert main(["synthesize", "ur5", "/dev/zero", "-o", str(tmp_path / "d.csv")]) == 2

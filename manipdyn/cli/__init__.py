@@ -17,13 +17,14 @@ import os
 import sys
 
 from ..errors import MissingExtraError, ModelError, SingularMassMatrixError, StateError
-from . import bench, check, compare, excite, identify, models, montecarlo, track, urdf
+from . import bench, check, compare, excite, identify, models, montecarlo, synthesize, track, urdf
+from .._threads import blas_threads
 from .common import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
 #: the subcommands, in the order ``manipdyn --help`` lists them
-COMMANDS = (check, urdf, models, compare, track, montecarlo, excite, identify, bench)
+COMMANDS = (check, urdf, models, compare, track, montecarlo, excite, synthesize, identify, bench)
 
 
 def _version() -> str:
@@ -43,6 +44,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--debug", action="store_true", help="show Python tracebacks on errors")
     p.add_argument("--version", action="version", version=f"manipdyn {_version()}")
+    p.add_argument("--blas-threads", type=int, default=1, metavar="N",
+                   help="BLAS threads of this process (default 1: manipdyn's matrices are small, and more "
+                        "threads only slow it on a shared machine; 0 leaves the BLAS library's own "
+                        "choice; needs threadpoolctl, otherwise ignored)")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     for command in COMMANDS:
         command.register(sub)
@@ -55,8 +60,12 @@ def main(argv=None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return EXIT_USAGE
+    if args.blas_threads < 0:
+        print(f"manipdyn: error: --blas-threads: expected >= 0, got {args.blas_threads}", file=sys.stderr)
+        return EXIT_USAGE
     try:
-        return args.func(args)
+        with blas_threads(args.blas_threads or None):
+            return args.func(args)
     except BrokenPipeError:
         # the reader went away (e.g. `manipdyn check ... | head`): not an error of ours
         try:

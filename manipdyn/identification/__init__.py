@@ -6,7 +6,9 @@ Layer: application (identification).
 * :func:`excitation`: an optimised Fourier-series excitation trajectory;
 * :func:`fit`: ``ols``, ``wls`` and the physically consistent ``consistent``
   (J_i >= 0, cvxpy with Clarabel or SCS), returning the identified arm;
-* :func:`read_measurements`: CSV data, with zero-phase derivatives of q.
+* :func:`read_measurements`: CSV data, with zero-phase derivatives of q;
+* :func:`synthesize`: torques of a model along a trajectory, with noise (a log
+  without a robot; ``manipdyn synthesize``).
 
 Needs the ``identify`` extra (scipy, cvxpy, clarabel, scs):
 ``pip install 'manipdyn[identify]'``.
@@ -18,8 +20,10 @@ from .data import Measurements, read_measurements, write_measurements_csv
 from .estimation import METHODS, FitResult, fit
 from .report import format_report
 from .sdp import Bounds
+from .synthesize import Trajectory, read_trajectory, synthesize
 from .trajectory import Excitation, excitation
 
 __all__ = ["BaseParameters", "Bounds", "Excitation", "FitResult", "INSTALL", "METHODS",
            "Measurements", "MissingExtraError", "base_parameters", "excitation", "fit",
-           "format_report", "read_measurements", "write_measurements_csv"]
+           "format_report", "read_measurements", "write_measurements_csv", "Trajectory",
+           "read_trajectory", "synthesize"]

@@ -29,6 +29,7 @@ import warnings
 
 import numpy as np
 
+from .._threads import blas_threads
 from ..arm import Manipulator
 from ..errors import PhysicalConsistencyWarning
 from ..loading import load
@@ -73,18 +74,51 @@ def measure(arm, traj, rng, tau_noise: float = 0.01, q_noise: float = 1e-4, peak
     return Measurements(t, qf, qd, qdd, tf, derived=True), tau_m[keep], peak
 
 
+class _Stages:
+    """Progress of the demo on ``stream`` (stderr): one line per stage with the elapsed time,
+    and a bar for the excitation optimiser's iterations."""
+
+    def __init__(self, enabled: bool, stream=None):
+        import time
+
+        self.enabled, self.stream, self.t0, self.clock = enabled, stream or sys.stderr, time.perf_counter(), time.perf_counter
+        self.last = None
+
+    def stage(self, text: str) -> None:
+        if self.enabled:
+            self.stream.write(f"[{self.clock() - self.t0:6.1f} s] {text}\n")
+            self.stream.flush()
+
+    def iterations(self, done: int, total: int) -> None:
+        if self.enabled and total and (done, total) != self.last:
+            self.last = (done, total)
+            bar = "#" * (20 * done // total) + "-" * (20 - 20 * done // total)
+            self.stream.write(f"\r[{self.clock() - self.t0:6.1f} s]   optimiser [{bar}] {done}/{total} iterations")
+            if done >= total:
+                self.stream.write("\n")
+            self.stream.flush()
+
+
 def run_demo(name: str = "ur5", seed: int = 0, iterations: int = 15, plot: str | None = None,
-             out=sys.stdout) -> dict:
-    """Run the demo; print the figures to ``out`` and return them as a dict."""
+             out=sys.stdout, progress: bool = False) -> dict:
+    """Run the demo; print the figures to ``out`` and return them as a dict.
+
+    ``progress=True`` reports each stage (and the optimiser's iterations) on stderr.
+    """
     from . import base_parameters, excitation, fit
     from .trajectory import fourier_trajectory, Excitation
 
+    stages = _Stages(progress)
+    stages.stage(f"loading {name} and drawing the true arm")
     prior = load(name)
     truth = true_arm(prior, seed)
     rng = np.random.default_rng(seed)
+    stages.stage("base parameters")
     base = base_parameters(prior, friction=True)        # one base for every excitation and fit
     kw = dict(duration=10.0, harmonics=5, rate=200.0, friction=True, base=base)
-    train = excitation(prior, seed=seed, iterations=iterations, **kw)
+    stages.stage(f"optimising the excitation trajectory ({iterations} iterations)")
+    train = excitation(prior, seed=seed, iterations=iterations, progress=stages.iterations, **kw)
+    stages.stage("measuring the true arm along it, and along a held-out trajectory")
     test = excitation(prior, seed=seed + 1, iterations=0, **kw)     # held out: not optimised
     data, _, peak = measure(truth, train, rng)
     held, held_tau, _ = measure(truth, test, rng, peak=peak)
@@ -95,6 +129,7 @@ def run_demo(name: str = "ur5", seed: int = 0, iterations: int = 15, plot: str |
     figures = {"noise": sigma.tolist(), "methods": {}}
     fits = {}
     for method in ("ols", "wls", "consistent"):
+        stages.stage(f"fit: {method}")
         r = fits[method] = fit(prior, data.q, data.qd, data.qdd, data.tau, method=method, friction=True,
                                base=base)
         beta_true = r.base.from_full(truth.parameters(friction=True))
@@ -116,6 +151,7 @@ def run_demo(name: str = "ur5", seed: int = 0, iterations: int = 15, plot: str |
     pdata, _, _ = measure(truth, poor, rng, peak=peak)
     figures["poor"] = {}
     for method in ("ols", "consistent"):
+        stages.stage(f"poorly exciting data, fit: {method}")
         r = fit(prior, pdata.q, pdata.qd, pdata.qdd, pdata.tau, method=method, friction=True, base=base)
         figures["poor"][method] = r.consistent
         print(f"poorly exciting data (condition number {r.condition_number:.3g}), {method}: "
@@ -152,8 +188,14 @@ def main(argv=None) -> int:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--iterations", type=int, default=15, help="excitation optimiser iterations")
     p.add_argument("--plot", metavar="FILE.png", default=None, help="plot measured vs predicted torques")
+    prog = p.add_mutually_exclusive_group()
+    prog.add_argument("--progress", dest="progress", action="store_true", default=None,
+                      help="report each stage on stderr (default: only when stderr is a terminal)")
+    prog.add_argument("--no-progress", dest="progress", action="store_false")
     args = p.parse_args(argv)
-    run_demo(args.model, args.seed, args.iterations, args.plot)
+    show = args.progress if args.progress is not None else sys.stderr.isatty()
+    with blas_threads(1):          # small matrices: one BLAS thread is faster (manipdyn/_threads.py)
+        run_demo(args.model, args.seed, args.iterations, args.plot, progress=show)
     return 0
 
 

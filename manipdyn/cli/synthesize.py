@@ -1,0 +1,78 @@
+"""``manipdyn synthesize MODEL TRAJ.csv -o DATA.csv``: a measurement log without a robot.
+
+Layer: CLI.
+
+Reads the trajectory ``manipdyn excite`` wrote, computes the joint torques of
+MODEL along it (``--perturb``: of the demo's "true" arm around MODEL, with
+masses, centres of mass and friction off), adds seeded noise, and writes
+``t,q1..qn,tau1..taun`` (``--derivatives``: with ``qd``, ``qdd``), the log
+``manipdyn identify`` reads.  Exit codes: 0 written, 2 usage, model or data error.
+"""
+
+from __future__ import annotations
+
+import json
+
+from ..errors import ModelError
+from .common import EXIT_OK, TIP_HELP, check_output_file, load_arm
+
+__all__ = ["register", "run"]
+
+
+def run(args) -> int:
+    from ..identification.data import write_measurements_csv
+    from ..arm import Manipulator
+    from ..identification.demo import true_arm
+    from ..identification.synthesize import read_trajectory, synthesize
+
+    if not (args.noise >= 0 and args.noise < float("inf")):
+        raise ModelError(f"--noise: expected a finite fraction >= 0 of each joint's peak torque, got {args.noise}")
+    if args.seed < 0:
+        raise ModelError(f"--seed: expected an integer >= 0, got {args.seed}")
+    check_output_file(args.output, "-o")
+    arm, _notes = load_arm(args.model, args.tip)
+    if args.perturb and not isinstance(arm, Manipulator):
+        raise ModelError(f"--perturb: only for DH models (a bundled name or a .toml file), not {args.model!r}")
+    robot = true_arm(arm, args.seed) if args.perturb else arm
+    traj = read_trajectory(args.trajectory, arm.n)
+    tau = synthesize(robot, traj.q, traj.qd, traj.qdd, noise=args.noise, seed=args.seed)
+    if args.derivatives:
+        write_measurements_csv(args.output, traj.t, traj.q, tau, traj.qd, traj.qdd)
+    else:
+        write_measurements_csv(args.output, traj.t, traj.q, tau)
+    out = {"model": args.model, "robot": robot.name, "trajectory": args.trajectory, "output": args.output,
+           "samples": int(len(traj.t)), "noise": args.noise, "seed": args.seed,
+           "peak_torque": [float(x) for x in abs(tau).max(axis=0)]}
+    if args.json:
+        print(json.dumps(out, indent=2))
+    else:
+        print(f"wrote {args.output}: {out['samples']} samples of {robot.name!r} along {args.trajectory}, "
+              f"torque noise {args.noise:g} of each joint's peak (seed {args.seed})")
+    return EXIT_OK
+
+
+def register(sub) -> None:
+    """Add ``manipdyn synthesize``."""
+    p = sub.add_parser(
+        "synthesize", help="synthesise a measurement log from a model (identification without a robot)",
+        description="Compute the joint torques of MODEL along TRAJ.csv (as written by 'manipdyn excite'), "
+                    "add seeded Gaussian noise of --noise times each joint's peak torque, and write "
+                    "DATA.csv (t,q1..qn,tau1..taun) for 'manipdyn identify'. With --perturb the torques "
+                    "are those of an arm around MODEL (masses +-20 %%, centres of mass moved up to 2 cm, "
+                    "friction added; seeded by --seed), so that identify has something to find. "
+                    "Exit codes: 0 written, 2 usage, model or data error.")
+    p.add_argument("model", metavar="MODEL",
+                   help="bundled model name, .toml model file, .urdf file or erd:NAME (manipdyn models --erd)")
+    p.add_argument("trajectory", metavar="TRAJ.csv", help="trajectory written by manipdyn excite")
+    p.add_argument("-o", "--output", required=True, metavar="DATA.csv", help="CSV log to write")
+    p.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
+    p.add_argument("--noise", type=float, default=0.01, metavar="FRACTION",
+                   help="torque noise, standard deviation as a fraction of each joint's peak torque "
+                        "(default 0.01)")
+    p.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the noise and of --perturb (default 0)")
+    p.add_argument("--perturb", action="store_true",
+                   help="log the demo's perturbed 'true' arm instead of MODEL itself (DH models only)")
+    p.add_argument("--derivatives", action="store_true",
+                   help="also write qd and qdd (exact); by default identify derives them from q")
+    p.add_argument("--json", action="store_true", help="print a JSON object instead of text")
+    p.set_defaults(func=run)
