@@ -124,14 +124,14 @@ def map_chunks(fn, args, total: int, parts: list, scheduler=None, workers=None, 
         nworkers, where = 1, "this process"
     else:
         check_scheduler(scheduler)
+        _not_while_bootstrapping()
         distributed = require_distributed()
         cluster = None
         if scheduler is None or scheduler == "local":
             nworkers = local_cores() if workers is None else int(workers)
             if nworkers < 1:
                 raise ValueError(f"workers: expected a positive integer, got {workers!r}")
-            cluster = distributed.LocalCluster(n_workers=nworkers, threads_per_worker=1, processes=True,
-                                               dashboard_address=None, silence_logs=logging.ERROR)
+            cluster = _local_cluster(distributed, nworkers)
             where = "local Dask cluster"
         else:
             where = str(scheduler)
@@ -159,6 +159,36 @@ def map_chunks(fn, args, total: int, parts: list, scheduler=None, workers=None, 
     timing = {"wall_s": wall, "scheduler": where, "workers": nworkers, "chunks": len(parts),
               "chunk_seconds": sum(t["seconds"] for t in col.chunk_timing), "chunks_by_process": hosts}
     return col, timing
+
+
+def _not_while_bootstrapping() -> None:
+    """In a worker process that is importing an unguarded script (Python's spawn runs the
+    script again), stop that import quietly: the parent reports the problem in one line."""
+    import multiprocessing
+    import sys
+
+    if getattr(multiprocessing.current_process(), "_inheriting", False):
+        sys.stderr = open(os.devnull, "w")       # the worker's own report would repeat it
+        raise SystemExit(1)
+
+
+def _local_cluster(distributed, nworkers: int):
+    """A LocalCluster of ``nworkers`` one-thread processes, or a one-line error when they
+    cannot start (typically a script that runs a study without an ``if __name__ ==
+    "__main__":`` guard: each worker imports the script again and starts its own study)."""
+    try:
+        return distributed.LocalCluster(n_workers=nworkers, threads_per_worker=1, processes=True,
+                                        dashboard_address=None, silence_logs=logging.CRITICAL)
+    except RuntimeError as exc:
+        import multiprocessing
+
+        if getattr(multiprocessing.current_process(), "_inheriting", False) or \
+                multiprocessing.parent_process() is not None:
+            raise     # a worker importing an unguarded script: let the parent say it
+        raise ModelError(
+            f"the local Dask workers could not start ({exc}); in a script, run the study under "
+            "'if __name__ == \"__main__\":' (each worker process imports the script again), or pass "
+            "scheduler='sync'") from None
 
 
 def _wait_for_workers(client, scheduler) -> None:

@@ -450,3 +450,37 @@ def test_item5_synthesize_is_exact_without_noise_and_names_bad_rows(tmp_path):
     with pytest.raises(ModelError, match="expected the header"):
         read_trajectory(tmp_path / "t.csv", 7)
     assert main(["synthesize", "ur5", "/dev/zero", "-o", str(tmp_path / "d.csv")]) == 2
+
+
+# -- item 4: the README's Monte-Carlo snippet runs as a script -------------------------------------
+def _run_script(path, tmp_path):
+    import os
+    import subprocess
+    from pathlib import Path
+
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1]))
+    return subprocess.run([sys.executable, str(path)], cwd=tmp_path, env=env, capture_output=True,
+                          text=True, timeout=900)
+
+
+def test_item4_readme_montecarlo_snippet_runs_as_a_script(tmp_path):
+    pytest.importorskip("distributed", reason="the scale extra is not installed")
+    script = tmp_path / "study.py"
+    script.write_text(_readme_block("`--json` prints every figure", "python"))
+    proc = _run_script(script, tmp_path)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert "computed torque" in proc.stdout and "adaptive" in proc.stdout
+    assert "Traceback" not in proc.stderr and "Nanny" not in proc.stderr
+
+
+def test_item4_unguarded_script_fails_in_one_message(tmp_path):
+    pytest.importorskip("distributed", reason="the scale extra is not installed")
+    script = tmp_path / "unguarded.py"
+    script.write_text("import warnings; warnings.simplefilter('ignore')\n"
+                      "import manipdyn as md\nfrom manipdyn import montecarlo as mc\n"
+                      "study = mc.study(md.load('ur5'), runs=2, seed=1, controllers=('ct',), duration=0.1)\n"
+                      "report = mc.run(study, workers=1)\n")
+    proc = _run_script(script, tmp_path)
+    assert proc.returncode == 1
+    assert "if __name__ ==" in proc.stderr and "Nanny failed to start" in proc.stderr
+    assert proc.stderr.count("Traceback") == 1 and len(proc.stderr.splitlines()) < 30
