@@ -776,15 +776,36 @@ def parse_args(argv):
 
 
 def main(argv=None):
+    """Run the suite; Ctrl-C stops it quietly with exit 130 and removes the run's folder
+    when this run created it (a folder given with --out that existed is left as it was,
+    less the files this run had written into it)."""
     args = parse_args(sys.argv[1:] if argv is None else argv)
     cfg = SMOKE if args.smoke else FULL
+    now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0)
+    out_dir = os.path.abspath(args.out or os.path.join(RUNS, f"{now:%Y%m%dT%H%M%SZ}-{cfg.mode}"))
+    existed = os.path.isdir(out_dir)
+    before = set(os.listdir(out_dir)) if existed else set()
+    try:
+        return _main(args, argv, cfg, now, out_dir)
+    except KeyboardInterrupt:
+        import shutil
+
+        if not existed:
+            shutil.rmtree(out_dir, ignore_errors=True)
+        elif os.path.isdir(out_dir):
+            for name in set(os.listdir(out_dir)) - before:
+                path = os.path.join(out_dir, name)
+                shutil.rmtree(path, ignore_errors=True) if os.path.isdir(path) else os.remove(path)
+        print("benchmarks.run: interrupted; nothing written", file=sys.stderr)
+        return 130
+
+
+def _main(args, argv, cfg, now, out_dir):
     if args.publish and (args.smoke or args.arms or args.skip):
         print("benchmarks.run: error: --publish needs a full run (no --smoke, --arms or --skip)",
               file=sys.stderr)
         return 2
-    now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0)
     started = now.isoformat()
-    out_dir = os.path.abspath(args.out or os.path.join(RUNS, f"{now:%Y%m%dT%H%M%SZ}-{cfg.mode}"))
     os.makedirs(out_dir, exist_ok=True)
     rng = np.random.default_rng(args.seed)
     t_start = time.perf_counter()

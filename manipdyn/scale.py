@@ -176,6 +176,14 @@ def _local_cluster(distributed, nworkers: int):
     """A LocalCluster of ``nworkers`` one-thread processes, or a one-line error when they
     cannot start (typically a script that runs a study without an ``if __name__ ==
     "__main__":`` guard: each worker imports the script again and starts its own study)."""
+    import signal
+    import threading
+
+    # the workers start with SIGINT ignored (a started Python keeps an ignored SIGINT
+    # ignored): Ctrl-C reaches the whole process group, and this process alone stops
+    # the study and closes the cluster, instead of every worker printing its traceback
+    main_thread = threading.current_thread() is threading.main_thread()
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN) if main_thread else None
     try:
         return distributed.LocalCluster(n_workers=nworkers, threads_per_worker=1, processes=True,
                                         dashboard_address=None, silence_logs=logging.CRITICAL)
@@ -189,6 +197,9 @@ def _local_cluster(distributed, nworkers: int):
             f"the local Dask workers could not start ({exc}); in a script, run the study under "
             "'if __name__ == \"__main__\":' (each worker process imports the script again), or pass "
             "scheduler='sync'") from None
+    finally:
+        if main_thread:
+            signal.signal(signal.SIGINT, old)
 
 
 def _wait_for_workers(client, scheduler) -> None:

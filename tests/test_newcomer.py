@@ -484,3 +484,42 @@ def test_item4_unguarded_script_fails_in_one_message(tmp_path):
     assert proc.returncode == 1
     assert "if __name__ ==" in proc.stderr and "Nanny failed to start" in proc.stderr
     assert proc.stderr.count("Traceback") == 1 and len(proc.stderr.splitlines()) < 30
+
+
+# -- item 9: Ctrl-C stops montecarlo and bench quietly, exit 130, nothing left behind ---------------
+def _interrupt_after(seconds: float, argv, cwd):
+    import os
+    import signal
+    import subprocess
+    import time
+    from pathlib import Path
+
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1]))
+    proc = subprocess.Popen([sys.executable, "-m", "manipdyn", *argv], cwd=cwd, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    time.sleep(seconds)
+    assert proc.poll() is None, "finished before the interrupt: make the run longer"
+    os.killpg(proc.pid, signal.SIGINT)            # Ctrl-C: the whole process group, as a terminal does
+    _out, err = proc.communicate(timeout=120)
+    return proc.returncode, err
+
+
+@pytest.mark.parametrize("seconds", [1.5, 6.0])     # while the cluster starts; while it runs
+def test_item9_montecarlo_ctrl_c_is_quiet(seconds, tmp_path):
+    pytest.importorskip("distributed", reason="the scale extra is not installed")
+    code, err = _interrupt_after(seconds, ["montecarlo", "puma560", "--runs", "5000", "--no-progress",
+                                           "--plot", str(tmp_path / "mc.png")], tmp_path)
+    assert code == 130 and err.strip().splitlines() == ["manipdyn: interrupted"], err[-3000:]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_item9_bench_ctrl_c_is_quiet_and_removes_its_folder(tmp_path):
+    from pathlib import Path
+
+    if not (Path(__file__).resolve().parents[1] / "benchmarks" / "run.py").is_file():
+        pytest.skip("no benchmark suite beside the package")
+    out = tmp_path / "run"
+    code, err = _interrupt_after(4.0, ["bench", "--no-rtb", "--out", str(out)], tmp_path)
+    assert code == 130 and "Traceback" not in err, err[-3000:]
+    assert err.strip().splitlines()[-1] == "manipdyn bench: interrupted"
+    assert not out.exists()

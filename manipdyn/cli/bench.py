@@ -63,7 +63,19 @@ def run(args) -> int:
         for name in BLAS_ENV:
             env.pop(name, None)
     cmd = [sys.executable, "-m", "benchmarks.run", *_suite_argv(args)]
-    return subprocess.run(cmd, cwd=root, env=env, check=False).returncode
+    child = subprocess.Popen(cmd, cwd=root, env=env)
+    try:
+        return child.wait()
+    except KeyboardInterrupt:
+        # Ctrl-C reached the suite too (same process group): it removes its run folder and
+        # exits 130 quietly; wait for that rather than leave it half-way
+        try:
+            child.wait(timeout=30)
+        except (subprocess.TimeoutExpired, KeyboardInterrupt):
+            child.kill()
+            child.wait()
+        print("manipdyn bench: interrupted", file=sys.stderr)
+        return 130
 
 
 def register(sub) -> None:
