@@ -613,7 +613,7 @@ def _plot(ns, series, exps, out_dir):
         return None, f"matplotlib not installed ({type(exc).__name__}); pip install -e '.[bench]' for the plot"
     if len(ns) < 2:
         return None, "fewer than two sizes"
-    fig, ax = plt.subplots(figsize=(7.5, 5))
+    fig, ax = plt.subplots(figsize=(10, 5))
     for k, ts in series.items():
         e = exps[k].get("tail", exps[k].get("all"))
         ax.loglog(ns, np.array(ts) * 1e6, "o-", label=f"{k}  (~n^{e:.2f})", ms=4)
@@ -623,7 +623,9 @@ def _plot(ns, series, exps, out_dir):
     ax.set_xticks(ns)
     ax.set_xticklabels([str(n) for n in ns])
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7)
+    # the legend beside the axes, never over a line (the curves span the whole height)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0,
+              title="per state, fitted slope", title_fontsize=8)
     fig.tight_layout()
     path = os.path.join(out_dir, "scaling.png")
     try:

@@ -523,3 +523,50 @@ def test_item9_bench_ctrl_c_is_quiet_and_removes_its_folder(tmp_path):
     assert code == 130 and "Traceback" not in err, err[-3000:]
     assert err.strip().splitlines()[-1] == "manipdyn bench: interrupted"
     assert not out.exists()
+
+
+# -- item 14: figure legends never cover data; the Monte-Carlo figure is not a strip -------------
+def _legend_overlaps(fig):
+    """(legend extent, axes extent) pairs where a legend overlaps axes that draw lines."""
+    fig.canvas.draw()
+    r = fig.canvas.get_renderer()
+    legends = [a.get_legend() for a in fig.axes if a.get_legend() is not None] + list(fig.legends)
+    data_axes = [a for a in fig.axes if a.lines]
+    return [(lg, ax) for lg in legends for ax in data_axes
+            if lg.get_window_extent(r).overlaps(ax.get_window_extent(r))]
+
+
+def test_item14_montecarlo_legend_off_the_data(tmp_path, monkeypatch):
+    pytest.importorskip("matplotlib", reason="the plot extra is not installed")
+    import manipdyn as md
+    import manipdyn.montecarlo.plot as mcplot
+    from manipdyn import montecarlo as mc
+
+    figs = []
+    monkeypatch.setattr(mcplot, "save_figure", lambda fig, path: figs.append(fig))
+    monkeypatch.setattr(mcplot.pyplot(), "close", lambda fig=None: None)
+    report = mc.run(mc.study(md.load("ur5"), runs=6, seed=1, duration=0.3), scheduler="sync")
+    mcplot.plot_report(report, str(tmp_path / "mc.png"))
+    (fig,) = figs
+    assert not _legend_overlaps(fig)
+    w, h = fig.get_size_inches()
+    assert w / h <= 2.0              # was 15 x 4.2 (3.6)
+
+
+def test_item14_scaling_legend_off_the_lines(tmp_path, monkeypatch):
+    pytest.importorskip("matplotlib", reason="the plot extra is not installed")
+    import json
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    if str(root) not in sys.path:
+        sys.path.insert(0, str(root))
+    from benchmarks import run as bench_run
+    import matplotlib.pyplot as plt
+
+    figs = []
+    monkeypatch.setattr(plt, "close", lambda fig=None: figs.append(fig))
+    ref = json.loads((root / "benchmarks" / "results" / "reference.json").read_text())["scaling"]
+    bench_run._plot(ref["n"], ref["median_s"], ref["exponents"], str(tmp_path))
+    (fig,) = figs
+    assert not _legend_overlaps(fig)
