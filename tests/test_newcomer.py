@@ -570,3 +570,48 @@ def test_item14_scaling_legend_off_the_lines(tmp_path, monkeypatch):
     bench_run._plot(ref["n"], ref["median_s"], ref["exponents"], str(tmp_path))
     (fig,) = figs
     assert not _legend_overlaps(fig)
+
+
+# -- item 8: README facts -------------------------------------------------------------------------
+def _readme() -> str:
+    from pathlib import Path
+
+    return (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+
+
+def test_item8_readme_states_python_version_sizes_and_seed_source():
+    import re
+    import tomllib
+    from pathlib import Path
+
+    text = _readme()
+    project = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml").read_text())["project"]
+    version = re.fullmatch(r">=(\d+\.\d+)", project["requires-python"]).group(1)
+    assert f"Python {version} or later" in text
+    assert re.search(r"`pip install -e \.`\s+about [0-9.]+ GB", text)
+    assert re.search(r"`pip install -e '\.\[test\]'`.*about [0-9.]+ GB", text, re.S)
+    assert '"Manipulator Mathematical Model"' in text and "## Sources" in text
+
+
+def test_item8_example_robot_data_is_an_optional_extra(monkeypatch):
+    import importlib.metadata
+    import tomllib
+    from pathlib import Path
+
+    import manipdyn.erd as erd
+    from manipdyn.errors import ModelError
+
+    project = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml").read_text())["project"]
+    assert not any(d.startswith("example-robot-data") for d in project["dependencies"])
+    assert any(d.startswith("example-robot-data") for d in project["optional-dependencies"]["erd"])
+
+    def missing(name):
+        raise importlib.metadata.PackageNotFoundError(name)
+
+    erd.robots_dir.cache_clear()
+    monkeypatch.setattr(importlib.metadata, "distribution", missing)
+    try:
+        with pytest.raises(ModelError, match=r"pip install 'manipdyn\[erd\]'"):
+            erd.urdf_path("ur5_robot")
+    finally:
+        erd.robots_dir.cache_clear()
