@@ -20,7 +20,7 @@ from .errors import ModelError
 __all__ = ["MAX_FILE_BYTES", "MAX_MODEL_FILE_BYTES", "MAX_LINKS", "MAX_JOINTS", "MAX_FIXED_RUN",
            "MAX_NAME_LENGTH", "MAX_LENGTH", "MAX_ANGLE", "MAX_GRAVITY", "MAX_MASS", "MAX_INERTIA",
            "MAX_MAGNITUDE", "MAX_HARMONICS", "MAX_EXCITATION_SAMPLES", "MAX_RUN_STEPS", "MAX_STUDY_STEPS",
-           "MAX_BANDWIDTH", "MAX_TRAJECTORY_BYTES", "CLI_RAISE", "over_limit", "check_count", "check_magnitude", "check_range", "open_regular"]
+           "MAX_BANDWIDTH", "MAX_DEMO_DURATION", "MAX_TRAJECTORY_BYTES", "CLI_RAISE", "over_limit", "check_count", "check_magnitude", "check_range", "open_regular"]
 
 #: largest URDF or model file read, bytes (16 MiB; real ones are under 1 MiB)
 MAX_FILE_BYTES = 16 * 1024 * 1024
@@ -72,6 +72,9 @@ MAX_STUDY_STEPS = 1e9
 #: largest trajectory CSV read by ``manipdyn synthesize`` (64 MiB: 100 000 samples
 #: of a 7-joint arm, 22 columns of full-precision numbers, are about 40 MB)
 MAX_TRAJECTORY_BYTES = 64 * 1024 * 1024
+#: longest demo path of a Monte-Carlo run (s; as ``manipdyn track``): its via-point
+#: spline is solved densely, at a cost that grows with the square of the duration
+MAX_DEMO_DURATION = 300.0
 #: largest controller bandwidth (rad/s): the gains grow with its square, and a loop
 #: this fast is far beyond any real arm's (it diverges at any practical step anyway)
 MAX_BANDWIDTH = 1e6
@@ -96,7 +99,11 @@ def check_count(value, where: str, what: str, name: str, cli: bool = False) -> N
     limit = globals()[name]
     if value > limit:
         how = f"manipdyn.limits.{name} = ..." + (f" ({CLI_RAISE.format(name=name)})" if cli else "")
-        raise ModelError(f"{where}: {what} is {value:g}, over the limit of {limit:g} "
+        try:
+            shown = f"{value:g}"
+        except OverflowError:               # an integer beyond the float range
+            shown = f"an integer of {len(str(value))} digits"
+        raise ModelError(f"{where}: {what} is {shown}, over the limit of {limit:g} "
                          f"(manipdyn.limits.{name}); to go beyond it, raise it: {how}")
 
 

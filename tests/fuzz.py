@@ -5,6 +5,9 @@ Run from the repository root::
     python -m tests.fuzz --cases 5000 --model-cases 2000        # the long run (minutes)
     python -m tests.fuzz --cases 200 --model-cases 100 --jobs 2  # what CI runs (tests/test_fuzz.py)
 
+The command line's option sets (excite, montecarlo) have their own generator and contract
+in tests/fuzz_cli.py, run by the same pool (:func:`run_pool`).
+
 Each case is one bundled file (``urdf/*.urdf`` or ``manipdyn/models/*.toml``)
 mutated by a few seeded operators: hostile numbers (non-ASCII digits, nan,
 1e400, 400-digit integers, trailing tabs, underflowing literals...), broken
@@ -491,8 +494,10 @@ def _named(outcome: str, exc: Exception, name: str, where: str) -> tuple[str, st
     return outcome, f"{where}: {msg:.200}"
 
 
-def _worker(conn, folder: str) -> None:
+def _worker(conn, folder: str, runner=None) -> None:
     import manipdyn  # noqa: F401  (imported once per worker)
+
+    runner = runner or run_case
 
     # urdfdom prints its own errors on file descriptor 2: keep the report readable
     devnull = os.open(os.devnull, os.O_WRONLY)
@@ -506,20 +511,20 @@ def _worker(conn, folder: str) -> None:
         if job is None:
             return
         kind, seed, index = job
-        conn.send(run_case(kind, seed, index, folder))
+        conn.send(runner(kind, seed, index, folder))
 
 
 # ---------------------------------------------------------------------------
 # The pool: one case at a time per worker, a timeout per case
 # ---------------------------------------------------------------------------
 class _Slot:
-    def __init__(self, ctx, folder):
-        self.ctx, self.folder = ctx, folder
+    def __init__(self, ctx, folder, runner=None):
+        self.ctx, self.folder, self.runner = ctx, folder, runner
         self.start()
 
     def start(self):
         self.conn, child = self.ctx.Pipe()
-        self.proc = self.ctx.Process(target=_worker, args=(child, self.folder), daemon=True)
+        self.proc = self.ctx.Process(target=_worker, args=(child, self.folder, self.runner), daemon=True)
         self.proc.start()
         child.close()
         self.job = None
@@ -543,17 +548,25 @@ def fuzz(n_urdf: int, n_model: int, seed: int = 0, jobs: int = 2, timeout: float
          progress=None, deadline: float | None = None) -> dict:
     """Run the cases; return ``{"counts": Counter, "failures": [(kind, index, outcome, detail)], ...}``."""
     jobs_list = [("urdf", seed, i) for i in range(n_urdf)] + [("model", seed, i) for i in range(n_model)]
+    return run_pool(jobs_list, ("urdf", "model"), seed, jobs, timeout, progress, deadline)
+
+
+def run_pool(jobs_list, kinds, seed: int, jobs: int = 2, timeout: float = 5.0, progress=None,
+             deadline: float | None = None, runner=None, passing=PASS) -> dict:
+    """Run ``(kind, seed, index)`` jobs in worker processes, each with a timeout:
+    ``runner(kind, seed, index, folder) -> (outcome, detail)`` (default :func:`run_case`);
+    an outcome not in ``passing`` is a failure, as are a hang and a crash."""
     todo = list(reversed(jobs_list))
     import manipdyn  # noqa: F401  (imported before forking: a restarted worker is ready at once)
     import pinocchio  # noqa: F401
     from lxml import etree  # noqa: F401
 
     ctx = mp.get_context("fork")
-    counts: dict[str, Counter] = {"urdf": Counter(), "model": Counter()}
+    counts: dict[str, Counter] = {k: Counter() for k in kinds}
     failures = []
     t_start = time.monotonic()
     with tempfile.TemporaryDirectory(prefix="manipdyn-fuzz-") as folder:
-        slots = [_Slot(ctx, folder) for _ in range(max(1, jobs))]
+        slots = [_Slot(ctx, folder, runner) for _ in range(max(1, jobs))]
         done = 0
         try:
             while todo or any(s.job for s in slots):
@@ -592,7 +605,7 @@ def fuzz(n_urdf: int, n_model: int, seed: int = 0, jobs: int = 2, timeout: float
                         continue
                     kind, sd, idx = s.job
                     counts[kind][outcome] += 1
-                    if outcome not in PASS:
+                    if outcome not in passing:
                         failures.append((kind, idx, outcome, detail))
                     s.job = None
                     done += 1

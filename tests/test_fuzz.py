@@ -53,3 +53,20 @@ def test_a_crash_and_a_hang_are_reported(monkeypatch):
     assert outcomes.get(1, "").startswith("CRASH (worker exit code 7)")
     assert outcomes.get(2, "").startswith("HANG")
     assert res["cases"] == 4
+
+
+def test_cli_option_sets_meet_the_contract():
+    """Issue 20: excite's and montecarlo's option sets, hostile values included, end in exit 0
+    with a checked result or exit 2 naming the option; never exit 3, a hang or a crash
+    (tests/fuzz_cli.py; the long run is ``python -m tests.fuzz_cli --cases 2000``)."""
+    from tests import fuzz_cli
+
+    a = [fuzz_cli.make_cli_case("montecarlo", 7, i) for i in range(30)]
+    assert a == [fuzz_cli.make_cli_case("montecarlo", 7, i) for i in range(30)] and len({tuple(x) for x in a}) >= 25
+    res = fuzz_cli.fuzz_cli(150, 150, seed=11, jobs=2, timeout=20.0)
+    assert res["cases"] == 300
+    failures = "\n".join(f"{k}:{i} {o}: {d[:300]}" for k, i, o, d in res["failures"])
+    assert not res["failures"], failures
+    for kind in ("excite", "montecarlo"):
+        c = res["counts"][kind]
+        assert c["refused (exit 2, the option named)"] > 0 and c["ran (exit 0, output checked)"] > 0, c

@@ -14,7 +14,7 @@ from ..control.plots import pyplot
 from ..errors import ModelError, TipError
 from ..loading import load_with_notes
 
-__all__ = ["check_plot_target", "check_output_file", "add_progress_options", "progress_wanted", "EXIT_OK", "EXIT_DISAGREE", "EXIT_USAGE", "EXIT_INTERNAL", "Progress", "output_folder",
+__all__ = ["check_plot_target", "check_output_file", "require_numbers", "add_progress_options", "progress_wanted", "EXIT_OK", "EXIT_DISAGREE", "EXIT_USAGE", "EXIT_INTERNAL", "Progress", "output_folder",
            "urdf_target", "usage_error", "load_arm", "load_all", "is_urdf", "TIP_HELP"]
 
 #: help of every ``--tip`` option
@@ -124,6 +124,15 @@ def add_progress_options(parser, what: str = "the progress bar") -> None:
 def progress_wanted(args) -> bool:
     """Whether to draw progress bars: ``--progress``, ``--no-progress``, or stderr is a terminal."""
     return args.progress if args.progress is not None else sys.stderr.isatty()
+
+
+def require_numbers(args, *names: str) -> None:
+    """Refuse an option whose value is not a number: argparse turns ``--opt=--`` into ``[]``
+    (it drops the ``--``), which no ``type=float`` sees."""
+    for name in names:
+        v = getattr(args, name)
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))):
+            raise ModelError(f"--{name.replace('_', '-')}: expected a number, got {v!r:.60}")
 
 
 def check_output_file(path: str, option: str) -> None:

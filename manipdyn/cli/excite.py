@@ -16,7 +16,8 @@ import sys
 from .. import limits
 from ..errors import ModelError
 from ..loading import load_with_notes
-from .common import EXIT_OK, Progress, add_progress_options, check_output_file, progress_wanted, usage_error
+from .common import (EXIT_OK, Progress, add_progress_options, check_output_file, progress_wanted,
+                     require_numbers, usage_error)
 
 __all__ = ["register", "run"]
 
@@ -51,9 +52,20 @@ def register(subparsers) -> None:
 
 
 
+#: largest --vmax / --amax: far beyond any arm (industrial joints turn under 10 rad/s), and
+#: below the range where the Fourier coefficients they scale overflow
+MAX_RATE_LIMIT = 1e6
+
+
 def check_options(args) -> None:
     """Every option checked, and ``-o`` writable, before the optimiser starts (it runs for
     minutes); a ModelError names the option and, for a cap, how to raise it."""
+    require_numbers(args, "iterations", "seed", "duration", "rate", "harmonics")
+    for name in ("vmax", "amax"):
+        if getattr(args, name) is not None and not all(isinstance(v, float) for v in getattr(args, name)):
+            raise ModelError(f"--{name}: expected numbers, got {getattr(args, name)!r:.60}")
+    if not isinstance(args.output, str):
+        raise ModelError(f"-o: expected a file path, got {args.output!r:.60}")
     if args.iterations < 0:
         raise ModelError(f"--iterations: expected >= 0, got {args.iterations}")
     if args.seed < 0:
@@ -74,8 +86,9 @@ def check_options(args) -> None:
                          f"{round(samples)} sample(s); expected at least 2")
     for name in ("vmax", "amax"):
         for v in getattr(args, name) or ():
-            if not (math.isfinite(v) and v > 0):
-                raise ModelError(f"--{name}: expected positive finite limits, got {v}")
+            if not (math.isfinite(v) and 0 < v <= MAX_RATE_LIMIT):
+                raise ModelError(f"--{name}: expected positive limits of at most {MAX_RATE_LIMIT:g} "
+                                 f"(rad/s, m/s, or per s^2), got {v}")
     check_output_file(args.output, "-o")
 
 

@@ -20,7 +20,8 @@ from ..errors import ModelError
 from ..montecarlo import DISTRIBUTIONS_HELP, Distributions, check_study_size, run as run_study, study
 from ..scale import check_scheduler
 from ..montecarlo.plot import plot_report
-from .common import EXIT_OK, TIP_HELP, Progress, add_progress_options, check_plot_target, load_arm, progress_wanted
+from .common import (EXIT_OK, TIP_HELP, Progress, add_progress_options, check_plot_target, load_arm,
+                     progress_wanted, require_numbers)
 
 __all__ = ["register", "run"]
 
@@ -34,6 +35,10 @@ def _finite(args, name: str, low: float, strict: bool = False) -> float:
 
 
 def run(args) -> int:
+    require_numbers(args, "runs", "seed", "workers", "chunk_size", "duration", "dt", "bandwidth", "tau_max",
+                    *(field for field, _, _ in _DISTRIBUTION_OPTIONS))
+    if not isinstance(args.controllers, str) or not isinstance(args.scheduler, (str, type(None))):
+        raise ModelError("--controllers, --scheduler: expected text")
     if args.runs < 1:
         raise ModelError(f"--runs: must be >= 1, got {args.runs}")
     if args.seed < 0:

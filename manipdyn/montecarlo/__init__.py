@@ -38,6 +38,10 @@ __all__ = ["study", "run", "Study", "StudyReport", "Distributions", "RunDraw", "
            "model_text", "check_study_size"]
 
 
+#: slowest controller bandwidth of a study, rad/s
+MIN_BANDWIDTH = 1e-3
+
+
 def check_study_size(runs, controllers: int, duration: float, dt: float, bandwidth: float,
                      cli: bool = False) -> None:
     """Refuse a study beyond :data:`manipdyn.limits.MAX_RUN_STEPS` (steps of one run),
@@ -47,16 +51,24 @@ def check_study_size(runs, controllers: int, duration: float, dt: float, bandwid
     import math
 
     from .. import limits
+    from ..errors import ModelError
 
     for name, v in (("duration", duration), ("dt", dt), ("bandwidth", bandwidth)):
         if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-            raise ValueError(f"{name}: expected a positive finite number, got {v!r}")
+            raise ModelError(f"{name}: expected a positive finite number, got {v!r}")
     o = "--" if cli else ""
-    steps = math.ceil(duration / dt - 1e-9)
+    limits.check_count(duration, f"{o}duration", "the demo path's duration (s)", "MAX_DEMO_DURATION", cli)
+    steps = duration / dt
+    if not math.isfinite(steps):
+        raise ModelError(f"{o}duration / {o}dt: {duration!r} s at {dt!r} s is not a finite number of steps")
+    steps = math.ceil(steps - 1e-9)
     limits.check_count(steps, f"{o}duration / {o}dt", "the number of steps of one run", "MAX_RUN_STEPS", cli)
     limits.check_count(runs * controllers * steps, f"{o}runs x {o}controllers x steps",
                        "the number of steps of the study", "MAX_STUDY_STEPS", cli)
     limits.check_count(bandwidth, f"{o}bandwidth", "the bandwidth (rad/s)", "MAX_BANDWIDTH", cli)
+    if bandwidth < MIN_BANDWIDTH:   # the gains (bandwidth^2 D_ii) underflow: no controller at all
+        raise ModelError(f"{o}bandwidth: expected at least {MIN_BANDWIDTH:g} rad/s (a loop slower than that "
+                         f"tracks nothing over a demo path), got {bandwidth!r}")
 
 
 def study(arm, runs: int, seed: int = 0, controllers=CONTROLLER_KEYS, duration: float = 2.0,

@@ -25,6 +25,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from .. import limits
 from ..limits import nonnegative
 
 __all__ = ["Distributions", "RunDraw", "draw", "run_rng", "DISTRIBUTIONS_HELP"]
@@ -73,6 +74,11 @@ class Distributions:
         for name in ("payload_mass", "link_scale", "friction_viscous", "friction_coulomb",
                      "q0_offset", "torque_noise"):
             object.__setattr__(self, name, nonnegative(getattr(self, name), name))
+        # beyond these no plant is an arm any more, and its numbers overflow float64
+        for name, limit in (("payload_mass", "MAX_MASS"), ("q0_offset", "MAX_ANGLE"),
+                            ("friction_viscous", "MAX_MAGNITUDE"), ("friction_coulomb", "MAX_MAGNITUDE"),
+                            ("torque_noise", "MAX_MAGNITUDE")):
+            limits.check_count(getattr(self, name), name, f"{name}", limit)
         if self.link_scale >= 1.0:
             raise ValueError(f"link_scale: must be < 1 (a factor 1 - link_scale must stay > 0), "
                              f"got {self.link_scale}")

@@ -12,6 +12,7 @@ no meaningful error distribution); the diverged ones are counted.
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 
@@ -82,7 +83,9 @@ class StudyReport:
                 "controllers": self.controllers, "per_run": self.per_run, "timing": self.timing}
 
     def to_json(self, indent: int | None = 2) -> str:
-        return json.dumps(self.to_dict(), indent=indent)
+        """Strict JSON: a non-finite number (a run that blew up) is written ``null``, never
+        ``Infinity`` or ``NaN``, which JSON does not have."""
+        return json.dumps(_finite_or_null(self.to_dict()), indent=indent, allow_nan=False)
 
     def table(self) -> str:
         from ..control.demo import CONTROLLERS
@@ -109,3 +112,14 @@ class StudyReport:
                 f"{t.get('workers', 1)} worker(s) ({t.get('scheduler', '')}); replay a run with "
                 f"study.replay(run, controller)")
         return f"{head}\n{self.table()}\n{foot}"
+
+
+def _finite_or_null(x):
+    """``x`` with every non-finite float replaced by None (recursively through dicts and lists)."""
+    if isinstance(x, dict):
+        return {k: _finite_or_null(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_finite_or_null(v) for v in x]
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
