@@ -19,7 +19,7 @@ __all__ = ["arm_with_parameters"]
 
 
 def arm_with_parameters(arm, pi, armature: bool = False, friction: bool = False,
-                        name: str | None = None, strict: bool = False):
+                        name: str | None = None, strict: bool = False, metadata=None):
     """A copy of the DH arm ``arm`` whose links carry the parameters ``pi``.
 
     Parameters
@@ -36,6 +36,8 @@ def arm_with_parameters(arm, pi, armature: bool = False, friction: bool = False,
         Name of the new arm (default: the prior's).
     strict : bool
         Passed to :class:`Manipulator` (a physically impossible link raises).
+    metadata : (source, sources, description), optional
+        The new arm's citation (:func:`.provenance.model_metadata`); default: the prior's.
 
     Raises :class:`ModelError` if a link's mass is negative (no file can hold
     that), naming the link.  A link whose identified mass is exactly 0 has no
@@ -75,6 +77,7 @@ def arm_with_parameters(arm, pi, armature: bool = False, friction: bool = False,
         if friction:
             kw["friction_viscous"], kw["friction_coulomb"] = float(fv[i]), float(fc[i])
         links.append(dataclasses.replace(l, **kw))
+    source, sources, description = metadata or (arm.source, arm.sources, arm.description)
     return Manipulator(links, convention=arm.convention, gravity=arm.gravity,
                        name=arm.name if name is None else name, strict=strict,
-                       source=arm.source, sources=arm.sources, description=arm.description)
+                       source=source, sources=sources, description=description)

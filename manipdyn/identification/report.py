@@ -27,7 +27,7 @@ def build_report(result, solver: str, samples: int, cov=None, min_eigenvalues=No
     return {
         "method": result.method,
         "n_base": int(b.count),
-        "condition_number": float(result.condition_number),
+        "condition_number": float(result.condition_number) if np.isfinite(result.condition_number) else None,
         "rms_residual": [float(x) for x in rms],
         "noise_sigma": [float(x) for x in result.sigma],
         "consistent": bool(result.consistent),
@@ -45,7 +45,8 @@ def format_report(rep: dict) -> str:
     """A readable summary of :func:`build_report`'s dict."""
     lines = [
         f"method {rep['method']} ({rep['solver']}), {rep['samples']} samples, "
-        f"{rep['n_base']} base parameters, condition number {rep['condition_number']:.4g}",
+        f"{rep['n_base']} base parameters, condition number "
+        f"{'infinite' if rep['condition_number'] is None else format(rep['condition_number'], '.4g')}",
         f"physically consistent (every J_i >= 0): {'yes' if rep['consistent'] else 'NO'}",
         "joint   rms residual   noise (OLS)",
     ]
