@@ -67,19 +67,14 @@ class TraceFormData(NamedTuple):
     armature : (n,)
         Reflected rotor inertias ``R_kk^2 Jm_k``, kg m^2 (kg for prismatic joints).
     friction : Friction or None
-        The friction law (:class:`manipdyn.drive.Friction`).
-    transmission : Transmission
-        Motors to joints (:class:`manipdyn.drive.Transmission`).
-    motor_inertia : (n,)
-        Rotor inertias ``Jm`` on the motor shafts (rotor inertia ``R^T diag(Jm) R``).
+        The friction law (:class:`manipdyn.drive.Friction`); the transmission and
+        the rotors' ``Jm`` are ``arm.transmission`` and ``arm.motor_inertia``.
     """
 
     kinematics: object
     J: np.ndarray
     armature: np.ndarray
     friction: object
-    transmission: object
-    motor_inertia: np.ndarray
 
 #: joint-limit defaults used when a link has no ``qlim``: revolute +-pi rad,
 #: prismatic +-1 m.  They bound the states the cross-check draws.
@@ -356,7 +351,7 @@ class Manipulator(Arm):
         """DH kinematics (eq. 2.3 or Craig's) and each link's J in its DH frame (eq. 2.21)."""
         kin = DHKinematics(self.links, self.convention)
         J = np.array([l.body.J for l in self.links])
-        return TraceFormData(kin, J, self.armature, self.friction_model, self.transmission, self.motor_inertia)
+        return TraceFormData(kin, J, self.armature, self.friction_model)
 
     @property
     def joint_names(self) -> tuple:
@@ -480,7 +475,7 @@ class URDFArm(Arm):
         """The chain's kinematics (any axes) and each body's J in its URDF link frame."""
         kin = ChainKinematics(self._joints, self._tool)
         J = np.array([j.body.J for j in self._joints])
-        return TraceFormData(kin, J, self.armature, self.friction_model, self.transmission, self.motor_inertia)
+        return TraceFormData(kin, J, self.armature, self.friction_model)
 
     # -- comparison and display -------------------------------------------------
     def __eq__(self, other):

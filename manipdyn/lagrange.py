@@ -480,9 +480,9 @@ class TraceFormEngine:
 
 def trace_form_engine(arm) -> TraceFormEngine:
     """The trace-form engine of ``arm`` (the factory behind ``arm.lagrange``)."""
-    kin, J, armature, friction, transmission, motor_inertia = arm.trace_form_data()
+    kin, J, armature, friction = arm.trace_form_data()
     # a DH arm's trace form runs in DH frames, its URDF (and regressor) in URDF link frames
     return TraceFormEngine(kin, J, arm.gravity, armature=armature, friction=friction,
-                           link_offsets=arm.urdf_link_offsets(), transmission=transmission,
-                           motor_inertia=motor_inertia)
+                           link_offsets=arm.urdf_link_offsets(), transmission=arm.transmission,
+                           motor_inertia=arm.motor_inertia)
 
