@@ -36,7 +36,7 @@ LAYERS = {
     2: ("manipdyn.inertia",),
     3: ("manipdyn.links", "manipdyn.arm", "manipdyn.parameters", "manipdyn.drive", "manipdyn.friction"),
     4: ("manipdyn.urdf_xml", "manipdyn.urdf_tree", "manipdyn.urdf_in", "manipdyn.urdf_out",
-        "manipdyn.modelfile", "manipdyn.loading", "manipdyn.io", "manipdyn.erd", "manipdyn.models",
+        "manipdyn.modelfile", "manipdyn.modelfile_drive", "manipdyn.loading", "manipdyn.io", "manipdyn.erd", "manipdyn.models",
         "manipdyn.scale"),
     5: ("manipdyn.engine", "manipdyn.lagrange", "manipdyn.trace_drive", "manipdyn.pinocchio_engine", "manipdyn.pinocchio_fast",
         "manipdyn.pinocchio_agree"),
