@@ -453,6 +453,7 @@ class URDFArm(Arm):
         self._qlim = np.array([j.qlim for j in joints], dtype=np.float64)
         self._qlim.setflags(write=False)
         n = len(joints)
+        self.custom_drive = transmission is not None or friction is not None  #: not from the URDF text
         self.motor_inertia = np.zeros(n)
         self.motor_inertia.setflags(write=False)
         G = np.ones(n) if transmission is None else np.diag(getattr(transmission, "R", np.eye(n)))
