@@ -227,7 +227,8 @@ class Transmission:
         ``Jm`` (n,) holds each motor's rotor inertia on its own shaft.
         """
         Jm = _vector(Jm, self.n, "transmission", "Jm")
-        return self.R.T @ (Jm[:, None] * self.R)
+        S = self.R.T @ (Jm[:, None] * self.R)
+        return 0.5 * (S + S.T)          # exactly symmetric (the two triangles round differently)
 
     # -- comparison ----------------------------------------------------------------
     def __eq__(self, other):
@@ -275,8 +276,8 @@ def arm_drive(n: int, gear_ratio, motor_inertia, viscous, coulomb, transmission=
     bad = np.flatnonzero(np.diag(transmission.R) != G)
     if bad.size:
         k = int(bad[0])
-        raise ModelError(f"{where}: the transmission's R[{k + 1}, {k + 1}] = {transmission.R[k, k]!r} but joint "
-                         f"{k + 1}'s gear_ratio is {G[k]!r}; the diagonal of R is the links' gear ratios "
+        raise ModelError(f"{where}: the transmission's R[{k + 1}, {k + 1}] = {float(transmission.R[k, k])!r} but joint "
+                         f"{k + 1}'s gear_ratio is {float(G[k])!r}; the diagonal of R is the links' gear ratios "
                          "(use Transmission.from_gear_ratios([link.gear_ratio ...], coupling=...))")
     if friction is None:
         if np.any(links_friction):

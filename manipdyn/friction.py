@@ -93,6 +93,11 @@ def _array(value, n, where, field, nonnegative=False, positive=False):
     return a
 
 
+def _logistic(x):
+    """``1 / (1 + exp(-x))`` without overflow for large ``|x|``."""
+    return np.exp(-np.logaddexp(0.0, -x))
+
+
 def _scalar(value, where, field, positive=False):
     if isinstance(value, bool):
         raise ModelError(f"{where}: '{field}' must be a number, got {value!r}")
@@ -242,7 +247,7 @@ class Friction:
             return [np.exp(-np.abs(v / self.stribeck_velocity) ** self.stribeck_exponent) * self._sign(v)]
         if term == "sigmoid":
             a, p3 = self.sigmoid_alpha, self.sigmoid_p3
-            return [1.0 / (1.0 + np.exp(-a * (v + p3))) - 1.0 / (1.0 + np.exp(-a * p3))]
+            return [_logistic(a * (v + p3)) - _logistic(a * p3)]
         return [np.ones_like(v)]                                              # offset
 
     def _values(self, term) -> list:
@@ -313,7 +318,7 @@ class Friction:
                 dex = np.where(v == 0, 0.0, -e * x ** (e - 1) * np.sign(v) / vs * ex)
             d = d + self.stribeck_level * (dex * self._sign(v) + ex * ds)
         if self.sigmoid_A is not None:
-            s = 1.0 / (1.0 + np.exp(-self.sigmoid_alpha * (v + self.sigmoid_p3)))
+            s = _logistic(self.sigmoid_alpha * (v + self.sigmoid_p3))
             d = d + self.sigmoid_A * self.sigmoid_alpha * s * (1.0 - s)
         out = d[..., :, None] * np.eye(self.n)
         return out if R is None else R.T @ out @ R
