@@ -128,7 +128,9 @@ class UncheckedView:
     Attributes: ``mass_matrix(q)``, ``coriolis_torque(q, qd)``,
     ``gravity_torque(q)``, ``inverse_dynamics(q, qd, qdd)``,
     ``forward_dynamics(q, qd, tau)``, with the engine's friction applied as
-    in the checked path.
+    in the checked path.  With drive extras (coupled rotors or a friction law
+    beyond the links' kind, ``engine.drive_extras``) the dynamics calls are the
+    checked ones.
     """
 
     def __init__(self, eng):
