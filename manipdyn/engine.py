@@ -36,7 +36,7 @@ class DynamicsEngine(Protocol):
     n: int
 
     def mass_matrix(self, q) -> np.ndarray:
-        """D(q): (n, n) or (N, n, n), kg m^2, symmetric positive definite (armature included)."""
+        """D(q): (n, n) or (N, n, n), kg m^2, symmetric positive definite (rotors ``R^T diag(Jm) R`` included)."""
         ...
 
     def coriolis_torque(self, q, qd) -> np.ndarray:
@@ -48,7 +48,8 @@ class DynamicsEngine(Protocol):
         ...
 
     def friction_torque(self, qd) -> np.ndarray:
-        """Viscous plus Coulomb friction ``Fv qd + Fc sign(qd)``: (n,) or (N, n), N m."""
+        """The friction law at the joints (``Fv qd + Fc sign(qd)`` for the links' kind;
+        :class:`manipdyn.drive.Friction`, motor side mapped by ``R^T``): (n,) or (N, n), N m."""
         ...
 
     def dynamics_terms(self, q, qd) -> tuple:

@@ -155,6 +155,9 @@ def model_text(arm) -> tuple:
     if text is None:
         raise ModelError(f"cannot send {type(arm).__name__} {arm.name!r} to workers "
                          "as text (expected a DH arm or a URDF arm)")
+    if getattr(arm, "custom_drive", False):
+        raise ModelError(f"cannot send URDF arm {arm.name!r} to workers as text: its transmission or friction "
+                         "law is not in the URDF (run it here, scheduler=None)")
     return ("urdf", text, arm.tip, arm.name, tuple(float(g) for g in arm.gravity))
 
 

@@ -7,6 +7,7 @@ the ways converters have been known to go wrong, and asserts that
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -157,3 +158,58 @@ def test_pinocchio_regressor_with_swapped_products_of_inertia_is_caught():
     report = md.crosscheck(arm, samples=SAMPLES)
     assert not report["Y"].ok
     assert report["tau"].ok
+
+
+# -- drives: a planted bug in the coupled rotor inertia or the motor-side friction -----
+
+def _coupled_arm():
+    from manipdyn.drive import Friction, Transmission
+
+    base = _arm()
+    links = [dataclasses.replace(l, motor_inertia=1e-4 * (i + 1), gear_ratio=(-1) ** i * (20.0 + 10 * i))
+             for i, l in enumerate(base.links)]
+    tr = Transmission.from_gear_ratios([l.gear_ratio for l in links], coupling=[[4, 3, 15.0], [2, 1, -8.0]])
+    law = Friction(viscous=[1e-3] * 4, coulomb_pos=[0.02] * 4, coulomb_neg=[0.03] * 4, side="motor", smoothing=0.2)
+    return md.Manipulator(links, "standard", transmission=tr, friction=law, name="coupled mutant")
+
+
+def _with_pinocchio(arm, **kw):
+    from manipdyn.pinocchio_engine import model_for_arm
+
+    args = dict(friction=arm.friction_model, transmission=arm.transmission, tool_frame="tool",
+                rotor_coupling=arm.rotor_inertia - np.diag(np.diag(arm.rotor_inertia)))
+    args.update(kw)
+    arm.set_engine("pinocchio", PinocchioEngine(model_for_arm(arm), **args))
+    return arm
+
+
+def test_clean_coupled_drive_passes():
+    arm = _with_pinocchio(_coupled_arm())
+    assert md.crosscheck(arm, samples=SAMPLES).ok
+
+
+def test_forgotten_rotor_coupling_is_caught():
+    """Only Pinocchio's diagonal model.armature: the off-diagonal rotor inertia is lost."""
+    report = md.crosscheck(_with_pinocchio(_coupled_arm(), rotor_coupling=None), samples=SAMPLES)
+    assert not report["D"].ok and not report["tau"].ok and not report["K"].ok
+    assert report["g"].ok and report["h"].ok
+
+
+def test_rotor_inertia_as_r_jm_rt_is_caught():
+    """R diag(Jm) R^T instead of R^T diag(Jm) R (the transpose slip)."""
+    arm = _coupled_arm()
+    R, Jm = arm.transmission.R, arm.motor_inertia
+    wrong = R @ np.diag(Jm) @ R.T
+    wrong = 0.5 * (wrong + wrong.T)          # exactly symmetric, as the engine requires
+    report = md.crosscheck(_with_pinocchio(arm, rotor_coupling=wrong - np.diag(np.diag(wrong))), samples=SAMPLES)
+    assert not report["D"].ok and not report["tau"].ok
+
+
+def test_motor_side_friction_mapped_by_r_instead_of_rt_is_caught():
+    """The law evaluated at R^T qd and mapped back by R: friction torques wrong, inertia right."""
+    from manipdyn.drive import Transmission
+
+    arm = _coupled_arm()
+    report = md.crosscheck(_with_pinocchio(arm, transmission=Transmission(arm.transmission.R.T)), samples=SAMPLES)
+    assert not report["tau"].ok
+    assert report["D"].ok and report["h"].ok and report["g"].ok
