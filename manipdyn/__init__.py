@@ -24,6 +24,8 @@ from .errors import (ModelError, ModelNoteWarning, PhysicalConsistencyWarning, S
 from .inertia import LinkInertia
 from .kinematics import transform_inverse
 from .links import ChainJoint, DHLink
+from .drive import Transmission
+from .friction import Friction, FrictionTerms
 from .arm import Arm, Convention, Manipulator, URDFArm
 from .loading import load, load_with_notes, models
 from .io import save, to_toml, to_urdf, write_urdf
@@ -58,7 +60,7 @@ def __getattr__(name):
 
 __version__ = "0.1.0"
 
-__all__ = [
+__all__ = ["Transmission", "Friction", "FrictionTerms", 
     "Arm", "ChainJoint", "Convention", "CompareReport", "CrosscheckReport", "DHLink", "DynamicsEngine",
     "LinkInertia", "Manipulator", "ModelError", "ModelNoteWarning", "PhysicalConsistencyWarning", "SingularMassMatrixError",
     "StateError", "SuspiciousValueWarning", "URDFArm", "compare", "crosscheck", "load", "load_with_notes", "models", "save",

@@ -17,13 +17,13 @@ import os
 import sys
 
 from ..errors import MissingExtraError, ModelError, SingularMassMatrixError, StateError
-from . import bench, check, compare, excite, identify, models, montecarlo, track, urdf
+from . import bench, check, compare, excite, identify, models, montecarlo, track, urdf, validate
 from .common import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
 #: the subcommands, in the order ``manipdyn --help`` lists them
-COMMANDS = (check, urdf, models, compare, track, montecarlo, excite, identify, bench)
+COMMANDS = (check, urdf, models, compare, track, montecarlo, excite, identify, validate, bench)
 
 
 def build_parser() -> argparse.ArgumentParser:

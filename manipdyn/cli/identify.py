@@ -53,6 +53,14 @@ def register(subparsers) -> None:
     p.add_argument("--method", choices=METHODS, default="consistent",
                    help="ols, wls (weighted by per-joint noise), consistent (J_i >= 0; default)")
     p.add_argument("--friction", action="store_true", help="identify viscous and Coulomb friction")
+    p.add_argument("--friction-terms", metavar="T1,T2", default=None,
+                   help="identify these friction terms instead: some of viscous, coulomb, asymmetric "
+                        "(separate + and - Coulomb levels), offset (constant torque per joint)")
+    p.add_argument("--friction-side", choices=("joint", "motor"), default="joint",
+                   help="with --friction-terms: the law acts on the joint or the motor velocities")
+    p.add_argument("--smoothing", type=float, default=None, metavar="V",
+                   help="with --friction-terms: Coulomb sign smoothed as tanh(v / V) (default 0.01 rad/s; "
+                        "0 = sharp sign)")
     p.add_argument("--armature", action="store_true", help="identify armature (reflected rotor inertia)")
     p.add_argument("--mass-bound", type=float, default=None, metavar="F",
                    help="consistent: each link's mass within +-F (fraction) of the prior's (default 0.5)")
@@ -99,8 +107,25 @@ def _bounds(args, arm):
         total=PLAUSIBLE_TOTAL if args.total_mass_bound is None else args.total_mass_bound)
 
 
+def _friction(args):
+    """``--friction`` (True) or a FrictionTerms from ``--friction-terms``/``--friction-side``/``--smoothing``."""
+    from ..friction import DEFAULT_SMOOTHING, FrictionTerms
+
+    if args.friction_terms is None:
+        if args.smoothing is not None or args.friction_side != "joint":
+            raise ModelError("--smoothing/--friction-side: only with --friction-terms")
+        return bool(args.friction)
+    if args.friction:
+        raise ModelError("--friction-terms: give either --friction (viscous + sharp Coulomb) or --friction-terms")
+    v = DEFAULT_SMOOTHING if args.smoothing is None else args.smoothing
+    if not 0 <= v < float("inf"):
+        raise ModelError(f"--smoothing: expected a finite velocity >= 0, got {v}")
+    terms = tuple(t.strip() for t in args.friction_terms.split(",") if t.strip())
+    return FrictionTerms(terms, side=args.friction_side, smoothing=v)
+
+
 def _options(args) -> dict:
-    keys = ("method", "friction", "armature", "mass_bound", "com_bound", "total_mass_bound", "no_bounds",
+    keys = ("method", "friction", "friction_terms", "friction_side", "smoothing", "armature", "mass_bound", "com_bound", "total_mass_bound", "no_bounds",
             "prior_weight", "cutoff")
     return {k: getattr(args, k) for k in keys if getattr(args, k, None) not in (None, False)}
 
@@ -124,6 +149,7 @@ def run(args) -> int:
             raise ModelError(f"MODEL {args.model}: identify writes a DH model; give a bundled model "
                              "name or a .toml model file as the prior, or -o OUT.json for a base model")
         bounds = _bounds(args, arm)
+        friction = _friction(args)
         data = read_measurements(args.data, arm.n, cutoff=args.cutoff)
         name = os.path.splitext(os.path.basename(out))[0] or arm.name
         if name.endswith(".base"):
@@ -131,14 +157,14 @@ def run(args) -> int:
         opts = _options(args)
         # the provenance's residuals are only known after the fit: fit once, then attach them
         result = fit(arm, data.q, data.qd, data.qdd, data.tau, method=args.method,
-                     friction=args.friction, armature=args.armature, bounds=bounds, name=name,
+                     friction=friction, armature=args.armature, bounds=bounds, name=name,
                      prior_weight=args.prior_weight)
         prov = provenance(args.data, args.method, opts, args.model, result.report["rms_residual"])
         if result.arm is not None:
             from ..identification.model import arm_with_parameters
 
             result.arm = arm_with_parameters(arm, result.parameters, armature=args.armature,
-                                             friction=args.friction, name=name,
+                                             friction=friction, name=name,
                                              metadata=model_metadata(prov))
     except ModelError as exc:
         return usage_error("identify", str(exc))

@@ -35,7 +35,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..inertia import pseudo_inertia_from_parameters
-from ..parameters import arm_parameters
+from ..parameters import arm_parameters, parameter_count, parameter_names
 from .model import arm_with_parameters
 from .base import BaseParameters, base_parameters
 from .sdp import Bounds, consistent_fit
@@ -110,13 +110,18 @@ class FitResult:
 
 
 def _known_torque(prior, qd, qdd, armature, friction):
-    """Prior torques outside the fitted parameters (armature, friction), (..., n)."""
+    """Prior torques outside the fitted parameters (rotor inertia, friction), (..., n)."""
     out = np.zeros(np.shape(qd))
     if not armature:
-        out = out + np.asarray(prior.armature) * qdd
-    if not friction and prior.friction is not None:
+        out = out + np.asarray(qdd) @ np.asarray(prior.rotor_inertia)   # R^T diag(Jm) R, symmetric
+    if (friction is False or friction is None) and prior.friction_model is not None:
         out = out + prior.lagrange.friction_torque(qd)
     return out
+
+
+def _nonnegative(names, n: int):
+    """Which extra parameters (after the 10 n link ones) are constrained >= 0: all but offsets."""
+    return np.array([not nm.endswith(".offset") for nm in names[10 * n:]], dtype=bool)
 
 
 def _reduce(A, y):
@@ -173,8 +178,16 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     q, qd, qdd, tau : (N, n)
         Joint positions, velocities, accelerations and torques (SI).
     method : "ols" | "wls" | "consistent"
-    friction, armature : bool
-        Identify viscous and Coulomb friction, and armature.
+    friction : bool or friction spec
+        ``True``: viscous and Coulomb friction (sharp sign, joint side); or which friction
+        terms to identify, as the regressor's ``friction=`` takes them
+        (:func:`manipdyn.friction.friction_spec`): term names such as
+        ``("viscous", "coulomb", "offset")``, a :class:`manipdyn.FrictionTerms` (side,
+        smoothing ``tanh(v / v_s)``), or a :class:`manipdyn.Friction` whose nonlinear
+        shapes (Stribeck, sigmoid) are held fixed.  In ``consistent`` every coefficient is
+        constrained >= 0 except the offsets.
+    armature : bool
+        Identify the motors' reflected rotor inertias.
     bounds : Bounds, "plausible" or None
         Extra constraints of ``consistent`` (mass ranges, COM boxes, total mass).  The
         default ``"plausible"`` is :meth:`Bounds.plausible` around the prior (each link's
@@ -212,8 +225,8 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     q, qd, qdd, tau = _check(q, qd, qdd, tau, n)
     if base is None:
         base = base_parameters(arm, armature=armature, friction=friction)
-    elif (base.armature, base.friction) != (bool(armature), bool(friction)):
-        raise ModelError("base: computed with other armature/friction flags than this fit")
+    elif base.names != parameter_names(n, armature, friction):
+        raise ModelError("base: computed with other armature/friction columns (or another arm) than this fit")
     N, r = len(q), base.count
     if N * n < r:
         raise ModelError(f"data: {N} samples give {N * n} equations for {r} base parameters")
@@ -234,7 +247,11 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     # on exact data, where every sigma_j would otherwise be ~1e-12 and arbitrary
     floor = 1e-6 * max(float(np.sqrt(np.mean(y**2, axis=0)).max()), 1e-300)
     sigma = np.maximum(sigma, floor)
-    prior = arm_parameters(arm, armature, friction)
+    try:
+        prior = arm_parameters(arm, armature, friction)
+    except ModelError:   # the prior's friction law is not of the asked-for kind: start from none
+        prior = np.concatenate([arm_parameters(arm, armature, False),
+                                np.zeros(len(base.names) - parameter_count(n, armature, False))])
 
     cov = None
     if method == "ols":
@@ -253,8 +270,8 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
             except np.linalg.LinAlgError:
                 cov = None
         else:
-            pi, solver = consistent_fit(R, c, base.K, n, prior, extra=bool(armature or friction),
-                                        bounds=bounds, prior_weight=float(prior_weight), rows=N * n)
+            pi, solver = consistent_fit(R, c, base.K, n, prior, extra=len(base.names) > 10 * n,
+                                        bounds=bounds, nonnegative=_nonnegative(base.names, n), prior_weight=float(prior_weight), rows=N * n)
             beta = base.from_full(pi)
     residuals = y - Yb @ beta
     eig = link_min_eigenvalues(pi, n)
