@@ -42,7 +42,7 @@ LAYERS = {
         "manipdyn.pinocchio_derivatives", "manipdyn.pinocchio_agree"),
     6: ("manipdyn.check",),
     7: ("manipdyn.comparison", "manipdyn.compare", "manipdyn.control", "manipdyn.identification",
-        "manipdyn.montecarlo", "manipdyn.random_arms"),
+        "manipdyn.montecarlo", "manipdyn.random_arms", "manipdyn.linearize"),
     8: ("manipdyn.cli", "manipdyn.__main__", "manipdyn"),
     9: ("benchmarks",),
 }
