@@ -43,22 +43,42 @@ _aba_d = pin.computeABADerivatives
 _grav_d = pin.computeGeneralizedGravityDerivatives
 
 
-def _plain(*xs) -> bool:
-    """True for plain 1-D native-float64 ndarrays (the shortcut's only inputs)."""
-    for x in xs:
-        if type(x) is not _ND or x.dtype is not _F64 or x.ndim != 1:
+#: the shortcut takes states whose entries are all below this in magnitude: with
+#: the model's numbers capped (:mod:`manipdyn.limits`: lengths 1e4 m, masses and
+#: inertias 1e9, gravity 1e4, at most 100 joints), the derivatives are polynomials
+#: of degree <= 3 in such entries (times sines and cosines) and stay far below
+#: float64's 1e308, so a finite input gives a finite answer and the answer need not
+#: be read again (reading 2 n^2 numbers would cost more than the checks it saves)
+_SHORTCUT_BOUND = 1e50
+
+
+def _plain(q, qd=None, x=None) -> bool:
+    """True for plain 1-D native-float64 ndarrays, finite and within :data:`_SHORTCUT_BOUND`.
+
+    Anything else (lists, other dtypes or byte orders, subclasses, batches,
+    NaN, inf, huge values) takes the general path, which converts or refuses
+    it and names the argument.  A NaN makes the sum NaN; an inf makes the
+    sum, the max or the min fail the bounds.
+    """
+    if type(q) is not _ND or q.dtype is not _F64 or q.ndim != 1:
+        return False
+    v = q.tolist()
+    if qd is not None:
+        if (type(qd) is not _ND or type(x) is not _ND or qd.dtype is not _F64 or x.dtype is not _F64
+                or qd.ndim != 1 or x.ndim != 1):
             return False
-    return True
+        v += qd.tolist() + x.tolist()
+    return _isfinite(sum(v)) and -_SHORTCUT_BOUND < min(v) and max(v) < _SHORTCUT_BOUND
 
 
 class PinocchioDerivatives:
     """Derivatives of the Pinocchio engine's dynamics (a base of ``PinocchioEngine``).
 
-    Single states take a shortcut: a plain ``(n,)`` native-float64 ndarray
-    goes straight to Pinocchio and the answer is copied; it is returned when
-    its entries sum to a finite number (a NaN or inf in the inputs reaches the
-    derivatives), and anything else goes down the general path, which
-    validates every argument and names the offending one.  Batches are a loop
+    Single states take a shortcut: plain ``(n,)`` native-float64 ndarrays
+    with finite entries of moderate size (:func:`_plain`) go straight to
+    Pinocchio and the answer is copied; a wrong length makes Pinocchio raise,
+    and that, like anything else, goes down the general path, which validates
+    every argument and names the offending one.  Batches are a loop
     over states on the engine's own ``data``.
     """
 
@@ -93,10 +113,9 @@ class PinocchioDerivatives:
             try:
                 r = _rnea_d(m, d, q, qd, qdd)
                 dq, dv = r[0].copy(), r[1].copy()
-                if _isfinite(_add(dq, None) + _add(dv, None)):
-                    if self.friction is not None:
-                        dv += self._friction_jacobian(qd)
-                    return dq, dv
+                if self.friction is not None:
+                    dv += self._friction_jacobian(qd)
+                return dq, dv
             except (TypeError, ValueError, RuntimeError):
                 pass
         q, qd, qdd = (as_state(x, nm, self.n) for x, nm in ((q, "q"), (qd, "qd"), (qdd, "qdd")))
@@ -127,7 +146,8 @@ class PinocchioDerivatives:
             try:
                 r = _aba_d(m, d, q, qd, tau if fr is None else tau - (fr[0] * qd + fr[1] * np.sign(qd)))
                 a, b, c = r[0].copy(), r[1].copy(), r[2].copy()
-                if _isfinite(_add(a, None) + _add(b, None) + _add(c, None)):
+                # a singular D gives a non-finite Minv: the general path then explains
+                if _isfinite(sum(c.ravel().tolist())):
                     if fr is not None:
                         b -= c @ self._friction_jacobian(qd)
                     return a, b, c
@@ -159,9 +179,7 @@ class PinocchioDerivatives:
         m, d = self.model, self.data
         if _plain(q):
             try:
-                G = _grav_d(m, d, q).copy()
-                if _isfinite(_add(G, None)):
-                    return G
+                return _grav_d(m, d, q).copy()
             except (TypeError, ValueError, RuntimeError):
                 pass
         q = as_state(q, "q", self.n)

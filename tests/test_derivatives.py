@@ -260,3 +260,36 @@ def test_pinocchio_answers_are_not_views_of_its_data():
     P.forward_dynamics_derivatives(q + 1, qd, qdd)
     for x, k in zip(first, kept):
         np.testing.assert_array_equal(x, k)
+
+
+def test_singular_mass_matrix_is_named(tmp_path):
+    """A joint that moves no mass: forward-dynamics derivatives are undefined, and say so."""
+    from test_cli import NOMASS
+
+    path = tmp_path / "nomass.urdf"
+    path.write_text(NOMASS)
+    with pytest.warns(md.PhysicalConsistencyWarning, match="moves no mass"):
+        arm = md.load(str(path))
+    for eng in (arm.pinocchio, arm.lagrange):
+        for args in ((np.zeros(2), np.zeros(2), np.ones(2)), (np.zeros((3, 2)), np.zeros((3, 2)), np.ones((3, 2)))):
+            with pytest.raises(md.SingularMassMatrixError, match=r"joint\(s\) \[2\] move no mass"):
+                eng.forward_dynamics_derivatives(*args)
+        with pytest.raises(md.SingularMassMatrixError):
+            arm.linearize(np.zeros(2), np.zeros(2), np.ones(2), engine=eng.name)
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, 1e200])
+def test_pinocchio_shortcut_refuses_non_finite_and_huge_states(bad):
+    """NaN and inf are named (general path); a huge finite state is answered by the general path."""
+    arm = md.load("ur5")
+    q = np.zeros(6)
+    x = q.copy()
+    x[3] = bad
+    if np.isfinite(bad):
+        with pytest.raises(md.StateError, match="dtau|inverse_dynamics_derivatives|overflow|finite"):
+            arm.pinocchio.inverse_dynamics_derivatives(q, x, q)
+    else:
+        with pytest.raises(md.StateError, match="qd"):
+            arm.pinocchio.inverse_dynamics_derivatives(q, x, q)
+        with pytest.raises(md.StateError, match="q"):
+            arm.pinocchio.gravity_derivative(x)
