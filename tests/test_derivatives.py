@@ -293,3 +293,12 @@ def test_pinocchio_shortcut_refuses_non_finite_and_huge_states(bad):
             arm.pinocchio.inverse_dynamics_derivatives(q, x, q)
         with pytest.raises(md.StateError, match="q"):
             arm.pinocchio.gravity_derivative(x)
+
+
+def test_manipdyn_check_reports_the_derivatives(capsys):
+    from manipdyn.cli import main
+
+    assert main(["check", "ur5", "--samples", "5", "--timing-calls", "2"]) == 0
+    out = capsys.readouterr().out
+    for key in ("dtau_dq", "dtau_dqd", "dqdd_dq", "dqdd_dqd", "dg_dq"):
+        assert f"\n{key} " in out, key
