@@ -33,6 +33,7 @@ from .engine import DynamicsEngine
 from .arm import register_engine
 from .lagrange import trace_form_engine
 from .check import CrosscheckReport, crosscheck
+from .linearize import linearize  # also arm.linearize (registered as a service)
 # ``compare`` is the function; the package of the same name is manipdyn/compare/
 # (binding the name here, after the import, makes md.compare the function)
 from .compare import CompareReport, compare
@@ -63,7 +64,7 @@ __version__ = "0.1.0"
 __all__ = ["Transmission", "Friction", "FrictionTerms", 
     "Arm", "ChainJoint", "Convention", "CompareReport", "CrosscheckReport", "DHLink", "DynamicsEngine",
     "LinkInertia", "Manipulator", "ModelError", "ModelNoteWarning", "PhysicalConsistencyWarning", "SingularMassMatrixError",
-    "StateError", "SuspiciousValueWarning", "URDFArm", "compare", "crosscheck", "load", "load_with_notes", "models", "save",
+    "StateError", "SuspiciousValueWarning", "URDFArm", "compare", "crosscheck", "linearize", "load", "load_with_notes", "models", "save",
     "simulate", "to_toml", "to_urdf", "transform_inverse", "write_urdf",
 ]
 

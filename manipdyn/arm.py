@@ -215,6 +215,7 @@ class Arm:
         """qdd solving D qdd = tau - h - g (- friction), (n,) or (N, n): Pinocchio's ABA."""
         eng = self._engines.get("pinocchio") or self.engine("pinocchio")
         return eng.forward_dynamics(q, qd, tau)
+    def linearize(self, q, qd, tau, dt=None, engine="pinocchio"): return _SERVICES["linearize"](self, q, qd, tau, dt, engine)
 
     # -- kinematics ---------------------------------------------------------
     def link_poses(self, q) -> np.ndarray:

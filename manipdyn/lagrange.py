@@ -23,6 +23,7 @@ import numpy as np
 from ._state import as_state, check_result, same_batch
 from .errors import ModelError, SingularMassMatrixError
 from .kinematics import transform_inverse
+from .lagrange_derivatives import TraceFormDerivatives
 from .parameters import PARAMETER_BASIS, with_extra_columns
 from .trace_drive import coupled_rotor_inertia, friction_torque
 
@@ -46,7 +47,7 @@ def _link_sum(S: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 _isfinite = math.isfinite
 
-class TraceFormEngine:
+class TraceFormEngine(TraceFormDerivatives):  # derivatives: manipdyn.lagrange_derivatives
     """Trace-form Lagrange-Euler dynamics of one arm.
 
     Built by :class:`manipdyn.Manipulator`; reach it as ``arm.lagrange``.

@@ -33,6 +33,7 @@ from .errors import ModelError, SingularMassMatrixError
 from .parameters import with_extra_columns
 from .pinocchio_agree import check_same_arm
 from .pinocchio_fast import UncheckedView, install_fast_path
+from .pinocchio_derivatives import PinocchioDerivatives
 from .urdf_out import TOOL_LINK, arm_to_urdf
 
 _isfinite = math.isfinite
@@ -97,7 +98,7 @@ def _threads() -> int:
     return max(1, min(len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1), 8))
 
 
-class PinocchioEngine:
+class PinocchioEngine(PinocchioDerivatives):  # derivatives: manipdyn.pinocchio_derivatives
     """Pinocchio dynamics with the same methods and shapes as ``arm.lagrange``.
 
     Parameters
