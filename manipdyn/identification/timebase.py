@@ -15,7 +15,8 @@ need uniform samples, so :func:`uniform_samples`
    stamp, the one closest to when the sample was taken.  Noiseless
    synthetic data at rest repeats rows too: dropping them is harmless there
    (the interpolation below bridges the dropped rows with the same values);
-3. finds *gaps*: steps over 1.5 times the median step;
+3. finds *gaps*: steps over 1.5 times the median step (the median of the
+   steps that are not gaps is the step of the grid);
 4. checks that the median rate is plausible for a joint log (2 Hz to
    100 kHz), which catches ``t`` in milliseconds or nanoseconds;
 5. resamples onto a uniform grid at the median rate (or at ``resample`` Hz)
@@ -113,13 +114,13 @@ def uniform_samples(t, values, rows, where: str, *, rate=None, resample=None):
     back = np.flatnonzero(step < 0)
     if back.size:
         k = int(back[0]) + 1
-        raise ModelError(f"{where}: column 't' must increase: row {rows[k]} (t = {t[k]!r}) goes back from "
-                         f"row {rows[k - 1]} (t = {t[k - 1]!r})")
+        raise ModelError(f"{where}: column 't' must increase: row {rows[k]} (t = {float(t[k])!r}) goes back from "
+                         f"row {rows[k - 1]} (t = {float(t[k - 1])!r})")
     same = np.all(values[1:] == values[:-1], axis=1)
     clash = np.flatnonzero((step == 0) & ~same)
     if clash.size:
         k = int(clash[0]) + 1
-        raise ModelError(f"{where}: column 't' must increase: row {rows[k]} repeats the time {t[k]!r} of row "
+        raise ModelError(f"{where}: column 't' must increase: row {rows[k]} repeats the time {float(t[k])!r} of row "
                          f"{rows[k - 1]} with different values")
     if same.any():
         keep = np.concatenate([[True], ~same])
@@ -133,6 +134,8 @@ def uniform_samples(t, values, rows, where: str, *, rate=None, resample=None):
     h = float(np.median(step))
     if h <= 0:
         raise ModelError(f"{where}: column 't' must increase: more than half of its steps are 0")
+    regular = step[(step > 0.5 * h) & (step < GAP_FACTOR * h)]
+    h = float(np.median(regular))        # without the gaps, which would bias the median up
     native = 1.0 / h
     _check_rate(native, where, f"column 't' has a median step of {h:.6g} s, which")
     gaps = step > GAP_FACTOR * h
