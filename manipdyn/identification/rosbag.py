@@ -113,7 +113,7 @@ def read_joint_states(path, joint_names, topic: str | None = None):
         reader.open()
     except Exception as exc:            # rosbags raises its own classes per format
         raise ModelError(f"{where}: not a readable ROS bag: {exc}") from None
-    with reader:
+    try:
         states = [c for c in reader.connections if c.msgtype == JOINT_STATE]
         if not states:
             found = sorted({f"{c.topic} ({c.msgtype})" for c in reader.connections})
@@ -148,6 +148,8 @@ def read_joint_states(path, joint_names, topic: str | None = None):
                       else None)
             stamps.append(int(msg.header.stamp.sec) * 10**9 + int(msg.header.stamp.nanosec))
             logged.append(int(t_log))
+    finally:
+        reader.close()
     if not qs:
         missing = [nm for nm in names if nm not in seen]
         raise ModelError(f"{where}: topic {topic}: no message has position and effort for all of the joints "
