@@ -19,7 +19,7 @@ from .errors import ModelError
 
 __all__ = ["MAX_FILE_BYTES", "MAX_MODEL_FILE_BYTES", "MAX_LINKS", "MAX_JOINTS", "MAX_FIXED_RUN",
            "MAX_NAME_LENGTH", "MAX_LENGTH", "MAX_ANGLE", "MAX_GRAVITY", "MAX_MASS", "MAX_INERTIA",
-           "MAX_MAGNITUDE", "over_limit", "check_magnitude", "check_range", "open_regular"]
+           "MAX_MAGNITUDE", "MAX_DATA_BYTES", "MAX_DATA_FIELD_BYTES", "over_limit", "check_magnitude", "check_range", "open_regular"]
 
 #: largest URDF or model file read, bytes (16 MiB; real ones are under 1 MiB)
 MAX_FILE_BYTES = 16 * 1024 * 1024
@@ -54,6 +54,14 @@ MAX_NAME_LENGTH = 1000
 #: in kg m^2, gear ratios, rotor inertias, friction): products of three of them
 #: (m r^2 v^2 ...) stay far from float64 overflow (1.8e308)
 MAX_MAGNITUDE = 1e60
+#: largest measurement log read for identification (a CSV file, or all the files of a
+#: ROS bag), bytes (256 MiB: an hour of a 7-joint arm at 1 kHz with q, qd, tau is about
+#: 400 MB in text, so long logs need this raised; the parsed float64 array is about a
+#: third of the text's size)
+MAX_DATA_BYTES = 256 * 1024 * 1024
+#: longest single field (or header line) of a measurement CSV, bytes (128 KiB: a number
+#: has under 30 characters; a longer field is a file that is not the table it claims to be)
+MAX_DATA_FIELD_BYTES = 128 * 1024
 
 
 def over_limit(where: str, what: str, value, name: str) -> ModelError:
