@@ -31,6 +31,7 @@ import sys
 from ..errors import ModelError
 from ..io import save, write_urdf
 from .common import EXIT_DISAGREE as EXIT_FAILED
+from .logopts import log_options_from_args, register_log_options
 from .common import EXIT_OK, load_arm, usage_error
 
 __all__ = ["register", "run"]
@@ -73,12 +74,10 @@ def register(subparsers) -> None:
     p.add_argument("--prior-weight", type=float, default=0.0, metavar="W",
                    help="consistent: weight of the entropic pull of each body towards the prior's "
                         "(0, the default: the data alone; e.g. 0.01)")
-    p.add_argument("--cutoff", type=float, default=None, metavar="HZ",
-                   help="low-pass cut-off when qd/qdd are derived from q (default: see "
-                        "manipdyn.identification.data)")
     p.add_argument("--base-json", metavar="FILE.json", default=None,
                    help="also write the base model (base parameters, standard deviations) here")
     p.add_argument("--json", action="store_true", help="print a JSON object instead of text")
+    register_log_options(p)
     p.set_defaults(func=run)
 
 
@@ -124,15 +123,26 @@ def _friction(args):
     return FrictionTerms(terms, side=args.friction_side, smoothing=v)
 
 
+def _joint_names(arm):
+    """The model's joint names in order (ROS bags map by them), or None."""
+    names = getattr(arm, "joint_names", None)
+    if names:
+        return list(names)
+    links = getattr(arm, "links", ())
+    names = [getattr(l, "name", "") for l in links]
+    return names if all(names) else None
+
+
 def _options(args) -> dict:
     keys = ("method", "friction", "friction_terms", "friction_side", "smoothing", "armature", "mass_bound", "com_bound", "total_mass_bound", "no_bounds",
-            "prior_weight", "cutoff")
+            "prior_weight", "cutoff", "columns", "deg", "rate", "time_scale", "resample", "no_decimate",
+            "t_range", "topic", "joint_names")
     return {k: getattr(args, k) for k in keys if getattr(args, k, None) not in (None, False)}
 
 
 def run(args) -> int:
     from ..arm import Manipulator
-    from ..identification import fit, format_report, read_measurements
+    from ..identification import fit, format_report, read_log
     from ..identification.basemodel import prior_text, write_base_model
     from ..identification.provenance import model_metadata, provenance
 
@@ -150,7 +160,8 @@ def run(args) -> int:
                              "name or a .toml model file as the prior, or -o OUT.json for a base model")
         bounds = _bounds(args, arm)
         friction = _friction(args)
-        data = read_measurements(args.data, arm.n, cutoff=args.cutoff)
+        data = read_log(args.data, arm.n, transmission=arm.transmission,
+                        **log_options_from_args(args, _joint_names(arm)))
         name = os.path.splitext(os.path.basename(out))[0] or arm.name
         if name.endswith(".base"):
             name = name[:-5]
@@ -170,7 +181,8 @@ def run(args) -> int:
         return usage_error("identify", str(exc))
     rep = dict(result.report)
     rep.update({"model": args.model, "data": args.data, "output": None, "base_model": None,
-                "derived_derivatives": data.derived, "provenance": prov})
+                "derived_derivatives": data.derived, "provenance": prov,
+                "data_notes": list(getattr(data, "notes", []))})
     code = EXIT_OK
     want_base = out.lower().endswith(".json")
     base_path = out if want_base else args.base_json
@@ -192,6 +204,8 @@ def run(args) -> int:
     if args.json:
         print(json.dumps(rep, indent=2, allow_nan=False, default=str))
     else:
+        for note in rep["data_notes"]:
+            print(f"data: {note}")
         print(format_report(rep))
         if rep.get("active_bounds"):
             print("active bounds (the fit sits on them; --no-bounds or wider bounds to free it):")

@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 
 from ..errors import ModelError
+from .logopts import log_options_from_args, register_log_options
 from .common import EXIT_OK, check_plot_target, load_arm, usage_error
 
 __all__ = ["register", "run"]
@@ -31,11 +32,10 @@ def register(subparsers) -> None:
     p.add_argument("model", metavar="MODEL|BASE.json", help="model name, .toml, .urdf, or a base model JSON")
     p.add_argument("data", metavar="DATA", help="CSV with header t,q1..qn,tau1..taun (optionally qd*, qdd*)")
     p.add_argument("--tip", default=None, help="tree URDF: the link that ends the chain")
-    p.add_argument("--cutoff", type=float, default=None, metavar="HZ",
-                   help="low-pass cut-off when qd/qdd are derived from q")
     p.add_argument("--json", action="store_true", help="print a JSON object instead of text")
     p.add_argument("--plot", metavar="FIG.png", default=None,
                    help="draw measured and predicted torque per joint (needs the plot extra)")
+    register_log_options(p)
     p.set_defaults(func=run)
 
 
@@ -51,14 +51,16 @@ def load_model(spec: str, tip=None):
 
 
 def run(args) -> int:
-    from ..identification import read_measurements
+    from ..identification import read_log
     from ..identification.validation import plot_validation, validate
 
     try:
         if args.plot:
             check_plot_target(args.plot)
         model, label = load_model(args.model, args.tip)
-        data = read_measurements(args.data, model.n, cutoff=args.cutoff)
+        arm = getattr(model, "arm", model)
+        data = read_log(args.data, model.n, transmission=getattr(arm, "transmission", None),
+                        **log_options_from_args(args, list(getattr(arm, "joint_names", None) or []) or None))
         res = validate(model, data, name=label)
         if args.plot:
             units = ["N" if t == "prismatic" else "N m"
