@@ -6,6 +6,8 @@ Layer: application (identification).
 * :func:`excitation`: an optimised Fourier-series excitation trajectory;
 * :func:`fit`: ``ols``, ``wls`` and the physically consistent ``consistent``
   (J_i >= 0, cvxpy with Clarabel or SCS), returning the identified arm;
+* :func:`identify_payload`: the ten parameters of a payload carried by a known arm
+  (J >= 0), :class:`PayloadResult`;
 * :func:`read_measurements`: CSV data, with zero-phase derivatives of q.
 
 Needs the ``identify`` extra (scipy, cvxpy, clarabel, scs):
@@ -16,10 +18,11 @@ from ._deps import INSTALL, MissingExtraError
 from .base import BaseParameters, base_parameters
 from .data import Measurements, read_measurements, write_measurements_csv
 from .estimation import METHODS, FitResult, fit
+from .payload import PayloadResult, identify_payload
 from .report import format_report
 from .sdp import Bounds
 from .trajectory import Excitation, excitation
 
 __all__ = ["BaseParameters", "Bounds", "Excitation", "FitResult", "INSTALL", "METHODS",
-           "Measurements", "MissingExtraError", "base_parameters", "excitation", "fit",
-           "format_report", "read_measurements", "write_measurements_csv"]
+           "Measurements", "MissingExtraError", "PayloadResult", "base_parameters", "excitation", "fit",
+           "format_report", "identify_payload", "read_measurements", "write_measurements_csv"]
