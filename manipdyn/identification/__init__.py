@@ -10,6 +10,8 @@ Layer: application (identification).
   degrees, motor side, uneven time stamps; ROS bags), with zero-phase
   derivatives of q and notes on what was done; :func:`read_measurements` is
   its CSV shorthand.
+* :func:`identify_payload`: the ten parameters of a payload carried by a known arm
+  (J >= 0), :class:`PayloadResult`;
 
 Needs the ``identify`` extra (scipy, cvxpy, clarabel, scs):
 ``pip install 'manipdyn[identify]'``.
@@ -20,10 +22,11 @@ from .base import BaseParameters, base_parameters
 from .data import Measurements, read_measurements, write_measurements_csv
 from .estimation import METHODS, FitResult, fit
 from .logs import read_log
+from .payload import PayloadResult, identify_payload
 from .report import format_report
 from .sdp import Bounds
 from .trajectory import Excitation, excitation
 
 __all__ = ["BaseParameters", "Bounds", "Excitation", "FitResult", "INSTALL", "METHODS",
-           "Measurements", "MissingExtraError", "base_parameters", "excitation", "fit",
-           "format_report", "read_log", "read_measurements", "write_measurements_csv"]
+           "Measurements", "MissingExtraError", "PayloadResult", "base_parameters", "excitation", "fit",
+           "format_report", "identify_payload", "read_log", "read_measurements", "write_measurements_csv"]

@@ -33,7 +33,7 @@ from ..errors import ModelError
 from ..parameters import PARAMETER_BASIS
 from ._deps import require
 
-__all__ = ["Bounds", "consistent_fit", "EPS"]
+__all__ = ["Bounds", "consistent_fit", "solve_problem", "EPS"]
 
 #: margin of the PSD constraints, J_i >= EPS * I (see the module docstring)
 EPS = 1e-8
@@ -206,6 +206,17 @@ def _solve(cp, problem, what, solvers=("CLARABEL", "SCS")):
         return f"{solver} (inaccurate)"
     raise ModelError(f"consistent fit, {what}: no solver succeeded ({'; '.join(errors)})"
                      + ("; the bounds may be infeasible" if "infeasible" in " ".join(errors) else ""))
+
+
+def solve_problem(problem, what: str, solvers=("CLARABEL", "SCS")) -> str:
+    """Solve the cvxpy ``problem`` with Clarabel, else SCS; return the solver's name.
+
+    An "optimal_inaccurate" answer is kept (its name then ends in
+    ``" (inaccurate)"``) only when no solver is accurate; when none succeeds,
+    :class:`ModelError` says why, naming ``what``.
+    """
+    cp = require("cvxpy", what)
+    return _solve(cp, problem, what, solvers)
 
 
 def _constraints(cp, x, n, extra, bounds, eps=EPS, nonnegative=None):
