@@ -351,6 +351,21 @@ def disagreements_for(arm, robot, rows, answers, per_state, refs):
     return out
 
 
+def _wrong_side(arm, q, qd, qdd, fast, slow) -> str:
+    """Which of the fast path and the trace form answered wrong: the one farther from the
+    energy referee (benchmarks/referee.py), given their ``(tau, D)`` at one state."""
+    try:
+        ref = Referee(arm)
+        tau, D = np.asarray(ref.inverse_dynamics(q, qd, qdd)), np.asarray(ref.mass_matrix(q))
+
+        def dist(pair):
+            return max(np.abs(pair[0] - tau).max() / max(np.abs(tau).max(), 1e-9),
+                       np.abs(pair[1] - D).max() / max(np.abs(D).max(), 1e-9))
+        return "manipdyn fast path" if dist(fast) > dist(slow) else "manipdyn trace form"
+    except Exception as exc:  # the referee itself failed: say so rather than guess
+        return f"fast path or trace form: the referee failed ({type(exc).__name__}: {exc})"
+
+
 def run_checks(bench, probes, robots, cfg, rng):
     log("== 1. answers checked against the energy referee (benchmarks/referee.py)")
     rows, wrong, disagreements = [], {}, []
@@ -488,7 +503,10 @@ def _batch_one(pin, arm, N, ops, cfg, rng):
                               (f"pinocchio_{k}t", parallel(k, pool, QT[:, :m_chk], QDT[:, :m_chk], XT[:, :m_chk]).T)):
                 err = float(np.abs(got - want).max() / max(np.abs(want).max(), 1e-9))
                 if not err <= 1e-9:
-                    loud(f"WRONG ANSWER batch {arm.name} {op} {name}: rel err {err:.2e}")
+                    peer = (f"manipdyn's batch call, {k} thread(s)" if name.startswith("manipdyn")
+                            else f"raw Pinocchio's ModelPool, {k} thread(s)")
+                    loud(f"WRONG ANSWER ({peer}) batch {arm.name} {op}: relative error {err:.2e} against "
+                         "the one-state loop of raw Pinocchio; run aborted")
                     raise SystemExit(2)
         if N >= 20_000:
             res = interleaved(fns, cfg.batch_rounds, 0.0, max_number=1, subtract_overhead=False)
@@ -540,7 +558,9 @@ def run_scaling(cfg, rng, out_dir, plot=True):
         Da, Db = arm.mass_matrix(q), L.mass_matrix(q)
         err = max(np.abs(a - b).max() / max(np.abs(b).max(), 1e-9), np.abs(Da - Db).max() / np.abs(Db).max())
         if not err <= 1e-8:
-            loud(f"WRONG ANSWER scaling n={n}: fast path vs trace form rel diff {err:.2e}; size skipped")
+            wrong = _wrong_side(arm, q, qd, qdd, (a, Da), (b, Db))
+            loud(f"WRONG ANSWER ({wrong}) scaling n={n}: the fast path (Pinocchio) and the trace form "
+                 f"differ by {err:.2e} relative; size skipped")
             problems.append({"n": n, "rel_diff": _num(err)})
             continue
         P = functools.partial

@@ -37,15 +37,20 @@ def robots_dir() -> Path:
 
 
 def urdf_names() -> list[str]:
-    """Names (file stems) of every URDF in example-robot-data, sorted."""
-    return sorted(p.stem for p in robots_dir().rglob("*.urdf"))
+    """Names (file stems) of every URDF in example-robot-data, sorted, each once."""
+    return sorted({p.stem for p in robots_dir().rglob("*.urdf")})
 
 
 def urdf_path(name: str) -> Path:
     """Path of ``<name>.urdf`` in example-robot-data, e.g. ``urdf_path("ur5_robot")``."""
     hits = sorted(robots_dir().rglob(f"{name}.urdf"))
     if not hits:
+        import difflib
+
         names = urdf_names()
-        close = [n for n in names if name.split("_")[0] in n][:8] or names[:8]
-        raise ModelError(f"example-robot-data has no URDF named {name!r}; e.g. {', '.join(close)}")
+        close = difflib.get_close_matches(name, names, n=3, cutoff=0.6)
+        hint = (f"did you mean {' or '.join(map(repr, close))}?" if close else
+                f"e.g. {', '.join(([n for n in names if name.split('_')[0] in n] or names)[:8])}")
+        raise ModelError(f"example-robot-data has no URDF named {name!r}; {hint} "
+                         "(manipdyn models --erd lists them)")
     return hits[0]

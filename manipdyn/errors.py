@@ -130,4 +130,12 @@ class SingularMassMatrixError(ValueError):
 
 class MissingExtraError(ImportError):
     """An optional dependency (an extra: ``identify``, ``scale``, ``plot``) is not installed;
-    the message says what needs it and the install command."""
+    the message says what needs it and the install command.
+
+    ``cli_message``, when given, is the same advice in command-line terms
+    (``--scheduler sync`` rather than ``scheduler='sync'``); the CLI prints it.
+    """
+
+    def __init__(self, message: str, cli_message: str | None = None):
+        super().__init__(message)
+        self.cli_message = cli_message if cli_message is not None else message

@@ -19,7 +19,9 @@ from .errors import ModelError
 
 __all__ = ["MAX_FILE_BYTES", "MAX_MODEL_FILE_BYTES", "MAX_LINKS", "MAX_JOINTS", "MAX_FIXED_RUN",
            "MAX_NAME_LENGTH", "MAX_LENGTH", "MAX_ANGLE", "MAX_GRAVITY", "MAX_MASS", "MAX_INERTIA",
-           "MAX_MAGNITUDE", "MAX_DATA_BYTES", "MAX_DATA_FIELD_BYTES", "over_limit", "check_magnitude", "check_range", "open_regular"]
+           "MAX_MAGNITUDE", "MAX_DATA_BYTES", "MAX_DATA_FIELD_BYTES", "MAX_HARMONICS", "MAX_EXCITATION_SAMPLES",
+           "MAX_RUN_STEPS", "MAX_STUDY_STEPS", "MAX_BANDWIDTH", "CLI_RAISE", "over_limit", "check_count",
+           "check_magnitude", "check_range", "open_regular"]
 
 #: largest URDF or model file read, bytes (16 MiB; real ones are under 1 MiB)
 MAX_FILE_BYTES = 16 * 1024 * 1024
@@ -62,6 +64,27 @@ MAX_DATA_BYTES = 256 * 1024 * 1024
 #: longest single field (or header line) of a measurement CSV, bytes (128 KiB: a number
 #: has under 30 characters; a longer field is a file that is not the table it claims to be)
 MAX_DATA_FIELD_BYTES = 128 * 1024
+#: most harmonics per joint of an excitation trajectory (``manipdyn excite --harmonics``):
+#: the optimiser has 2 n K variables and estimates each gradient entry with one more
+#: condition-number evaluation, so its time grows with K; Swevers et al. use 5
+MAX_HARMONICS = 50
+#: most samples of an excitation trajectory (``--rate`` x ``--duration``): its final
+#: condition number stacks an n x 10 n regressor per sample (100 000 samples of a
+#: 7-joint arm: 390 MB of float64)
+MAX_EXCITATION_SAMPLES = 100_000
+#: most integration steps of one Monte-Carlo run (``--duration / --dt``, as ``manipdyn
+#: track``): each run draws an n-wide torque-noise row per step
+MAX_RUN_STEPS = 2_000_000
+#: most integration steps of a whole Monte-Carlo study (runs x controllers x steps):
+#: at some 20 microseconds a step, 1e9 steps are about 6 core-hours
+MAX_STUDY_STEPS = 1e9
+#: largest controller bandwidth (rad/s): the gains grow with its square, and a loop
+#: this fast is far beyond any real arm's (it diverges at any practical step anyway)
+MAX_BANDWIDTH = 1e6
+
+#: how to raise a limit for one command-line run (appended to the CLI's messages)
+CLI_RAISE = ("from the shell: python -c \"import sys, manipdyn.limits as L; from manipdyn.cli import main; "
+             "L.{name} = ...; sys.exit(main())\" ARGS")
 
 
 def over_limit(where: str, what: str, value, name: str) -> ModelError:
@@ -71,6 +94,16 @@ def over_limit(where: str, what: str, value, name: str) -> ModelError:
         f"{where}: {what} is {value}, over the limit of {limit:g} (manipdyn.limits.{name}); "
         f"if the model is trusted, raise it: manipdyn.limits.{name} = ..."
     )
+
+
+def check_count(value, where: str, what: str, name: str, cli: bool = False) -> None:
+    """Raise the :func:`over_limit` error when ``value`` (a count) exceeds the limit ``name``;
+    ``cli=True`` adds how to raise it for one command-line run (:data:`CLI_RAISE`)."""
+    limit = globals()[name]
+    if value > limit:
+        how = f"manipdyn.limits.{name} = ..." + (f" ({CLI_RAISE.format(name=name)})" if cli else "")
+        raise ModelError(f"{where}: {what} is {value:g}, over the limit of {limit:g} "
+                         f"(manipdyn.limits.{name}); to go beyond it, raise it: {how}")
 
 
 def check_magnitude(value, where: str, field: str, unit: str = "") -> None:

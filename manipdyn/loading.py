@@ -7,6 +7,7 @@ both build models and know nothing of the engines.
 
 from __future__ import annotations
 
+import difflib
 import os
 import warnings
 
@@ -14,7 +15,10 @@ from .errors import ModelError, ModelNoteWarning, PhysicalConsistencyWarning, wa
 from .modelfile import load_bundled, load_model_file, models
 from .urdf_in import load_urdf
 
-__all__ = ["load", "load_with_notes", "models"]
+__all__ = ["load", "load_with_notes", "models", "did_you_mean", "ERD_PREFIX"]
+
+#: a model spec ``erd:NAME`` names the URDF ``NAME.urdf`` of example-robot-data
+ERD_PREFIX = "erd:"
 
 
 def load(x, tip: str | None = None, **kw):
@@ -24,7 +28,9 @@ def load(x, tip: str | None = None, **kw):
     ----------
     x : str or PathLike
         ``"puma560"`` (see :func:`models`), a path to a ``.toml`` model file,
-        or a path to a ``.urdf`` file (or URDF text).
+        a path to a ``.urdf`` file (or URDF text), or ``"erd:NAME"``: the URDF
+        ``NAME.urdf`` of example-robot-data (:func:`manipdyn.erd.urdf_names`),
+        named ``"erd:NAME"`` unless ``name=`` is given.
     tip : str, optional
         URDF only: the link at the end of the chain to keep when the URDF is a
         tree (e.g. an arm with gripper fingers).
@@ -42,6 +48,11 @@ def load(x, tip: str | None = None, **kw):
         raise ModelError(
             f"load: expected a model name, a .toml model file or a URDF path, got {type(x).__name__}")
     s = os.fspath(x)
+    if isinstance(x, str) and s.startswith(ERD_PREFIX):
+        from .erd import urdf_path
+
+        kw.setdefault("name", s)        # the label says where the arm came from: erd:ur5_robot, not ur5
+        return _load_urdf_with_notes(os.fspath(urdf_path(s[len(ERD_PREFIX):])), tip, **kw)
     if (isinstance(x, str) and s.lstrip().startswith("<")) or s.lower().endswith((".urdf", ".xml")):
         return _load_urdf_with_notes(s, tip, **kw)
     if tip is not None:
@@ -53,7 +64,14 @@ def load(x, tip: str | None = None, **kw):
     if os.path.exists(s):
         return load_model_file(s, **kw)
     raise ModelError(f"unknown model {s!r}: not a file, and not a bundled model "
-                     f"({', '.join(models())})")
+                     f"({', '.join(models())}){did_you_mean(s, models())}; "
+                     f"{ERD_PREFIX}NAME names a URDF of example-robot-data (manipdyn models --erd)")
+
+
+def did_you_mean(name: str, candidates) -> str:
+    """``"; did you mean 'x'?"`` for the closest of ``candidates`` to ``name``, or ``""``."""
+    close = difflib.get_close_matches(name, list(candidates), n=3, cutoff=0.6)
+    return f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
 
 
 def _load_urdf_with_notes(source: str, tip, **kw):

@@ -111,7 +111,11 @@ def models() -> list[str]:
 def load_bundled(name: str, strict: bool = False) -> Manipulator:
     """A bundled model by name (see :func:`models`)."""
     if name not in models():
-        raise ModelError(f"unknown model {name!r}: not a bundled model ({', '.join(models())})")
+        import difflib
+
+        close = difflib.get_close_matches(str(name), models(), n=3, cutoff=0.6)
+        hint = f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
+        raise ModelError(f"unknown model {name!r}: not a bundled model ({', '.join(models())}){hint}")
     path = _bundled_dir() / f"{name}.toml"
     return parse_model(path.read_text(encoding="utf-8"), f"bundled model {name}", strict=strict)
 
@@ -222,6 +226,15 @@ def parse_model(text: str, origin: str = "<model>", strict: bool = False) -> Man
 _LONGEST_PLAUSIBLE = 10.0
 #: an arm whose every non-zero DH length is below this (m) looks like metres read as mm
 _SHORTEST_PLAUSIBLE = 5e-3
+#: a link's radius of gyration ``sqrt(I_max / m)`` (largest principal moment about its
+#: COM) beyond this many times the arm's size looks like inertias in a smaller unit
+#: (kg mm^2, g cm^2, g mm^2 read as kg m^2: 1e3 to 3e4 times too large a radius).  The
+#: bundled arms' radii are 0.09 to 0.27 times their size
+_GYRATION_LARGEST = 2.0
+#: ... and below this many times the arm's size (but not zero: point masses are fine),
+#: like inertias in a larger unit (kg m^2 in a file of g and mm: 3e4 times too small).
+#: The bundled arms' smallest is 0.006
+_GYRATION_SMALLEST = 1e-4
 
 
 def _read_toml(text, origin: str) -> dict:
@@ -341,20 +354,64 @@ def _unit_notes(origin: str, raw_links: list, units: dict, links: list) -> list[
         notes.append(f"{origin}: every DH length is under {_SHORTEST_PLAUSIBLE * 1000:g} mm (largest "
                      f"{nonzero.max():.6g} m after units.length = \"{length_unit}\"): the lengths look "
                      "like they are in a larger unit")
+    return notes + _gyration_notes(origin, units, links)
+
+
+def _gyration_notes(origin: str, units: dict, links: list) -> list[str]:
+    """Notes on links whose radius of gyration is implausible for their mass and the arm's size
+    (inertias pasted in another unit than ``units.mass * units.length^2``)."""
+    size = max(sum(abs(l.a) + abs(l.d) for l in links)
+               + max(float(np.linalg.norm(l.com)) for l in links), 1e-3)
+    unit = f"{units.get('mass', 'kg')} {units.get('length', 'm')}^2"
+    notes = []
+    for i, l in enumerate(links):
+        if not l.mass > 0:
+            continue
+        k = math.sqrt(max(float(np.linalg.eigvalsh(l.inertia).max()), 0.0) / l.mass)
+        if k > _GYRATION_LARGEST * size:
+            what = (f"more than {_GYRATION_LARGEST:g} times the arm's size ({size:.3g} m)", "smaller",
+                    "kg mm^2, g cm^2 or g mm^2")
+        elif 0 < k < _GYRATION_SMALLEST * size:
+            what = (f"under {_GYRATION_SMALLEST:g} times the arm's size ({size:.3g} m)", "larger", "kg m^2")
+        else:
+            continue
+        notes.append(f"{origin}: links[{i}] key 'inertia': the radius of gyration sqrt(I_max / mass) = "
+                     f"{k:.3g} m for {l.mass:.6g} kg is {what[0]}: the inertias look like they are in a "
+                     f"{what[1]} unit than the file's {unit} (e.g. {what[2]})")
     return notes
 
 
 # ---------------------------------------------------------------------------
 # Writing
 # ---------------------------------------------------------------------------
-def _toml_str(s: str) -> str:
-    out = s.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n").replace("\t", "\\t")
-    return f'"{out}"'
+#: the short escapes of TOML basic strings; every other control character is written \uXXXX
+_TOML_ESCAPES = {"\\": "\\\\", '"': '\\"', "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
+
+
+def _toml_str(s: str, where: str = "text") -> str:
+    """A TOML basic string holding ``s`` exactly: every control character (U+0000 to U+001F,
+    U+007F) escaped, so that the file reads back; a ModelError naming ``where`` for a value
+    that is not a string or holds a lone surrogate (not Unicode text: no file can hold it)."""
+    if not isinstance(s, str):
+        raise ModelError(f"save: {where} must be a string, got {type(s).__name__} {s!r:.60}")
+    out = []
+    for k, ch in enumerate(s):
+        o = ord(ch)
+        if ch in _TOML_ESCAPES:
+            out.append(_TOML_ESCAPES[ch])
+        elif o < 0x20 or o == 0x7F:
+            out.append(f"\\u{o:04X}")
+        elif 0xD800 <= o <= 0xDFFF:
+            raise ModelError(f"save: {where} holds the lone surrogate U+{o:04X} at index {k} "
+                             f"({s[max(0, k - 20):k + 20]!r}), which is not Unicode text: no file can hold it")
+        else:
+            out.append(ch)
+    return '"' + "".join(out) + '"'
 
 
 def _toml_key(k: str) -> str:
     """A TOML key: bare when it can be, quoted otherwise."""
-    return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else _toml_str(k)
+    return k if isinstance(k, str) and re.fullmatch(r"[A-Za-z0-9_-]+", k) else _toml_str(k, "a key of sources")
 
 
 def _toml_num(x: float) -> str:
@@ -372,22 +429,25 @@ def model_to_toml(arm: Manipulator) -> str:
                          f"{type(arm).__name__} {arm.name!r} can be written with write_urdf()")
     lines = [
         f"format = {_toml_str(FORMAT)}",
-        f"name = {_toml_str(arm.name)}",
+        f"name = {_toml_str(arm.name, 'name')}",
         f"convention = {_toml_str(arm.convention)}",
         f"gravity = {_toml_list(arm.gravity)}",
-        f"source = {_toml_str(arm.source)}",
+        f"source = {_toml_str(arm.source, 'source')}",
     ]
     if arm.description:
-        lines.append(f"description = {_toml_str(arm.description)}")
+        lines.append(f"description = {_toml_str(arm.description, 'description')}")
     sources = arm.sources
     if sources:
-        lines += ["", "[sources]"] + [f"{_toml_key(k)} = {_toml_str(v)}" for k, v in sources.items()]
+        if not isinstance(sources, dict):
+            raise ModelError(f"save: sources must be a dict of strings, got {type(sources).__name__}")
+        lines += ["", "[sources]"] + [f"{_toml_key(k)} = {_toml_str(v, f'sources[{k!r}]')}"
+                                      for k, v in sources.items()]
     lines += ["", "[units]", 'length = "m"', 'angle = "rad"', 'mass = "kg"']
     for l in arm.links:
         I = l.inertia
         lines += [
             "", "[[links]]",
-            *( [f"name = {_toml_str(l.name)}"] if l.name else [] ),
+            *( [f"name = {_toml_str(l.name, 'a link name')}"] if l.name else [] ),
             f"joint = {_toml_str(l.joint)}",
             f"a = {_toml_num(l.a)}", f"alpha = {_toml_num(l.alpha)}",
             f"d = {_toml_num(l.d)}", f"theta = {_toml_num(l.theta)}",
@@ -408,5 +468,17 @@ def model_to_toml(arm: Manipulator) -> str:
 
 
 def save_model(arm: Manipulator, path) -> None:
-    """Write ``arm`` as a model file, atomically."""
-    atomic_write_text(path, model_to_toml(arm))
+    """Write ``arm`` as a model file, atomically.
+
+    Whatever this writes, :func:`load_model_file` reads back: a model whose file
+    would be over :data:`manipdyn.limits.MAX_MODEL_FILE_BYTES` (e.g. a description
+    of megabytes) is refused here, before anything is written, with how to raise it.
+    """
+    text = model_to_toml(arm)
+    size = len(text.encode("utf-8"))
+    if size > limits.MAX_MODEL_FILE_BYTES:
+        raise ModelError(
+            f"save {os.fspath(path)}: the model file would be {size} bytes, over the {limits.MAX_MODEL_FILE_BYTES} "
+            "bytes that load reads (manipdyn.limits.MAX_MODEL_FILE_BYTES); shorten the description or "
+            "sources, or raise the limit (manipdyn.limits.MAX_MODEL_FILE_BYTES = ...) where it is saved and loaded")
+    atomic_write_text(path, text)

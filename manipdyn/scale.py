@@ -25,11 +25,32 @@ import warnings
 
 from .errors import MissingExtraError, ModelError
 
-__all__ = ["MissingExtraError", "require_distributed", "local_cores", "chunks", "map_chunks",
+__all__ = ["MissingExtraError", "require_distributed", "check_scheduler", "WORKER_WAIT_S", "local_cores", "chunks", "map_chunks",
            "model_text", "arm_from_text", "MAX_CHUNK"]
 
 #: the most items (runs) in one part by default (a part is the unit of work lost with a worker)
 MAX_CHUNK = 25
+#: seconds to wait for a first worker at a scheduler that has none, before giving up
+WORKER_WAIT_S = 60.0
+#: address schemes of dask.distributed's communications
+_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx", "inproc")
+
+
+def check_scheduler(scheduler, option: str = "scheduler") -> None:
+    """Refuse a scheduler that is not None, ``"sync"``, ``"local"`` or a Dask address
+    ``SCHEME://HOST:PORT`` (SCHEME among tcp, tls, ws, wss, ucx, inproc), in one line."""
+    if scheduler is None or scheduler in ("sync", "local"):
+        return
+    expected = ("expected 'sync', 'local' or a Dask scheduler address such as tcp://HOST:8786")
+    if not isinstance(scheduler, str):
+        raise ModelError(f"{option}: {expected}, got {type(scheduler).__name__}")
+    scheme, sep, rest = scheduler.partition("://")
+    if not sep or scheme not in _SCHEMES or not rest:
+        raise ModelError(f"{option}: {expected} (schemes: {', '.join(_SCHEMES)}), got {scheduler!r:.200}")
+    if scheme != "inproc":
+        host, colon, port = rest.rstrip("/").rpartition(":")
+        if not colon or not host or not port.isdigit() or not 0 < int(port) < 65536:
+            raise ModelError(f"{option}: {scheduler!r:.200} has no port; {expected}")
 
 
 def require_distributed():
@@ -37,10 +58,10 @@ def require_distributed():
     try:
         import distributed
     except ImportError:
-        raise MissingExtraError(
-            "Monte-Carlo studies and cluster cross-checks on Dask need dask.distributed: "
-            "pip install 'manipdyn[scale]'  (or pass scheduler='sync' to run in this process)"
-        ) from None
+        need = ("Monte-Carlo studies and cluster cross-checks on Dask need dask.distributed: "
+                "pip install 'manipdyn[scale]'")
+        raise MissingExtraError(need + "  (or pass scheduler='sync' to run in this process)",
+                                cli_message=need + "  (or pass --scheduler sync to run in this process)") from None
     return distributed
 
 
@@ -102,6 +123,7 @@ def map_chunks(fn, args, total: int, parts: list, scheduler=None, workers=None, 
             col.add(fn(*args, part))
         nworkers, where = 1, "this process"
     else:
+        check_scheduler(scheduler)
         distributed = require_distributed()
         cluster = None
         if scheduler is None or scheduler == "local":
@@ -121,6 +143,7 @@ def map_chunks(fn, args, total: int, parts: list, scheduler=None, workers=None, 
             raise ConnectionError(f"scheduler {scheduler}: cannot connect: {exc}") from None
         try:
             if cluster is None:
+                _wait_for_workers(client, scheduler)
                 nworkers = len(client.scheduler_info().get("workers", {}))
             futures = [client.submit(fn, *args, part, pure=False, retries=retries) for part in parts]
             for fut in distributed.as_completed(futures):
@@ -136,6 +159,17 @@ def map_chunks(fn, args, total: int, parts: list, scheduler=None, workers=None, 
     timing = {"wall_s": wall, "scheduler": where, "workers": nworkers, "chunks": len(parts),
               "chunk_seconds": sum(t["seconds"] for t in col.chunk_timing), "chunks_by_process": hosts}
     return col, timing
+
+
+def _wait_for_workers(client, scheduler) -> None:
+    """Wait up to :data:`WORKER_WAIT_S` for the scheduler's first worker, or say there is none
+    (a scheduler with no worker would otherwise hold the tasks, silently, forever)."""
+    try:
+        client.wait_for_workers(1, timeout=WORKER_WAIT_S)
+    except TimeoutError:
+        raise ConnectionError(
+            f"scheduler {scheduler}: no worker joined in {WORKER_WAIT_S:g} s; start some with "
+            f"'dask worker {scheduler}' (manipdyn.scale.WORKER_WAIT_S sets the wait)") from None
 
 
 def model_text(arm) -> tuple:

@@ -37,6 +37,47 @@ def _f(x) -> float:
     return float(x)
 
 
+#: entries of an origin's xyz or an inertia tensor smaller than this times the largest
+#: entry of the same vector or tensor are round-off of a rotation (cos(pi/2) * d is
+#: 6e-17 d) and are written 0; an rpy angle under this many rad is written 0.  The
+#: change is 1e4 times below the readers' agreement tolerance (1e-9 relative)
+ROUND_OFF = 1e-13
+
+
+def _round_off(values, absolute: bool = False) -> str:
+    """Space-separated ``repr`` of ``values`` with round-off (:data:`ROUND_OFF`) and -0.0 written 0.0."""
+    v = np.asarray(values, dtype=np.float64)
+    scale = 1.0 if absolute else float(np.abs(v).max(initial=0.0))
+    v = np.where(np.abs(v) <= ROUND_OFF * scale, 0.0, v) + 0.0
+    return " ".join(repr(float(x)) for x in v)
+
+
+def _clean_numbers(root) -> None:
+    """Write round-off as 0 in every ``<origin>`` and ``<inertia>`` of the URDF tree ``root``."""
+    for el in root.iter("origin"):
+        for attr, absolute in (("xyz", False), ("rpy", True)):
+            if el.get(attr) is not None:
+                el.set(attr, _round_off([float(x) for x in el.get(attr).split()], absolute))
+    keys = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+    for el in root.iter("inertia"):
+        if all(el.get(k) is not None for k in keys):
+            cleaned = _round_off([float(el.get(k)) for k in keys]).split()
+            for k, text in zip(keys, cleaned):
+                el.set(k, text)
+
+
+def _comment(text: str) -> str:
+    """``text`` as the body of an XML comment: ``--`` broken up, and every character XML 1.0
+    cannot hold (control characters, lone surrogates) written as ``\\uXXXX``."""
+    out = []
+    for ch in text.replace("--", "- -"):
+        o = ord(ch)
+        bad = (o < 0x20 and ch not in "\t\n\r") or 0x7F <= o <= 0x9F or 0xD800 <= o <= 0xDFFF or o in (0xFFFE, 0xFFFF)
+        out.append(f"\\u{o:04X}" if bad else ch)
+    text = "".join(out)
+    return text + " " if text.endswith("-") else text
+
+
 def limit_provenance(arm, k: int, joint) -> str:
     """Where joint ``k``'s ``<limit>`` values come from, in one line (written as a comment)."""
     from .arm import DEFAULT_QLIM
@@ -112,9 +153,10 @@ def arm_to_urdf(arm) -> str:
     if np.any(getattr(arm, "armature", 0)):
         comment += ". Rotor inertia (armature, kg m^2 per joint) is not expressible in URDF: " + \
             " ".join(repr(float(a)) for a in arm.armature)
-    root.insert(0, etree.Comment(comment.replace("--", "- -") + " "))
+    _clean_numbers(root)
+    root.insert(0, etree.Comment(_comment(comment) + " "))
     for el in root.findall("joint"):
         k = index.get(el.get("name"))
         if k is not None:
-            el.addprevious(etree.Comment(" " + limit_provenance(arm, k, joints[k]).replace("--", "- -") + " "))
+            el.addprevious(etree.Comment(" " + _comment(limit_provenance(arm, k, joints[k])) + " "))
     return etree.tostring(root, pretty_print=True, xml_declaration=True, encoding="UTF-8").decode("utf-8")

@@ -152,3 +152,17 @@ def test_a_wrong_answer_aborts_its_row_and_fails_the_run(tmp_path, monkeypatch, 
     assert {(r["impl"], r["op"]) for r in res["aborted_rows"]} == {("manipdyn", "gravity_torque")}
     assert not any(r["impl"] == "manipdyn" and r["op"] == "gravity_torque" for r in res["per_call"])
     assert "ABORTED" in (tmp_path / "results.md").read_text()
+
+
+def test_item12_a_wrong_scaling_answer_names_the_wrong_side(tmp_path, monkeypatch, capsys):
+    """Issue 20, item 12: the bench says which peer answered wrong, not a bare WRONG ANSWER."""
+    from manipdyn.lagrange import TraceFormEngine
+
+    right = TraceFormEngine.mass_matrix
+    monkeypatch.setattr(TraceFormEngine, "mass_matrix", lambda self, q: right(self, q) * 1.5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        code = run.main(["--smoke", "--out", str(tmp_path), "--no-rtb", "--skip", "per-call", "batch"])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "WRONG ANSWER (manipdyn trace form) scaling" in err

@@ -26,6 +26,13 @@ __all__ = ["main", "build_parser", "COMMANDS"]
 COMMANDS = (check, urdf, models, compare, track, montecarlo, excite, identify, validate, bench)
 
 
+def _version() -> str:
+    """The version of the manipdyn package that is running."""
+    from .. import __version__
+
+    return __version__
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``manipdyn`` argument parser with every subcommand of :data:`COMMANDS`."""
     p = argparse.ArgumentParser(
@@ -35,6 +42,7 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="Exit codes: 0 agree, 1 a quantity disagrees, 2 usage or model error, 3 internal error.",
     )
     p.add_argument("--debug", action="store_true", help="show Python tracebacks on errors")
+    p.add_argument("--version", action="version", version=f"manipdyn {_version()}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     for command in COMMANDS:
         command.register(sub)
@@ -56,8 +64,12 @@ def main(argv=None) -> int:
         except OSError:
             pass
         return EXIT_OK
-    except (ModelError, StateError, SingularMassMatrixError, MissingExtraError) as exc:
-        # a missing extra (the message gives the install command), or a model problem (a singular mass matrix, dynamics that overflow on the
+    except MissingExtraError as exc:
+        # the message gives the install command, in command-line terms
+        print(f"manipdyn {args.command}: error: {exc.cli_message}", file=sys.stderr)
+        return EXIT_USAGE
+    except (ModelError, StateError, SingularMassMatrixError) as exc:
+        # a model problem (a singular mass matrix, dynamics that overflow on the
         # states the command drew, a malformed file): the input's fault, not ours
         print(f"manipdyn {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_USAGE

@@ -85,6 +85,8 @@ def run(args) -> int:
         return usage_error("check", "name at least one model or file, or pass --all")
     if args.samples < 1:
         return usage_error("check", f"--samples must be >= 1, got {args.samples}")
+    if args.timing_calls < 0:
+        return usage_error("check", f"--timing-calls must be >= 0 (0 skips the timing), got {args.timing_calls}")
     if args.urdf_out:
         output_folder(args.urdf_out, "--urdf-out")
     loaded = load_all(specs, args.tip)         # every name checked before any arm runs
@@ -133,7 +135,7 @@ def register(sub) -> None:
                               "failed condition, never 'all agree'), or a note under --strict; 2 usage "
                               "or model error; 3 a bug.")
     c.add_argument("models", nargs="*", metavar="MODEL_OR_FILE",
-                   help="bundled model name, .toml model file, or .urdf file")
+                   help="bundled model name, .toml model file, .urdf file or erd:NAME (manipdyn models --erd)")
     c.add_argument("--all", action="store_true", help="check every bundled model")
     c.add_argument("--samples", type=int, default=1000, help="random states per arm (default 1000)")
     c.add_argument("--seed", type=int, default=0, help="seed of the random states (default 0)")

@@ -14,7 +14,7 @@ from ..control.plots import pyplot
 from ..errors import ModelError, TipError
 from ..loading import load_with_notes
 
-__all__ = ["check_plot_target", "add_progress_options", "progress_wanted", "EXIT_OK", "EXIT_DISAGREE", "EXIT_USAGE", "EXIT_INTERNAL", "Progress", "output_folder",
+__all__ = ["check_plot_target", "check_output_file", "add_progress_options", "progress_wanted", "EXIT_OK", "EXIT_DISAGREE", "EXIT_USAGE", "EXIT_INTERNAL", "Progress", "output_folder",
            "urdf_target", "usage_error", "load_arm", "load_all", "is_urdf", "TIP_HELP"]
 
 #: help of every ``--tip`` option
@@ -86,8 +86,8 @@ def output_folder(path: str, option: str) -> str:
 
 
 def is_urdf(spec: str) -> bool:
-    """True when ``spec`` names a URDF file (by its extension)."""
-    return str(spec).lower().endswith((".urdf", ".xml"))
+    """True when ``spec`` names a URDF file (by its extension) or an example-robot-data URDF (``erd:NAME``)."""
+    return str(spec).lower().endswith((".urdf", ".xml")) or str(spec).startswith("erd:")
 
 
 def load_arm(spec: str, tip: str | None = None, option: str = "--tip"):
@@ -124,6 +124,20 @@ def add_progress_options(parser, what: str = "the progress bar") -> None:
 def progress_wanted(args) -> bool:
     """Whether to draw progress bars: ``--progress``, ``--no-progress``, or stderr is a terminal."""
     return args.progress if args.progress is not None else sys.stderr.isatty()
+
+
+def check_output_file(path: str, option: str) -> None:
+    """Before a long run: ``path`` must be a file that can be written (atomically) in an
+    existing, writable folder; a ModelError naming ``option`` says why not."""
+    folder = os.path.dirname(os.path.abspath(path))
+    if not path or os.path.isdir(path):
+        raise ModelError(f"{option} {path!r}: expected a file path, got a folder")
+    if not os.path.isdir(folder):
+        raise ModelError(f"{option} {path}: the folder {folder} does not exist (create it first)")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise ModelError(f"{option} {path}: cannot write files in the folder {folder}")
+    if os.path.lexists(path) and not os.path.isfile(path):
+        raise ModelError(f"{option} {path}: exists and is not a regular file (a device, FIFO or socket)")
 
 
 def check_plot_target(path: str) -> None:

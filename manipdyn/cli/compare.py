@@ -46,7 +46,7 @@ def register(subparsers) -> None:
                     "are the same (one file can replace the other with the same joint vector), "
                     "1 when not (including a different number or type of joints), 2 on a usage or "
                     "model error.")
-    p.add_argument("a", metavar="A", help="bundled model name, .toml model file, or .urdf file")
+    p.add_argument("a", metavar="A", help="bundled model name, .toml model file, .urdf file or erd:NAME (manipdyn models --erd)")
     p.add_argument("b", metavar="B", help="the other description (same forms)")
     p.add_argument("--samples", type=int, default=200, help="random states of B (default 200)")
     p.add_argument("--seed", type=int, default=0, help="seed of the random states (default 0)")

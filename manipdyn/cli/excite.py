@@ -10,11 +10,13 @@ model error (one line on stderr).
 from __future__ import annotations
 
 import json
+import math
 import sys
 
+from .. import limits
 from ..errors import ModelError
 from ..loading import load_with_notes
-from .common import EXIT_OK, Progress, add_progress_options, progress_wanted, usage_error
+from .common import EXIT_OK, Progress, add_progress_options, check_output_file, progress_wanted, usage_error
 
 __all__ = ["register", "run"]
 
@@ -29,11 +31,11 @@ def register(subparsers) -> None:
                     "the condition number of the stacked base regressor, within the model's joint "
                     "limits and the velocity and acceleration limits; write it as CSV "
                     "(t,q1..qn,qd1..qdn,qdd1..qddn). Exit codes: 0 written, 2 usage or model error.")
-    p.add_argument("model", metavar="MODEL", help="bundled model name, .toml model file or .urdf file")
+    p.add_argument("model", metavar="MODEL", help="bundled model name, .toml model file, .urdf file or erd:NAME (manipdyn models --erd)")
     p.add_argument("-o", "--output", required=True, metavar="TRAJ.csv", help="CSV file to write")
     p.add_argument("--duration", type=float, default=10.0, metavar="S", help="period and length, s (default 10)")
-    p.add_argument("--harmonics", type=int, default=5, metavar="K", help="harmonics per joint (default 5)")
-    p.add_argument("--rate", type=float, default=100.0, metavar="HZ", help="sample rate, Hz (default 100)")
+    p.add_argument("--harmonics", type=int, default=5, metavar="K", help=f"harmonics per joint (default 5, at most {limits.MAX_HARMONICS})")
+    p.add_argument("--rate", type=float, default=100.0, metavar="HZ", help=f"sample rate, Hz (default 100; --rate x --duration at most {limits.MAX_EXCITATION_SAMPLES} samples)")
     p.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the optimiser's start (default 0)")
     p.add_argument("--vmax", type=float, nargs="+", default=None, metavar="V",
                    help=f"velocity limit, one or n values (default {DEFAULT_VMAX['revolute']} rad/s, "
@@ -49,12 +51,39 @@ def register(subparsers) -> None:
 
 
 
+def check_options(args) -> None:
+    """Every option checked, and ``-o`` writable, before the optimiser starts (it runs for
+    minutes); a ModelError names the option and, for a cap, how to raise it."""
+    if args.iterations < 0:
+        raise ModelError(f"--iterations: expected >= 0, got {args.iterations}")
+    if args.seed < 0:
+        raise ModelError(f"--seed: expected an integer >= 0, got {args.seed}")
+    for name, unit in (("duration", "s"), ("rate", "Hz")):
+        v = getattr(args, name)
+        if not (math.isfinite(v) and v > 0):
+            raise ModelError(f"--{name}: expected a positive finite number in {unit}, got {v}")
+    if args.harmonics < 1:
+        raise ModelError(f"--harmonics: expected >= 1, got {args.harmonics}")
+    limits.check_count(args.harmonics, "--harmonics", "the number of harmonics per joint",
+                       "MAX_HARMONICS", cli=True)
+    samples = args.duration * args.rate
+    limits.check_count(samples, "--rate x --duration", "the number of samples", "MAX_EXCITATION_SAMPLES",
+                       cli=True)
+    if round(samples) < 2:
+        raise ModelError(f"--rate x --duration: {args.rate:g} Hz over {args.duration:g} s gives "
+                         f"{round(samples)} sample(s); expected at least 2")
+    for name in ("vmax", "amax"):
+        for v in getattr(args, name) or ():
+            if not (math.isfinite(v) and v > 0):
+                raise ModelError(f"--{name}: expected positive finite limits, got {v}")
+    check_output_file(args.output, "-o")
+
+
 def run(args) -> int:
     from ..identification import excitation
 
-    if args.iterations < 0:
-        return usage_error("excite", f"--iterations: expected >= 0, got {args.iterations}")
     try:
+        check_options(args)
         arm, _ = load_with_notes(args.model)
         ex = excitation(arm, duration=args.duration, harmonics=args.harmonics, rate=args.rate,
                         seed=args.seed, vmax=args.vmax, amax=args.amax, iterations=args.iterations,

@@ -12,6 +12,14 @@ __all__ = ["register", "run"]
 
 
 def run(args) -> int:
+    if args.erd:
+        from ..erd import robots_dir, urdf_names
+
+        root = robots_dir()
+        for name in urdf_names():
+            where = sorted(str(p.relative_to(root)) for p in root.rglob(f"{name}.urdf"))
+            print(f"erd:{name:<32} {where[0]}" + (f" (and {len(where) - 1} more)" if len(where) > 1 else ""))
+        return EXIT_OK
     for name in models():
         arm, notes = load_with_notes(name)
         kinds = arm.joint_letters
@@ -22,5 +30,10 @@ def run(args) -> int:
 
 def register(sub) -> None:
     """Add ``manipdyn models``."""
-    m = sub.add_parser("models", help="list the bundled arm models")
+    m = sub.add_parser("models", help="list the bundled arm models",
+                       description="List the bundled arm models with their physical-consistency verdicts; "
+                                   "with --erd, the URDFs of example-robot-data, each usable as erd:NAME "
+                                   "wherever a model is expected (a tree needs --tip).")
+    m.add_argument("--erd", action="store_true",
+                   help="list the URDFs of example-robot-data (use them as erd:NAME)")
     m.set_defaults(func=run)

@@ -17,7 +17,8 @@ import math
 
 from ..control.demo import CONTROLLERS, DEFAULT_BANDWIDTH
 from ..errors import ModelError
-from ..montecarlo import DISTRIBUTIONS_HELP, Distributions, run as run_study, study
+from ..montecarlo import DISTRIBUTIONS_HELP, Distributions, check_study_size, run as run_study, study
+from ..scale import check_scheduler
 from ..montecarlo.plot import plot_report
 from .common import EXIT_OK, TIP_HELP, Progress, add_progress_options, check_plot_target, load_arm, progress_wanted
 
@@ -37,17 +38,21 @@ def run(args) -> int:
         raise ModelError(f"--runs: must be >= 1, got {args.runs}")
     if args.seed < 0:
         raise ModelError(f"--seed: must be >= 0, got {args.seed}")
-    keys = [k.strip() for k in args.controllers.split(",") if k.strip()]
+    keys = [k.strip().lower() for k in args.controllers.split(",") if k.strip()]  # names in any case
     bad = [k for k in keys if k not in CONTROLLERS]
     if not keys or bad or len(set(keys)) != len(keys):
         raise ModelError(f"--controllers: expected distinct names among {','.join(CONTROLLERS)}, "
                          f"got {args.controllers!r}")
+    if args.chunk_size is not None and args.chunk_size < 1:
+        raise ModelError(f"--chunk-size: must be >= 1 run, got {args.chunk_size}")
     for name in ("duration", "dt", "bandwidth"):
         _finite(args, name, 0.0, strict=True)
     if args.dt > args.duration:
         raise ModelError(f"--dt: must be at most --duration, got {args.dt}")
     if args.workers is not None and args.workers < 1:
         raise ModelError(f"--workers: must be >= 1, got {args.workers}")
+    check_scheduler(args.scheduler, "--scheduler")
+    check_study_size(args.runs, len(keys), args.duration, args.dt, args.bandwidth, cli=True)
     if args.plot:  # fail before a long run, not after it
         check_plot_target(args.plot)
     try:
@@ -106,7 +111,7 @@ def register(subparsers) -> None:
                     "the results are bit-identical either way.",
         epilog=DISTRIBUTIONS_HELP + "\n\nExit codes: 0 study completed (divergences are results), "
                "2 usage or model error, 3 internal error.")
-    p.add_argument("model", metavar="MODEL", help="bundled model name, .toml model file, or .urdf file")
+    p.add_argument("model", metavar="MODEL", help="bundled model name, .toml model file, .urdf file or erd:NAME (manipdyn models --erd)")
     p.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
     p.add_argument("--runs", type=int, default=100, help="runs (plants) per controller (default 100)")
     p.add_argument("--controllers", default="pd,pdg,ct,adaptive", metavar="LIST",

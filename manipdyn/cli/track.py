@@ -15,6 +15,7 @@ unstable (reported, the other runs of ``--compare`` still shown), 2 bad input.
 
 from __future__ import annotations
 
+import json
 import math
 import sys
 
@@ -87,9 +88,10 @@ def run(args) -> int:
     if args.payload > 0:
         head += (f"; plant carries {args.payload:g} kg at {list(DEFAULT_PAYLOAD_COM)} m in the last "
                  "link's frame, unknown to the controllers")
-    print(head)
+    say = (lambda *a, **k: None) if args.json else print     # --json: one document, nothing else
+    say(head)
     for n in notes:
-        print(f"  note: {n}")
+        say(f"  note: {n}")
     for kind in kinds:
         ctrl = make_controller(kind, arm, args.bandwidth, args.gamma)
         label = CONTROLLERS[kind]
@@ -98,20 +100,43 @@ def run(args) -> int:
                            progress=Progress(label[:16], show_progress, unit="steps"))
         except SimulationDiverged as exc:
             logs[label] = f"DIVERGED at t = {exc.t:.3g} s"
-            print(f"\n{label}: {exc}")
+            say(f"\n{label}: {exc}")
             rc = 1
             continue
         logs[label] = log
-        print()
-        print(log.summary())
-        print(f"  RMS error over the final second (t >= {final:g} s): "
-              + " ".join(f"{x:.3e}" for x in log.rms_error(since=final)))
+        say()
+        say(log.summary())
+        say(f"  RMS error over the final second (t >= {final:g} s): "
+            + " ".join(f"{x:.3e}" for x in log.rms_error(since=final)))
     if args.compare:
-        print()
-        print(_compare_table(logs, final))
+        say()
+        say(_compare_table(logs, final))
+    if args.json:
+        print(json.dumps(_json_doc(args, arm, notes, logs, final), indent=2))
     if args.plot:
         return write_figure(args, arm, logs, kinds, rc)
     return rc
+
+
+def _floats(x) -> list:
+    return [float(v) for v in np.asarray(x).reshape(-1)]
+
+
+def _json_doc(args, arm, notes, logs: dict, final: float) -> dict:
+    """``track --json``: the run's settings and, per controller, its errors (rad or m) and
+    torques (N m or N) per joint, or ``"diverged"`` with the time; strict JSON (finite numbers)."""
+    runs = {}
+    for label, log in logs.items():
+        if isinstance(log, str):
+            runs[label] = {"diverged": True, "message": log}
+            continue
+        runs[label] = {"diverged": False, "rms_error": _floats(log.rms_error()),
+                       "max_error": _floats(log.max_error()),
+                       "rms_error_final_second": _floats(log.rms_error(since=final)),
+                       "peak_torque": _floats(log.peak_torque())}
+    return {"model": args.model, "name": arm.name, "n": arm.n, "duration": args.duration, "dt": args.dt,
+            "bandwidth": args.bandwidth, "gamma": args.gamma, "payload": args.payload,
+            "notes": list(notes), "controllers": runs}
 
 
 def write_figure(args, arm, logs: dict, kinds: list, rc: int) -> int:
@@ -123,10 +148,11 @@ def write_figure(args, arm, logs: dict, kinds: list, rc: int) -> int:
     else:
         only = logs[CONTROLLERS[kinds[0]]]
         if isinstance(only, str):
-            print(f"no figure: the run {only.lower()}", file=sys.stderr)
+            print(f"no figure: the run {only.lower()}", file=sys.stderr)   # stderr: --json stays one document
             return rc
         plot_single(only, arm, f"{title}\n{CONTROLLERS[kinds[0]]}", args.plot)
-    print(f"\nfigure written to {args.plot}")
+    if not args.json:
+        print(f"\nfigure written to {args.plot}")
     return rc
 
 
@@ -137,7 +163,7 @@ def register(subparsers) -> None:
         description="Simulate a joint-space tracking controller on the standard demo path "
                     "(fixed-step RK4, zero-order hold) and report tracking errors and torques. "
                     "Exit codes: 0 finished, 1 a controller diverged, 2 bad input.")
-    p.add_argument("model", metavar="MODEL_OR_FILE", help="bundled model name, .toml model file, or .urdf file")
+    p.add_argument("model", metavar="MODEL_OR_FILE", help="bundled model name, .toml model file, .urdf file or erd:NAME (manipdyn models --erd)")
     p.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
     p.add_argument("--controller", choices=list(CONTROLLERS), default="ct",
                    help="pd, pdg (PD + gravity), ct (computed torque, default), adaptive (Slotine-Li)")
@@ -153,5 +179,6 @@ def register(subparsers) -> None:
     p.add_argument("--plot", metavar="OUT.png", default=None,
                    help=f"write a figure (needs matplotlib: {PLOT_INSTALL})")
     p.add_argument("--compare", action="store_true", help="run all four controllers and compare them")
+    p.add_argument("--json", action="store_true", help="print one JSON document instead of tables")
     add_progress_options(p, "a progress bar per run")
     p.set_defaults(func=run)

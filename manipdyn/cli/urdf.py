@@ -10,7 +10,7 @@ import os
 from ..errors import ModelError
 from ..io import write_urdf
 from ..loading import models
-from .common import EXIT_OK, TIP_HELP, load_all, output_folder, urdf_target, usage_error
+from .common import EXIT_OK, TIP_HELP, is_urdf, load_all, output_folder, urdf_target, usage_error
 
 __all__ = ["register", "run"]
 
@@ -20,6 +20,10 @@ def run(args) -> int:
     if args.all:
         specs = models() + specs
     if not specs:
+        if args.outdir in models() or is_urdf(args.outdir) or args.outdir.lower().endswith(".toml") \
+                or args.outdir.startswith("erd:"):
+            return usage_error("urdf", f"missing OUTDIR: {args.outdir!r} is a model, not the folder to "
+                                       "write into; usage: manipdyn urdf MODEL_OR_FILE ... OUTDIR")
         return usage_error("urdf", "name at least one model or pass --all")
     output_folder(args.outdir, "OUTDIR")
     loaded = load_all(dict.fromkeys(specs), args.tip)   # each spec once, all loaded before writing
@@ -42,7 +46,7 @@ def register(sub) -> None:
                                    "The URDF carries the arm's joint limits and says in a comment which "
                                    "values are manipdyn's defaults. Exit 0 written, 2 usage or model error.")
     u.add_argument("models", nargs="*", metavar="MODEL_OR_FILE",
-                   help="bundled model name, .toml model file or .urdf file (several allowed)")
+                   help="bundled model name, .toml model file, .urdf file or erd:NAME (manipdyn models --erd) (several allowed)")
     u.add_argument("outdir", metavar="OUTDIR", help="the folder to write the .urdf files into")
     u.add_argument("--all", action="store_true", help="every bundled model")
     u.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)

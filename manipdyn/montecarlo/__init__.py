@@ -35,7 +35,28 @@ from .study import CONTROLLER_KEYS, RunSetup, Study, TorqueNoise, model_text
 
 __all__ = ["study", "run", "Study", "StudyReport", "Distributions", "RunDraw", "RunSetup", "Plant",
            "make_plant", "plot_report", "TorqueNoise", "CONTROLLER_KEYS", "DISTRIBUTIONS_HELP", "MissingExtraError",
-           "model_text"]
+           "model_text", "check_study_size"]
+
+
+def check_study_size(runs, controllers: int, duration: float, dt: float, bandwidth: float,
+                     cli: bool = False) -> None:
+    """Refuse a study beyond :data:`manipdyn.limits.MAX_RUN_STEPS` (steps of one run),
+    :data:`~manipdyn.limits.MAX_STUDY_STEPS` (runs x controllers x steps) or
+    :data:`~manipdyn.limits.MAX_BANDWIDTH`; the ModelError (a ValueError) says how to
+    raise the limit (``cli=True``: for one command-line run too)."""
+    import math
+
+    from .. import limits
+
+    for name, v in (("duration", duration), ("dt", dt), ("bandwidth", bandwidth)):
+        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            raise ValueError(f"{name}: expected a positive finite number, got {v!r}")
+    o = "--" if cli else ""
+    steps = math.ceil(duration / dt - 1e-9)
+    limits.check_count(steps, f"{o}duration / {o}dt", "the number of steps of one run", "MAX_RUN_STEPS", cli)
+    limits.check_count(runs * controllers * steps, f"{o}runs x {o}controllers x steps",
+                       "the number of steps of the study", "MAX_STUDY_STEPS", cli)
+    limits.check_count(bandwidth, f"{o}bandwidth", "the bandwidth (rad/s)", "MAX_BANDWIDTH", cli)
 
 
 def study(arm, runs: int, seed: int = 0, controllers=CONTROLLER_KEYS, duration: float = 2.0,
@@ -63,6 +84,7 @@ def study(arm, runs: int, seed: int = 0, controllers=CONTROLLER_KEYS, duration: 
     """
     import numpy as np
 
+    check_study_size(runs, len(tuple(controllers)), duration, dt, bandwidth)
     lim = None
     if tau_max is not None:
         try:
