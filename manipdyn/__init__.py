@@ -24,6 +24,8 @@ from .errors import (ModelError, ModelNoteWarning, PhysicalConsistencyWarning, S
 from .inertia import LinkInertia
 from .kinematics import transform_inverse
 from .links import ChainJoint, DHLink
+from .drive import Transmission
+from .friction import Friction, FrictionTerms
 from .arm import Arm, Convention, Manipulator, URDFArm
 from .loading import load, load_with_notes, models
 from .io import save, to_toml, to_urdf, write_urdf
@@ -31,6 +33,7 @@ from .engine import DynamicsEngine
 from .arm import register_engine
 from .lagrange import trace_form_engine
 from .check import CrosscheckReport, crosscheck
+from .linearize import linearize  # also arm.linearize (registered as a service)
 # ``compare`` is the function; the package of the same name is manipdyn/compare/
 # (binding the name here, after the import, makes md.compare the function)
 from .compare import CompareReport, compare
@@ -58,10 +61,10 @@ def __getattr__(name):
 
 __version__ = "0.1.0"
 
-__all__ = [
+__all__ = ["Transmission", "Friction", "FrictionTerms", 
     "Arm", "ChainJoint", "Convention", "CompareReport", "CrosscheckReport", "DHLink", "DynamicsEngine",
     "LinkInertia", "Manipulator", "ModelError", "ModelNoteWarning", "PhysicalConsistencyWarning", "SingularMassMatrixError",
-    "StateError", "SuspiciousValueWarning", "URDFArm", "compare", "crosscheck", "load", "load_with_notes", "models", "save",
+    "StateError", "SuspiciousValueWarning", "URDFArm", "compare", "crosscheck", "linearize", "load", "load_with_notes", "models", "save",
     "simulate", "to_toml", "to_urdf", "transform_inverse", "write_urdf",
 ]
 

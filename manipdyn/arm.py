@@ -25,7 +25,8 @@ import numpy as np
 from . import limits
 from .errors import ModelError, PhysicalConsistencyWarning, warn_notes
 from .kinematics import ChainKinematics, DHKinematics, rot_x, rot_z, trans
-from .links import ChainJoint, DHLink, as_dh_links, check_name, physical_note
+from .drive import arm_drive
+from .links import ChainJoint, DHLink, as_dh_links, as_gravity, check_name, dh_links_equal, physical_note
 
 __all__ = ["Arm", "Manipulator", "URDFArm", "Convention", "TraceFormData", "register_engine",
            "register_service", "DEFAULT_QLIM", "joint_letters", "as_gravity"]
@@ -64,37 +65,20 @@ class TraceFormData(NamedTuple):
     J : (n, 4, 4)
         Pseudo-inertias (eq. 2.21) in the frames ``kinematics`` produces.
     armature : (n,)
-        Reflected rotor inertias, kg m^2 (kg for prismatic joints).
-    friction : (2, n) or None
-        Viscous and Coulomb coefficients.
+        Reflected rotor inertias ``R_kk^2 Jm_k``, kg m^2 (kg for prismatic joints).
+    friction : Friction or None
+        The friction law (:class:`manipdyn.drive.Friction`); the transmission and
+        the rotors' ``Jm`` are ``arm.transmission`` and ``arm.motor_inertia``.
     """
 
     kinematics: object
     J: np.ndarray
     armature: np.ndarray
-    friction: np.ndarray | None
+    friction: object
 
 #: joint-limit defaults used when a link has no ``qlim``: revolute +-pi rad,
 #: prismatic +-1 m.  They bound the states the cross-check draws.
 DEFAULT_QLIM = {"revolute": (-math.pi, math.pi), "prismatic": (-1.0, 1.0)}
-
-
-def as_gravity(value, where="gravity") -> np.ndarray:
-    """Gravity as a read-only (3,) float array (m/s^2); the chapter's [gx, gy, gz, 0] accepted."""
-    try:
-        g = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError, OverflowError, RecursionError):
-        raise ModelError(f"{where}: expected 3 numbers (gx, gy, gz) in m/s^2, got {value!r}") from None
-    if g.shape == (4,) and g[3] == 0.0:
-        g = g[:3]  # the chapter's homogeneous form [gx, gy, gz, 0]
-    if g.shape != (3,):
-        raise ModelError(f"{where}: expected 3 numbers (gx, gy, gz) in m/s^2, got shape {g.shape}")
-    if not np.all(np.isfinite(g)):
-        raise ModelError(f"{where}: must be finite, got {g.tolist()}")
-    limits.check_range(g, where, "gravity", "acceleration")
-    g = g.copy()
-    g.setflags(write=False)
-    return g
 
 
 def joint_letters(joint_types) -> str:
@@ -117,6 +101,12 @@ class Arm:
     gravity: np.ndarray
     source: str = ""
     notes: tuple = ()  #: one line per physically impossible link, suspicious unit, ...
+    #: the drive (:func:`manipdyn.drive.arm_drive`): transmission, friction_model (Friction or None), Jm (n,),
+    #: rotor inertia R^T diag(Jm) R (n, n), armature R_kk^2 Jm_k (n,), friction (2, n) of the links' kind or None
+    transmission: object
+    friction_model: object
+    motor_inertia: np.ndarray
+    rotor_inertia: np.ndarray
 
     def __init__(self) -> None:
         self._engines: dict = {}
@@ -225,6 +215,7 @@ class Arm:
         """qdd solving D qdd = tau - h - g (- friction), (n,) or (N, n): Pinocchio's ABA."""
         eng = self._engines.get("pinocchio") or self.engine("pinocchio")
         return eng.forward_dynamics(q, qd, tau)
+    def linearize(self, q, qd, tau, dt=None, engine="pinocchio"): return _SERVICES["linearize"](self, q, qd, tau, dt, engine)
 
     # -- kinematics ---------------------------------------------------------
     def link_poses(self, q) -> np.ndarray:
@@ -306,11 +297,17 @@ class Manipulator(Arm):
         ``corrections``, ...), as in model files.
     description : str
         Free text, kept by model files.
+    transmission : Transmission, optional
+        Motors to joints; its diagonal must be the links' gear ratios (default:
+        ``diag(gear_ratio)``).
+    friction : Friction, optional
+        The friction law; default: the links' viscous and Coulomb friction,
+        joint side, sharp sign (then the links' friction must be zero).
     """
 
     def __init__(self, links, convention: Convention = _REQUIRED, gravity=(0.0, 0.0, -9.81),
                  name: str = "", strict: bool = False, source: str = "", sources=None,
-                 description: str = ""):
+                 description: str = "", transmission=None, friction=None):
         super().__init__()
         if convention is _REQUIRED:
             raise TypeError("Manipulator: the argument 'convention' is required: 'standard' (distal DH, "
@@ -328,10 +325,11 @@ class Manipulator(Arm):
         self.joint_types = tuple(l.joint for l in links)
         self._qlim = np.array([l.qlim if l.qlim is not None else DEFAULT_QLIM[l.joint] for l in links])
         self._qlim.setflags(write=False)
-        self.armature = np.array([l.armature for l in links])
-        self.armature.setflags(write=False)
-        fr = np.array([[l.friction_viscous for l in links], [l.friction_coulomb for l in links]])
-        self.friction = fr if np.any(fr) else None
+        self.motor_inertia = np.array([l.motor_inertia for l in links])
+        self.motor_inertia.setflags(write=False)
+        self.transmission, self.friction_model, self.rotor_inertia, self.armature, self.friction = arm_drive(
+            self.n, [l.gear_ratio for l in links], self.motor_inertia, [l.friction_viscous for l in links],
+            [l.friction_coulomb for l in links], transmission, friction, self.name or "arm")
         notes = (physical_note(l.body, f"{self.name or 'arm'}: link {i + 1}" + (f" ({l.name})" if l.name else ""),
                                self.strict) for i, l in enumerate(links))
         self.notes = tuple(n for n in notes if n)
@@ -344,8 +342,9 @@ class Manipulator(Arm):
                 and self.source == other.source and self.sources == other.sources
                 and self.description == other.description
                 and np.array_equal(self.gravity, other.gravity)
-                and len(self.links) == len(other.links)
-                and all(_dh_equal(a, b) for a, b in zip(self.links, other.links)))
+                and len(self.links) == len(other.links) and self.transmission == other.transmission
+                and (self.friction_model == other.friction_model) is True
+                and all(dh_links_equal(a, b) for a, b in zip(self.links, other.links)))
 
     __hash__ = None  # type: ignore[assignment]
 
@@ -353,7 +352,7 @@ class Manipulator(Arm):
         """DH kinematics (eq. 2.3 or Craig's) and each link's J in its DH frame (eq. 2.21)."""
         kin = DHKinematics(self.links, self.convention)
         J = np.array([l.body.J for l in self.links])
-        return TraceFormData(kin, J, self.armature, self.friction)
+        return TraceFormData(kin, J, self.armature, self.friction_model)
 
     @property
     def joint_names(self) -> tuple:
@@ -425,10 +424,15 @@ class URDFArm(Arm):
         URDF has no rotor inertia.
     friction : (2, n) or None
         Viscous (``damping``) and Coulomb (``friction``) coefficients of ``<dynamics>``.
+    transmission : Transmission
+        Identity by default (URDF has no gears); ``transmission=`` gives one.
+    friction_model : Friction or None
+        ``<dynamics>`` as a joint-side sharp-sign law, or the ``friction=`` given
+        (which replaces ``<dynamics>``).
     """
 
     def __init__(self, *, name, gravity, source, urdf_text, pin_text, root, tip, joints, tool,
-                 locked, members, path=None):
+                 locked, members, path=None, transmission=None, friction=None):
         super().__init__()
         self.name = check_name(str(name), "URDFArm", "name")
         self.gravity = as_gravity(gravity)
@@ -449,14 +453,15 @@ class URDFArm(Arm):
         self.joint_types = tuple(j.joint for j in joints)
         self._qlim = np.array([j.qlim for j in joints], dtype=np.float64)
         self._qlim.setflags(write=False)
-        self.armature = np.zeros(len(joints))
-        self.armature.setflags(write=False)
-        fr = np.array([[j.friction_viscous for j in joints], [j.friction_coulomb for j in joints]])
-        if np.any(fr):
-            fr.setflags(write=False)
-            self.friction = fr
-        else:
-            self.friction = None
+        n = len(joints)
+        self.custom_drive = transmission is not None or friction is not None  #: not from the URDF text
+        self.motor_inertia = np.zeros(n)
+        self.motor_inertia.setflags(write=False)
+        G = np.ones(n) if transmission is None else np.diag(getattr(transmission, "R", np.eye(n)))
+        fr = np.zeros((2, n)) if friction is not None else [[j.friction_viscous for j in joints],
+                                                              [j.friction_coulomb for j in joints]]
+        self.transmission, self.friction_model, self.rotor_inertia, self.armature, self.friction = arm_drive(
+            n, G, self.motor_inertia, fr[0], fr[1], transmission, friction, self.name or "arm")
 
     @property
     def tool_frame(self) -> str:
@@ -472,7 +477,7 @@ class URDFArm(Arm):
         """The chain's kinematics (any axes) and each body's J in its URDF link frame."""
         kin = ChainKinematics(self._joints, self._tool)
         J = np.array([j.body.J for j in self._joints])
-        return TraceFormData(kin, J, self.armature, self.friction)
+        return TraceFormData(kin, J, self.armature, self.friction_model)
 
     # -- comparison and display -------------------------------------------------
     def __eq__(self, other):
@@ -490,10 +495,3 @@ class URDFArm(Arm):
             s += f", {len(self.locked_joints)} locked"
         return s + f" ({self.source})>"
 
-
-def _dh_equal(a: DHLink, b: DHLink) -> bool:
-    return all(
-        np.array_equal(np.asarray(getattr(a, f)), np.asarray(getattr(b, f)))
-        for f in ("joint", "a", "alpha", "d", "theta", "mass", "com", "inertia", "qlim",
-                  "motor_inertia", "gear_ratio", "friction_viscous", "friction_coulomb", "name")
-    )

@@ -57,6 +57,11 @@ QUANTITIES = {
     "K": "kinetic energy",
     "P": "potential energy",
     "Y": "inverse-dynamics regressor Y(q, qd, qdd) (10 parameters per link)",
+    "dtau_dq": "derivative of inverse dynamics by q, dtau/dq",
+    "dtau_dqd": "derivative of inverse dynamics by qd, dtau/dqd (friction included)",
+    "dqdd_dq": "derivative of forward dynamics by q, dqdd/dq",
+    "dqdd_dqd": "derivative of forward dynamics by qd, dqdd/dqd",
+    "dg_dq": "derivative of the gravity torque, dg/dq",
 }
 
 
@@ -331,12 +336,25 @@ def _crosscheck_states(arm, samples, seed, chunk, progress, first, stop) -> Cros
         add("P", L.potential_energy(qs)[:, None], np.asarray(P.potential_energy(qs))[:, None])
         add("C", L.coriolis_matrix(qs, qds), P.coriolis_matrix(qs, qds))
         add("Y", L.regressor(qs, qds, qdds), P.regressor(qs, qds, qdds))
+        for key, a, b in zip(("dtau_dq", "dtau_dqd"), L.inverse_dynamics_derivatives(qs, qds, qdds),
+                             P.inverse_dynamics_derivatives(qs, qds, qdds)):
+            add(key, a, b)
+        add("dg_dq", L.gravity_derivative(qs), P.gravity_derivative(qs))
+        if "qdd" in skipped:      # the same conditioning limits D^-1 dtau (and a singular D has none)
+            for key in ("dqdd_dq", "dqdd_dqd"):
+                skipped.setdefault(key, skipped["qdd"].replace("qdd not compared", "dqdd_dq, dqdd_dqd not "
+                                                               "compared (as qdd)", 1))
+                parts.pop(key, None)
+        else:
+            for key, a, b in zip(("dqdd_dq", "dqdd_dqd"), L.forward_dynamics_derivatives(qs, qds, tau),
+                                 P.forward_dynamics_derivatives(qs, qds, tau)):
+                add(key, a, b)
         if progress is not None:
             progress(sl.stop, samples)
 
     states = {"q": q, "qd": qd, "qdd": qdd}
     report = CrosscheckReport(arm=arm.name or "arm", n=arm.n, samples=int(samples_all), seed=int(seed),
-                              notes=list(getattr(arm, "notes", ())) + list(skipped.values()),
+                              notes=list(getattr(arm, "notes", ())) + list(dict.fromkeys(skipped.values())),
                               not_compared=dict(skipped))
     for key, (ra, rb) in parts.items():
         report.quantities[key] = _compare(key, np.concatenate(ra), np.concatenate(rb), states)

@@ -23,7 +23,9 @@ __all__ = ["DynamicsEngine", "ENGINE_METHODS"]
 #: the methods of :class:`DynamicsEngine`, in one place for tests and tools
 ENGINE_METHODS = ("mass_matrix", "coriolis_torque", "gravity_torque", "friction_torque",
                   "dynamics_terms", "inverse_dynamics", "forward_dynamics", "kinetic_energy",
-                  "potential_energy", "coriolis_matrix", "fkine", "regressor")
+                  "potential_energy", "coriolis_matrix", "fkine", "regressor",
+                  "inverse_dynamics_derivatives", "forward_dynamics_derivatives", "gravity_derivative",
+                  "friction_derivative")
 
 
 @runtime_checkable
@@ -36,7 +38,7 @@ class DynamicsEngine(Protocol):
     n: int
 
     def mass_matrix(self, q) -> np.ndarray:
-        """D(q): (n, n) or (N, n, n), kg m^2, symmetric positive definite (armature included)."""
+        """D(q): (n, n) or (N, n, n), kg m^2, symmetric positive definite (rotors ``R^T diag(Jm) R`` included)."""
         ...
 
     def coriolis_torque(self, q, qd) -> np.ndarray:
@@ -48,7 +50,8 @@ class DynamicsEngine(Protocol):
         ...
 
     def friction_torque(self, qd) -> np.ndarray:
-        """Viscous plus Coulomb friction ``Fv qd + Fc sign(qd)``: (n,) or (N, n), N m."""
+        """The friction law at the joints (``Fv qd + Fc sign(qd)`` for the links' kind;
+        :class:`manipdyn.drive.Friction`, motor side mapped by ``R^T``): (n,) or (N, n), N m."""
         ...
 
     def dynamics_terms(self, q, qd) -> tuple:
@@ -86,4 +89,25 @@ class DynamicsEngine(Protocol):
         origin), then n armature and 2n friction columns when asked for
         (:mod:`manipdyn.parameters`).
         """
+        ...
+
+    # -- derivatives (index [..., i, m] = d out_i / d in_m) ----------------------------
+    def inverse_dynamics_derivatives(self, q, qd, qdd) -> tuple:
+        """``(dtau_dq, dtau_dqd)``: each (n, n) or (N, n, n); friction included.
+
+        ``dtau/dqdd`` is :meth:`mass_matrix`.
+        """
+        ...
+
+    def forward_dynamics_derivatives(self, q, qd, tau) -> tuple:
+        """``(dqdd_dq, dqdd_dqd, dqdd_dtau)``: each (n, n) or (N, n, n); ``dqdd_dtau = D^-1``."""
+        ...
+
+    def gravity_derivative(self, q) -> np.ndarray:
+        """``dg/dq``: (n, n) or (N, n, n), N m/rad, symmetric."""
+        ...
+
+    def friction_derivative(self, qd) -> np.ndarray:
+        """``dF/dqd`` of the friction law: (n, n) or (N, n, n); what a non-smooth law returns
+        where it has no derivative is the engine's to document."""
         ...

@@ -21,9 +21,11 @@ import math
 import numpy as np
 
 from ._state import as_state, check_result, same_batch
-from .errors import SingularMassMatrixError
+from .errors import ModelError, SingularMassMatrixError
 from .kinematics import transform_inverse
+from .lagrange_derivatives import TraceFormDerivatives
 from .parameters import PARAMETER_BASIS, with_extra_columns
+from .trace_drive import coupled_rotor_inertia, friction_torque
 
 __all__ = ["TraceFormEngine", "trace_form_engine", "CHUNK"]
 
@@ -45,7 +47,7 @@ def _link_sum(S: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 _isfinite = math.isfinite
 
-class TraceFormEngine:
+class TraceFormEngine(TraceFormDerivatives):  # derivatives: manipdyn.lagrange_derivatives
     """Trace-form Lagrange-Euler dynamics of one arm.
 
     Built by :class:`manipdyn.Manipulator`; reach it as ``arm.lagrange``.
@@ -59,9 +61,17 @@ class TraceFormEngine:
     gravity : (3,)
         Acceleration of gravity in the base frame, m/s^2.
     armature : (n,)
-        Reflected rotor inertia ``G^2 Jm`` per joint (kg m^2 or kg).
-    friction : (2, n) or None
-        Viscous and Coulomb friction coefficients per joint.
+        Reflected rotor inertia ``G^2 Jm`` per joint (kg m^2 or kg), used when the
+        transmission is diagonal (or not given).
+    friction : (2, n), Friction or None
+        Viscous and Coulomb friction coefficients per joint (joint side, sharp
+        sign), or a friction law (:class:`manipdyn.drive.Friction`), which this
+        engine evaluates with its own code (:meth:`_friction_law`).
+    transmission : Transmission or None
+        Motors to joints; with a coupled (non-diagonal) R the rotor inertia is the
+        full ``R^T diag(motor_inertia) R``, and a motor-side law acts on ``R qd``.
+    motor_inertia : (n,) or None
+        Rotor inertias ``Jm`` on the motor shafts, kg m^2.
     link_offsets : (n, 4, 4) or None
         ``S_p`` with ``T_p = L_p S_p``, ``L_p`` link p's frame in the arm's URDF
         (:meth:`manipdyn.Arm.urdf_link_offsets`; identity when None).
@@ -70,7 +80,8 @@ class TraceFormEngine:
 
     name = "lagrange"
 
-    def __init__(self, kinematics, J, gravity, armature=None, friction=None, link_offsets=None):
+    def __init__(self, kinematics, J, gravity, armature=None, friction=None, link_offsets=None,
+                 transmission=None, motor_inertia=None):
         self._kin = kinematics
         self.n = kinematics.n
         self.J = np.asarray(J, dtype=np.float64)
@@ -83,6 +94,11 @@ class TraceFormEngine:
         self.armature = np.zeros(self.n) if armature is None else np.asarray(armature, dtype=np.float64)
         self._has_armature = bool(np.any(self.armature))
         self._armature_diag = np.diag(self.armature)
+        self.transmission = transmission
+        self._rotor_full = None           # a coupled drive: the full (n, n) rotor inertia
+        if transmission is not None and not transmission.is_diagonal and motor_inertia is not None:
+            self._rotor_full = self._armature_diag = coupled_rotor_inertia(transmission.R, motor_inertia)
+            self._has_armature = bool(np.any(self._rotor_full))
         # states per block: CHUNK, fewer on long chains so that one (B, n, n)
         # temporary stays within about 16 MB (memory linear in N, chunked)
         self._chunk = max(1, min(CHUNK, 2_000_000 // (self.n * self.n)))
@@ -91,6 +107,15 @@ class TraceFormEngine:
         self._tail = np.triu(np.ones((self.n, self.n)))        # sum over p >= k
         self._head = np.tril(np.ones((self.n, self.n)))        # sum over p <= k
         self._head_strict2 = 2.0 * np.tril(np.ones((self.n, self.n)), -1)  # 2 * sum over p < k
+        # the friction law: legacy (2, n) array in self.friction, anything else in self._law
+        self._law = None
+        if friction is not None and hasattr(friction, "viscous_coulomb"):
+            legacy = friction.viscous_coulomb()
+            if legacy is None:
+                self._law = friction
+                if friction.side == "motor" and transmission is None:
+                    raise ModelError("friction: a motor-side law needs the transmission (qd_m = R qd)")
+            friction = legacy
         self.friction = None if friction is None else np.asarray(friction, dtype=np.float64)
         if self.friction is not None and not np.any(self.friction):
             self.friction = None
@@ -163,9 +188,15 @@ class TraceFormEngine:
         return _link_sum(self._tail, T @ self._mr[:, :, None])
 
     def _friction(self, qd):
+        if self._law is not None:
+            return self._friction_law(qd)
         if self.friction is None:
             return 0.0
         return self.friction[0] * qd + self.friction[1] * np.sign(qd)
+
+    def _friction_law(self, qd):
+        """The friction law, coded for this engine (:func:`manipdyn.trace_drive.friction_torque`)."""
+        return friction_torque(self._law, None if self.transmission is None else self.transmission.R, qd)
 
     # -- batching ------------------------------------------------------------
     def _run(self, kernel, single, *arrays, what: str = "trace form", names=(), chunk=None):
@@ -231,7 +262,9 @@ class TraceFormEngine:
         _, Delta, W = self._frames(q)
         Wbar3 = _link_sum(self._tail, W[..., 3:])
         tau = self._h(Delta, W, qd, qdd) + self._g(Delta, Wbar3) + self._friction(qd)
-        if self._has_armature:
+        if self._rotor_full is not None:
+            tau += qdd @ self._rotor_full
+        elif self._has_armature:
             tau += self.armature * qdd
         return tau
 
@@ -250,6 +283,8 @@ class TraceFormEngine:
         Omega = _link_sum(self._head, Delta * qd[:, :, None, None])  # sum_{j<=i} Delta_j qd_j
         Tdot = Omega @ T                                              # dT_i/dt (eq. 2.13)
         K = 0.5 * np.einsum("biac,icd,biad->b", Tdot, self.J, Tdot)  # eq. 2.22
+        if self._rotor_full is not None:                              # coupled rotors
+            return K + 0.5 * np.einsum("bi,ij,bj->b", qd, self._rotor_full, qd)
         return K + 0.5 * (qd**2) @ self.armature                     # rotors
 
     def _k_potential(self, q):
@@ -330,7 +365,7 @@ class TraceFormEngine:
         single, arrays = self._states(q=q, qd=qd, qdd=qdd)
         Y = self._run(self._k_regressor, single, *arrays, names=("q", "qd", "qdd"))
         qd_, qdd_ = (arrays[1][0], arrays[2][0]) if single else (arrays[1], arrays[2])
-        return with_extra_columns(Y, qd_, qdd_, armature, friction)
+        return with_extra_columns(Y, qd_, qdd_, armature, friction, self.transmission)
 
     def _k_regressor(self, q, qd, qdd):
         T, Delta = self._kin.frames(q)
@@ -449,5 +484,6 @@ def trace_form_engine(arm) -> TraceFormEngine:
     kin, J, armature, friction = arm.trace_form_data()
     # a DH arm's trace form runs in DH frames, its URDF (and regressor) in URDF link frames
     return TraceFormEngine(kin, J, arm.gravity, armature=armature, friction=friction,
-                           link_offsets=arm.urdf_link_offsets())
+                           link_offsets=arm.urdf_link_offsets(), transmission=arm.transmission,
+                           motor_inertia=arm.motor_inertia)
 

@@ -19,8 +19,9 @@ from .errors import ModelError
 
 __all__ = ["MAX_FILE_BYTES", "MAX_MODEL_FILE_BYTES", "MAX_LINKS", "MAX_JOINTS", "MAX_FIXED_RUN",
            "MAX_NAME_LENGTH", "MAX_LENGTH", "MAX_ANGLE", "MAX_GRAVITY", "MAX_MASS", "MAX_INERTIA",
-           "MAX_MAGNITUDE", "MAX_HARMONICS", "MAX_EXCITATION_SAMPLES", "MAX_RUN_STEPS", "MAX_STUDY_STEPS",
-           "MAX_BANDWIDTH", "MAX_DEMO_DURATION", "MAX_TRAJECTORY_BYTES", "CLI_RAISE", "over_limit", "check_count", "check_magnitude", "check_range", "open_regular"]
+           "MAX_MAGNITUDE", "MAX_DATA_BYTES", "MAX_DATA_FIELD_BYTES", "MAX_HARMONICS", "MAX_EXCITATION_SAMPLES",
+           "MAX_RUN_STEPS", "MAX_STUDY_STEPS", "MAX_BANDWIDTH", "MAX_DEMO_DURATION", "MAX_TRAJECTORY_BYTES",
+           "CLI_RAISE", "over_limit", "check_count", "check_magnitude", "check_range", "open_regular"]
 
 #: largest URDF or model file read, bytes (16 MiB; real ones are under 1 MiB)
 MAX_FILE_BYTES = 16 * 1024 * 1024
@@ -55,6 +56,14 @@ MAX_NAME_LENGTH = 1000
 #: in kg m^2, gear ratios, rotor inertias, friction): products of three of them
 #: (m r^2 v^2 ...) stay far from float64 overflow (1.8e308)
 MAX_MAGNITUDE = 1e60
+#: largest measurement log read for identification (a CSV file, or all the files of a
+#: ROS bag), bytes (256 MiB: an hour of a 7-joint arm at 1 kHz with q, qd, tau is about
+#: 400 MB in text, so long logs need this raised; the parsed float64 array is about a
+#: third of the text's size)
+MAX_DATA_BYTES = 256 * 1024 * 1024
+#: longest single field (or header line) of a measurement CSV, bytes (128 KiB: a number
+#: has under 30 characters; a longer field is a file that is not the table it claims to be)
+MAX_DATA_FIELD_BYTES = 128 * 1024
 #: most harmonics per joint of an excitation trajectory (``manipdyn excite --harmonics``):
 #: the optimiser has 2 n K variables and estimates each gradient entry with one more
 #: condition-number evaluation, so its time grows with K; Swevers et al. use 5

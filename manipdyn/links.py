@@ -17,7 +17,7 @@ from .errors import ModelError
 from .inertia import LinkInertia, as_vector3
 from .kinematics import JOINT_TYPES, dh_modified, dh_standard
 
-__all__ = ["physical_note", "DHLink", "ChainJoint", "as_dh_links", "check_name"]
+__all__ = ["physical_note", "DHLink", "ChainJoint", "as_dh_links", "check_name", "as_gravity", "dh_links_equal"]
 
 
 def _scalar(value, where: str, name: str) -> float:
@@ -29,6 +29,24 @@ def _scalar(value, where: str, name: str) -> float:
         raise ModelError(f"{where}: field '{name}' must be finite, got {v}")
     limits.check_magnitude(v, where, name)
     return v
+
+
+def as_gravity(value, where="gravity") -> np.ndarray:
+    """Gravity as a read-only (3,) float array (m/s^2); the chapter's [gx, gy, gz, 0] accepted."""
+    try:
+        g = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError, RecursionError):
+        raise ModelError(f"{where}: expected 3 numbers (gx, gy, gz) in m/s^2, got {value!r}") from None
+    if g.shape == (4,) and g[3] == 0.0:
+        g = g[:3]  # the chapter's homogeneous form [gx, gy, gz, 0]
+    if g.shape != (3,):
+        raise ModelError(f"{where}: expected 3 numbers (gx, gy, gz) in m/s^2, got shape {g.shape}")
+    if not np.all(np.isfinite(g)):
+        raise ModelError(f"{where}: must be finite, got {g.tolist()}")
+    limits.check_range(g, where, "gravity", "acceleration")
+    g = g.copy()
+    g.setflags(write=False)
+    return g
 
 
 def check_name(value, where: str, field: str = "name") -> str:
@@ -305,3 +323,12 @@ class ChainJoint:
                 raise ModelError(f"{where}: field '{f}' must be >= 0, got {v}")
             object.__setattr__(self, f, v)
         object.__setattr__(self, "name", check_name(self.name, where, "name"))
+
+
+def dh_links_equal(a: "DHLink", b: "DHLink") -> bool:
+    """True when two DH links hold the same numbers and name (every field compared exactly)."""
+    return all(
+        np.array_equal(np.asarray(getattr(a, f)), np.asarray(getattr(b, f)))
+        for f in ("joint", "a", "alpha", "d", "theta", "mass", "com", "inertia", "qlim",
+                  "motor_inertia", "gear_ratio", "friction_viscous", "friction_coulomb", "name")
+    )

@@ -40,6 +40,26 @@ Format (``format = "manipdyn-model/1"``)::
     friction_viscous = 0.0             # optional, joint side, N m s/rad (N s/m)
     friction_coulomb = 0.0             # optional, joint side, N m (N)
 
+    [transmission]                     # optional: motors to joints, q_m = R q + offset (manipdyn.drive)
+    coupling = [[6, 5, 32.0]]          # extra entries of R: [motor row, joint column, value], 1-based;
+                                       # R's diagonal is the links' gear_ratio
+    motor_offset = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]   # rad (m) at the motor, optional
+    torque_constant = [0.5, 0.5, 0.5, 0.5, 0.5, 0.5]  # N m per A at each motor, optional
+
+    [friction]                         # optional: the friction law (manipdyn.friction); then the
+                                       # links' friction_viscous/coulomb must be 0 (one description)
+    side = "joint"                     # or "motor": acts on qd_m = R qd, reaches the joints as R^T tau_m
+    viscous = [...]                    # one number per joint each; coulomb = [...] (symmetric) or
+    coulomb = [...]                    # coulomb_pos = [...] and coulomb_neg = [...] (v > 0, v < 0)
+    offset = [...]                     # constant joint torque
+    smoothing = 0.01                   # tanh(v / smoothing); 0 = sharp sign (default 0.01)
+    deadband = 0.0                     # |v| <= deadband: no Coulomb torque
+    stribeck_level = [...]             # Fs - Fc, with stribeck_velocity = [...], stribeck_exponent = 2.0
+    sigmoid_A = [...]                  # Gaz et al. 2019, with sigmoid_alpha = [...], sigmoid_p3 = [...]
+
+    The drive tables are in SI units whatever [units] says (ratios; rad at the
+    motor; N m/A; N m s/rad and N m on the law's side).
+
 Every key is checked: a missing, unknown or mistyped key, or a unit that is
 not in the lists above, is a :class:`ModelError` naming the file and key.
 """
@@ -59,6 +79,7 @@ from . import limits
 from .arm import Manipulator
 from .errors import ModelError, SuspiciousValueWarning, warn_notes
 from .links import DHLink
+from .modelfile_drive import drive_to_toml, parse_drive
 
 __all__ = ["models", "load_bundled", "load_model_file", "parse_model", "save_model", "model_to_toml", "FORMAT"]
 
@@ -67,7 +88,8 @@ _LENGTH = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254}
 _ANGLE = {"rad": 1.0, "deg": math.pi / 180.0}
 _MASS = {"kg": 1.0, "g": 0.001}
 
-_TOP_KEYS = {"format", "name", "convention", "gravity", "source", "sources", "units", "links", "description"}
+_TOP_KEYS = {"format", "name", "convention", "gravity", "source", "sources", "units", "links", "description",
+             "transmission", "friction"}
 _LINK_REQUIRED = ("joint", "a", "alpha", "d", "theta", "mass")
 _LINK_OPTIONAL = ("name", "qlim", "com", "inertia", "motor_inertia", "gear_ratio",
                   "friction_viscous", "friction_coulomb")
@@ -187,9 +209,10 @@ def parse_model(text: str, origin: str = "<model>", strict: bool = False) -> Man
     unit_notes = _unit_notes(origin, raw_links, units, links)
     if strict and unit_notes:
         raise ModelError("; ".join(unit_notes) + " (strict)")
+    drive = parse_drive(data, origin, [l.gear_ratio for l in links])
     try:
         arm = Manipulator(links, convention=convention, gravity=gravity, name=name, strict=strict,
-                          source=source, sources=sources, description=description)
+                          source=source, sources=sources, description=description, **drive)
     except ModelError as exc:
         if origin in str(exc):
             raise
@@ -440,6 +463,7 @@ def model_to_toml(arm: Manipulator) -> str:
         if l.friction_viscous or l.friction_coulomb:
             lines += [f"friction_viscous = {_toml_num(l.friction_viscous)}",
                       f"friction_coulomb = {_toml_num(l.friction_coulomb)}"]
+    lines += drive_to_toml(arm, _toml_num, _toml_list)
     return "\n".join(lines) + "\n"
 
 

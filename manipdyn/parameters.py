@@ -14,10 +14,18 @@ Layout, shared by both engines' ``regressor`` methods, by
   For a standard-DH arm that frame is DH frame i moved back by
   ``S_i = Trans_x(a_i) Rot_x(alpha_i)`` (:meth:`manipdyn.Manipulator.urdf_link_offsets`);
   for a modified-DH or URDF arm it is the link frame itself.
-* with ``armature=True``: ``n`` reflected rotor inertias ``G^2 J_m``
-  (kg m^2 or kg), regressor column ``qdd_j``;
+* with ``armature=True``: ``n`` reflected rotor inertias ``R_kk^2 J_m,k``, one per
+  MOTOR k (kg m^2 or kg; ``G^2 J_m`` for a diagonal transmission), regressor column
+  ``R^T e_k (R qdd)_k / R_kk^2`` (:class:`manipdyn.drive.Transmission`), which is
+  ``qdd_k e_k`` when R is diagonal: the sum of the columns times the parameters is
+  the rotor torque ``R^T diag(J_m) R qdd``;
 * with ``friction=True``: ``n`` viscous coefficients (column ``qd_j``) then
-  ``n`` Coulomb coefficients (column ``sign(qd_j)``).
+  ``n`` Coulomb coefficients (column ``sign(qd_j)``): joint side, sharp sign.
+  ``friction`` may also name the terms: a :class:`manipdyn.drive.Friction` (its
+  terms, side, smoothing and shapes), a :class:`manipdyn.drive.FrictionTerms` or
+  term names ("viscous", "coulomb", "asymmetric", "offset"); blocks of n columns
+  in :data:`manipdyn.friction.FRICTION_TERMS` order, motor-side parameters
+  reflected to the joints (:mod:`manipdyn.friction`, :func:`manipdyn.friction.friction_spec`).
 
 All conversions between a link's pseudo-inertia J and its ten parameters go
 through :func:`manipdyn.inertia.parameters_from_pseudo_inertia` and
@@ -28,6 +36,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .friction import friction_spec, law_parameters
 from .inertia import LINK_PARAMETERS, parameters_from_pseudo_inertia, pseudo_inertia_from_parameters
 
 __all__ = ["parameter_names", "parameter_count", "arm_parameters", "with_extra_columns", "PARAMETER_BASIS"]
@@ -38,50 +47,66 @@ PARAMETER_BASIS = pseudo_inertia_from_parameters(np.eye(10))
 PARAMETER_BASIS.setflags(write=False)
 
 
-def parameter_count(n: int, armature: bool = False, friction: bool = False) -> int:
-    """Length of the parameter vector: ``10 n (+ n armature) (+ 2 n friction)``."""
-    return 10 * n + (n if armature else 0) + (2 * n if friction else 0)
+def parameter_count(n: int, armature: bool = False, friction=False) -> int:
+    """Length of the parameter vector: ``10 n (+ n armature) (+ 2 n friction=True)``."""
+    spec = friction_spec(friction, n)
+    return 10 * n + (n if armature else 0) + (0 if spec is None else len(spec.parameter_names()))
 
 
-def parameter_names(n: int, armature: bool = False, friction: bool = False) -> list[str]:
-    """Names in vector order, e.g. ``"link3.mcx"``, ``"joint2.armature"``, ``"joint1.fv"``."""
+def parameter_names(n: int, armature: bool = False, friction=False) -> list[str]:
+    """Names in vector order, e.g. ``"link3.mcx"``, ``"joint2.armature"``, ``"joint1.fv"``.
+
+    ``jointk.armature`` is motor k's reflected rotor inertia ``R_kk^2 J_m,k``.
+    """
     out = [f"link{i + 1}.{p}" for i in range(n) for p in LINK_PARAMETERS]
     if armature:
         out += [f"joint{i + 1}.armature" for i in range(n)]
-    if friction:
-        out += [f"joint{i + 1}.fv" for i in range(n)] + [f"joint{i + 1}.fc" for i in range(n)]
+    spec = friction_spec(friction, n)
+    if spec is not None:
+        out += spec.parameter_names()
     return out
 
 
-def arm_parameters(arm, armature: bool = False, friction: bool = False) -> np.ndarray:
+def arm_parameters(arm, armature: bool = False, friction=False) -> np.ndarray:
     """The parameter vector ``pi`` of ``arm`` (see the module docstring), shape (p,).
 
     Link parameters come from the pseudo-inertias of :meth:`Arm.chain`'s bodies
     (URDF link frames); armature and friction (zeros when the arm has none)
-    are appended when asked for.
+    are appended when asked for.  Friction columns that cannot describe the
+    arm's friction law (another side, smoothing, ...) are a ModelError
+    (:func:`manipdyn.friction.law_parameters`).
     """
     joints, _ = arm.chain()
     parts = [parameters_from_pseudo_inertia(np.array([j.body.J for j in joints])).reshape(-1)]
     if armature:
         parts.append(np.asarray(arm.armature, dtype=np.float64))
-    if friction:
-        fr = np.zeros((2, arm.n)) if arm.friction is None else np.asarray(arm.friction, dtype=np.float64)
-        parts += [fr[0], fr[1]]
+    spec = friction_spec(friction, arm.n)
+    if spec is not None:
+        parts.append(law_parameters(arm.friction_model, spec, arm.transmission, arm.name or "arm"))
     return np.concatenate(parts)
 
 
 def with_extra_columns(Y: np.ndarray, qd: np.ndarray, qdd: np.ndarray, armature: bool,
-                       friction: bool) -> np.ndarray:
+                       friction=False, transmission=None) -> np.ndarray:
     """The link regressor ``Y`` (..., n, 10n) with the armature and friction columns appended.
 
-    ``qd``, ``qdd`` are (..., n).  Armature: ``diag(qdd)`` (n columns);
-    friction: ``diag(qd)`` then ``diag(sign(qd))`` (2n).  ``Y`` itself when
-    neither is asked for.
+    ``qd``, ``qdd`` are (..., n).  Armature: ``diag(qdd)`` (n columns), or with a
+    coupled ``transmission`` (R not diagonal) column k ``R^T e_k (R qdd)_k / R_kk^2``;
+    friction: ``diag(qd)`` then ``diag(sign(qd))`` (2n) for ``True``, or the
+    columns of a friction spec (module docstring).  ``Y`` itself when neither
+    is asked for.
     """
     blocks = []
     eye = np.eye(qd.shape[-1])
     if armature:
-        blocks.append(qdd[..., :, None] * eye)
-    if friction:
+        if transmission is None or transmission.is_diagonal:
+            blocks.append(qdd[..., :, None] * eye)
+        else:
+            R = transmission.R
+            blocks.append(R.T * ((qdd @ R.T) / np.diag(R) ** 2)[..., None, :])
+    if friction is True:
         blocks += [qd[..., :, None] * eye, np.sign(qd)[..., :, None] * eye]
+    elif friction is not False and friction is not None:
+        spec = friction_spec(friction, qd.shape[-1])
+        blocks.append(spec.columns(qd, transmission))
     return np.concatenate([Y] + blocks, axis=-1) if blocks else Y

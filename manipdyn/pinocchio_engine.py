@@ -8,11 +8,20 @@ to be shared between threads; batch calls use Pinocchio's own thread pool.
 
 Every method takes one state ``(n,)`` or a batch ``(N, n)`` and returns a
 new array of the same leading shape (SI units, joint order of the chain).
+
+Drives (:mod:`manipdyn.drive`).  Pinocchio's ``model.armature`` is diagonal
+only: it holds the diagonal of the rotor inertia ``R^T diag(Jm) R``, and with a
+coupled transmission this engine adds the off-diagonal rest ``O`` itself: to D
+(CRBA), to tau (``+ O qdd`` after RNEA), to the kinetic energy
+(``+ qd^T O qd / 2``); forward dynamics then cannot use ABA, whose articulated
+inertias know only the diagonal, and solves ``(CRBA + O) qdd = tau - rnea(q, qd, 0)
+- friction`` instead (Cholesky of the full D).  The friction law is the model's
+(:meth:`manipdyn.drive.Friction.torque`).  An arm with neither (diagonal R,
+friction of the links' kind) runs exactly the code it always ran.
 """
 
 from __future__ import annotations
 
-import functools
 import math
 import os
 
@@ -23,11 +32,11 @@ from ._state import as_state, check_result, same_batch
 from .errors import ModelError, SingularMassMatrixError
 from .parameters import with_extra_columns
 from .pinocchio_agree import check_same_arm
+from .pinocchio_fast import UncheckedView, install_fast_path
+from .pinocchio_derivatives import PinocchioDerivatives
 from .urdf_out import TOOL_LINK, arm_to_urdf
 
 _isfinite = math.isfinite
-_F64 = np.dtype(np.float64)  # native byte order: '>f8' is another object
-_ND = np.ndarray  # exactly: a masked array's data would reach Pinocchio without its mask
 _crba, _rnea, _aba, _gravity = pin.crba, pin.rnea, pin.aba, pin.computeGeneralizedGravity
 
 #: below this many states a batch runs on one thread (thread start-up costs
@@ -35,28 +44,6 @@ _crba, _rnea, _aba, _gravity = pin.crba, pin.rnea, pin.aba, pin.computeGeneraliz
 PARALLEL_MIN_STATES = 2048
 
 
-# Single-state calls are the hot path of control loops, so they get shortcuts
-# (see ``_install_fast_path``), installed per engine as closures: no method
-# frame, no attribute look-ups.  A shortcut is taken only for plain 1-D
-# ndarrays of native float64 (``dtype is float64``: a big-endian or any other
-# dtype, a subclass such as a masked array, or another rank goes down the
-# general path, which converts or refuses it).  Pinocchio itself rejects a
-# wrong length (the general path then explains the error), and eigenpy reads
-# strided 1-D arrays correctly (tests/test_fast_path_dtypes.py proves both).
-#
-# Finiteness is read off the answer, which is cheaper than testing the inputs
-# (``item`` of one element against ``sum(x.tolist())``): a NaN or inf anywhere in
-# (q, qd, qdd) or (q, qd, tau) reaches the first entry of the RNEA/ABA answer,
-# because every body's motion is carried through the dense transforms of the
-# joints before it and every body's force back through those to joint 1
-# (IEEE: 0 * NaN is NaN, 0 * inf is NaN).  D(q) and g(q) do not depend on q_1,
-# but q_2..q_n reach D_11 and g_1 (the composite body beyond joint 1), so there
-# ``D_11 * q_1`` is tested (a product that overflows only sends the call down
-# the general path).  tests/test_fast_path_dtypes.py puts NaN and inf in every
-# entry of every argument on DH and URDF arms, revolute and prismatic.  A
-# non-finite answer, or any error, sends the call down the general path, which
-# names the offending argument.
-_FAST_ERRORS = (AttributeError, TypeError, ValueError)
 
 
 def model_from_urdf(urdf_text: str, gravity, armature=None) -> "pin.Model":
@@ -73,8 +60,9 @@ def model_for_arm(arm) -> "pin.Model":
     from a file (reduced by locking its off-chain joints at ``pin.neutral``, 0),
     otherwise from the URDF generated from the arm's chain."""
     where = getattr(arm, "source", "") or arm.name or "arm"
+    armature = arm.armature if arm.transmission.is_diagonal else np.diag(arm.rotor_inertia)
     if arm.source_urdf is None:
-        model = model_from_urdf(arm_to_urdf(arm), arm.gravity, arm.armature)
+        model = model_from_urdf(arm_to_urdf(arm), arm.gravity, armature)
         check_same_arm(model, arm, where)
         return model
     try:
@@ -92,39 +80,50 @@ def model_for_arm(arm) -> "pin.Model":
         model = pin.buildReducedModel(model, ids, pin.neutral(model))
     check_same_arm(model, arm, where)  # both readers must read the same arm (joints, order, nq, ...)
     model.gravity.linear = np.array(arm.gravity)
-    model.armature = np.array(arm.armature)
+    model.armature = np.array(armature)
     return model
 
 
 def pinocchio_engine(arm) -> "PinocchioEngine":
     """The Pinocchio engine of ``arm`` (the factory behind ``arm.pinocchio``)."""
     tool = arm.tool_frame if arm.source_urdf is not None else TOOL_LINK
-    return PinocchioEngine(model_for_arm(arm), friction=arm.friction, tool_frame=tool)
+    coupling = None
+    if not arm.transmission.is_diagonal:
+        coupling = arm.rotor_inertia - np.diag(np.diag(arm.rotor_inertia))
+    return PinocchioEngine(model_for_arm(arm), friction=arm.friction_model, tool_frame=tool,
+                           transmission=arm.transmission, rotor_coupling=coupling)
 
 
 def _threads() -> int:
     return max(1, min(len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1), 8))
 
 
-class PinocchioEngine:
+class PinocchioEngine(PinocchioDerivatives):  # derivatives: manipdyn.pinocchio_derivatives
     """Pinocchio dynamics with the same methods and shapes as ``arm.lagrange``.
 
     Parameters
     ----------
     model : pin.Model
         A fixed-base model whose ``nq == nv == n`` (revolute and prismatic joints).
-    friction : (2, n) or None
-        Viscous and Coulomb coefficients applied outside the Lagrangian, the
-        same way as in the trace-form engine.
+    friction : (2, n), Friction or None
+        Viscous and Coulomb coefficients (joint side, sharp sign), or a friction
+        law (:class:`manipdyn.drive.Friction`), applied outside the Lagrangian.
     num_threads : int or None
         Threads for batch calls (default: the CPUs available, at most 8).
     tool_frame : str or None
         The URDF frame whose pose :meth:`fkine` gives (default: the last frame of the model).
+    transmission : Transmission or None
+        Motors to joints: for a motor-side friction law and the regressor's
+        armature columns of a coupled drive.
+    rotor_coupling : (n, n) or None
+        The off-diagonal part of the rotor inertia ``R^T diag(Jm) R`` (zero
+        diagonal), which ``model.armature`` cannot hold (module docstring).
     """
 
     name = "pinocchio"
 
-    def __init__(self, model, friction=None, num_threads=None, tool_frame: str | None = None):
+    def __init__(self, model, friction=None, num_threads=None, tool_frame: str | None = None,
+                 transmission=None, rotor_coupling=None):
         self.model = model
         self.tool_frame = tool_frame if tool_frame is not None else model.frames[model.nframes - 1].name
         self.data = model.createData()
@@ -134,13 +133,30 @@ class PinocchioEngine:
         self._model0.gravity.linear = np.zeros(3)
         self._data0 = self._model0.createData()
         self._zeros = np.zeros(self.n)
+        self.transmission = transmission
+        self.friction_model = self._law = None
+        if friction is not None and hasattr(friction, "viscous_coulomb"):
+            self.friction_model = friction
+            legacy = friction.viscous_coulomb()
+            if legacy is None:
+                friction.torque(self._zeros, transmission)     # a motor-side law without R fails here
+                self._law = friction
+            friction = legacy
         self.friction = None
         if friction is not None and np.any(friction):
             self.friction = np.asarray(friction, dtype=np.float64)
+        self._O = None
+        if rotor_coupling is not None and np.any(rotor_coupling):
+            O = np.array(rotor_coupling, dtype=np.float64)
+            if O.shape != (self.n, self.n) or np.any(np.diag(O)) or not np.array_equal(O, O.T):
+                raise ModelError(f"rotor_coupling: expected a symmetric ({self.n}, {self.n}) matrix with a zero "
+                                 "diagonal (the diagonal is model.armature)")
+            O.setflags(write=False)
+            self._O = O
         self._num_threads = num_threads or _threads()
         self._pool = self._pool0 = None
         self.unchecked = UncheckedView(self)
-        _install_fast_path(self)
+        install_fast_path(self)
 
     @property
     def gravity(self) -> np.ndarray:
@@ -178,19 +194,37 @@ class PinocchioEngine:
         return self._num_threads if N >= PARALLEL_MIN_STATES else 1
 
     def _friction(self, qd):
+        if self._law is not None:
+            return self._law.torque(qd, self.transmission)
         if self.friction is None:
             return 0.0
         return self.friction[0] * qd + self.friction[1] * np.sign(qd)
+
+    @property
+    def drive_extras(self) -> bool:
+        """True with coupled rotors or a friction law beyond the links' kind (the general path adds them)."""
+        return self._O is not None or self._law is not None
+
+    def _forward_coupled(self, q, qd, tau):
+        """qdd from the full D = CRBA + O (ABA knows only the diagonal armature), (B, n)."""
+        zeros = np.zeros(q.shape)
+        D = np.array([pin.crba(self.model, self.data, qi) for qi in q]) + self._O
+        rhs = tau - self._rnea_batch(self._get_pool(), q, qd, zeros)
+        try:
+            return np.linalg.solve(D, rhs[..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            raise SingularMassMatrixError.for_mass_matrix(D) from None
 
     # -- public API ---------------------------------------------------------
     def mass_matrix(self, q) -> np.ndarray:
         """Inertia matrix D(q) by CRBA, (n, n) or (N, n, n); full and symmetric."""
         q = as_state(q, "q", self.n)
         if q.ndim == 1:
-            return check_result(_crba(self.model, self.data, q), "mass_matrix", q=q)
+            D = _crba(self.model, self.data, q)
+            return check_result(D if self._O is None else D + self._O, "mass_matrix", q=q)
         m, d = self.model, self.data
         D = np.array([pin.crba(m, d, qi) for qi in q]).reshape(len(q), self.n, self.n)
-        return check_result(D, "mass_matrix", q=q)
+        return check_result(D if self._O is None else D + self._O, "mass_matrix", q=q)
 
     def coriolis_torque(self, q, qd) -> np.ndarray:
         """Coriolis and centripetal torque h(q, qd), (n,) or (N, n) (no friction)."""
@@ -231,7 +265,9 @@ class PinocchioEngine:
         else:
             same_batch((q, "q"), (qd, "qd"), (qdd, "qdd"))
             tau = self._rnea_batch(self._get_pool(), q, qd, qdd)
-        if self.friction is not None:
+        if self._O is not None:
+            tau = tau + qdd @ self._O
+        if self.friction is not None or self._law is not None:
             tau = tau + self._friction(qd)
         return check_result(tau, "inverse_dynamics", q=q, qd=qd, qdd=qdd)
 
@@ -240,9 +276,14 @@ class PinocchioEngine:
         q = as_state(q, "q", self.n)
         qd = as_state(qd, "qd", self.n)
         tau = as_state(tau, "tau", self.n)
-        if self.friction is not None:
+        if self.friction is not None or self._law is not None:
             tau = tau - self._friction(qd)
-        if q.ndim == 1 and qd.ndim == 1 and tau.ndim == 1:
+        if self._O is not None:
+            same_batch((q, "q"), (qd, "qd"), (tau, "tau"))
+            single = q.ndim == 1
+            qdd = self._forward_coupled(*(np.atleast_2d(x) for x in (q, qd, tau)))
+            qdd = qdd[0] if single else qdd
+        elif q.ndim == 1 and qd.ndim == 1 and tau.ndim == 1:
             qdd = _aba(self.model, self.data, q, qd, tau)
         else:
             same_batch((q, "q"), (qd, "qd"), (tau, "tau"))
@@ -279,18 +320,22 @@ class PinocchioEngine:
             Y = np.empty((len(q), self.n, 10 * self.n))
             for k in range(len(q)):
                 Y[k] = reg(m, d, q[k], qd[k], qdd[k])
-        return with_extra_columns(Y, qd, qdd, armature, friction)
+        return with_extra_columns(Y, qd, qdd, armature, friction, self.transmission)
 
     def kinetic_energy(self, q, qd):
         """Kinetic energy (J), rotors included; scalar or (N,)."""
         q = as_state(q, "q", self.n)
         qd = as_state(qd, "qd", self.n)
         same_batch((q, "q"), (qd, "qd"))
+        O = self._O
         if q.ndim == 1:
             K = float(pin.computeKineticEnergy(self.model, self.data, q, qd))
+            K += 0.0 if O is None else 0.5 * float(qd @ O @ qd)           # the coupled rotors
             return float(check_result(np.array([K]), "kinetic_energy", q=q, qd=qd)[0])
         m, d = self.model, self.data
         K = np.array([pin.computeKineticEnergy(m, d, qi, vi) for qi, vi in zip(q, qd)])
+        if O is not None:
+            K = K + 0.5 * np.einsum("bi,ij,bj->b", qd, O, qd)
         return check_result(K, "kinetic_energy", q=q, qd=qd)
 
     def potential_energy(self, q):
@@ -343,122 +388,3 @@ class PinocchioEngine:
         C = np.array([pin.computeCoriolisMatrix(m, d, qi, vi).copy()
                       for qi, vi in zip(q, qd)]).reshape(len(q), self.n, self.n)
         return check_result(C, "coriolis_matrix", q=q, qd=qd)
-
-
-def _install_fast_path(eng: PinocchioEngine) -> None:
-    """Shadow the five dynamics methods of ``eng`` by closures with a single-state shortcut.
-
-    Each closure falls back to the class's method (the general path) for
-    anything but plain native-float64 ndarrays with finite values (module
-    comment above ``_FAST_ERRORS``).  Same names, signatures and docstrings.
-    """
-    cls = type(eng)
-    model, data, model0, data0, zeros = eng.model, eng.data, eng._model0, eng._data0, eng._zeros
-    ND, F64, isf, errors = _ND, _F64, _isfinite, _FAST_ERRORS
-    crba, rnea, aba, grav = _crba, _rnea, _aba, _gravity
-    g_mass, g_cor, g_grav, g_id, g_fd = (getattr(cls, nm).__get__(eng) for nm in (
-        "mass_matrix", "coriolis_torque", "gravity_torque", "inverse_dynamics", "forward_dynamics"))
-
-    def state_only(call, model, data, general):
-        # D and g do not depend on q_1: q_1's finiteness is read off the product
-        def f(q):
-            try:
-                if type(q) is ND and q.dtype is F64 and q.ndim == 1:
-                    r = call(model, data, q)
-                    # q_2..q_n non-finite -> r_1 non-finite; q_1 (no effect on D or g) by the product
-                    if isf(r.item(0) * q.item(0)):
-                        return r
-            except errors:
-                pass
-            return general(q)
-        return f
-
-    def three_states(call, model, data, general):
-        # RNEA / ABA: a NaN or inf in any argument reaches the first output
-        def f(q, qd, x):
-            try:
-                if (type(q) is type(qd) is type(x) is ND and q.dtype is qd.dtype is x.dtype is F64
-                        and q.ndim == qd.ndim == x.ndim == 1):
-                    r = call(model, data, q, qd, x)
-                    if isf(r.item(0)):
-                        return r
-            except errors:
-                pass
-            return general(q, qd, x)
-        return f
-
-    def coriolis_torque(q, qd):
-        try:
-            if (type(q) is type(qd) is ND and q.dtype is qd.dtype is F64
-                    and q.ndim == qd.ndim == 1):
-                h = rnea(model0, data0, q, qd, zeros)
-                if isf(h.item(0)):
-                    return h
-        except errors:
-            pass
-        return g_cor(q, qd)
-
-    mass_matrix = state_only(crba, model, data, g_mass)
-    gravity_torque = state_only(grav, model, data, g_grav)
-    inverse_dynamics = three_states(rnea, model, data, g_id)
-    forward_dynamics = three_states(aba, model, data, g_fd)
-
-    fast = {"mass_matrix": mass_matrix, "coriolis_torque": coriolis_torque,
-            "gravity_torque": gravity_torque}
-    if eng.friction is None:  # with friction, the general path adds it
-        fast.update(inverse_dynamics=inverse_dynamics, forward_dynamics=forward_dynamics)
-    for name, fn in fast.items():
-        fn.__doc__ = getattr(cls, name).__doc__
-        fn.__qualname__ = f"{cls.__name__}.{name}"
-        eng.__dict__[name] = fn
-
-
-class UncheckedView:
-    """``engine.unchecked``: the same single-state calls with no validation at all.
-
-    For hot loops that have validated their inputs once (like MuJoCo's
-    ``skip_checks``).  Each attribute is Pinocchio's function with the model
-    and data bound (``functools.partial``), so a call costs what the raw
-    ``pin.rnea`` / ``pin.crba`` costs.  The contract is the caller's:
-
-    * one state at a time, ``(n,)`` ndarrays of native float64 (a big-endian
-      or integer array is NOT converted: the answer may be silently wrong);
-    * NaN and inf are not detected and propagate into the answer;
-    * a wrong size raises Pinocchio's own error (not a :class:`StateError`);
-    * the returned array is new (caller-owned), as with the checked path.
-
-    Attributes: ``mass_matrix(q)``, ``coriolis_torque(q, qd)``,
-    ``gravity_torque(q)``, ``inverse_dynamics(q, qd, qdd)``,
-    ``forward_dynamics(q, qd, tau)``, with the engine's friction applied as
-    in the checked path.
-    """
-
-    def __init__(self, eng: PinocchioEngine):
-        model, data, model0, data0, zeros = eng.model, eng.data, eng._model0, eng._data0, eng._zeros
-        self.n = eng.n
-        self.mass_matrix = functools.partial(_crba, model, data)
-        self.gravity_torque = functools.partial(_gravity, model, data)
-
-        def coriolis_torque(q, qd):
-            return _rnea(model0, data0, q, qd, zeros)
-
-        self.coriolis_torque = coriolis_torque
-        fr = eng.friction
-        if fr is None:
-            self.inverse_dynamics = functools.partial(_rnea, model, data)
-            self.forward_dynamics = functools.partial(_aba, model, data)
-        else:
-            fv, fc = fr[0].copy(), fr[1].copy()
-            sign = np.sign
-
-            def inverse_dynamics(q, qd, qdd):
-                return _rnea(model, data, q, qd, qdd) + (fv * qd + fc * sign(qd))
-
-            def forward_dynamics(q, qd, tau):
-                return _aba(model, data, q, qd, tau - (fv * qd + fc * sign(qd)))
-
-            self.inverse_dynamics = inverse_dynamics
-            self.forward_dynamics = forward_dynamics
-
-    def __repr__(self) -> str:
-        return f"<unchecked Pinocchio calls, {self.n} joints>"

@@ -126,22 +126,25 @@ def map_chunks(fn, args, total: int, parts: list, scheduler=None, workers=None, 
         check_scheduler(scheduler)
         _not_while_bootstrapping()
         distributed = require_distributed()
-        cluster = None
-        if scheduler is None or scheduler == "local":
-            nworkers = local_cores() if workers is None else int(workers)
-            if nworkers < 1:
-                raise ValueError(f"workers: expected a positive integer, got {workers!r}")
-            cluster = _local_cluster(distributed, nworkers)
-            where = "local Dask cluster"
-        else:
-            where = str(scheduler)
+        cluster = client = held = None
         try:
-            client = distributed.Client(cluster if cluster is not None else scheduler, timeout="10s")
-        except OSError as exc:
-            if cluster is not None:
-                cluster.close()
-            raise ConnectionError(f"scheduler {scheduler}: cannot connect: {exc}") from None
-        try:
+            if scheduler is None or scheduler == "local":
+                nworkers = local_cores() if workers is None else int(workers)
+                if nworkers < 1:
+                    raise ValueError(f"workers: expected a positive integer, got {workers!r}")
+                # Ctrl-C while the workers start waits until the cluster exists (and can be
+                # closed); the workers, started with SIGINT blocked, never see it: this
+                # process alone stops the study, in one line
+                held = _hold_sigint()
+                cluster = _local_cluster(distributed, nworkers)
+                where = "local Dask cluster"
+            else:
+                where = str(scheduler)
+            try:
+                client = distributed.Client(cluster if cluster is not None else scheduler, timeout="10s")
+            except OSError as exc:
+                raise ConnectionError(f"scheduler {scheduler}: cannot connect: {exc}") from None
+            held = _release_sigint(held)      # a Ctrl-C pressed meanwhile is raised here
             if cluster is None:
                 _wait_for_workers(client, scheduler)
                 nworkers = len(client.scheduler_info().get("workers", {}))
@@ -149,9 +152,14 @@ def map_chunks(fn, args, total: int, parts: list, scheduler=None, workers=None, 
             for fut in distributed.as_completed(futures):
                 col.add(fut.result())
         finally:
-            client.close()
-            if cluster is not None:
-                cluster.close()
+            held = held if held is not None else _hold_sigint()   # no Ctrl-C half-way through closing
+            try:
+                if client is not None:
+                    client.close()
+                if cluster is not None:
+                    cluster.close()
+            finally:
+                _release_sigint(held)
     wall = time.perf_counter() - t0
     hosts: dict = {}
     for t in col.chunk_timing:
@@ -172,21 +180,43 @@ def _not_while_bootstrapping() -> None:
         raise SystemExit(1)
 
 
+def _hold_sigint():
+    """Block SIGINT in this thread (threads and processes started meanwhile inherit the
+    block); return the mask to restore, or None where that cannot be done."""
+    import signal
+    import threading
+
+    if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
+        return None
+    return signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+
+
+def _release_sigint(mask) -> None:
+    """Restore the mask of :func:`_hold_sigint` (a pending Ctrl-C is then raised); returns None."""
+    import signal
+
+    if mask is not None:
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+    return None
+
+
 def _local_cluster(distributed, nworkers: int):
     """A LocalCluster of ``nworkers`` one-thread processes, or a one-line error when they
     cannot start (typically a script that runs a study without an ``if __name__ ==
     "__main__":`` guard: each worker imports the script again and starts its own study)."""
-    import signal
-    import threading
+    import sys
+    import tempfile
 
-    # the workers start with SIGINT ignored (a started Python keeps an ignored SIGINT
-    # ignored): Ctrl-C reaches the whole process group, and this process alone stops
-    # the study and closes the cluster, instead of every worker printing its traceback
-    main_thread = threading.current_thread() is threading.main_thread()
-    old = signal.signal(signal.SIGINT, signal.SIG_IGN) if main_thread else None
+    # the workers' stderr (file descriptor 2, inherited when they start) goes to an unnamed
+    # temporary file: a Ctrl-C reaches the whole process group, and each worker's traceback
+    # would bury this process's one line; their errors reach the study through its futures
+    log = tempfile.TemporaryFile(prefix="manipdyn-dask-workers-")
+    sys.stderr.flush()
+    saved = os.dup(2)
+    os.dup2(log.fileno(), 2)
     try:
         return distributed.LocalCluster(n_workers=nworkers, threads_per_worker=1, processes=True,
-                                        dashboard_address=None, silence_logs=logging.CRITICAL)
+                                        dashboard_address=":0", silence_logs=logging.CRITICAL)
     except RuntimeError as exc:
         import multiprocessing
 
@@ -198,8 +228,9 @@ def _local_cluster(distributed, nworkers: int):
             "'if __name__ == \"__main__\":' (each worker process imports the script again), or pass "
             "scheduler='sync'") from None
     finally:
-        if main_thread:
-            signal.signal(signal.SIGINT, old)
+        os.dup2(saved, 2)
+        os.close(saved)
+        log.close()                  # unnamed: nothing is left behind, whatever happens
 
 
 def _wait_for_workers(client, scheduler) -> None:
@@ -230,6 +261,9 @@ def model_text(arm) -> tuple:
     if text is None:
         raise ModelError(f"cannot send {type(arm).__name__} {arm.name!r} to workers "
                          "as text (expected a DH arm or a URDF arm)")
+    if getattr(arm, "custom_drive", False):
+        raise ModelError(f"cannot send URDF arm {arm.name!r} to workers as text: its transmission or friction "
+                         "law is not in the URDF (run it here, scheduler=None)")
     return ("urdf", text, arm.tip, arm.name, tuple(float(g) for g in arm.gravity))
 
 

@@ -241,7 +241,8 @@ def pinocchio_text(root_el, text: str) -> str:
     return etree.tostring(root, encoding="unicode")
 
 
-def load_urdf(source, tip=None, *, name=None, gravity=(0.0, 0.0, -9.81), strict=False) -> URDFArm:
+def load_urdf(source, tip=None, *, name=None, gravity=(0.0, 0.0, -9.81), strict=False, transmission=None,
+              friction=None) -> URDFArm:
     """Read a serial arm from a URDF file or text.
 
     Parameters
@@ -258,6 +259,10 @@ def load_urdf(source, tip=None, *, name=None, gravity=(0.0, 0.0, -9.81), strict=
         Acceleration of gravity in the root link's frame, m/s^2.
     strict : bool
         Raise instead of warning on a physically impossible ``<inertial>``.
+    transmission, friction : optional
+        The drive (:mod:`manipdyn.drive`), which URDF cannot state: identity
+        transmission by default; a ``friction`` law replaces ``<dynamics>``.
+        (A URDF arm sent to Dask workers travels as its URDF text, without them.)
 
     Raises
     ------
@@ -278,5 +283,5 @@ def load_urdf(source, tip=None, *, name=None, gravity=(0.0, 0.0, -9.81), strict=
     return URDFArm(
         name=tree.robot_name if name is None else name, gravity=gravity, source=label,
         urdf_text=text, pin_text=pin_text, root=tree.root, tip=tip, joints=joints, tool=tool,
-        locked=locked, members=members, path=path,
+        locked=locked, members=members, path=path, transmission=transmission, friction=friction,
     )

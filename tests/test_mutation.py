@@ -7,6 +7,7 @@ the ways converters have been known to go wrong, and asserts that
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -157,3 +158,175 @@ def test_pinocchio_regressor_with_swapped_products_of_inertia_is_caught():
     report = md.crosscheck(arm, samples=SAMPLES)
     assert not report["Y"].ok
     assert report["tau"].ok
+
+
+# -- drives: a planted bug in the coupled rotor inertia or the motor-side friction -----
+
+def _coupled_arm():
+    from manipdyn.drive import Friction, Transmission
+
+    base = _arm()
+    links = [dataclasses.replace(l, motor_inertia=1e-4 * (i + 1), gear_ratio=(-1) ** i * (20.0 + 10 * i))
+             for i, l in enumerate(base.links)]
+    tr = Transmission.from_gear_ratios([l.gear_ratio for l in links], coupling=[[4, 3, 15.0], [2, 1, -8.0]])
+    law = Friction(viscous=[1e-3] * 4, coulomb_pos=[0.02] * 4, coulomb_neg=[0.03] * 4, side="motor", smoothing=0.2)
+    return md.Manipulator(links, "standard", transmission=tr, friction=law, name="coupled mutant")
+
+
+def _with_pinocchio(arm, **kw):
+    from manipdyn.pinocchio_engine import model_for_arm
+
+    args = dict(friction=arm.friction_model, transmission=arm.transmission, tool_frame="tool",
+                rotor_coupling=arm.rotor_inertia - np.diag(np.diag(arm.rotor_inertia)))
+    args.update(kw)
+    arm.set_engine("pinocchio", PinocchioEngine(model_for_arm(arm), **args))
+    return arm
+
+
+def test_clean_coupled_drive_passes():
+    arm = _with_pinocchio(_coupled_arm())
+    assert md.crosscheck(arm, samples=SAMPLES).ok
+
+
+def test_forgotten_rotor_coupling_is_caught():
+    """Only Pinocchio's diagonal model.armature: the off-diagonal rotor inertia is lost."""
+    report = md.crosscheck(_with_pinocchio(_coupled_arm(), rotor_coupling=None), samples=SAMPLES)
+    assert not report["D"].ok and not report["tau"].ok and not report["K"].ok
+    assert report["g"].ok and report["h"].ok
+
+
+def test_rotor_inertia_as_r_jm_rt_is_caught():
+    """R diag(Jm) R^T instead of R^T diag(Jm) R (the transpose slip)."""
+    arm = _coupled_arm()
+    R, Jm = arm.transmission.R, arm.motor_inertia
+    wrong = R @ np.diag(Jm) @ R.T
+    wrong = 0.5 * (wrong + wrong.T)          # exactly symmetric, as the engine requires
+    report = md.crosscheck(_with_pinocchio(arm, rotor_coupling=wrong - np.diag(np.diag(wrong))), samples=SAMPLES)
+    assert not report["D"].ok and not report["tau"].ok
+
+
+def test_motor_side_friction_mapped_by_r_instead_of_rt_is_caught():
+    """The law evaluated at R^T qd and mapped back by R: friction torques wrong, inertia right."""
+    from manipdyn.drive import Transmission
+
+    arm = _coupled_arm()
+    report = md.crosscheck(_with_pinocchio(arm, transmission=Transmission(arm.transmission.R.T)), samples=SAMPLES)
+    assert not report["tau"].ok
+    assert report["D"].ok and report["h"].ok and report["g"].ok
+# -- derivatives: a planted bug in either engine's derivatives is caught ---------------
+
+DERIVATIVES = ("dtau_dq", "dtau_dqd", "dqdd_dq", "dqdd_dqd", "dg_dq")
+
+
+def _friction_arm():
+    import dataclasses
+
+    base = _arm()
+    links = [dataclasses.replace(link, friction_viscous=0.4 + 0.3 * i, friction_coulomb=0.2)
+             for i, link in enumerate(base.links)]
+    return md.Manipulator(links, convention="standard", name="mutant-friction")
+
+
+def test_clean_derivatives_pass():
+    for arm in (_arm(), _friction_arm()):
+        report = md.crosscheck(arm, samples=SAMPLES)
+        assert all(report[k].ok for k in DERIVATIVES), report
+
+
+def test_trace_form_jacobian_transposed_is_caught():
+    """dtau/dq returned as [m, i] instead of [i, m] (the classic Jacobian-layout slip)."""
+    from manipdyn.lagrange import TraceFormEngine
+
+    class Transposed(TraceFormEngine):
+        def _rigid_jacobians(self, *args):
+            dq, dqd = super()._rigid_jacobians(*args)
+            return dq.swapaxes(1, 2), dqd
+
+    arm = _arm()
+    kin, J, armature, friction = arm.trace_form_data()
+    arm.set_engine("lagrange", Transposed(kin, J, arm.gravity, armature=armature, friction=friction,
+                                          link_offsets=arm.urdf_link_offsets()))
+    report = md.crosscheck(arm, samples=SAMPLES)
+    assert not report["dtau_dq"].ok and not report["dqdd_dq"].ok
+    assert report["dtau_dqd"].ok and report["dg_dq"].ok and report["tau"].ok
+
+
+def test_trace_form_gravity_hessian_half_is_caught():
+    """dg/dq with only its upper triangle (the symmetric half forgotten)."""
+    from manipdyn.lagrange import TraceFormEngine
+
+    class Half(TraceFormEngine):
+        def _gravity_jacobian(self, Delta, cbar):
+            return np.triu(super()._gravity_jacobian(Delta, cbar))
+
+    arm = _arm()
+    kin, J, armature, friction = arm.trace_form_data()
+    arm.set_engine("lagrange", Half(kin, J, arm.gravity, armature=armature, friction=friction,
+                                    link_offsets=arm.urdf_link_offsets()))
+    report = md.crosscheck(arm, samples=SAMPLES)
+    assert not report["dg_dq"].ok
+    assert report["dtau_dq"].ok and report["g"].ok
+
+
+def test_trace_form_friction_forgotten_is_caught():
+    from manipdyn.lagrange import TraceFormEngine
+
+    class NoFriction(TraceFormEngine):
+        def _friction_jacobian(self, qd):
+            return None
+
+    arm = _friction_arm()
+    kin, J, armature, friction = arm.trace_form_data()
+    arm.set_engine("lagrange", NoFriction(kin, J, arm.gravity, armature=armature, friction=friction,
+                                          link_offsets=arm.urdf_link_offsets()))
+    report = md.crosscheck(arm, samples=SAMPLES)
+    assert not report["dtau_dqd"].ok and not report["dqdd_dqd"].ok
+    assert report["dtau_dq"].ok and report["tau"].ok
+
+
+def test_pinocchio_gravity_left_out_of_dtau_dq_is_caught():
+    """RNEA derivatives taken on a gravity-free model (h's derivative only)."""
+    import pinocchio as pin
+
+    arm = _arm()
+    eng = arm.pinocchio
+    m0 = eng.model.copy()
+    m0.gravity.linear = np.zeros(3)
+    d0 = m0.createData()
+
+    class NoGravity:
+        def __getattr__(self, name):
+            return getattr(eng, name)
+
+        def inverse_dynamics_derivatives(self, q, qd, qdd):
+            out = [[x.copy() for x in pin.computeRNEADerivatives(m0, d0, a, b, c)] for a, b, c in zip(q, qd, qdd)]
+            return np.array([o[0] for o in out]), np.array([o[1] for o in out])
+
+    arm.set_engine("pinocchio", NoGravity())
+    report = md.crosscheck(arm, samples=SAMPLES)
+    assert not report["dtau_dq"].ok
+    assert report["dtau_dqd"].ok and report["dg_dq"].ok
+
+
+def test_pinocchio_aba_derivatives_without_friction_correction_are_caught():
+    """ABA derivatives at tau - F(qd) but without ``- Minv dF/dqd``."""
+    import pinocchio as pin
+
+    arm = _friction_arm()
+    eng = arm.pinocchio
+    fv, fc = arm.friction
+
+    class Uncorrected:
+        def __getattr__(self, name):
+            return getattr(eng, name)
+
+        def forward_dynamics_derivatives(self, q, qd, tau):
+            out = [[x.copy() for x in pin.computeABADerivatives(eng.model, eng.data, a, b,
+                                                                   c - fv * b - fc * np.sign(b))]
+                   for a, b, c in zip(q, qd, tau)]
+            return tuple(np.array([o[k] for o in out]) for k in range(3))
+
+    arm.set_engine("pinocchio", Uncorrected())
+    report = md.crosscheck(arm, samples=SAMPLES)
+    assert not report["dqdd_dqd"].ok
+    assert report["dqdd_dq"].ok and report["dtau_dqd"].ok

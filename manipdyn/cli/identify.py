@@ -1,27 +1,38 @@
-"""``manipdyn identify MODEL DATA.csv -o OUT.toml|OUT.urdf``: identify an arm's parameters.
+"""``manipdyn identify MODEL DATA -o OUT.toml|OUT.urdf|OUT.json``: identify an arm's parameters.
 
 Layer: CLI.
 
-MODEL gives the kinematics and the prior; DATA.csv has ``t,q1..qn,tau1..taun``
-and optionally ``qd*``, ``qdd*`` (otherwise derived from q by zero-phase
-filtering, :mod:`manipdyn.identification.data`).  The written model loads
-with ``md.load`` and passes ``manipdyn check``.
+MODEL gives the kinematics and the prior; DATA has ``t,q1..qn,tau1..taun`` and
+optionally ``qd*``, ``qdd*`` (otherwise derived from q by zero-phase filtering,
+:mod:`manipdyn.identification.data`).  The written model loads with ``md.load``
+and passes ``manipdyn check``; it says where it came from (data file and its sha256,
+method, options, date, prior, residuals: :mod:`manipdyn.identification.provenance`).
 
-Exit codes: 0 written; 1 the identified parameters cannot be written as a
-model (e.g. a negative mass from ``ols``: use ``--method consistent``);
-2 usage, model or data error (one line on stderr).
+``--method consistent`` (the default) stays plausible around the prior unless told
+otherwise: link masses within +-50 % of the prior's (``--mass-bound``), centres of
+mass within 0.1 m of the prior's (``--com-bound``), total mass within 25 %
+(``--total-mass-bound``); ``--no-bounds`` drops them.  Active bounds are reported.
+
+When the identified parameters are no physical arm (``ols``/``wls`` on weak data),
+the base parameters with their standard deviations are written to a JSON base model
+(``OUT.base.json`` beside ``-o``, or ``-o OUT.json`` to ask for it), which
+``manipdyn validate`` scores.
+
+Exit codes: 0 a model written; 1 only the base model could be written (the parameters
+are no physical arm); 2 usage, model or data error (one line on stderr).
 """
 
 from __future__ import annotations
 
 import json
 import os
+import sys
 
 from ..errors import ModelError
 from ..io import save, write_urdf
-from ..loading import load_with_notes
 from .common import EXIT_DISAGREE as EXIT_FAILED
-from .common import EXIT_OK, usage_error
+from .logopts import log_options_from_args, register_log_options
+from .common import EXIT_OK, load_arm, usage_error
 
 __all__ = ["register", "run"]
 
@@ -34,79 +45,179 @@ def register(subparsers) -> None:
         "identify", help="identify inertial parameters from joint data",
         description="Identify the arm's base parameters from logged joint positions and torques "
                     "and write the model whose full parameters reproduce them, closest to the prior. "
-                    "Exit codes: 0 written, 1 the result cannot be written as a model, "
-                    "2 usage, model or data error.")
+                    "Exit codes: 0 model written, 1 only a base model (JSON) written because the "
+                    "parameters are no physical arm, 2 usage, model or data error.")
     p.add_argument("model", metavar="MODEL", help="prior: bundled model name or .toml model file (DH arm)")
-    p.add_argument("data", metavar="DATA.csv", help="header t,q1..qn,tau1..taun (optionally qd*, qdd*)")
-    p.add_argument("-o", "--output", required=True, metavar="OUT.toml|OUT.urdf", help="model file to write")
+    p.add_argument("data", metavar="DATA", help="CSV with header t,q1..qn,tau1..taun (optionally qd*, qdd*)")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.toml|OUT.urdf|OUT.json",
+                   help="model file to write (.json: the base model only)")
     p.add_argument("--method", choices=METHODS, default="consistent",
                    help="ols, wls (weighted by per-joint noise), consistent (J_i >= 0; default)")
     p.add_argument("--friction", action="store_true", help="identify viscous and Coulomb friction")
+    p.add_argument("--friction-terms", metavar="T1,T2", default=None,
+                   help="identify these friction terms instead: some of viscous, coulomb, asymmetric "
+                        "(separate + and - Coulomb levels), offset (constant torque per joint)")
+    p.add_argument("--friction-side", choices=("joint", "motor"), default="joint",
+                   help="with --friction-terms: the law acts on the joint or the motor velocities")
+    p.add_argument("--smoothing", type=float, default=None, metavar="V",
+                   help="with --friction-terms: Coulomb sign smoothed as tanh(v / V) (default 0.01 rad/s; "
+                        "0 = sharp sign)")
     p.add_argument("--armature", action="store_true", help="identify armature (reflected rotor inertia)")
-    p.add_argument("--mass-bound", type=float, default=None, metavar="FRAC",
-                   help="consistent only: each link's mass within +-FRAC of the prior's (e.g. 0.3)")
+    p.add_argument("--mass-bound", type=float, default=None, metavar="F",
+                   help="consistent: each link's mass within +-F (fraction) of the prior's (default 0.5)")
     p.add_argument("--com-bound", type=float, default=None, metavar="M",
-                   help="consistent only: each COM within +-M metres of the prior's, per axis")
-    p.add_argument("--cutoff", type=float, default=None, metavar="HZ",
-                   help="low-pass cut-off when qd/qdd are derived from q (default 5 Hz)")
+                   help="consistent: each COM within +-M metres of the prior's, per axis (default 0.1)")
+    p.add_argument("--total-mass-bound", type=float, default=None, metavar="F",
+                   help="consistent: total mass within +-F (fraction) of the prior's (default 0.25)")
+    p.add_argument("--no-bounds", action="store_true",
+                   help="consistent: no plausibility bounds, only J_i >= 0")
+    p.add_argument("--prior-weight", type=float, default=0.0, metavar="W",
+                   help="consistent: weight of the entropic pull of each body towards the prior's "
+                        "(0, the default: the data alone; e.g. 0.01)")
+    p.add_argument("--base-json", metavar="FILE.json", default=None,
+                   help="also write the base model (base parameters, standard deviations) here")
     p.add_argument("--json", action="store_true", help="print a JSON object instead of text")
+    register_log_options(p)
     p.set_defaults(func=run)
 
+
+def _bounds(args, arm):
+    from ..identification import Bounds
+    from ..identification.sdp import PLAUSIBLE_COM, PLAUSIBLE_MASS, PLAUSIBLE_TOTAL
+
+    given = [o for o, v in (("--mass-bound", args.mass_bound), ("--com-bound", args.com_bound),
+                            ("--total-mass-bound", args.total_mass_bound)) if v is not None]
+    if args.method != "consistent":
+        if given or args.no_bounds:
+            raise ModelError(f"{(given or ['--no-bounds'])[0]}: only with --method consistent")
+        return None
+    if args.no_bounds:
+        if given:
+            raise ModelError(f"{given[0]}: not with --no-bounds")
+        return None
+    for opt, v in (("--mass-bound", args.mass_bound), ("--com-bound", args.com_bound)):
+        if v is not None and not (0 <= v < float("inf")):
+            raise ModelError(f"{opt}: expected a finite number >= 0, got {v}")
+    if args.total_mass_bound is not None and not 0 <= args.total_mass_bound < 1:
+        raise ModelError(f"--total-mass-bound: expected a fraction in [0, 1), got {args.total_mass_bound}")
+    return Bounds.plausible(
+        arm, mass=PLAUSIBLE_MASS if args.mass_bound is None else args.mass_bound,
+        com=PLAUSIBLE_COM if args.com_bound is None else args.com_bound,
+        total=PLAUSIBLE_TOTAL if args.total_mass_bound is None else args.total_mass_bound)
+
+
+def _friction(args):
+    """``--friction`` (True) or a FrictionTerms from ``--friction-terms``/``--friction-side``/``--smoothing``."""
+    from ..friction import DEFAULT_SMOOTHING, FrictionTerms
+
+    if args.friction_terms is None:
+        if args.smoothing is not None or args.friction_side != "joint":
+            raise ModelError("--smoothing/--friction-side: only with --friction-terms")
+        return bool(args.friction)
+    if args.friction:
+        raise ModelError("--friction-terms: give either --friction (viscous + sharp Coulomb) or --friction-terms")
+    v = DEFAULT_SMOOTHING if args.smoothing is None else args.smoothing
+    if not 0 <= v < float("inf"):
+        raise ModelError(f"--smoothing: expected a finite velocity >= 0, got {v}")
+    terms = tuple(t.strip() for t in args.friction_terms.split(",") if t.strip())
+    return FrictionTerms(terms, side=args.friction_side, smoothing=v)
+
+
+def _joint_names(arm):
+    """The model's joint names in order (ROS bags map by them), or None."""
+    names = getattr(arm, "joint_names", None)
+    if names:
+        return list(names)
+    links = getattr(arm, "links", ())
+    names = [getattr(l, "name", "") for l in links]
+    return names if all(names) else None
+
+
+def _options(args) -> dict:
+    keys = ("method", "friction", "friction_terms", "friction_side", "smoothing", "armature", "mass_bound", "com_bound", "total_mass_bound", "no_bounds",
+            "prior_weight", "cutoff", "columns", "deg", "rate", "time_scale", "resample", "no_decimate",
+            "t_range", "topic", "joint_names")
+    return {k: getattr(args, k) for k in keys if getattr(args, k, None) not in (None, False)}
 
 
 def run(args) -> int:
     from ..arm import Manipulator
-    from ..identification import Bounds, fit, format_report, read_measurements
+    from ..identification import fit, format_report, read_log
+    from ..identification.basemodel import prior_text, write_base_model
+    from ..identification.provenance import model_metadata, provenance
 
     out = args.output
-    if not out.lower().endswith((".toml", ".urdf")):
-        return usage_error("identify", f"-o: expected a file name ending in .toml or .urdf, got {out!r}")
-    bounds = None
-    if args.mass_bound is not None or args.com_bound is not None:
-        if args.method != "consistent":
-            return usage_error("identify", "--mass-bound/--com-bound: only with --method consistent")
-        for opt, v in (("--mass-bound", args.mass_bound), ("--com-bound", args.com_bound)):
-            if v is not None and not (0 <= v < float("inf")):
-                return usage_error("identify", f"{opt}: expected a finite number >= 0, got {v}")
+    if not out.lower().endswith((".toml", ".urdf", ".json")):
+        return usage_error("identify", f"-o: expected a file name ending in .toml, .urdf or .json, got {out!r}")
+    if not (0 <= args.prior_weight < float("inf")):
+        return usage_error("identify", f"--prior-weight: expected a finite number >= 0, got {args.prior_weight}")
+    if args.prior_weight and args.method != "consistent":
+        return usage_error("identify", "--prior-weight: only with --method consistent")
     try:
-        arm, _ = load_with_notes(args.model)
-        if not isinstance(arm, Manipulator):
+        arm, _ = load_arm(args.model)
+        if not isinstance(arm, Manipulator) and not out.lower().endswith(".json"):
             raise ModelError(f"MODEL {args.model}: identify writes a DH model; give a bundled model "
-                             "name or a .toml model file as the prior (URDF priors are not supported)")
-        if args.mass_bound is not None or args.com_bound is not None:
-            b = Bounds.around(arm, mass=args.mass_bound or 0.0, com=args.com_bound or 0.0)
-            bounds = Bounds(mass=None if args.mass_bound is None else b.mass,
-                            com=None if args.com_bound is None else b.com)
-        data = read_measurements(args.data, arm.n, cutoff=args.cutoff)
+                             "name or a .toml model file as the prior, or -o OUT.json for a base model")
+        bounds = _bounds(args, arm)
+        friction = _friction(args)
+        data = read_log(args.data, arm.n, transmission=arm.transmission,
+                        **log_options_from_args(args, _joint_names(arm)))
         name = os.path.splitext(os.path.basename(out))[0] or arm.name
+        if name.endswith(".base"):
+            name = name[:-5]
+        opts = _options(args)
+        # the provenance's residuals are only known after the fit: fit once, then attach them
         result = fit(arm, data.q, data.qd, data.qdd, data.tau, method=args.method,
-                     friction=args.friction, armature=args.armature, bounds=bounds, name=name)
+                     friction=friction, armature=args.armature, bounds=bounds, name=name,
+                     prior_weight=args.prior_weight)
+        prov = provenance(args.data, args.method, opts, args.model, result.report["rms_residual"])
+        if result.arm is not None:
+            from ..identification.model import arm_with_parameters
+
+            result.arm = arm_with_parameters(arm, result.parameters, armature=args.armature,
+                                             friction=friction, name=name,
+                                             metadata=model_metadata(prov))
     except ModelError as exc:
         return usage_error("identify", str(exc))
     rep = dict(result.report)
-    rep.update({"model": args.model, "data": args.data, "output": None,
-                "derived_derivatives": data.derived})
+    rep.update({"model": args.model, "data": args.data, "output": None, "base_model": None,
+                "derived_derivatives": data.derived, "provenance": prov,
+                "data_notes": list(getattr(data, "notes", []))})
     code = EXIT_OK
-    if result.arm is None:
-        code = EXIT_FAILED
-    else:
-        try:
+    want_base = out.lower().endswith(".json")
+    base_path = out if want_base else args.base_json
+    try:
+        if not want_base and result.arm is not None:
             if out.lower().endswith(".toml"):
                 save(result.arm, out)
             else:
                 write_urdf(result.arm, out)
             rep["output"] = out
-        except OSError as exc:
-            return usage_error("identify", f"{out}: cannot write: {exc.strerror or exc}")
+        elif not want_base:
+            code = EXIT_FAILED
+            base_path = base_path or os.path.splitext(out)[0] + ".base.json"
+        if base_path:
+            write_base_model(base_path, result, prior_text(arm), prov)
+            rep["base_model"] = base_path
+    except OSError as exc:
+        return usage_error("identify", f"{exc.filename or out}: cannot write: {exc.strerror or exc}")
     if args.json:
-        print(json.dumps(rep, indent=2))
+        print(json.dumps(rep, indent=2, allow_nan=False, default=str))
     else:
+        for note in rep["data_notes"]:
+            print(f"data: {note}")
         print(format_report(rep))
+        if rep.get("active_bounds"):
+            print("active bounds (the fit sits on them; --no-bounds or wider bounds to free it):")
+            for b in rep["active_bounds"]:
+                print(f"  {b}")
         if rep["output"]:
             print(f"wrote {out}")
+        if rep["base_model"]:
+            print(f"wrote {rep['base_model']} (base model: {rep['n_base']} base parameters with their "
+                  f"standard deviations; score it with manipdyn validate)")
     if code == EXIT_FAILED:
-        import sys
-
-        print(f"manipdyn identify: the {args.method} parameters are not a physical arm, nothing written: "
-              f"{result.arm_error}; --method consistent always gives one", file=sys.stderr)
+        print(f"manipdyn identify: the {args.method} parameters are not a physical arm, so no model file "
+              f"was written, only the base model {base_path}: {result.arm_error or 'a J_i is not >= 0'}; "
+              f"--method consistent always gives a physical arm", file=sys.stderr)
     return code

@@ -6,7 +6,12 @@ Layer: application (identification).
 * :func:`excitation`: an optimised Fourier-series excitation trajectory;
 * :func:`fit`: ``ols``, ``wls`` and the physically consistent ``consistent``
   (J_i >= 0, cvxpy with Clarabel or SCS), returning the identified arm;
-* :func:`read_measurements`: CSV data, with zero-phase derivatives of q;
+* :func:`read_log`: measurement logs as they come (CSV with any column names,
+  degrees, motor side, uneven time stamps; ROS bags), with zero-phase
+  derivatives of q and notes on what was done; :func:`read_measurements` is
+  its CSV shorthand.
+* :func:`identify_payload`: the ten parameters of a payload carried by a known arm
+  (J >= 0), :class:`PayloadResult`;
 * :func:`synthesize`: torques of a model along a trajectory, with noise (a log
   without a robot; ``manipdyn synthesize``).
 
@@ -18,12 +23,14 @@ from ._deps import INSTALL, MissingExtraError
 from .base import BaseParameters, base_parameters
 from .data import Measurements, read_measurements, write_measurements_csv
 from .estimation import METHODS, FitResult, fit
+from .logs import read_log
+from .payload import PayloadResult, identify_payload
 from .report import format_report
 from .sdp import Bounds
 from .synthesize import Trajectory, read_trajectory, synthesize
 from .trajectory import Excitation, excitation
 
 __all__ = ["BaseParameters", "Bounds", "Excitation", "FitResult", "INSTALL", "METHODS",
-           "Measurements", "MissingExtraError", "base_parameters", "excitation", "fit",
-           "format_report", "read_measurements", "write_measurements_csv", "Trajectory",
-           "read_trajectory", "synthesize"]
+           "Measurements", "MissingExtraError", "PayloadResult", "base_parameters", "excitation", "fit",
+           "format_report", "identify_payload", "read_log", "read_measurements", "write_measurements_csv",
+           "Trajectory", "read_trajectory", "synthesize"]

@@ -64,8 +64,10 @@ class BaseParameters:
         The other indices.
     K : (r, p)
         ``beta = K @ pi`` (identity on ``independent``, B on ``dependent``).
-    armature, friction : bool
-        Whether the parameter vector holds armature and friction entries.
+    armature : bool
+        Whether the parameter vector holds armature entries.
+    friction : bool or friction spec
+        The regressor's ``friction=`` (:func:`manipdyn.friction.friction_spec`).
     """
 
     count: int
@@ -74,7 +76,7 @@ class BaseParameters:
     dependent: np.ndarray
     K: np.ndarray
     armature: bool = False
-    friction: bool = False
+    friction: object = False
 
     def from_full(self, pi) -> np.ndarray:
         """Base parameters ``beta = K pi`` (r,) from full parameters (p,)."""
@@ -148,4 +150,4 @@ def base_parameters(arm, armature: bool = False, friction: bool = False, samples
     K[:, dep] = B
     return BaseParameters(count=r, names=parameter_names(arm.n, armature, friction),
                           independent=np.array(ind), dependent=np.sort(dep), K=K,
-                          armature=bool(armature), friction=bool(friction))
+                          armature=bool(armature), friction=friction)

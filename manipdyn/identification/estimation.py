@@ -35,7 +35,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..inertia import pseudo_inertia_from_parameters
-from ..parameters import arm_parameters
+from ..parameters import arm_parameters, parameter_count, parameter_names
 from .model import arm_with_parameters
 from .base import BaseParameters, base_parameters
 from .sdp import Bounds, consistent_fit
@@ -43,6 +43,16 @@ from .sdp import Bounds, consistent_fit
 __all__ = ["fit", "FitResult", "METHODS", "link_min_eigenvalues"]
 
 METHODS = ("ols", "wls", "consistent")
+
+#: largest condition number of the stacked base regressor that ``ols`` and ``wls`` accept.
+#: Above it the data do not excite every base parameter: float64 leaves fewer than 6
+#: significant digits in the worst-determined direction and the estimate there is noise
+#: (zero or constant motion, a column scaled by 1e30).
+MAX_CONDITION = 1e10
+#: the same for ``consistent``, whose constraints (J_i >= 0 and the plausibility bounds)
+#: still pin down what the data leave open, up to where float64 has ~2 digits left.
+#: Both are module attributes: raise them only for data you know to be exact.
+MAX_CONDITION_CONSISTENT = 1e14
 
 
 def link_min_eigenvalues(pi, n: int) -> np.ndarray:
@@ -100,13 +110,18 @@ class FitResult:
 
 
 def _known_torque(prior, qd, qdd, armature, friction):
-    """Prior torques outside the fitted parameters (armature, friction), (..., n)."""
+    """Prior torques outside the fitted parameters (rotor inertia, friction), (..., n)."""
     out = np.zeros(np.shape(qd))
     if not armature:
-        out = out + np.asarray(prior.armature) * qdd
-    if not friction and prior.friction is not None:
+        out = out + np.asarray(qdd) @ np.asarray(prior.rotor_inertia)   # R^T diag(Jm) R, symmetric
+    if (friction is False or friction is None) and prior.friction_model is not None:
         out = out + prior.lagrange.friction_torque(qd)
     return out
+
+
+def _nonnegative(names, n: int):
+    """Which extra parameters (after the 10 n link ones) are constrained >= 0: all but offsets."""
+    return np.array([not nm.endswith(".offset") for nm in names[10 * n:]], dtype=bool)
 
 
 def _reduce(A, y):
@@ -151,8 +166,8 @@ def _check(q, qd, qdd, tau, n):
 
 
 def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armature: bool = False,
-        bounds: Bounds | None = None, base: BaseParameters | None = None,
-        name: str | None = None) -> FitResult:
+        bounds: Bounds | str | None = "plausible", base: BaseParameters | None = None,
+        name: str | None = None, prior_weight: float = 0.0, metadata=None) -> FitResult:
     """Identify ``arm``'s parameters from samples (module docstring).
 
     Parameters
@@ -163,10 +178,30 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     q, qd, qdd, tau : (N, n)
         Joint positions, velocities, accelerations and torques (SI).
     method : "ols" | "wls" | "consistent"
-    friction, armature : bool
-        Identify viscous and Coulomb friction, and armature.
-    bounds : Bounds, optional
-        Extra constraints of ``consistent`` (mass range, COM box).
+    friction : bool or friction spec
+        ``True``: viscous and Coulomb friction (sharp sign, joint side); or which friction
+        terms to identify, as the regressor's ``friction=`` takes them
+        (:func:`manipdyn.friction.friction_spec`): term names such as
+        ``("viscous", "coulomb", "offset")``, a :class:`manipdyn.FrictionTerms` (side,
+        smoothing ``tanh(v / v_s)``), or a :class:`manipdyn.Friction` whose nonlinear
+        shapes (Stribeck, sigmoid) are held fixed.  In ``consistent`` every coefficient is
+        constrained >= 0 except the offsets.
+    armature : bool
+        Identify the motors' reflected rotor inertias.
+    bounds : Bounds, "plausible" or None
+        Extra constraints of ``consistent`` (mass ranges, COM boxes, total mass).  The
+        default ``"plausible"`` is :meth:`Bounds.plausible` around the prior (each link's
+        mass within +-50 % of the prior's, its COM within 0.1 m of the prior's per
+        axis, the total mass within 25 %); None leaves only ``J_i >= 0``.  The bounds that
+        the answer sits on are listed in ``report["active_bounds"]``.  Ignored (no error)
+        for ``ols``/``wls`` when left at the default.
+    prior_weight : float
+        ``consistent`` only: weight of the entropic pull of each body towards the prior's
+        (:func:`manipdyn.identification.sdp.consistent_fit`); 0 (the default) fits the
+        data alone.
+    metadata : (source, sources, description), optional
+        Citation of the identified arm (:func:`.provenance.model_metadata`); default: the
+        prior's.
     base : BaseParameters, optional
         Reuse a :func:`base_parameters` result (same armature/friction flags).
     name : str, optional
@@ -174,14 +209,24 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     """
     if method not in METHODS:
         raise ModelError(f"method: expected one of {', '.join(METHODS)}, got {method!r}")
+    if isinstance(bounds, str):
+        if bounds != "plausible":
+            raise ModelError(f"bounds: expected a Bounds, 'plausible' or None, got {bounds!r}")
+        bounds = Bounds.plausible(arm) if method == "consistent" else None
+    if bounds is not None and not isinstance(bounds, Bounds):
+        raise ModelError(f"bounds: expected a Bounds, 'plausible' or None, got {type(bounds).__name__}")
     if bounds is not None and method != "consistent":
         raise ModelError("bounds: only the 'consistent' method takes bounds")
+    if not (0.0 <= float(prior_weight) < float("inf")):
+        raise ModelError(f"prior_weight: expected a finite number >= 0, got {prior_weight}")
+    if prior_weight and method != "consistent":
+        raise ModelError("prior_weight: only the 'consistent' method takes a prior weight")
     n = arm.n
     q, qd, qdd, tau = _check(q, qd, qdd, tau, n)
     if base is None:
         base = base_parameters(arm, armature=armature, friction=friction)
-    elif (base.armature, base.friction) != (bool(armature), bool(friction)):
-        raise ModelError("base: computed with other armature/friction flags than this fit")
+    elif base.names != parameter_names(n, armature, friction):
+        raise ModelError("base: computed with other armature/friction columns (or another arm) than this fit")
     N, r = len(q), base.count
     if N * n < r:
         raise ModelError(f"data: {N} samples give {N * n} equations for {r} base parameters")
@@ -190,13 +235,23 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     R0, c0, _ = _reduce(Yb.reshape(-1, r), y.reshape(-1))
     s = np.linalg.svd(R0, compute_uv=False)              # the singular values of the stacked Y_b
     cond = float(s[0] / s[-1]) if s[-1] > 0 else float("inf")
+    limit = MAX_CONDITION_CONSISTENT if method == "consistent" else MAX_CONDITION
+    if not cond <= limit:
+        raise ModelError(f"data: the base regressor's condition number is {cond:.3g}, over the {method} "
+                         f"threshold {limit:.0e}: the motion does not excite every base parameter (is q "
+                         f"constant, or a column scaled wrongly?); use an excitation trajectory "
+                         f"(manipdyn excite)")
     sigma = _joint_noise(Yb, y)
     # noise below 1e-6 of the largest joint's RMS torque is rounding, not noise:
     # flooring it keeps the weights (and the semidefinite program) well scaled
     # on exact data, where every sigma_j would otherwise be ~1e-12 and arbitrary
     floor = 1e-6 * max(float(np.sqrt(np.mean(y**2, axis=0)).max()), 1e-300)
     sigma = np.maximum(sigma, floor)
-    prior = arm_parameters(arm, armature, friction)
+    try:
+        prior = arm_parameters(arm, armature, friction)
+    except ModelError:   # the prior's friction law is not of the asked-for kind: start from none
+        prior = np.concatenate([arm_parameters(arm, armature, False),
+                                np.zeros(len(base.names) - parameter_count(n, armature, False))])
 
     cov = None
     if method == "ols":
@@ -215,8 +270,8 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
             except np.linalg.LinAlgError:
                 cov = None
         else:
-            pi, solver = consistent_fit(R, c, base.K, n, prior, extra=bool(armature or friction),
-                                        bounds=bounds)
+            pi, solver = consistent_fit(R, c, base.K, n, prior, extra=len(base.names) > 10 * n,
+                                        bounds=bounds, nonnegative=_nonnegative(base.names, n), prior_weight=float(prior_weight), rows=N * n)
             beta = base.from_full(pi)
     residuals = y - Yb @ beta
     eig = link_min_eigenvalues(pi, n)
@@ -230,7 +285,8 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", PhysicalConsistencyWarning)
             out_arm = arm_with_parameters(arm, pi, armature=armature, friction=friction,
-                                          name=name if name is not None else arm.name)
+                                          name=name if name is not None else arm.name,
+                                          metadata=metadata)
     except ModelError as exc:
         err = str(exc)
     result = FitResult(arm=out_arm, parameters=pi, base=base, beta=beta, residuals=residuals,
@@ -239,4 +295,6 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     from .report import build_report
 
     result.report = build_report(result, solver=solver, samples=N, cov=cov, min_eigenvalues=eig)
+    result.report["active_bounds"] = bounds.active(pi, n) if bounds is not None else []
+    result.report["prior_weight"] = float(prior_weight)
     return result

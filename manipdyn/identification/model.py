@@ -19,7 +19,7 @@ __all__ = ["arm_with_parameters"]
 
 
 def arm_with_parameters(arm, pi, armature: bool = False, friction: bool = False,
-                        name: str | None = None, strict: bool = False):
+                        name: str | None = None, strict: bool = False, metadata=None):
     """A copy of the DH arm ``arm`` whose links carry the parameters ``pi``.
 
     Parameters
@@ -36,6 +36,8 @@ def arm_with_parameters(arm, pi, armature: bool = False, friction: bool = False,
         Name of the new arm (default: the prior's).
     strict : bool
         Passed to :class:`Manipulator` (a physically impossible link raises).
+    metadata : (source, sources, description), optional
+        The new arm's citation (:func:`.provenance.model_metadata`); default: the prior's.
 
     Raises :class:`ModelError` if a link's mass is negative (no file can hold
     that), naming the link.  A link whose identified mass is exactly 0 has no
@@ -58,8 +60,13 @@ def arm_with_parameters(arm, pi, armature: bool = False, friction: bool = False,
     arm_vals = fv = fc = None
     if armature:
         arm_vals, col = pi[col:col + n], col + n
-    if friction:
+    law = None
+    if friction is True:
         fv, fc = pi[col:col + n], pi[col + n:col + 2 * n]
+    elif friction is not False and friction is not None:
+        law = _friction_law(friction, pi[col:], n, arm.transmission)
+    elif arm.friction is None and arm.friction_model is not None:
+        law = arm.friction_model          # the prior's own law (not the links' kind), kept
     links = []
     for i, l in enumerate(arm.links):
         label = f"link {i + 1}" + (f" ({l.name})" if l.name else "")
@@ -72,9 +79,44 @@ def arm_with_parameters(arm, pi, armature: bool = False, friction: bool = False,
         kw = dict(body=LinkInertia.from_pseudo_inertia(J, name=label))
         if armature:
             kw["motor_inertia"] = float(arm_vals[i]) / l.gear_ratio**2
-        if friction:
+        if friction is True:
             kw["friction_viscous"], kw["friction_coulomb"] = float(fv[i]), float(fc[i])
+        elif law is not None:
+            kw["friction_viscous"], kw["friction_coulomb"] = 0.0, 0.0
         links.append(dataclasses.replace(l, **kw))
+    source, sources, description = metadata or (arm.source, arm.sources, arm.description)
     return Manipulator(links, convention=arm.convention, gravity=arm.gravity,
                        name=arm.name if name is None else name, strict=strict,
-                       source=arm.source, sources=arm.sources, description=arm.description)
+                       source=source, sources=sources, description=description,
+                       transmission=arm.transmission, friction=law)
+
+
+def _friction_law(friction, values, n, transmission):
+    """The :class:`manipdyn.Friction` whose regressor parameters are ``values``.
+
+    Motor-side parameters are reflected (:mod:`manipdyn.friction`): viscous ``R_kk^2 Fv``,
+    the other amplitudes ``|R_kk| x``; they are divided back here.
+    """
+    from ..friction import Friction, friction_spec
+
+    spec = friction_spec(friction, n)
+    values = np.asarray(values, dtype=np.float64)
+    R = np.diag(transmission.R) if spec.side == "motor" else None
+    kw, k = {}, 0
+    blocks = {"viscous": ["viscous"], "coulomb": ["coulomb"], "asymmetric": ["coulomb_pos", "coulomb_neg"],
+              "offset": ["offset"], "stribeck": ["stribeck_level"], "sigmoid": ["sigmoid_A"]}
+    for t in spec.terms:
+        for key in blocks[t]:
+            x = values[k:k + n].copy()
+            k += n
+            if R is not None and t != "offset":
+                x = x / (R**2 if t == "viscous" else np.abs(R))
+            if key != "offset":
+                x = np.maximum(x, 0.0) if key not in ("stribeck_level", "sigmoid_A") else x
+            kw[key] = x
+    if "stribeck" in spec.terms:
+        kw["stribeck_velocity"] = spec.stribeck_velocity
+    if "sigmoid" in spec.terms:
+        kw["sigmoid_alpha"], kw["sigmoid_p3"] = spec.sigmoid_alpha, spec.sigmoid_p3
+    return Friction(**kw, side=spec.side, smoothing=spec.smoothing, deadband=spec.deadband,
+                    stribeck_exponent=spec.stribeck_exponent, n=n)

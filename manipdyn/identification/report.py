@@ -10,6 +10,17 @@ import numpy as np
 __all__ = ["build_report", "format_report"]
 
 
+def _friction_label(friction, n):
+    """False, True (viscous + sharp Coulomb), or the identified friction parameter names' terms."""
+    if friction is False or friction is None or friction is True:
+        return bool(friction)
+    from ..friction import friction_spec
+
+    spec = friction_spec(friction, n)
+    return {"terms": list(spec.terms), "side": spec.side, "smoothing": spec.smoothing,
+            "deadband": spec.deadband}
+
+
 def build_report(result, solver: str, samples: int, cov=None, min_eigenvalues=None) -> dict:
     """A JSON-ready dict: ``n_base``, ``condition_number``, ``rms_residual`` (n, N m),
     ``consistent``, ``method`` and details (noise levels, base parameters with their
@@ -27,14 +38,14 @@ def build_report(result, solver: str, samples: int, cov=None, min_eigenvalues=No
     return {
         "method": result.method,
         "n_base": int(b.count),
-        "condition_number": float(result.condition_number),
+        "condition_number": float(result.condition_number) if np.isfinite(result.condition_number) else None,
         "rms_residual": [float(x) for x in rms],
         "noise_sigma": [float(x) for x in result.sigma],
         "consistent": bool(result.consistent),
         "min_eigenvalue_J": [float(x) for x in (min_eigenvalues if min_eigenvalues is not None else [])],
         "samples": int(samples),
         "solver": solver,
-        "friction": bool(b.friction),
+        "friction": _friction_label(b.friction, len(result.sigma)),
         "armature": bool(b.armature),
         "arm_error": result.arm_error,
         "base_parameters": rows,
@@ -45,7 +56,8 @@ def format_report(rep: dict) -> str:
     """A readable summary of :func:`build_report`'s dict."""
     lines = [
         f"method {rep['method']} ({rep['solver']}), {rep['samples']} samples, "
-        f"{rep['n_base']} base parameters, condition number {rep['condition_number']:.4g}",
+        f"{rep['n_base']} base parameters, condition number "
+        f"{'infinite' if rep['condition_number'] is None else format(rep['condition_number'], '.4g')}",
         f"physically consistent (every J_i >= 0): {'yes' if rep['consistent'] else 'NO'}",
         "joint   rms residual   noise (OLS)",
     ]

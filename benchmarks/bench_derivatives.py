@@ -1,0 +1,121 @@
+"""Benchmark of the derivatives of the dynamics (issue 18), on the 6-DOF arms and the Panda.
+
+    env -u OPENBLAS_CORETYPE -u OPENBLAS_L2_SIZE python -m benchmarks.bench_derivatives [--arms ur5 panda] [--batch 1000]
+
+Two comparisons, each timed in interleaved rounds (:func:`benchmarks.timing.interleaved`:
+load from other processes hits every candidate alike; ratios are medians of
+per-round ratios):
+
+1. **Fast path per call**: ``arm.pinocchio.inverse_dynamics_derivatives``,
+   ``forward_dynamics_derivatives`` and ``gravity_derivative`` on one native
+   float64 state, against the raw Pinocchio call on the same model and data
+   (``pin.computeRNEADerivatives`` ...).  The raw call returns views of
+   ``pin.Data``; manipdyn copies them (the next call would overwrite them), so
+   the copies are part of the measured overhead.  Target: ratio <= 1.5.
+2. **Trace form per state in a batch**: ``arm.lagrange``'s derivatives on a batch
+   of ``--batch`` states, divided by the batch size, against raw Pinocchio's
+   per-call derivatives.  Target: <= 10x (moonshot 5x).
+
+The arms are used as bundled (rotors included; no bundled arm has friction).
+Inputs are drawn before the timed region, and both engines' answers are
+compared (to the cross-check's 1e-9) before anything is timed, so a fast wrong
+answer never counts.  Nothing is asserted about time: compare with earlier runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+
+import numpy as np
+
+import manipdyn as md
+from manipdyn.check import TOLERANCE
+from manipdyn.random_arms import random_state
+
+from .timing import blas_config, interleaved, paired_ratio
+
+TARGET_FAST = 1.5
+TARGET_BATCH = 10.0
+MOONSHOT_BATCH = 5.0
+DEFAULT_ARMS = ("puma560", "ur5", "ur10", "panda")
+
+
+def _load(name):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", md.PhysicalConsistencyWarning)
+        return md.load(name)
+
+
+def _check(arm, q, qd, qdd, tau) -> None:
+    L, P = arm.lagrange, arm.pinocchio
+    pairs = (list(zip(L.inverse_dynamics_derivatives(q, qd, qdd), P.inverse_dynamics_derivatives(q, qd, qdd)))
+             + list(zip(L.forward_dynamics_derivatives(q, qd, tau), P.forward_dynamics_derivatives(q, qd, tau)))
+             + [(L.gravity_derivative(q), P.gravity_derivative(q))])
+    for a, b in pairs:
+        err = np.abs(a - b).reshape(len(a), -1).max(axis=1) / np.maximum(1.0, np.abs(a).reshape(len(a), -1).max(axis=1))
+        if not float(err.max()) <= TOLERANCE:
+            raise SystemExit(f"!!! WRONG ANSWER on {arm.name}: engines differ by {float(err.max()):.3g}")
+
+
+def measure(name: str, batch: int = 1000, rounds: int = 15, target_s: float = 0.02) -> dict:
+    import pinocchio as pin
+
+    arm = _load(name)
+    P, L = arm.pinocchio, arm.lagrange
+    m, d = P.model, P.data
+    rng = np.random.default_rng(0)
+    qb, qdb, qddb = random_state(rng, arm, size=batch)
+    taub = L.inverse_dynamics(qb, qdb, qddb)
+    _check(arm, qb[:50], qdb[:50], qddb[:50], taub[:50])
+    q, qd, qdd, tau = qb[0].copy(), qdb[0].copy(), qddb[0].copy(), taub[0].copy()
+    rnea_d, aba_d, grav_d = (pin.computeRNEADerivatives, pin.computeABADerivatives,
+                             pin.computeGeneralizedGravityDerivatives)
+    fns = {
+        "inv": lambda: P.inverse_dynamics_derivatives(q, qd, qdd),
+        "inv_raw": lambda: rnea_d(m, d, q, qd, qdd),
+        "fwd": lambda: P.forward_dynamics_derivatives(q, qd, tau),
+        "fwd_raw": lambda: aba_d(m, d, q, qd, tau),
+        "grav": lambda: P.gravity_derivative(q),
+        "grav_raw": lambda: grav_d(m, d, q),
+        "inv_trace_batch": lambda: L.inverse_dynamics_derivatives(qb, qdb, qddb),
+        "fwd_trace_batch": lambda: L.forward_dynamics_derivatives(qb, qdb, taub),
+        "grav_trace_batch": lambda: L.gravity_derivative(qb),
+    }
+    scale = {k: batch for k in fns if k.endswith("_batch")}
+    s = interleaved(fns, rounds, target_s, per_call_scale=scale)
+    out = {"arm": name, "n": arm.n, "batch": batch}
+    for k in ("inv", "fwd", "grav"):
+        out[k] = {"manipdyn_us": s[k].median * 1e6, "raw_us": s[k + "_raw"].median * 1e6,
+                  "ratio": paired_ratio(s[k], s[k + "_raw"]),
+                  "trace_per_state_us": s[k + "_trace_batch"].median * 1e6,
+                  "trace_ratio": paired_ratio(s[k + "_trace_batch"], s[k + "_raw"])}
+    return out
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(prog="python -m benchmarks.bench_derivatives", description=__doc__.split("\n\n")[0])
+    p.add_argument("--arms", nargs="+", default=[a for a in DEFAULT_ARMS if a in md.models()])
+    p.add_argument("--batch", type=int, default=1000)
+    p.add_argument("--rounds", type=int, default=15)
+    args = p.parse_args(argv)
+    pools = blas_config()
+    blas = pools if isinstance(pools, str) else [(i.get("internal_api"), i.get("num_threads")) for i in pools]
+    print(f"BLAS/OpenMP pools: {blas or 'none loaded'}; batch {args.batch}; "
+          f"targets: fast path <= {TARGET_FAST}x raw Pinocchio, trace form per state <= {TARGET_BATCH}x "
+          f"(moonshot {MOONSHOT_BATCH}x)")
+    print(f"{'arm':9s} {'derivative':9s} {'manipdyn us':>11s} {'raw pin us':>10s} {'ratio':>6s}  "
+          f"{'trace us/state':>14s} {'trace/raw':>9s}")
+    for name in args.arms:
+        r = measure(name, args.batch, args.rounds)
+        for k, label in (("inv", "RNEA"), ("fwd", "ABA"), ("grav", "gravity")):
+            x = r[k]
+            print(f"{name:9s} {label:9s} {x['manipdyn_us']:11.2f} {x['raw_us']:10.2f} {x['ratio']:6.2f}  "
+                  f"{x['trace_per_state_us']:14.2f} {x['trace_ratio']:9.2f}")
+        sys.stdout.flush()
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

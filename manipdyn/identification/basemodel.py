@@ -1,0 +1,173 @@
+"""The base model: identified base parameters written as JSON when no physical arm has them.
+
+Layer: application (identification).
+
+``ols`` and ``wls`` identify the base parameters ``beta = K pi`` (:mod:`.base`).
+When no arm with every ``J_i >= 0`` (or with a mass >= 0) reproduces them, no model
+file can hold them, but they still predict torques: ``tau = Y_b beta``.  A base model
+keeps exactly that, self-contained:
+
+* ``format``: ``"manipdyn-base-model/1"``;
+* ``prior``: the prior arm as text (``kind`` ``"toml"`` model file text or ``"urdf"``
+  text with its ``tip``), which gives the kinematics and the regressor;
+* ``armature``, ``friction``: the regressor's extra columns;
+* ``base_parameters``: for each, its ``expression`` over the full parameters, ``value``
+  and, for ``wls``, ``std`` (the standard deviation from the weighted least-squares
+  covariance) and ``rel_std_percent`` (Gautier's relative standard deviation,
+  ``100 std / |value|``);
+* ``parameters``: the full vector closest to the prior with ``K pi = beta`` (no sign or
+  PSD constraint), used to predict: ``Y pi = Y_b beta`` for every state;
+* ``provenance``: data file, its sha256, method, options, date.
+
+:func:`load_base_model` reads it back; :meth:`BaseModel.inverse_dynamics` predicts.
+Both are what ``manipdyn validate BASE.json DATA`` uses.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+
+import numpy as np
+
+from .. import limits
+from .._files import atomic_write_text
+from ..errors import ModelError
+
+__all__ = ["BASE_MODEL_FORMAT", "BaseModel", "base_model_dict", "write_base_model", "load_base_model",
+           "prior_text"]
+
+BASE_MODEL_FORMAT = "manipdyn-base-model/1"
+
+
+def prior_text(arm) -> dict:
+    """The prior as self-contained text: ``{"kind": "toml"|"urdf", "text": ..., "tip": ...}``."""
+    from ..arm import Manipulator
+    from ..io import to_toml
+
+    if isinstance(arm, Manipulator):
+        return {"kind": "toml", "text": to_toml(arm), "tip": None}
+    src = getattr(arm, "source_urdf", None)
+    if not src:
+        raise ModelError(f"prior {arm.name!r}: has neither model-file nor URDF text to embed")
+    return {"kind": "urdf", "text": src, "tip": getattr(arm, "tip", None)}
+
+
+def _finite(x):
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def base_model_dict(result, prior: dict, provenance: dict) -> dict:
+    """The JSON-ready base model of a :class:`FitResult` (module docstring)."""
+    rep = result.report
+    rows = []
+    for row in rep["base_parameters"]:
+        rows.append({k: (_finite(v) if isinstance(v, float) else v) for k, v in row.items()})
+    return {
+        "format": BASE_MODEL_FORMAT,
+        "name": rep.get("name") or result.prior.name,
+        "prior": prior,
+        "method": result.method,
+        "armature": bool(result.base.armature),
+        "friction": bool(result.base.friction),
+        "condition_number": _finite(result.condition_number),
+        "noise_sigma": [float(x) for x in result.sigma],
+        "rms_residual": rep["rms_residual"],
+        "base_parameters": rows,
+        "parameters": [float(x) for x in result.parameters],
+        "why_no_model": result.arm_error,
+        "provenance": provenance,
+    }
+
+
+def write_base_model(path, result, prior: dict, provenance: dict) -> None:
+    """Write :func:`base_model_dict` as strict JSON, atomically."""
+    atomic_write_text(path, json.dumps(base_model_dict(result, prior, provenance), indent=2,
+                                       allow_nan=False) + "\n")
+
+
+class BaseModel:
+    """A base model read back: the prior arm, the regressor flags and the parameters.
+
+    Attributes
+    ----------
+    arm : manipdyn.Arm
+        The prior (kinematics and regressor).
+    parameters : (p,)
+        Full parameters reproducing the base parameters.
+    beta, std : (r,)
+        Base parameter values and standard deviations (NaN where the file has none).
+    armature, friction : bool
+    data : dict
+        The whole JSON object.
+    """
+
+    def __init__(self, data: dict, arm, origin: str):
+        self.data, self.arm, self.origin = data, arm, origin
+        self.name = str(data.get("name") or arm.name)
+        self.armature, self.friction = bool(data["armature"]), bool(data["friction"])
+        self.parameters = np.asarray(data["parameters"], dtype=np.float64)
+        rows = data["base_parameters"]
+        self.beta = np.array([r["value"] for r in rows], dtype=np.float64)
+        self.std = np.array([np.nan if r.get("std") is None else r["std"] for r in rows], dtype=np.float64)
+        self.n = arm.n
+
+    def inverse_dynamics(self, q, qd, qdd) -> np.ndarray:
+        """Predicted joint torques ``Y(q, qd, qdd) pi`` (N m or N), (n,) or (N, n).
+
+        The trace form's regressor of the prior with the file's armature/friction columns;
+        where those were not identified, the prior's own armature and friction torques are
+        added (as :meth:`FitResult.predict` does).
+        """
+        eng = self.arm.lagrange
+        Y = eng.regressor(q, qd, qdd, armature=self.armature, friction=self.friction)
+        tau = Y @ self.parameters
+        if not self.armature:
+            tau = tau + np.asarray(self.arm.armature) * np.asarray(qdd, dtype=np.float64)
+        if not self.friction and self.arm.friction is not None:
+            tau = tau + eng.friction_torque(qd)
+        return tau
+
+
+def load_base_model(path) -> BaseModel:
+    """Read a base model JSON file (module docstring); errors name the file and the key."""
+    from ..loading import load
+
+    where = os.fspath(path)
+    try:
+        text = limits.read_regular(where, where, "MAX_FILE_BYTES", what="the base model").decode("utf-8")
+    except UnicodeDecodeError:
+        raise ModelError(f"{where}: not UTF-8 text; expected a base model JSON file") from None
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ModelError(f"{where}: not JSON (line {exc.lineno}: {exc.msg})") from None
+    if not isinstance(data, dict) or data.get("format") != BASE_MODEL_FORMAT:
+        raise ModelError(f"{where}: key 'format': expected {BASE_MODEL_FORMAT!r}")
+    for key in ("prior", "armature", "friction", "base_parameters", "parameters"):
+        if key not in data:
+            raise ModelError(f"{where}: missing key {key!r}")
+    prior = data["prior"]
+    if not isinstance(prior, dict) or prior.get("kind") not in ("toml", "urdf") or not isinstance(
+            prior.get("text"), str):
+        raise ModelError(f"{where}: key 'prior': expected {{kind: 'toml'|'urdf', text: ...}}")
+    try:
+        if prior["kind"] == "toml":
+            from ..modelfile import parse_model
+
+            arm = parse_model(prior["text"], origin=f"{where} (prior)")
+        else:
+            arm = load(prior["text"], tip=prior.get("tip"))
+    except ModelError as exc:
+        raise ModelError(f"{where}: key 'prior': {exc}") from None
+    from ..parameters import parameter_count
+
+    want = parameter_count(arm.n, bool(data["armature"]), bool(data["friction"]))
+    if not isinstance(data["parameters"], list) or len(data["parameters"]) != want:
+        raise ModelError(f"{where}: key 'parameters': expected {want} numbers for this prior")
+    try:
+        return BaseModel(data, arm, where)
+    except (TypeError, ValueError, KeyError) as exc:
+        raise ModelError(f"{where}: malformed base model ({exc})") from None

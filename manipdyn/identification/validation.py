@@ -1,0 +1,128 @@
+"""Scoring a model on held-out data: ``validate`` and its figure.
+
+Layer: application (identification).
+
+A model (any arm, or a :class:`~.basemodel.BaseModel`) predicts the joint torques of
+measured states; the score per joint is
+
+* ``rms``: RMS of measured minus predicted torque (N m, N for a prismatic joint);
+* ``relative_rms``: that RMS over the RMS of the measured torque (0 is perfect, 1 is as
+  good as predicting zero torque);
+* ``r2``: the coefficient of determination ``1 - SS_res / SS_tot`` about the measured
+  mean (1 perfect, 0 as good as the mean, negative worse than the mean);
+* ``mean_error``: the mean of measured minus predicted (a bias the RMS hides).
+
+The model's own friction and armature are included: what :meth:`Arm.inverse_dynamics`
+predicts, the fast path.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ModelError
+
+__all__ = ["ValidationResult", "validate", "plot_validation"]
+
+
+@dataclass
+class ValidationResult:
+    """Per-joint scores of :func:`validate` (module docstring), arrays of shape (n,).
+
+    ``measured`` and ``predicted`` (N, n) and ``t`` (N,) are kept for the figure.
+    """
+
+    model: str
+    rms: np.ndarray
+    relative_rms: np.ndarray
+    r2: np.ndarray
+    mean_error: np.ndarray
+    t: np.ndarray
+    measured: np.ndarray
+    predicted: np.ndarray
+
+    def to_dict(self) -> dict:
+        """JSON-ready figures (NaN, e.g. R^2 of a joint with constant torque, becomes None)."""
+        def clean(a):
+            return [float(x) if math.isfinite(x) else None for x in np.asarray(a)]
+
+        return {"model": self.model, "samples": int(len(self.t)), "rms": clean(self.rms),
+                "relative_rms": clean(self.relative_rms), "r2": clean(self.r2),
+                "mean_error": clean(self.mean_error)}
+
+    def format(self, unit: str = "N m") -> str:
+        """A table, one row per joint."""
+        lines = [f"model {self.model}: {len(self.t)} samples",
+                 f"joint   rms ({unit})   rms / measured rms       R^2   mean error ({unit})"]
+        for j in range(len(self.rms)):
+            lines.append(f"{j + 1:>5}   {self.rms[j]:10.4g}   {self.relative_rms[j]:18.4g}   "
+                         f"{self.r2[j]:7.4f}   {self.mean_error[j]:+14.4g}")
+        return "\n".join(lines)
+
+
+def validate(model, data, name: str | None = None) -> ValidationResult:
+    """Score ``model`` on the measurements ``data`` (module docstring).
+
+    Parameters
+    ----------
+    model : manipdyn.Arm or BaseModel
+        Anything with ``inverse_dynamics(q, qd, qdd)`` and ``n``.
+    data : Measurements
+        ``t`` (N,), ``q``, ``qd``, ``qdd``, ``tau`` (N, n), SI units, joint space.
+    """
+    n = getattr(model, "n", None)
+    if data.q.ndim != 2 or data.q.shape[1] != n:
+        raise ModelError(f"data: {data.q.shape[1] if data.q.ndim == 2 else '?'} joints, but the model "
+                         f"{getattr(model, 'name', '')!r} has {n}")
+    if len(data.t) < 2:
+        raise ModelError(f"data: {len(data.t)} samples; validation needs at least 2")
+    pred = np.asarray(model.inverse_dynamics(data.q, data.qd, data.qdd), dtype=np.float64)
+    err = data.tau - pred
+    rms = np.sqrt(np.mean(err**2, axis=0))
+    meas_rms = np.sqrt(np.mean(data.tau**2, axis=0))
+    ss_tot = np.sum((data.tau - data.tau.mean(axis=0)) ** 2, axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = np.where(meas_rms > 0, rms / meas_rms, np.nan)
+        r2 = np.where(ss_tot > 0, 1.0 - np.sum(err**2, axis=0) / ss_tot, np.nan)
+    return ValidationResult(model=name or getattr(model, "name", "model"), rms=rms, relative_rms=rel,
+                            r2=r2, mean_error=err.mean(axis=0), t=np.asarray(data.t), measured=data.tau,
+                            predicted=pred)
+
+
+def plot_validation(results, path, title: str | None = None, units=None) -> None:
+    """Measured against predicted torque per joint, one panel each, written to ``path``.
+
+    ``results`` is one :class:`ValidationResult` or a list of them (several models on the
+    same data, e.g. identified against published); ``units`` per joint (default N m).
+    """
+    from ..control.plots import pyplot, save_figure
+
+    plt = pyplot()
+    results = results if isinstance(results, (list, tuple)) else [results]
+    r0 = results[0]
+    n = r0.measured.shape[1]
+    units = units or ["N m"] * n
+    ncol = 2 if n > 3 else 1
+    nrow = math.ceil(n / ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(11 if ncol == 2 else 7, 2.1 * nrow + 0.8),
+                             sharex=True, squeeze=False)
+    for j in range(nrow * ncol):
+        ax = axes[j // ncol][j % ncol]
+        if j >= n:
+            ax.set_visible(False)
+            continue
+        ax.plot(r0.t, r0.measured[:, j], color="0.55", lw=1.2, label="measured")
+        for k, r in enumerate(results):
+            ax.plot(r.t, r.predicted[:, j], lw=1.0, color=f"C{k}",
+                    label=f"{r.model} (RMS {r.rms[j]:.3g} {units[j]})")
+        ax.set_ylabel(f"joint {j + 1} torque ({units[j]})")
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
+        ax.grid(alpha=0.3)
+        if j // ncol == nrow - 1 or j + ncol >= n:
+            ax.set_xlabel("time (s)")
+    fig.suptitle(title or f"measured and predicted joint torques: {', '.join(r.model for r in results)}")
+    fig.tight_layout()
+    save_figure(fig, path)

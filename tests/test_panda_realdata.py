@@ -1,0 +1,47 @@
+"""The real Franka Panda log (../shared/realdata/panda_gaz2019, measured outside the project):
+identify on t < 10 s as logged, score on 10 s <= t < 13.8 s against the published model."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import manipdyn as md
+
+DATA = Path(__file__).resolve().parents[1].parent / "shared" / "realdata" / "panda_gaz2019" / "panda_as_logged.csv"
+pytestmark = pytest.mark.skipif(not DATA.is_file(), reason=f"the real-data folder is absent ({DATA.name} not found "
+                                                            "beside the project in shared/realdata)")
+pytest.importorskip("cvxpy", reason="identification needs the identify extra")
+
+SIGMOID = dict(sigmoid_A=[0.54615, 0.87224, 0.64068, 1.2794, 0.83904, 0.30301, 0.56489],
+               sigmoid_alpha=[5.1181, 9.0657, 10.136, 5.5903, 8.3469, 17.133, 10.336],
+               sigmoid_p3=[0.039533, 0.025882, -0.04607, 0.036194, 0.026226, -0.021047, 0.0035526])
+
+
+def test_panda_as_logged_end_to_end(tmp_path, capsys):
+    from manipdyn.cli import main
+
+    out = tmp_path / "panda_id.toml"
+    assert main(["identify", "panda", str(DATA), "-o", str(out), "--t-range", "0:10",
+                 "--friction-terms", "viscous,coulomb", "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert rep["consistent"] and any("1131 duplicate rows" in n for n in rep["data_notes"])
+    ident, prior = md.load(str(out)), md.load("panda")
+    m, m0 = sum(l.mass for l in ident.links), sum(l.mass for l in prior.links)
+    assert abs(m - m0) <= 0.25 * m0                       # the issue's plausibility target
+    pub = md.Manipulator(prior.links, convention=prior.convention, gravity=prior.gravity, name="published",
+                         friction=md.Friction(**SIGMOID))
+    pub_file = tmp_path / "published.toml"
+    md.save(pub, pub_file)
+    scores = {}
+    for name, path in (("published", pub_file), ("identified", out)):
+        assert main(["validate", str(path), str(DATA), "--t-range", "10:13.8", "--json"]) == 0
+        scores[name] = np.array(json.loads(capsys.readouterr().out)["rms"])
+    # measured (README table): better on joints 3, 4, 5, 7; joint 1 within 1 %; joints 2 and 6 worse
+    # (the held-out window visits q2 > 0.3 rad, which the fit window never does: README)
+    better = scores["identified"] < scores["published"]
+    assert better[[2, 3, 4, 6]].all(), scores
+    assert scores["identified"][0] <= 1.01 * scores["published"][0], scores
