@@ -63,7 +63,7 @@ from ..io import save
 from ..loading import load
 from .trajectory import fourier_trajectory
 
-__all__ = ["HardLog", "hard_log", "hard_arms", "GEAR_RATIOS", "WRIST_COUPLING", "SMOOTHING"]
+__all__ = ["HardLog", "hard_log", "hard_arms", "recovered", "GEAR_RATIOS", "WRIST_COUPLING", "SMOOTHING"]
 
 #: gear ratios of motors 1..6 (joint 3's motor turns the other way)
 GEAR_RATIOS = (101.0, 101.0, -101.0, 81.0, 81.0, 81.0)
@@ -142,8 +142,8 @@ def hard_arms(seed: int = 0):
 def _motion(rng, n, duration, harmonics=10):
     """Fourier coefficients ``(q0, a, b, period)``, each joint's peak speed U(1, 1.5) rad/s."""
     l = np.arange(1, harmonics + 1)
-    a = rng.standard_normal((n, harmonics)) / l
-    b = rng.standard_normal((n, harmonics)) / l
+    a = rng.standard_normal((n, harmonics)) / np.sqrt(l)
+    b = rng.standard_normal((n, harmonics)) / np.sqrt(l)
     tg = np.linspace(0.0, duration, 4001)
     _, qd, _ = fourier_trajectory(tg, np.zeros(n), a, b, duration)
     s = rng.uniform(1.0, 1.5, n) / np.abs(qd).max(axis=0)
@@ -171,7 +171,7 @@ def _stamps(rng, duration, rate):
     return t, src, stamps
 
 
-def hard_log(seed: int = 0, directory=None, *, duration: float = 20.0, held_out: float = 6.0,
+def hard_log(seed: int = 0, directory=None, *, duration: float = 40.0, held_out: float = 10.0,
              rate: float = 1000.0, noise: float = 0.01, counts: int = 2**16) -> HardLog:
     """A seeded hard log with known truth (module docstring).
 
@@ -230,3 +230,41 @@ def hard_log(seed: int = 0, directory=None, *, duration: float = 20.0, held_out:
     return HardLog(truth=truth, prior=prior, log=paths[0], truth_file=paths[1], prior_file=paths[2],
                    sigma=sigma, motor_sigma=s, split=float(duration - held_out), t=stamps, q=q[src], qd=qd[src],
                    qdd=qdd[src], tau=tr.joint_torques(tau_m_meas)[src], rows=len(src))
+
+
+def recovered(result, truth) -> dict:
+    """The rotor and friction parameters of a fit against the truth's.
+
+    ``result``: a :class:`~manipdyn.identification.FitResult` with ``armature=True``
+    and friction columns of the truth's law's terms (any shapes); ``truth``: the
+    arm that made the log.  Returns ``{name: {"true", "identified", "error",
+    "identifiable"}}`` in regressor units (:mod:`manipdyn.friction`: motor-side
+    values reflected, ``jointk.armature = R_kk^2 Jm_k``), ``error`` relative
+    (identified / true - 1), for every armature and friction parameter, and
+    ``motork.stribeck_velocity`` (rad/s at the motor) when the law has a
+    Stribeck term.  ``identifiable`` is False for a parameter the data cannot
+    separate from others (it is not a combination of base parameters, e.g.
+    motor 1's rotor inertia, grouped with link 1's ``Izz``); its value is then
+    the prior's share of the group and says nothing about the fit.
+    """
+    from ..parameters import arm_parameters
+
+    base, n = result.base, truth.n
+    law = base.friction
+    if not base.armature or not isinstance(law, Friction) or law.terms != truth.friction_model.terms:
+        raise ModelError("recovered: the fit must identify the armature and the truth's friction terms "
+                         f"({', '.join(truth.friction_model.terms)}) with a Friction spec")
+    true_pi = arm_parameters(truth, True, truth.friction_model)
+    K = base.K
+    inrow = np.diag(np.linalg.pinv(K) @ K)          # 1 where e_p lies in K's row space
+    out = {}
+    for p in range(10 * n, len(base.names)):
+        tv, iv = float(true_pi[p]), float(result.parameters[p])
+        out[base.names[p]] = {"true": tv, "identified": iv, "error": iv / tv - 1.0 if tv else math.nan,
+                              "identifiable": bool(abs(inrow[p] - 1.0) < 1e-8)}
+    if law.stribeck_velocity is not None:
+        for k in range(n):
+            tv, iv = float(truth.friction_model.stribeck_velocity[k]), float(law.stribeck_velocity[k])
+            out[f"motor{k + 1}.stribeck_velocity"] = {"true": tv, "identified": iv, "error": iv / tv - 1.0,
+                                                      "identifiable": True}
+    return out
