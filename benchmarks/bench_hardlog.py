@@ -40,13 +40,24 @@ from pathlib import Path
 import numpy as np
 
 import manipdyn as md
-from benchmarks.bench_identification import _write, environment
+from benchmarks.bench_identification import environment
 from manipdyn.friction import Friction
 from manipdyn.identification import read_log
 from manipdyn.identification.hardlog import SMOOTHING, hard_log, recovered
 from manipdyn.identification.varpro import fit_friction_shapes
 
 RESULTS = Path(__file__).resolve().parent / "results"
+
+
+def _write(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` atomically (a temporary file, then a rename)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=path.suffix)
+    with os.fdopen(fd, "w", encoding="utf-8") as fh:
+        fh.write(text)
+    os.replace(tmp, path)
+
+
 KINDS = ("armature", "fv", "fc_pos", "fc_neg", "offset", "stribeck", "stribeck_velocity")
 
 
