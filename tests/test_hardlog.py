@@ -86,7 +86,9 @@ def test_hard_log_is_hard(tmp_path):
 
 def test_identification_from_the_hard_log_meets_the_issue_targets(tmp_path):
     """Issue 17, item 7.  Identify from the log as written (motor-side positions and currents,
-    messy stamps), on the first 30 s, validate on the last 10 s."""
+    messy stamps), on the first 30 s, validate on the last 10 s.  Seed 0 only: on seeds 1 and 2
+    (benchmarks/bench_hardlog.py) the held-out and friction targets hold too, but a wrist
+    rotor inertia misses 5 % (14.5 % and 11.1 %) and so do offsets (20.9 %, 6.0 %)."""
     h = hard_log(0, tmp_path)                                    # 40 s, 10 s held out
     prior = md.load(h.prior_file)
     data = read_log(h.log, 6, transmission=prior.transmission, t_range=(None, h.split))
