@@ -123,11 +123,12 @@ def solve_dare(A, B, Q, R, tol: float = 1e-12, max_iter: int = 60) -> np.ndarray
 
     from ``A_0 = A``, ``G_0 = B R^-1 B^T``, ``H_0 = Q``; ``H_j -> P``
     quadratically (iteration j covers 2^j steps of the Riccati recursion).
-    Stops when ``||H_{j+1} - H_j|| <= tol ||H_{j+1}||``; raises ValueError
-    (naming the pair) when it has not converged in ``max_iter`` doublings (a
-    pair that is not stabilisable).
+    Stops when ``||H_{j+1} - H_j|| <= tol ||H_{j+1}||`` and the gain
+    ``K = (R + B^T P B)^-1 B^T P A`` makes ``A - B K`` stable (spectral radius
+    < 1); raises ValueError (naming the pair) otherwise, or when it has not
+    converged in ``max_iter`` doublings (a pair that is not stabilisable).
     """
-    A = np.asarray(A, dtype=np.float64)
+    A = A0 = np.asarray(A, dtype=np.float64)
     B = np.asarray(B, dtype=np.float64)
     m = A.shape[0]
     G = B @ np.linalg.solve(R, B.T)
@@ -142,10 +143,16 @@ def solve_dare(A, B, Q, R, tol: float = 1e-12, max_iter: int = 60) -> np.ndarray
         A = A @ WA
         H_new = 0.5 * (H_new + H_new.T)
         G = 0.5 * (G + G.T)
+        if not np.all(np.isfinite(H_new)):     # an unstabilisable mode: the cost grows without bound
+            break
         if np.linalg.norm(H_new - H) <= tol * np.linalg.norm(H_new):
-            return H_new
+            K = np.linalg.solve(R + B.T @ H_new @ B, B.T @ H_new @ A0)
+            rho = np.abs(np.linalg.eigvals(A0 - B @ K)).max()
+            if np.isfinite(rho) and rho < 1.0:      # the stabilising solution, not a near-overflow
+                return H_new
+            break
         H = H_new
-    raise ValueError("A, B: the discrete Riccati equation did not converge "
+    raise ValueError("A, B: the discrete Riccati equation has no finite solution or did not converge "
                      f"in {max_iter} doublings (is the pair stabilisable?)")
 
 
@@ -202,11 +209,17 @@ class LQR(Controller):
         super().__init__(arm, trajectory, tau_max)
 
     def reset(self, trajectory=None) -> None:
-        """Bind ``trajectory`` (computing its gains when it is a new one); no state to clear."""
+        """Bind ``trajectory`` (computing its gains when it is a new one); no state to clear.
+
+        A reference the gains cannot be computed for is refused (ValueError)
+        and the previous one stays bound.
+        """
+        if trajectory is not None and trajectory is not self._bound:
+            if getattr(trajectory, "n", self.n) != self.n:
+                raise ValueError(f"trajectory: has {trajectory.n} joints, the arm {self.n}")
+            self._design(trajectory)
+            self._bound = trajectory
         super().reset(trajectory)
-        if self.trajectory is not None and self.trajectory is not self._bound:
-            self._design(self.trajectory)
-            self._bound = self.trajectory
 
     def _design(self, traj) -> None:
         t0, t1 = getattr(traj, "t_start", None), getattr(traj, "t_end", None)
