@@ -281,7 +281,7 @@ def test_item12_track_json_is_one_strict_document(capsys):
     strict = {"parse_constant": lambda c: pytest.fail(f"not strict JSON: {c}")}
     assert main(["track", "puma560", "--duration", "1", "--compare", "--json"]) == 0
     doc = json.loads(capsys.readouterr().out, **strict)
-    assert set(doc["controllers"]) == {"PD", "PD + gravity", "computed torque", "adaptive (Slotine-Li)"}
+    assert set(doc["controllers"]) == {"PD", "PD + gravity", "computed torque", "adaptive (Slotine-Li)", "LQR"}
     ct = doc["controllers"]["computed torque"]
     assert len(ct["rms_error"]) == 6 and all(x >= 0 for x in ct["peak_torque"])
     # a 0.2 s demo path is too fast for the adaptive controller: exit 1, still one document

@@ -2,7 +2,7 @@
 
 Layer: CLI.
 
-    manipdyn montecarlo MODEL [--tip LINK] --runs N [--controllers pd,pdg,ct,adaptive]
+    manipdyn montecarlo MODEL [--tip LINK] --runs N [--controllers pd,pdg,ct,adaptive,lqr]
                         [--seed S] [--scheduler tcp://HOST:PORT] [--json] [--plot FILE.png]
 
 Exit codes: 0 the study completed (diverged runs are results, not failures),
@@ -119,9 +119,10 @@ def register(subparsers) -> None:
     p.add_argument("model", metavar="MODEL", help="bundled model name, .toml model file, .urdf file or erd:NAME (manipdyn models --erd)")
     p.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
     p.add_argument("--runs", type=int, default=100, help="runs (plants) per controller (default 100)")
-    p.add_argument("--controllers", default="pd,pdg,ct,adaptive", metavar="LIST",
+    p.add_argument("--controllers", default=",".join(CONTROLLERS), metavar="LIST",
                    help="comma-separated subset of pd, pdg (PD + gravity), ct (computed torque), "
-                        "adaptive (Slotine-Li); default all four")
+                        "adaptive (Slotine-Li), lqr (time-varying LQR along the path), in any case; "
+                        "default all five")
     p.add_argument("--seed", type=int, default=0, help="study seed (default 0)")
     p.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
                    help="run on this Dask scheduler (default: a local cluster on every core; "

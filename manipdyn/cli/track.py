@@ -2,7 +2,7 @@
 
 Layer: CLI.
 
-    manipdyn track MODEL [--controller pd|pdg|ct|adaptive] [--payload KG]
+    manipdyn track MODEL [--controller pd|pdg|ct|adaptive|lqr] [--payload KG]
                          [--duration S] [--plot out.png] [--compare]
 
 The controller is built on the arm as described (MODEL); with ``--payload``
@@ -93,7 +93,7 @@ def run(args) -> int:
     for n in notes:
         say(f"  note: {n}")
     for kind in kinds:
-        ctrl = make_controller(kind, arm, args.bandwidth, args.gamma)
+        ctrl = make_controller(kind, arm, args.bandwidth, args.gamma, path=path, dt=args.dt)
         label = CONTROLLERS[kind]
         try:
             log = simulate(arm, ctrl, path, args.duration, dt=args.dt, plant=plant,
@@ -165,8 +165,9 @@ def register(subparsers) -> None:
                     "Exit codes: 0 finished, 1 a controller diverged, 2 bad input.")
     p.add_argument("model", metavar="MODEL_OR_FILE", help="bundled model name, .toml model file, .urdf file or erd:NAME (manipdyn models --erd)")
     p.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
-    p.add_argument("--controller", choices=list(CONTROLLERS), default="ct",
-                   help="pd, pdg (PD + gravity), ct (computed torque, default), adaptive (Slotine-Li)")
+    p.add_argument("--controller", type=str.lower, choices=list(CONTROLLERS), default="ct",
+                   help="pd, pdg (PD + gravity), ct (computed torque, default), adaptive (Slotine-Li), "
+                        "lqr (time-varying LQR along the path, the gains on the --dt grid); any case")
     p.add_argument("--payload", type=float, default=0.0, metavar="KG",
                    help="extra mass on the last link of the simulated arm, unknown to the controller")
     p.add_argument("--duration", type=float, default=8.0, metavar="S", help="seconds (default 8)")
@@ -178,7 +179,7 @@ def register(subparsers) -> None:
                    help=f"adaptation gain of the adaptive controller (default {DEFAULT_GAMMA:g})")
     p.add_argument("--plot", metavar="OUT.png", default=None,
                    help=f"write a figure (needs matplotlib: {PLOT_INSTALL})")
-    p.add_argument("--compare", action="store_true", help="run all four controllers and compare them")
+    p.add_argument("--compare", action="store_true", help="run all five controllers and compare them")
     p.add_argument("--json", action="store_true", help="print one JSON document instead of tables")
     add_progress_options(p, "a progress bar per run")
     p.set_defaults(func=run)

@@ -5,7 +5,8 @@ Layer: application (control).
 * trajectories (:mod:`.trajectory`): :class:`Quintic`, :class:`ViaPoints`,
   :class:`Sampled`, each ``trajectory(t) -> (q_d, qd_d, qdd_d)``;
 * controllers (:mod:`.controllers`), one interface ``tau = controller(t, q, qd)``:
-  :class:`PD`, :class:`PDGravity`, :class:`ComputedTorque`, :class:`SlotineLi`;
+  :class:`PD`, :class:`PDGravity`, :class:`ComputedTorque`, :class:`SlotineLi`,
+  :class:`LQR` (time-varying LQR along the reference, :mod:`.lqr`);
 * :class:`Regressor`: the dynamics linear in the inertial parameters;
 * :func:`simulate`: fixed-step RK4 with the torque held over each step, on the
   arm or on a different plant (:func:`with_payload`, :func:`with_scaled_inertia`).
@@ -22,6 +23,7 @@ Example::
 
 from .controllers import (PD, ComputedTorque, Controller, PDGravity, SlotineLi,
                           adaptation_gains, model_torque_limits, pd_gains)
+from .lqr import LQR, lqr_weights, solve_dare
 from .plant import with_payload, with_scaled_inertia
 from .regressor import Regressor, parameters_from_pseudo_inertia, pseudo_inertia_from_parameters
 from .simulate import SimulationDiverged, SimulationLog, simulate
@@ -29,7 +31,8 @@ from .trajectory import PiecewisePolynomial, Quintic, Sampled, Trajectory, ViaPo
 
 __all__ = [
     "Trajectory", "PiecewisePolynomial", "Quintic", "ViaPoints", "Sampled",
-    "Controller", "PD", "PDGravity", "ComputedTorque", "SlotineLi", "pd_gains", "adaptation_gains",
+    "Controller", "PD", "PDGravity", "ComputedTorque", "SlotineLi", "LQR", "pd_gains", "adaptation_gains",
+    "lqr_weights", "solve_dare",
     "model_torque_limits", "Regressor", "parameters_from_pseudo_inertia",
     "pseudo_inertia_from_parameters", "simulate", "SimulationLog", "SimulationDiverged",
     "with_payload", "with_scaled_inertia",

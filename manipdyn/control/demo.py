@@ -1,4 +1,4 @@
-"""The standard demo: a path every arm can follow and the four tuned controllers.
+"""The standard demo: a path every arm can follow and the five tuned controllers.
 
 Layer: application (control).  Used by ``manipdyn track``, the Monte-Carlo
 studies and the benchmarks, so that all three run the same thing.
@@ -10,13 +10,15 @@ import numpy as np
 
 from ..errors import ModelError
 from .controllers import PD, ComputedTorque, PDGravity, SlotineLi, adaptation_gains, pd_gains
+from .lqr import LQR
 from .trajectory import ViaPoints
 
 __all__ = ["demo_path", "make_controller", "CONTROLLERS", "DEFAULT_BANDWIDTH", "DEFAULT_GAMMA",
            "DEFAULT_PAYLOAD_COM"]
 
 #: controller keys, in the order of --compare
-CONTROLLERS = {"pd": "PD", "pdg": "PD + gravity", "ct": "computed torque", "adaptive": "adaptive (Slotine-Li)"}
+CONTROLLERS = {"pd": "PD", "pdg": "PD + gravity", "ct": "computed torque", "adaptive": "adaptive (Slotine-Li)",
+               "lqr": "LQR"}
 
 #: closed-loop bandwidth of every demo controller, rad/s (critically damped)
 DEFAULT_BANDWIDTH = 10.0
@@ -56,15 +58,21 @@ def demo_path(arm, duration: float, via_step: float = 0.5):
 
 
 def make_controller(kind: str, arm, wn: float = DEFAULT_BANDWIDTH, gamma: float = DEFAULT_GAMMA,
-                    tau_max=None):
+                    tau_max=None, path=None, dt: float = 1e-3):
     """The demo controllers, all tuned to the bandwidth ``wn`` (rad/s), critically damped.
 
     * ``pd``, ``pdg``: ``Kp = wn^2 D_ii``, ``Kd = 2 wn D_ii`` (:func:`pd_gains`);
     * ``ct``: ``Kp = wn^2``, ``Kd = 2 wn``;
     * ``adaptive``: ``Lambda = wn``, ``K_D = wn D_ii``, and
       ``Gamma = adaptation_gains(arm, gamma)``: the poles of
-      ``(s + Lambda)(D_ii s + K_D)`` are those of the others.
+      ``(s + Lambda)(D_ii s + K_D)`` are those of the others;
+    * ``lqr``: time-varying LQR along ``path`` (:class:`LQR`) with the weights
+      :func:`lqr_weights` at ``wn`` (a joint alone would get ``Kp = wn^2 D_ii``,
+      ``Kd = 2 wn D_ii``), its gains on the grid of the controller period ``dt``
+      (s; the simulation's step).  Without ``path`` the gains are computed when
+      a path is bound (``reset``, which :func:`manipdyn.simulate` calls).
     ``D_ii`` is the model's mass matrix at the middle of the joint limits.
+    ``path`` and ``dt`` matter to ``lqr`` only.
     """
     kp, kd = pd_gains(arm, wn)
     if kind == "pd":
@@ -75,4 +83,6 @@ def make_controller(kind: str, arm, wn: float = DEFAULT_BANDWIDTH, gamma: float 
         return ComputedTorque(arm, wn**2, 2 * wn, tau_max=tau_max)
     if kind == "adaptive":
         return SlotineLi(arm, lam=wn, kd=kd / 2, gamma=adaptation_gains(arm, gamma), tau_max=tau_max)
+    if kind == "lqr":
+        return LQR(arm, wn=wn, dt=dt, trajectory=path, tau_max=tau_max)
     raise ModelError(f"--controller: expected one of {', '.join(CONTROLLERS)}, got {kind!r}")

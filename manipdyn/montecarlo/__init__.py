@@ -84,7 +84,8 @@ def study(arm, runs: int, seed: int = 0, controllers=CONTROLLER_KEYS, duration: 
         Number of runs; study seed (run k uses ``SeedSequence(seed, spawn_key=(k,))``).
     controllers : sequence of str
         Among ``"pd"``, ``"pdg"`` (PD + gravity), ``"ct"`` (computed torque),
-        ``"adaptive"`` (Slotine-Li), tuned as ``manipdyn track`` tunes them.
+        ``"adaptive"`` (Slotine-Li), ``"lqr"`` (time-varying LQR along the path,
+        its gains from the nominal arm only), tuned as ``manipdyn track`` tunes them.
     duration, dt : float
         s; the ``track`` demo path over ``duration``, simulated at ``1/dt`` Hz.
     distributions : Distributions, optional

@@ -166,7 +166,8 @@ def _batched_law(ctrls):
     For PD, PD + gravity and computed torque shared by every run (the study's
     controllers), optionally inside :class:`TorqueNoise`: their ``step``
     formulas on all runs at once.  Anything else (the adaptive controller,
-    which keeps a state per run) returns None: one ``step`` per run.
+    which keeps a state per run, and the LQR, shared but stepped alone: its
+    gains are read, never written) returns None: one ``step`` per run.
     """
     inners = [getattr(c, "inner", c) for c in ctrls]
     inner = inners[0]

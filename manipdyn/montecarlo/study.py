@@ -33,7 +33,7 @@ from .plant import Plant, make_plant
 __all__ = ["Study", "RunSetup", "TorqueNoise", "run_chunk", "CONTROLLER_KEYS", "model_text"]
 
 #: controller keys of a study, in report order (those of ``manipdyn track``)
-CONTROLLER_KEYS = ("pd", "pdg", "ct", "adaptive")
+CONTROLLER_KEYS = ("pd", "pdg", "ct", "adaptive", "lqr")
 
 
 class TorqueNoise(Controller):
@@ -158,12 +158,17 @@ class Study:
         return _path(self.model, self.duration)
 
     def controller(self, key: str):
-        """A new demo controller ``key`` on the nominal arm (as ``manipdyn track`` builds it)."""
+        """A new demo controller ``key`` on the nominal arm (as ``manipdyn track`` builds it).
+
+        The LQR's gains are computed here, from the nominal arm, the path and
+        ``dt`` only (never a plant): the same numbers in every process.
+        """
         from ..control.demo import make_controller
 
         arm = self.arm
         lim = None if self.tau_max is None else np.array(self.tau_max, dtype=np.float64)
-        return make_controller(key, arm, self.bandwidth, self.gamma, tau_max=lim)
+        return make_controller(key, arm, self.bandwidth, self.gamma, tau_max=lim, path=self.path(),
+                               dt=self.dt)
 
     def draw(self, run: int):
         """Run ``run``'s variations (:class:`RunDraw`)."""
