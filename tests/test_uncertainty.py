@@ -171,3 +171,16 @@ def test_bootstrap_is_bit_identical_here_on_a_local_cluster_and_on_a_dask_schedu
         np.testing.assert_array_equal(other.beta, here.beta)
         np.testing.assert_array_equal(other.covariance, here.covariance)
     assert np.all(np.isfinite(here.beta))
+
+
+def test_calibration_study_base_parameters_and_held_out_predictions():
+    """The calibration study (manipdyn.identification.calibration) on 40 repeats: nominal 95 %
+    intervals of the base parameters and of held-out torque predictions hold the truth 92 to 98 %
+    of the time (40 x 48 and 40 x 200 x 6 correlated intervals; 500 repeats measured 94.9 % and
+    94.9 %, see the module).  Guards the prediction-band formula sqrt(y_b^T C y_b)."""
+    from manipdyn.identification.calibration import calibrate
+
+    fig = calibrate("ur5", repeats=40)
+    assert 0.92 <= fig["base_coverage_95"] <= 0.98, fig
+    assert 0.92 <= fig["prediction_coverage_95"] <= 0.98, fig
+    assert all(0.9 <= c <= 0.99 for c in fig["prediction_coverage_95_per_joint"]), fig
