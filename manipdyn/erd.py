@@ -27,8 +27,8 @@ def robots_dir() -> Path:
     try:
         dist = importlib.metadata.distribution("example-robot-data")
     except importlib.metadata.PackageNotFoundError:
-        raise ModelError("example-robot-data is not installed: pip install 'manipdyn[erd]' "
-                         "(or pip install example-robot-data)") from None
+        raise ModelError("example-robot-data is not installed (a dependency of manipdyn): "
+                         "pip install example-robot-data") from None
     for f in dist.files or ():
         parts = f.parts
         if "robots" in parts and parts[-1].endswith(".urdf"):

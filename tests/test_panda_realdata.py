@@ -26,7 +26,7 @@ def test_panda_as_logged_end_to_end(tmp_path, capsys):
 
     out = tmp_path / "panda_id.toml"
     assert main(["identify", "panda", str(DATA), "-o", str(out), "--t-range", "0:10",
-                 "--friction-terms", "viscous,coulomb", "--json"]) == 0
+                 "--friction-terms", "viscous,coulomb,offset", "--json"]) == 0
     rep = json.loads(capsys.readouterr().out)
     assert rep["consistent"] and any("1131 duplicate rows" in n for n in rep["data_notes"])
     ident, prior = md.load(str(out)), md.load("panda")
@@ -40,8 +40,9 @@ def test_panda_as_logged_end_to_end(tmp_path, capsys):
     for name, path in (("published", pub_file), ("identified", out)):
         assert main(["validate", str(path), str(DATA), "--t-range", "10:13.8", "--json"]) == 0
         scores[name] = np.array(json.loads(capsys.readouterr().out)["rms"])
-    # measured (README table): better on joints 3, 4, 5, 7; joint 1 within 1 %; joints 2 and 6 worse
-    # (the held-out window visits q2 > 0.3 rad, which the fit window never does: README)
+    # measured (README table): better on every joint but joint 2 (the held-out window visits
+    # q2 > 0.3 rad, which the fit window never does: README); joint 2 is asserted as it is, so
+    # a change that fixes it (or makes it worse than the measured 24 %) shows up here
     better = scores["identified"] < scores["published"]
-    assert better[[2, 3, 4, 6]].all(), scores
-    assert scores["identified"][0] <= 1.01 * scores["published"][0], scores
+    assert better[[0, 2, 3, 4, 5, 6]].all(), scores
+    assert scores["identified"][1] <= 1.3 * scores["published"][1], scores

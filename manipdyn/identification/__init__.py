@@ -26,14 +26,17 @@ from .base import BaseParameters, base_parameters
 from .bootstrap import BootstrapResult, bootstrap
 from .data import Measurements, read_measurements, write_measurements_csv
 from .estimation import METHODS, FitResult, fit
+from .hardlog import HardLog, hard_log
 from .logs import read_log
 from .payload import PayloadResult, identify_payload
 from .report import format_report
 from .sdp import Bounds
 from .synthesize import Trajectory, read_trajectory, synthesize
 from .trajectory import Excitation, excitation
+from .varpro import fit_friction_shapes
 
 __all__ = ["BaseParameters", "BootstrapResult", "Bounds", "Excitation", "FitResult", "INSTALL", "METHODS",
            "Measurements", "MissingExtraError", "PayloadResult", "base_parameters", "bootstrap", "excitation", "fit",
-           "format_report", "identify_payload", "read_log", "read_measurements", "write_measurements_csv",
+           "format_report", "fit_friction_shapes", "HardLog", "hard_log", "identify_payload", "read_log",
+           "read_measurements", "write_measurements_csv",
            "Trajectory", "read_trajectory", "synthesize"]

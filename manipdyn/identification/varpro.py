@@ -1,0 +1,185 @@
+"""Nonlinear friction shapes by variable projection: :func:`fit_friction_shapes`.
+
+Layer: application (identification).
+
+A friction law's Stribeck and sigmoid terms (:mod:`manipdyn.friction`) are
+linear in their amplitudes and nonlinear in their shapes: the Stribeck
+velocity ``vs`` (per actuator), the sigmoid's steepness ``alpha`` and shift
+``p3`` (per actuator).  With the shapes ``theta`` fixed, the model
+``tau = Y_b(q, qd, qdd) beta + F(qd; theta) phi`` is linear in the base
+parameters ``beta`` and the friction amplitudes ``phi``, and their
+weighted least-squares solution is one QR.  Variable projection (Golub and
+Pereyra, "The differentiation of pseudo-inverses and nonlinear least squares
+problems whose variables separate", SIAM J. Numer. Anal. 10(2), 1973)
+minimises over ``theta`` alone the residual left after that solution:
+
+    min_theta || W (I - A(theta) A(theta)^+) y ||,    A(theta) = W [Y_b | F(theta)],
+
+with ``scipy.optimize.least_squares`` (trust-region reflective, finite
+differences).  ``W`` divides each joint's rows by its noise level ``sigma_j``
+(``wls``'s weights), estimated once by :func:`~manipdyn.identification.fit`
+at the initial shapes.  The link regressor ``Y_b`` does not depend on
+``theta``: it is computed once, and only the friction columns are rebuilt per
+evaluation.  Shapes are searched on a log scale for ``vs`` and ``alpha``
+(both > 0), within a factor :data:`SHAPE_RANGE` of the initial value either
+way; ``p3`` within ``+-`` :data:`SHAPE_RANGE` times the initial ``|p3|``
+(at least ``SHAPE_RANGE / alpha``).  The Stribeck exponent is held fixed.
+
+The answer is one final :func:`~manipdyn.identification.fit` at the fitted
+shapes with the asked-for method (so ``consistent``'s constraints and the
+written model are the ones ``fit`` makes).  A shape whose amplitude is zero
+in the data is not determined by it; it stays near its initial value and
+``report["friction_shapes"]`` says which shapes moved.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ModelError
+from ..friction import Friction
+from .base import base_parameters
+from .estimation import fit
+
+__all__ = ["fit_friction_shapes", "SHAPE_RANGE", "SHAPES"]
+
+#: how far (a factor, either way) a shape may move from its initial value
+SHAPE_RANGE = 100.0
+#: the shape parameters variable projection fits, per term
+SHAPES = {"stribeck": ("stribeck_velocity",), "sigmoid": ("sigmoid_alpha", "sigmoid_p3")}
+_LOG = ("stribeck_velocity", "sigmoid_alpha")
+
+
+def _samples(data):
+    if all(hasattr(data, k) for k in ("q", "qd", "qdd", "tau")):
+        return data.q, data.qd, data.qdd, data.tau
+    try:
+        q, qd, qdd, tau = data
+    except (TypeError, ValueError):
+        raise ModelError("data: expected Measurements (read_log) or a tuple (q, qd, qdd, tau) of (N, n) "
+                         f"arrays, got {type(data).__name__}") from None
+    return q, qd, qdd, tau
+
+
+def _with_shapes(law: Friction, shapes: dict) -> Friction:
+    """``law`` with the shape arrays in ``shapes`` replaced (amplitudes kept)."""
+    kw = dict(viscous=law.viscous, offset=law.offset, smoothing=law.smoothing, deadband=law.deadband,
+              side=law.side, stribeck_exponent=law.stribeck_exponent, n=law.n,
+              stribeck_level=law.stribeck_level, stribeck_velocity=law.stribeck_velocity,
+              sigmoid_A=law.sigmoid_A, sigmoid_alpha=law.sigmoid_alpha, sigmoid_p3=law.sigmoid_p3)
+    if law.asymmetric:
+        kw.update(coulomb_pos=law.coulomb_pos, coulomb_neg=law.coulomb_neg)
+    else:
+        kw["coulomb"] = law.coulomb
+    kw.update(shapes)
+    return Friction(**kw)
+
+
+def _unknowns(law: Friction):
+    """``[(field, initial (n,))]`` of the law's shapes, and the packing of theta."""
+    fields = [f for t in law.terms if t in SHAPES for f in SHAPES[t]]
+    if not fields:
+        raise ModelError("friction: the law has no nonlinear shape to fit; give a Friction with a Stribeck "
+                         "term (stribeck_level, stribeck_velocity) or a sigmoid (sigmoid_A, sigmoid_alpha, "
+                         "sigmoid_p3) holding the initial shapes")
+    return [(f, np.array(getattr(law, f), dtype=np.float64)) for f in fields]
+
+
+def _pack_bounds(unknowns):
+    x0, lo, hi = [], [], []
+    for f, v in unknowns:
+        if f in _LOG:
+            x = np.log(v)
+            x0.append(x), lo.append(x - np.log(SHAPE_RANGE)), hi.append(x + np.log(SHAPE_RANGE))
+        else:   # the sigmoid's shift, rad/s: a range scaled by |p3| or by 1 / alpha
+            alpha = dict(unknowns)["sigmoid_alpha"]
+            half = SHAPE_RANGE * np.maximum(np.abs(v), 1.0 / alpha)
+            x0.append(v.copy()), lo.append(v - half), hi.append(v + half)
+    return np.concatenate(x0), np.concatenate(lo), np.concatenate(hi)
+
+
+def _unpack(x, unknowns, n):
+    out = {}
+    for k, (f, _) in enumerate(unknowns):
+        v = x[k * n:(k + 1) * n]
+        out[f] = np.exp(v) if f in _LOG else v.copy()
+    return out
+
+
+def fit_friction_shapes(arm, data, friction: Friction, method: str = "wls", *, armature: bool = False,
+                        max_nfev: int = 60, **fit_kwargs):
+    """Identify ``arm`` with a friction law whose nonlinear shapes are fitted too (module docstring).
+
+    Parameters
+    ----------
+    arm : manipdyn.Manipulator
+        Kinematics, transmission and prior, as for :func:`~manipdyn.identification.fit`.
+    data : Measurements or (q, qd, qdd, tau)
+        Joint-side samples, (N, n) each, SI (e.g. from :func:`~manipdyn.identification.read_log`).
+    friction : manipdyn.Friction
+        The law's terms, side, smoothing, and the INITIAL shapes (``stribeck_velocity``;
+        ``sigmoid_alpha``, ``sigmoid_p3``), in the law's side's units (motor side:
+        rad/s at the motor).  Its amplitudes are ignored (they are identified).
+    method : "ols" | "wls" | "consistent"
+        Of the final fit; the search itself uses the weighted least squares of ``wls``.
+    armature : bool
+        Identify the rotor inertias too.
+    max_nfev : int
+        Cap on ``least_squares``' residual evaluations.
+    **fit_kwargs
+        Passed to the final :func:`~manipdyn.identification.fit` (``bounds``, ``name``, ...).
+
+    Returns
+    -------
+    FitResult
+        Of the final fit; its arm carries the fitted shapes (``arm.friction_model``), and
+        ``report["friction_shapes"]`` holds the initial and fitted shapes, the weighted
+        residual norm before and after, the evaluations and the solver's message.
+    """
+    from ._deps import require
+
+    optimize = require("scipy.optimize", "fit_friction_shapes")
+    if not isinstance(friction, Friction):
+        raise ModelError(f"friction: expected a manipdyn.Friction holding the initial shapes, "
+                         f"got {type(friction).__name__}")
+    if friction.n != arm.n:
+        raise ModelError(f"friction: the law is for {friction.n} actuators, the arm has {arm.n} joints")
+    if isinstance(max_nfev, bool) or not isinstance(max_nfev, (int, np.integer)) or max_nfev < 1:
+        raise ModelError(f"max_nfev: expected an integer >= 1, got {max_nfev!r}")
+    q, qd, qdd, tau = (np.asarray(a, dtype=np.float64) for a in _samples(data))
+    n = arm.n
+    unknowns = _unknowns(friction)
+    # the weights: each joint's noise level at the initial shapes (wls's, module docstring)
+    first = fit(arm, q, qd, qdd, tau, method="wls", friction=friction, armature=armature)
+    w = 1.0 / first.sigma
+    base0 = base_parameters(arm, armature=armature, friction=False)
+    Yb = base0.regressor(arm.lagrange.regressor(q, qd, qdd, armature=armature, friction=False))
+    y = tau if armature else tau - qdd @ np.asarray(arm.rotor_inertia)
+    Aw0 = (Yb * w[None, :, None]).reshape(len(q) * n, -1)
+    yw = (y * w).reshape(-1)
+    tr = arm.transmission
+
+    def residual(x):
+        law = _with_shapes(friction, _unpack(x, unknowns, n))
+        F = law.columns(qd, tr) * w[None, :, None]
+        A = np.column_stack([Aw0, F.reshape(len(q) * n, -1)])
+        sol = np.linalg.lstsq(A, yw, rcond=None)[0]
+        return A @ sol - yw
+
+    x0, lo, hi = _pack_bounds(unknowns)
+    cost0 = float(np.linalg.norm(residual(x0)))
+    res = optimize.least_squares(residual, x0, bounds=(lo, hi), method="trf", x_scale="jac",
+                                 max_nfev=int(max_nfev), diff_step=1e-4)
+    shapes = _unpack(res.x, unknowns, n)
+    law = _with_shapes(friction, shapes)
+    result = fit(arm, q, qd, qdd, tau, method=method, friction=law, armature=armature, **fit_kwargs)
+    at_bound = [f"{f}[{i + 1}]" for k, (f, _) in enumerate(unknowns) for i in range(n)
+                if res.active_mask[k * n + i] != 0]
+    result.report["friction_shapes"] = {
+        "initial": {f: v.tolist() for f, v in unknowns},
+        "fitted": {f: v.tolist() for f, v in shapes.items()},
+        "weighted_residual_norm": {"initial": cost0, "fitted": float(np.linalg.norm(res.fun))},
+        "evaluations": int(res.nfev), "converged": bool(res.status > 0), "message": str(res.message),
+        "at_bound": at_bound,
+    }
+    return result
