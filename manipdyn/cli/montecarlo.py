@@ -4,6 +4,7 @@ Layer: CLI.
 
     manipdyn montecarlo MODEL [--tip LINK] --runs N [--controllers pd,pdg,ct,adaptive,lqr]
                         [--seed S] [--scheduler tcp://HOST:PORT] [--json] [--plot FILE.png]
+                        [--plants-from IDENTIFIED.json]
 
 Exit codes: 0 the study completed (diverged runs are results, not failures),
 2 usage or model error, or a missing extra, or no scheduler at the address
@@ -17,7 +18,7 @@ import math
 
 from ..control.demo import CONTROLLERS, DEFAULT_BANDWIDTH
 from ..errors import ModelError
-from ..montecarlo import DISTRIBUTIONS_HELP, Distributions, check_study_size, run as run_study, study
+from ..montecarlo import DISTRIBUTIONS_HELP, Distributions, check_study_size, load_identified, run as run_study, study
 from ..scale import check_scheduler
 from ..montecarlo.plot import plot_report
 from .common import (EXIT_OK, TIP_HELP, Progress, add_progress_options, check_plot_target, load_arm,
@@ -70,10 +71,15 @@ def run(args) -> int:
             raise ModelError(f"--tau-max: must be > 0 N m, got {args.tau_max}")
         tau_max = args.tau_max
 
+    plants = None
+    if args.plants_from is not None:
+        if not isinstance(args.plants_from, str):
+            raise ModelError("--plants-from: expected a file name")
+        plants = load_identified(args.plants_from)
     arm, _notes = load_arm(args.model, args.tip)   # consistency notes: not this command's business
     try:
         s = study(arm, args.runs, seed=args.seed, controllers=keys, duration=args.duration, dt=args.dt,
-                  distributions=dist, tau_max=tau_max, bandwidth=args.bandwidth)
+                  distributions=dist, tau_max=tau_max, bandwidth=args.bandwidth, plants=plants)
     except ValueError as exc:
         raise ModelError(str(exc)) from None
     show = progress_wanted(args)
@@ -140,6 +146,12 @@ def register(subparsers) -> None:
         default = getattr(d, field)
         p.add_argument("--" + field.replace("_", "-"), type=float, default=default, metavar=metavar,
                        help=f"{what} (default {default:g})")
+    p.add_argument("--plants-from", metavar="IDENTIFIED.json", default=None,
+                   help="draw every run's plant from this identification's uncertainty (a base model of "
+                        "'manipdyn identify --base-json', method wls or consistent): Gaussian base "
+                        "parameters, mapped to full parameters and projected to J_i >= 0, friction >= 0; "
+                        "the payload, link and friction options then do not apply (default: the "
+                        "hand-chosen distributions below)")
     p.add_argument("--json", action="store_true", help="print one JSON document instead of tables")
     p.add_argument("--plot", metavar="FILE.png", default=None, help="write the CDFs per controller (needs matplotlib)")
     add_progress_options(p, "the progress bar")

@@ -12,6 +12,8 @@ Layer: application (identification).
   its CSV shorthand.
 * :func:`identify_payload`: the ten parameters of a payload carried by a known arm
   (J >= 0), :class:`PayloadResult`;
+* :func:`bootstrap`: a moving-block bootstrap of a fit (refits on data resampled in
+  blocks of time), in this process or on Dask, bit-identical;
 * :func:`synthesize`: torques of a model along a trajectory, with noise (a log
   without a robot; ``manipdyn synthesize``).
 
@@ -21,6 +23,7 @@ Needs the ``identify`` extra (scipy, cvxpy, clarabel, scs):
 
 from ._deps import INSTALL, MissingExtraError
 from .base import BaseParameters, base_parameters
+from .bootstrap import BootstrapResult, bootstrap
 from .data import Measurements, read_measurements, write_measurements_csv
 from .estimation import METHODS, FitResult, fit
 from .hardlog import HardLog, hard_log
@@ -32,7 +35,8 @@ from .synthesize import Trajectory, read_trajectory, synthesize
 from .trajectory import Excitation, excitation
 from .varpro import fit_friction_shapes
 
-__all__ = ["BaseParameters", "Bounds", "Excitation", "FitResult", "INSTALL", "METHODS",
-           "Measurements", "MissingExtraError", "PayloadResult", "base_parameters", "excitation", "fit",
-           "format_report", "fit_friction_shapes", "HardLog", "hard_log", "identify_payload", "read_log", "read_measurements", "write_measurements_csv",
+__all__ = ["BaseParameters", "BootstrapResult", "Bounds", "Excitation", "FitResult", "INSTALL", "METHODS",
+           "Measurements", "MissingExtraError", "PayloadResult", "base_parameters", "bootstrap", "excitation", "fit",
+           "format_report", "fit_friction_shapes", "HardLog", "hard_log", "identify_payload", "read_log",
+           "read_measurements", "write_measurements_csv",
            "Trajectory", "read_trajectory", "synthesize"]

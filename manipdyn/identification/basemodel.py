@@ -15,6 +15,10 @@ keeps exactly that, self-contained:
   and, for ``wls``, ``std`` (the standard deviation from the weighted least-squares
   covariance) and ``rel_std_percent`` (Gautier's relative standard deviation,
   ``100 std / |value|``);
+* ``covariance``: the (r, r) covariance of the base parameters (row-major lists) for
+  ``wls`` and ``consistent`` (:mod:`.uncertainty`), or null: the correlations that
+  the per-parameter ``std`` leaves out (``manipdyn montecarlo --plants-from`` draws
+  from it);
 * ``parameters``: the full vector closest to the prior with ``K pi = beta`` (no sign or
   PSD constraint), used to predict: ``Y pi = Y_b beta`` for every state;
 * ``provenance``: data file, its sha256, method, options, date.
@@ -59,6 +63,12 @@ def _finite(x):
     return x if math.isfinite(x) else None
 
 
+def _covariance_rows(cov):
+    if cov is None or not np.all(np.isfinite(cov)):
+        return None
+    return [[float(x) for x in row] for row in np.asarray(cov)]
+
+
 def base_model_dict(result, prior: dict, provenance: dict) -> dict:
     """The JSON-ready base model of a :class:`FitResult` (module docstring)."""
     rep = result.report
@@ -76,6 +86,7 @@ def base_model_dict(result, prior: dict, provenance: dict) -> dict:
         "noise_sigma": [float(x) for x in result.sigma],
         "rms_residual": rep["rms_residual"],
         "base_parameters": rows,
+        "covariance": _covariance_rows(getattr(result, "covariance", None)),
         "parameters": [float(x) for x in result.parameters],
         "why_no_model": result.arm_error,
         "provenance": provenance,
@@ -99,6 +110,8 @@ class BaseModel:
         Full parameters reproducing the base parameters.
     beta, std : (r,)
         Base parameter values and standard deviations (NaN where the file has none).
+    covariance : (r, r) or None
+        Their covariance, when the file has one.
     armature, friction : bool
     data : dict
         The whole JSON object.
@@ -112,6 +125,11 @@ class BaseModel:
         rows = data["base_parameters"]
         self.beta = np.array([r["value"] for r in rows], dtype=np.float64)
         self.std = np.array([np.nan if r.get("std") is None else r["std"] for r in rows], dtype=np.float64)
+        cov = data.get("covariance")
+        self.covariance = None if cov is None else np.array(cov, dtype=np.float64)
+        if self.covariance is not None and self.covariance.shape != (len(rows), len(rows)):
+            raise ValueError(f"key 'covariance': expected {len(rows)} x {len(rows)} numbers, "
+                             f"got shape {self.covariance.shape}")
         self.n = arm.n
 
     def inverse_dynamics(self, q, qd, qdd) -> np.ndarray:

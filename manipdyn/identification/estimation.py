@@ -39,6 +39,7 @@ from ..parameters import arm_parameters, parameter_count, parameter_names
 from .model import arm_with_parameters
 from .base import BaseParameters, base_parameters
 from .sdp import Bounds, consistent_fit
+from .uncertainty import base_covariance
 
 __all__ = ["fit", "FitResult", "METHODS", "link_min_eigenvalues"]
 
@@ -84,6 +85,9 @@ class FitResult:
         Of the base regressor stacked over the data.
     consistent : bool
         Every link's J_i >= 0 (smallest eigenvalue >= 0).
+    covariance : (r, r) or None
+        Covariance of ``beta`` for ``wls`` and ``consistent`` (:mod:`.uncertainty`);
+        None for ``ols``.
     report : dict
         The figures of ``manipdyn identify --json``.
     """
@@ -99,6 +103,7 @@ class FitResult:
     consistent: bool
     prior: object = None
     arm_error: str | None = None
+    covariance: np.ndarray | None = None     # (r, r) of beta, wls and consistent (.uncertainty)
     report: dict = field(default_factory=dict)
 
     def predict(self, q, qd, qdd) -> np.ndarray:
@@ -261,14 +266,11 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     else:
         w = 1.0 / sigma
         R, c, _ = _reduce((Yb * w[None, :, None]).reshape(-1, r), (y * w).reshape(-1))
+        cov = base_covariance(R)     # rows have unit variance after weighting (.uncertainty)
         if method == "wls":
             beta = np.linalg.lstsq(R, c, rcond=None)[0]
             pi = base.full_closest_to(beta, prior)
             solver = "lstsq"
-            try:
-                cov = np.linalg.inv(R.T @ R)     # rows have unit variance after weighting
-            except np.linalg.LinAlgError:
-                cov = None
         else:
             pi, solver = consistent_fit(R, c, base.K, n, prior, extra=len(base.names) > 10 * n,
                                         bounds=bounds, nonnegative=_nonnegative(base.names, n), prior_weight=float(prior_weight), rows=N * n)
@@ -291,7 +293,7 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         err = str(exc)
     result = FitResult(arm=out_arm, parameters=pi, base=base, beta=beta, residuals=residuals,
                        sigma=sigma, method=method, condition_number=cond, consistent=consistent,
-                       prior=arm, arm_error=err)
+                       prior=arm, arm_error=err, covariance=cov)
     from .report import build_report
 
     result.report = build_report(result, solver=solver, samples=N, cov=cov, min_eigenvalues=eig)

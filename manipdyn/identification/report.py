@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .uncertainty import STD_SOURCE
+
 __all__ = ["build_report", "format_report"]
 
 
@@ -24,7 +26,9 @@ def _friction_label(friction, n):
 def build_report(result, solver: str, samples: int, cov=None, min_eigenvalues=None) -> dict:
     """A JSON-ready dict: ``n_base``, ``condition_number``, ``rms_residual`` (n, N m),
     ``consistent``, ``method`` and details (noise levels, base parameters with their
-    expressions, values and, for ``wls``, relative standard deviations in %)."""
+    expressions, values and, for ``wls`` and ``consistent``, standard deviations and
+    Gautier's relative standard deviations in %; ``std_source`` says how they were
+    estimated, :mod:`.uncertainty`)."""
     b = result.base
     rms = np.sqrt(np.mean(result.residuals**2, axis=0))
     rows = []
@@ -49,6 +53,7 @@ def build_report(result, solver: str, samples: int, cov=None, min_eigenvalues=No
         "armature": bool(b.armature),
         "arm_error": result.arm_error,
         "base_parameters": rows,
+        "std_source": STD_SOURCE.get(result.method) if std is not None else None,
     }
 
 
@@ -63,7 +68,8 @@ def format_report(rep: dict) -> str:
     ]
     for j, (r, s) in enumerate(zip(rep["rms_residual"], rep["noise_sigma"])):
         lines.append(f"{j + 1:>5}   {r:12.4g}   {s:11.4g}")
-    lines.append("base parameters:")
+    lines.append("base parameters" + (" (+- %sigma: Gautier's relative standard deviation, "
+                                      f"{rep['std_source']})" if rep.get("std_source") else "") + ":")
     for row in rep["base_parameters"]:
         extra = f"  (+-{row['rel_std_percent']:.2g} %)" if "rel_std_percent" in row else ""
         lines.append(f"  {row['value']:+.6g} = {row['expression']}{extra}")

@@ -21,21 +21,25 @@ Example::
     log = study.replay(report.worst("ct")[0], "ct")    # the worst run, alone
 
 The distributions are :class:`Distributions` (defaults documented there and
-in ``manipdyn montecarlo --help``).
+in ``manipdyn montecarlo --help``), or the plants are drawn from an
+identification's uncertainty: ``study(arm, runs, plants=load_identified("F.json"))``
+(:mod:`.identified`).
 """
 
 from __future__ import annotations
 
 from .distributions import DISTRIBUTIONS_HELP, Distributions, RunDraw
 from .execute import MissingExtraError, run
+from .identified import IdentifiedPlants, load_identified
 from .plant import Plant, make_plant
 from .plot import plot_report
 from .report import StudyReport
 from .study import CONTROLLER_KEYS, RunSetup, Study, TorqueNoise, model_text
+from ..scale import arm_from_text
 
 __all__ = ["study", "run", "Study", "StudyReport", "Distributions", "RunDraw", "RunSetup", "Plant",
            "make_plant", "plot_report", "TorqueNoise", "CONTROLLER_KEYS", "DISTRIBUTIONS_HELP", "MissingExtraError",
-           "model_text", "check_study_size"]
+           "model_text", "check_study_size", "IdentifiedPlants", "load_identified"]
 
 
 #: slowest controller bandwidth of a study, rad/s
@@ -73,7 +77,7 @@ def check_study_size(runs, controllers: int, duration: float, dt: float, bandwid
 
 def study(arm, runs: int, seed: int = 0, controllers=CONTROLLER_KEYS, duration: float = 2.0,
           dt: float = 1e-3, distributions: Distributions | None = None, tau_max=None,
-          bandwidth: float = 10.0, gamma: float = 10.0) -> Study:
+          bandwidth: float = 10.0, gamma: float = 10.0, plants=None) -> Study:
     """Define a study of ``runs`` runs on ``arm`` (a DH or URDF arm).
 
     Parameters
@@ -94,6 +98,10 @@ def study(arm, runs: int, seed: int = 0, controllers=CONTROLLER_KEYS, duration: 
         Torque limits of every controller, N m (N); default the model's own.
     bandwidth, gamma : float
         Controller bandwidth (rad/s) and adaptation gain.
+    plants : IdentifiedPlants, optional
+        Draw the plants from an identification (:func:`load_identified`, module
+        :mod:`.identified`); the payload, link scale and added friction of
+        ``distributions`` are then set to 0 (the start offset and torque noise stay).
     """
     import numpy as np
 
@@ -107,6 +115,28 @@ def study(arm, runs: int, seed: int = 0, controllers=CONTROLLER_KEYS, duration: 
         if not np.all(arr > 0):
             raise ValueError(f"tau_max: must be > 0 (inf for no limit), got {arr.tolist()}")
         lim = tuple(float(x) for x in arr)
+    dist = distributions if distributions is not None else Distributions()
+    if plants is not None:
+        import dataclasses
+
+        from ..errors import ModelError
+
+        if not isinstance(plants, IdentifiedPlants):
+            raise ModelError(f"plants: expected IdentifiedPlants (load_identified), got {type(plants).__name__}")
+        prior = arm_from_text(*plants.prior)
+        if prior.n != arm.n or tuple(prior.joint_types) != tuple(arm.joint_types):
+            raise ModelError(f"plants: the identification's prior {prior.name!r} has joints "
+                             f"{list(prior.joint_types)}, the study's arm {arm.name!r} has "
+                             f"{list(arm.joint_types)}")
+        # the plants have the prior's kinematics, the controllers the study arm's: the same
+        # arm, or the study compares controllers on another robot (tool poses at 20 seeded
+        # states within 1e-6 m / rad, far above rounding, far below any real difference)
+        q = prior.random_state(np.random.default_rng(0), 20)
+        if not np.allclose(prior.fkine(q), arm.fkine(q), rtol=0, atol=1e-6):
+            raise ModelError(f"plants: the identification's prior {prior.name!r} has other kinematics "
+                             f"than the study's arm {arm.name!r} (tool poses differ); give the "
+                             f"identified arm's model as MODEL")
+        dist = dataclasses.replace(dist, payload_mass=0.0, link_scale=0.0, friction_viscous=0.0,
+                                   friction_coulomb=0.0)
     return Study(model_text(arm), runs, seed, tuple(controllers), float(duration), float(dt),
-                 distributions if distributions is not None else Distributions(), lim,
-                 float(bandwidth), float(gamma))
+                 dist, lim, float(bandwidth), float(gamma), plants)

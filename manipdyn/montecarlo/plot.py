@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .identified import plant_source
+
 
 from ..control.demo import CONTROLLERS
 from ..control.plots import pyplot, save_figure
@@ -49,7 +51,8 @@ def plot_report(report, path: str) -> None:
     for ax in cells[len(metrics) + 1:]:
         ax.axis("off")
     s = report.study
-    fig.suptitle(f"{s.model[3]}: {s.runs} runs, seed {s.seed}, demo path {s.duration:g} s at {1 / s.dt:g} Hz")
+    fig.suptitle(f"{s.model[3]}: {s.runs} runs, seed {s.seed}, demo path {s.duration:g} s at {1 / s.dt:g} Hz\n"
+                 f"{plant_source(s)}", fontsize=10)
     fig.tight_layout()
     save_figure(fig, path)
     plt.close(fig)

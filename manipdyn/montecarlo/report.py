@@ -16,6 +16,8 @@ import math
 
 import numpy as np
 
+from .identified import plant_source
+
 __all__ = ["StudyReport", "METRICS", "PERCENTILES"]
 
 #: per-run figures: name -> (description, unit)
@@ -107,7 +109,7 @@ class StudyReport:
         s = self.study
         t = self.timing
         head = (f"montecarlo {s.model[3]!r}: {s.runs} runs x {len(s.controllers)} controllers, seed {s.seed}, "
-                f"demo path {s.duration:g} s at {1 / s.dt:g} Hz")
+                f"demo path {s.duration:g} s at {1 / s.dt:g} Hz\n{plant_source(s)}")
         foot = (f"{s.runs * len(s.controllers)} simulations in {t.get('wall_s', 0.0):.1f} s on "
                 f"{t.get('workers', 1)} worker(s) ({t.get('scheduler', '')}); replay a run with "
                 f"study.replay(run, controller)")

@@ -107,6 +107,10 @@ class Study:
         the model's own limits (URDF ``effort``), or none.
     bandwidth, gamma : float
         The demo controllers' tuning (``manipdyn track``).
+    plants : IdentifiedPlants or None
+        Draw every run's plant from an identification (:mod:`.identified`) instead of
+        the link scale, payload and friction of :attr:`distributions` (which must then
+        be 0; the start offset and torque noise still apply).  None: the distributions.
     """
 
     model: tuple
@@ -119,6 +123,7 @@ class Study:
     tau_max: tuple | None = None
     bandwidth: float = 10.0
     gamma: float = 10.0
+    plants: object = None
 
     def __post_init__(self):
         if isinstance(self.runs, bool) or not isinstance(self.runs, (int, np.integer)) or self.runs < 1:
@@ -141,6 +146,12 @@ class Study:
             raise ValueError(f"gamma: must be >= 0, got {self.gamma!r}")
         if self.dt > self.duration:
             raise ValueError(f"dt: must be at most duration ({self.duration:g} s), got {self.dt:g}")
+        if self.plants is not None:
+            d = self.distributions
+            if d.payload_mass or d.link_scale or d.friction_viscous or d.friction_coulomb:
+                raise ValueError("distributions: with plants from an identification, payload_mass, "
+                                 "link_scale, friction_viscous and friction_coulomb must be 0 (the "
+                                 "identification's distribution replaces them)")
 
     # -- the arm and the run's pieces (cached per process) ---------------------------
     @property
@@ -177,6 +188,8 @@ class Study:
 
     def plant(self, run: int) -> Plant:
         """Run ``run``'s plant."""
+        if self.plants is not None:
+            return self.plants.plant(self.arm, self.draw(run), self.seed)
         return make_plant(self.arm, self.draw(run))
 
     def setup(self, run: int, controller: str, _cache: dict | None = None) -> RunSetup:
@@ -210,7 +223,8 @@ class Study:
                 "controllers": list(self.controllers), "duration": self.duration, "dt": self.dt,
                 "distributions": self.distributions.to_dict(),
                 "tau_max": None if self.tau_max is None else list(self.tau_max),
-                "bandwidth": self.bandwidth, "gamma": self.gamma}
+                "bandwidth": self.bandwidth, "gamma": self.gamma,
+                **({} if self.plants is None else {"plants": self.plants.to_dict(self.seed, self.runs)})}
 
 
 @functools.lru_cache(maxsize=8)
