@@ -180,3 +180,28 @@ def test_prior_weight_chosen_by_blocked_cross_validation():
     assert w == 1.0 and scores[1.0] < scores[0.0]
     with pytest.raises(ModelError, match="folds"):
         choose_prior_weight(arm, ex.q, ex.qd, ex.qdd, tau, folds=1)
+
+
+def test_validate_draws_calibrated_prediction_bands(tmp_path, capsys):
+    """A wls base model carries its covariance; validate's 95 % band (parameter covariance plus
+    the fitted noise level) holds about 95 % of fresh measurements: 600 samples per joint give a
+    binomial standard error of 0.9 %, so 90 to 99 % is a band of over 5 of them."""
+    from manipdyn.cli import main
+
+    arm = md.load("ur5")
+    ex = excitation(arm, duration=6.0, harmonics=3, rate=100.0, iterations=0, seed=3)
+    tau = arm.inverse_dynamics(ex.q, ex.qd, ex.qdd)
+    sig = 0.01   # N m on every joint (1 % of a joint's peak would put the wrist below wls's noise floor,
+    files = []   # 1e-6 of the largest joint's RMS torque, and widen its band on purpose)
+    for seed in (1, 2):
+        f = tmp_path / f"d{seed}.csv"
+        noisy = tau + sig * np.random.default_rng(seed).standard_normal(tau.shape)
+        write_measurements_csv(f, ex.t, ex.q, noisy, qd=ex.qd, qdd=ex.qdd)
+        files.append(f)
+    base = tmp_path / "w.json"
+    assert main(["identify", "ur5", str(files[0]), "-o", str(base), "--method", "wls"]) == 0
+    capsys.readouterr()
+    fig = tmp_path / "bands.png"
+    assert main(["validate", str(base), str(files[1]), "--json", "--plot", str(fig)]) == 0
+    cov = json.loads(capsys.readouterr().out)["band_95_coverage"]
+    assert len(cov) == 6 and all(0.90 <= c <= 0.99 for c in cov), cov

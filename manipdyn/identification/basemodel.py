@@ -58,6 +58,46 @@ def prior_text(arm) -> dict:
     return {"kind": "urdf", "text": src, "tip": getattr(arm, "tip", None)}
 
 
+def friction_to_json(friction, n: int):
+    """A regressor's ``friction=`` as JSON: a bool, or the law's terms, side, smoothing,
+    deadband and nonlinear shapes (:func:`friction_from_json` reads it back)."""
+    if friction is None or friction is False or friction is True:
+        return bool(friction)
+    from ..friction import friction_spec
+
+    spec = friction_spec(friction, n)
+    out = {"terms": list(spec.terms), "side": spec.side, "smoothing": spec.smoothing,
+           "deadband": spec.deadband, "stribeck_exponent": spec.stribeck_exponent}
+    for key in ("stribeck_velocity", "sigmoid_alpha", "sigmoid_p3"):
+        v = getattr(spec, key)
+        if v is not None:
+            out[key] = [float(x) for x in v]
+    return out
+
+
+def friction_from_json(value, n: int):
+    """The regressor's ``friction=`` of :func:`friction_to_json`'s output."""
+    if isinstance(value, bool):
+        return value
+    if not isinstance(value, dict) or not isinstance(value.get("terms"), list):
+        raise ValueError("key 'friction': expected true, false or {terms: [...], side: ...}")
+    from ..friction import Friction
+
+    z = np.zeros(n)
+    kw = {}
+    for t in value["terms"]:
+        if t == "asymmetric":
+            kw.update(coulomb_pos=z, coulomb_neg=z)
+        elif t == "stribeck":
+            kw.update(stribeck_level=z, stribeck_velocity=value["stribeck_velocity"])
+        elif t == "sigmoid":
+            kw.update(sigmoid_A=z, sigmoid_alpha=value["sigmoid_alpha"], sigmoid_p3=value["sigmoid_p3"])
+        else:
+            kw[t] = z
+    return Friction(**kw, side=value.get("side", "joint"), smoothing=value.get("smoothing", 0.0),
+                    deadband=value.get("deadband", 0.0), stribeck_exponent=value.get("stribeck_exponent", 2.0), n=n)
+
+
 def _finite(x):
     x = float(x)
     return x if math.isfinite(x) else None
@@ -81,7 +121,8 @@ def base_model_dict(result, prior: dict, provenance: dict) -> dict:
         "prior": prior,
         "method": result.method,
         "armature": bool(result.base.armature),
-        "friction": bool(result.base.friction),
+        "friction": friction_to_json(result.base.friction, result.prior.n),
+        "base_columns": [int(i) for i in result.base.independent],
         "condition_number": _finite(result.condition_number),
         "noise_sigma": [float(x) for x in result.sigma],
         "rms_residual": rep["rms_residual"],
@@ -120,7 +161,10 @@ class BaseModel:
     def __init__(self, data: dict, arm, origin: str):
         self.data, self.arm, self.origin = data, arm, origin
         self.name = str(data.get("name") or arm.name)
-        self.armature, self.friction = bool(data["armature"]), bool(data["friction"])
+        self.armature = bool(data["armature"])
+        self.friction = friction_from_json(data["friction"], arm.n)
+        cols = data.get("base_columns")
+        self.base_columns = None if cols is None else np.asarray(cols, dtype=int)
         self.parameters = np.asarray(data["parameters"], dtype=np.float64)
         rows = data["base_parameters"]
         self.beta = np.array([r["value"] for r in rows], dtype=np.float64)
@@ -131,6 +175,16 @@ class BaseModel:
             raise ValueError(f"key 'covariance': expected {len(rows)} x {len(rows)} numbers, "
                              f"got shape {self.covariance.shape}")
         self.n = arm.n
+
+    def prediction_std(self, q, qd, qdd) -> np.ndarray | None:
+        """Standard deviation of the predicted torque from the base parameters' covariance,
+        ``sqrt(diag(Y_b C Y_b^T))`` (N m), (n,) or (N, n); None when the file has no covariance.
+        It is the model's uncertainty only: a measurement adds its own noise (``noise_sigma``)."""
+        if self.covariance is None or self.base_columns is None:
+            return None
+        Y = self.arm.lagrange.regressor(q, qd, qdd, armature=self.armature, friction=self.friction)
+        Yb = Y[..., self.base_columns]
+        return np.sqrt(np.maximum(np.einsum("...ik,kl,...il->...i", Yb, self.covariance, Yb), 0.0))
 
     def inverse_dynamics(self, q, qd, qdd) -> np.ndarray:
         """Predicted joint torques ``Y(q, qd, qdd) pi`` (N m or N), (n,) or (N, n).
@@ -143,8 +197,8 @@ class BaseModel:
         Y = eng.regressor(q, qd, qdd, armature=self.armature, friction=self.friction)
         tau = Y @ self.parameters
         if not self.armature:
-            tau = tau + np.asarray(self.arm.armature) * np.asarray(qdd, dtype=np.float64)
-        if not self.friction and self.arm.friction is not None:
+            tau = tau + np.asarray(qdd, dtype=np.float64) @ np.asarray(self.arm.rotor_inertia)
+        if self.friction is False and self.arm.friction_model is not None:
             tau = tau + eng.friction_torque(qd)
         return tau
 
@@ -182,7 +236,11 @@ def load_base_model(path) -> BaseModel:
         raise ModelError(f"{where}: key 'prior': {exc}") from None
     from ..parameters import parameter_count
 
-    want = parameter_count(arm.n, bool(data["armature"]), bool(data["friction"]))
+    try:
+        friction = friction_from_json(data["friction"], arm.n)
+    except (ValueError, KeyError, TypeError) as exc:
+        raise ModelError(f"{where}: {exc}") from None
+    want = parameter_count(arm.n, bool(data["armature"]), friction)
     if not isinstance(data["parameters"], list) or len(data["parameters"]) != want:
         raise ModelError(f"{where}: key 'parameters': expected {want} numbers for this prior")
     try:

@@ -10,7 +10,10 @@ measured states; the score per joint is
   good as predicting zero torque);
 * ``r2``: the coefficient of determination ``1 - SS_res / SS_tot`` about the measured
   mean (1 perfect, 0 as good as the mean, negative worse than the mean);
-* ``mean_error``: the mean of measured minus predicted (a bias the RMS hides).
+* ``mean_error``: the mean of measured minus predicted (a bias the RMS hides);
+* with a base model that carries a covariance: a 95 % prediction band per sample,
+  ``1.96 sqrt(y_b C y_b^T + sigma_j^2)`` (parameter uncertainty plus the joint's noise level
+  ``noise_sigma`` from the fit), and the fraction of measured torques inside it.
 
 The model's own friction and armature are included: what :meth:`Arm.inverse_dynamics`
 predicts, the fast path.
@@ -43,15 +46,20 @@ class ValidationResult:
     t: np.ndarray
     measured: np.ndarray
     predicted: np.ndarray
+    band: np.ndarray | None = None
+    coverage: np.ndarray | None = None
 
     def to_dict(self) -> dict:
         """JSON-ready figures (NaN, e.g. R^2 of a joint with constant torque, becomes None)."""
         def clean(a):
             return [float(x) if math.isfinite(x) else None for x in np.asarray(a)]
 
-        return {"model": self.model, "samples": int(len(self.t)), "rms": clean(self.rms),
-                "relative_rms": clean(self.relative_rms), "r2": clean(self.r2),
-                "mean_error": clean(self.mean_error)}
+        out = {"model": self.model, "samples": int(len(self.t)), "rms": clean(self.rms),
+               "relative_rms": clean(self.relative_rms), "r2": clean(self.r2),
+               "mean_error": clean(self.mean_error)}
+        if self.coverage is not None:
+            out["band_95_coverage"] = clean(self.coverage)
+        return out
 
     def format(self, unit: str = "N m") -> str:
         """A table, one row per joint."""
@@ -60,6 +68,9 @@ class ValidationResult:
         for j in range(len(self.rms)):
             lines.append(f"{j + 1:>5}   {self.rms[j]:10.4g}   {self.relative_rms[j]:18.4g}   "
                          f"{self.r2[j]:7.4f}   {self.mean_error[j]:+14.4g}")
+        if self.coverage is not None:
+            lines.append("95 % prediction band (parameter covariance and noise) holds the measured torque: "
+                         + ", ".join(f"j{j + 1} {100 * c:.1f} %" for j, c in enumerate(self.coverage)))
         return "\n".join(lines)
 
 
@@ -87,9 +98,15 @@ def validate(model, data, name: str | None = None) -> ValidationResult:
     with np.errstate(divide="ignore", invalid="ignore"):
         rel = np.where(meas_rms > 0, rms / meas_rms, np.nan)
         r2 = np.where(ss_tot > 0, 1.0 - np.sum(err**2, axis=0) / ss_tot, np.nan)
+    band = coverage = None
+    std = model.prediction_std(data.q, data.qd, data.qdd) if hasattr(model, "prediction_std") else None
+    if std is not None:
+        noise = np.asarray(model.data.get("noise_sigma") or np.zeros(n), dtype=np.float64)
+        band = 1.959964 * np.sqrt(std**2 + noise**2)      # 95 % of a Gaussian
+        coverage = np.mean(np.abs(err) <= band, axis=0)
     return ValidationResult(model=name or getattr(model, "name", "model"), rms=rms, relative_rms=rel,
                             r2=r2, mean_error=err.mean(axis=0), t=np.asarray(data.t), measured=data.tau,
-                            predicted=pred)
+                            predicted=pred, band=band, coverage=coverage)
 
 
 def plot_validation(results, path, title: str | None = None, units=None) -> None:
@@ -116,6 +133,10 @@ def plot_validation(results, path, title: str | None = None, units=None) -> None
             continue
         ax.plot(r0.t, r0.measured[:, j], color="0.55", lw=1.2, label="measured")
         for k, r in enumerate(results):
+            if r.band is not None:
+                ax.fill_between(r.t, r.predicted[:, j] - r.band[:, j], r.predicted[:, j] + r.band[:, j],
+                                color=f"C{k}", alpha=0.25, lw=0,
+                                label=f"95 % band (holds {100 * r.coverage[j]:.0f} %)")
             ax.plot(r.t, r.predicted[:, j], lw=1.0, color=f"C{k}",
                     label=f"{r.model} (RMS {r.rms[j]:.3g} {units[j]})")
         ax.set_ylabel(f"joint {j + 1} torque ({units[j]})")
