@@ -33,11 +33,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import ModelError
+from .._state import state_array
+from ..errors import ModelError, StateError
 from ..inertia import pseudo_inertia_from_parameters
 from ..parameters import arm_parameters, parameter_count, parameter_names
 from .model import arm_with_parameters
-from .base import BaseParameters, base_parameters
+from .base import BaseParameters, base_parameters, check_base
 from .sdp import Bounds, consistent_fit
 
 __all__ = ["fit", "FitResult", "METHODS", "link_min_eigenvalues"]
@@ -151,13 +152,21 @@ def _joint_noise(Yb, y) -> np.ndarray:
 
 
 def _check(q, qd, qdd, tau, n):
+    """The four data arrays as native float64 (N, n), validated as the dynamics calls do
+    (:func:`manipdyn._state.state_array`: bool, complex, object, string, datetime and masked
+    entries refused, other byte orders and integer dtypes converted), or a :class:`ModelError`."""
     arrays = []
     for name, x in (("q", q), ("qd", qd), ("qdd", qdd), ("tau", tau)):
-        a = np.asarray(x, dtype=np.float64)
+        try:
+            a = state_array(x, name, n)
+        except StateError as exc:
+            raise ModelError(str(exc).replace(f"shape ({n},) or (N, {n})", f"shape (N, {n})")) from None
         if a.ndim != 2 or a.shape[1] != n:
             raise ModelError(f"{name}: expected shape (N, {n}), got {a.shape}")
-        if not np.all(np.isfinite(a)):
-            raise ModelError(f"{name}: must be finite")
+        bad = ~np.isfinite(a)
+        if bad.any():
+            i, j = (int(k) for k in np.argwhere(bad)[0])
+            raise ModelError(f"{name}: must be finite; row {i}, column {j} is {float(a[i, j])!r}")
         arrays.append(a)
     if len({a.shape[0] for a in arrays}) != 1:
         raise ModelError(f"q, qd, qdd, tau: expected the same number of samples, got "
@@ -217,6 +226,8 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         raise ModelError(f"bounds: expected a Bounds, 'plausible' or None, got {type(bounds).__name__}")
     if bounds is not None and method != "consistent":
         raise ModelError("bounds: only the 'consistent' method takes bounds")
+    if bounds is not None:
+        bounds.check(arm.n)
     if not (0.0 <= float(prior_weight) < float("inf")):
         raise ModelError(f"prior_weight: expected a finite number >= 0, got {prior_weight}")
     if prior_weight and method != "consistent":
@@ -225,8 +236,8 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     q, qd, qdd, tau = _check(q, qd, qdd, tau, n)
     if base is None:
         base = base_parameters(arm, armature=armature, friction=friction)
-    elif base.names != parameter_names(n, armature, friction):
-        raise ModelError("base: computed with other armature/friction columns (or another arm) than this fit")
+    else:
+        check_base(base, arm, armature, friction)
     N, r = len(q), base.count
     if N * n < r:
         raise ModelError(f"data: {N} samples give {N * n} equations for {r} base parameters")

@@ -66,10 +66,23 @@ class Bounds:
             v = getattr(self, name)
             if v is None:
                 continue
+            if isinstance(v, np.ma.MaskedArray):
+                if np.ma.getmaskarray(v).any():
+                    raise ModelError(f"Bounds.{name}: a masked array with masked entries (the mask "
+                                     "would be dropped); pass v.filled(value)")
+                v = np.ma.getdata(v)
             try:
-                a = np.array(v, dtype=np.float64)
-            except (TypeError, ValueError):
-                raise ModelError(f"Bounds.{name}: expected numbers, got {v!r}") from None
+                a = np.asarray(v)
+                if a.dtype.kind == "O" and not isinstance(v, np.ndarray):
+                    a = np.array(v, dtype=np.float64)   # nested Python numbers
+                    if any(isinstance(x, (bool, np.bool_)) for x in np.ravel(np.asarray(v, dtype=object))):
+                        raise TypeError("a bool")
+            except (TypeError, ValueError, OverflowError) as exc:
+                raise ModelError(f"Bounds.{name}: expected real numbers, got {v!r:.60} ({exc})") from None
+            if a.dtype.kind not in "fiu":
+                raise ModelError(f"Bounds.{name}: expected real numbers, got dtype {a.dtype} "
+                                 f"({ {'b': 'bool', 'c': 'complex', 'O': 'object', 'U': 'string', 'S': 'bytes', 'M': 'datetime64', 'm': 'timedelta64'}.get(a.dtype.kind, a.dtype.kind)})")
+            a = np.array(a, dtype=np.float64)   # native byte order, a copy we own
             if not np.all(np.isfinite(a)):
                 raise ModelError(f"Bounds.{name}: must be finite, got {a.tolist()}")
             want = {"mass": (None, 2), "com": (None, 2, 3), "total_mass": (2,)}[name]
@@ -118,6 +131,13 @@ class Bounds:
                 raise ModelError(f"total: expected a fraction in [0, 1), got {total}")
             kw["total_mass"] = (float(m.sum()) * (1 - total), float(m.sum()) * (1 + total))
         return cls(**kw)
+
+    def check(self, n: int) -> None:
+        """Raise :class:`ModelError` unless these bounds are for an arm of ``n`` links."""
+        for name in ("mass", "com"):
+            a = getattr(self, name)
+            if a is not None and a.shape[0] != n:
+                raise ModelError(f"Bounds.{name}: {a.shape[0]} rows for an arm of {n} links")
 
     def satisfied(self, pi, n: int, rtol: float = 1e-9) -> bool:
         """Whether the full parameters ``pi`` satisfy every bound (to ``rtol`` of the bound)."""
