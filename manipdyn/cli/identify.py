@@ -207,6 +207,8 @@ def run(args) -> int:
         for note in rep["data_notes"]:
             print(f"data: {note}")
         print(format_report(rep))
+        for note in rep.get("fit_notes", []):
+            print(f"note: {note}")
         if rep.get("active_bounds"):
             print("active bounds (the fit sits on them; --no-bounds or wider bounds to free it):")
             for b in rep["active_bounds"]:
