@@ -1,5 +1,8 @@
 """``manipdyn identify MODEL DATA -o OUT.toml|OUT.urdf|OUT.json``: identify an arm's parameters.
 
+``--payload [--payload-link NAME]``: identify a payload carried by MODEL instead
+(:mod:`.identify_payload`).
+
 Layer: CLI.
 
 MODEL gives the kinematics and the prior; DATA has ``t,q1..qn,tau1..taun`` and
@@ -49,10 +52,17 @@ def register(subparsers) -> None:
                     "parameters are no physical arm, 2 usage, model or data error.")
     p.add_argument("model", metavar="MODEL", help="prior: bundled model name or .toml model file (DH arm)")
     p.add_argument("data", metavar="DATA", help="CSV with header t,q1..qn,tau1..taun (optionally qd*, qdd*)")
-    p.add_argument("-o", "--output", required=True, metavar="OUT.toml|OUT.urdf|OUT.json",
-                   help="model file to write (.json: the base model only)")
-    p.add_argument("--method", choices=METHODS, default="consistent",
+    p.add_argument("-o", "--output", default=None, metavar="OUT.toml|OUT.urdf|OUT.json",
+                   help="model file to write (.json: the base model only); required unless --payload")
+    p.add_argument("--method", choices=METHODS, default=None,
                    help="ols, wls (weighted by per-joint noise), consistent (J_i >= 0; default)")
+    p.add_argument("--payload", action="store_true",
+                   help="identify only a rigid payload carried by MODEL (taken as known): its mass, "
+                        "centre of mass and inertia with standard deviations; -o writes MODEL "
+                        "carrying it (.toml or .urdf)")
+    p.add_argument("--payload-link", metavar="NAME", default=None,
+                   help="with --payload: the link carrying it, payload frame at that link's frame "
+                        "(default: the last link, payload frame at the tool frame)")
     p.add_argument("--friction", action="store_true", help="identify viscous and Coulomb friction")
     p.add_argument("--friction-terms", metavar="T1,T2", default=None,
                    help="identify these friction terms instead: some of viscous, coulomb, asymmetric "
@@ -141,6 +151,16 @@ def _options(args) -> dict:
 
 
 def run(args) -> int:
+    if args.payload:
+        from .identify_payload import run_payload
+
+        return run_payload(args)
+    if args.payload_link is not None:
+        return usage_error("identify", "--payload-link: only with --payload")
+    if args.output is None:
+        return usage_error("identify", "-o/--output: required (the model file to write), unless --payload")
+    if args.method is None:
+        args.method = "consistent"
     from ..arm import Manipulator
     from ..identification import fit, format_report, read_log
     from ..identification.basemodel import prior_text, write_base_model
