@@ -50,7 +50,9 @@ def register(subparsers) -> None:
                     "and write the model whose full parameters reproduce them, closest to the prior. "
                     "Exit codes: 0 model written, 1 only a base model (JSON) written because the "
                     "parameters are no physical arm, 2 usage, model or data error.")
-    p.add_argument("model", metavar="MODEL", help="prior: bundled model name or .toml model file (DH arm)")
+    p.add_argument("model", metavar="MODEL",
+                   help="prior: bundled model name, .toml model file (DH arm) or URDF (written back as "
+                        "the same URDF with the chain links' <inertial> identified: -o OUT.urdf)")
     p.add_argument("data", metavar="DATA", help="CSV with header t,q1..qn,tau1..taun (optionally qd*, qdd*)")
     p.add_argument("-o", "--output", default=None, metavar="OUT.toml|OUT.urdf|OUT.json",
                    help="model file to write (.json: the base model only); required unless --payload")
@@ -161,7 +163,8 @@ def run(args) -> int:
         return usage_error("identify", "-o/--output: required (the model file to write), unless --payload")
     if args.method is None:
         args.method = "consistent"
-    from ..arm import Manipulator
+    from .._files import atomic_write_text
+    from ..arm import Manipulator, URDFArm
     from ..identification import fit, format_report, read_log
     from ..identification.basemodel import prior_text, write_base_model
     from ..identification.provenance import model_metadata, provenance
@@ -175,11 +178,21 @@ def run(args) -> int:
         return usage_error("identify", "--prior-weight: only with --method consistent")
     try:
         arm, _ = load_arm(args.model)
-        if not isinstance(arm, Manipulator) and not out.lower().endswith(".json"):
-            raise ModelError(f"MODEL {args.model}: identify writes a DH model; give a bundled model "
-                             "name or a .toml model file as the prior, or -o OUT.json for a base model")
         bounds = _bounds(args, arm)
         friction = _friction(args)
+        if isinstance(arm, URDFArm):
+            # a URDF prior is written back as the same URDF with new <inertial>s
+            if out.lower().endswith(".toml"):
+                raise ModelError(f"-o {out}: a URDF prior ({args.model}) is written back as URDF: "
+                                 "-o OUT.urdf (or OUT.json for the base model)")
+            if args.armature:
+                raise ModelError("--armature: a URDF has no rotor inertia; identify a URDF prior without it")
+            if args.friction_terms is not None:
+                raise ModelError("--friction-terms: a URDF's <dynamics> holds viscous and Coulomb friction "
+                                 "only; use --friction")
+        elif not isinstance(arm, Manipulator) and not out.lower().endswith(".json"):
+            raise ModelError(f"MODEL {args.model}: identify writes a DH model or a URDF; give a bundled "
+                             "model name, a .toml model file or a URDF as the prior")
         data = read_log(args.data, arm.n, transmission=arm.transmission,
                         **log_options_from_args(args, _joint_names(arm)))
         name = os.path.splitext(os.path.basename(out))[0] or arm.name
@@ -208,7 +221,9 @@ def run(args) -> int:
     base_path = out if want_base else args.base_json
     try:
         if not want_base and result.arm is not None:
-            if out.lower().endswith(".toml"):
+            if isinstance(result.arm, URDFArm):
+                atomic_write_text(out, result.arm.urdf_text)
+            elif out.lower().endswith(".toml"):
                 save(result.arm, out)
             else:
                 write_urdf(result.arm, out)
