@@ -34,7 +34,7 @@ import sys
 from ..errors import ModelError
 from ..io import save, write_urdf
 from .common import EXIT_DISAGREE as EXIT_FAILED
-from .logopts import log_options_from_args, register_log_options
+from .logopts import log_options_from_args, model_joint_names, register_log_options
 from .common import EXIT_OK, load_arm, usage_error
 
 __all__ = ["register", "run"]
@@ -135,16 +135,6 @@ def _friction(args):
     return FrictionTerms(terms, side=args.friction_side, smoothing=v)
 
 
-def _joint_names(arm):
-    """The model's joint names in order (ROS bags map by them), or None."""
-    names = getattr(arm, "joint_names", None)
-    if names:
-        return list(names)
-    links = getattr(arm, "links", ())
-    names = [getattr(l, "name", "") for l in links]
-    return names if all(names) else None
-
-
 def _options(args) -> dict:
     keys = ("method", "friction", "friction_terms", "friction_side", "smoothing", "armature", "mass_bound", "com_bound", "total_mass_bound", "no_bounds",
             "prior_weight", "cutoff", "columns", "deg", "rate", "time_scale", "resample", "no_decimate",
@@ -194,7 +184,7 @@ def run(args) -> int:
             raise ModelError(f"MODEL {args.model}: identify writes a DH model or a URDF; give a bundled "
                              "model name, a .toml model file or a URDF as the prior")
         data = read_log(args.data, arm.n, transmission=arm.transmission,
-                        **log_options_from_args(args, _joint_names(arm)))
+                        **log_options_from_args(args, model_joint_names(arm)))
         name = os.path.splitext(os.path.basename(out))[0] or arm.name
         if name.endswith(".base"):
             name = name[:-5]

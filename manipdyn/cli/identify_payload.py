@@ -22,7 +22,7 @@ import numpy as np
 from ..errors import ModelError
 from ..io import save, write_urdf
 from .common import EXIT_OK, load_arm, usage_error
-from .logopts import log_options_from_args
+from .logopts import log_options_from_args, model_joint_names
 
 __all__ = ["run_payload", "format_payload"]
 
@@ -59,7 +59,6 @@ def format_payload(res, name: str = "") -> str:
 def run_payload(args) -> int:
     """The ``--payload`` branch of ``manipdyn identify``."""
     from ..identification import identify_payload, read_log
-    from .identify import _joint_names
 
     for opt, attr, default in _NOT_WITH_PAYLOAD:
         if getattr(args, attr, default) != default:
@@ -71,7 +70,7 @@ def run_payload(args) -> int:
     try:
         arm, _ = load_arm(args.model)
         data = read_log(args.data, arm.n, transmission=arm.transmission,
-                        **log_options_from_args(args, _joint_names(arm)))
+                        **log_options_from_args(args, model_joint_names(arm)))
         res = identify_payload(arm, data.q, data.qd, data.qdd, data.tau, link=args.payload_link)
         carrying = res.arm_with_payload() if out is not None else None
     except ModelError as exc:

@@ -36,7 +36,7 @@ import numpy as np
 from .._state import state_array
 from ..errors import ModelError, StateError
 from ..inertia import pseudo_inertia_from_parameters
-from ..parameters import arm_parameters, parameter_count, parameter_names
+from ..parameters import arm_parameters, parameter_count
 from .model import arm_with_parameters
 from .base import BaseParameters, base_parameters, check_base
 from .sdp import Bounds, consistent_fit
