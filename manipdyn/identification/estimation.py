@@ -86,7 +86,11 @@ class FitResult:
     consistent : bool
         Every link's J_i >= 0 (smallest eigenvalue >= 0).
     report : dict
-        The figures of ``manipdyn identify --json``.
+        The figures of ``manipdyn identify --json``.  For ``consistent`` also
+        ``relative_residual`` and ``least_squares_relative_residual`` (norm of the weighted
+        residual over the weighted torque's, for this fit and the unconstrained optimum),
+        ``stopped_short`` (the solver stopped before the best physical fit) and ``fit_notes``
+        (why the fit leaves more than least squares: the constraints it sits on, or the solver).
     """
 
     arm: object
@@ -185,7 +189,11 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         Kinematics and prior (its parameters are the starting point of the
         full-parameter choice; their values do not bias beta).
     q, qd, qdd, tau : (N, n)
-        Joint positions, velocities, accelerations and torques (SI).
+        Joint positions, velocities, accelerations and torques (SI), validated as the
+        dynamics validate states (:func:`manipdyn._state.state_array`: bool, complex, object,
+        string, datetime and masked entries are refused, other byte orders and integer
+        dtypes converted); a :class:`ModelError` names the argument and, for a NaN or inf,
+        its row and column.
     method : "ols" | "wls" | "consistent"
     friction : bool or friction spec
         ``True``: viscous and Coulomb friction (sharp sign, joint side); or which friction
@@ -212,7 +220,8 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         Citation of the identified arm (:func:`.provenance.model_metadata`); default: the
         prior's.
     base : BaseParameters, optional
-        Reuse a :func:`base_parameters` result (same armature/friction flags).
+        Reuse a :func:`base_parameters` result of this arm with the same armature/friction
+        flags (checked on the numbers: :func:`.base.check_base`; another arm's is refused).
     name : str, optional
         Name of the identified arm.
     """
