@@ -352,7 +352,8 @@ def consistent_fit(R, c, K, n, prior, extra: bool, bounds: Bounds | None = None,
             raise ValueError("rows: needed with prior_weight")
         from ..inertia import pseudo_inertia_from_parameters
 
-        # d(u J', J0) = d(J', J0 / u): the divergence in the solver's units
+        # d(u J', J0) = d(J', J0 / u): the divergence in the solver's units, to the prior scaled
+        # as above when the data are beyond PRIOR_RANGE of it
         J0 = pseudo_inertia_from_parameters(prior_u[:10 * n].reshape(n, 10))
         J0 = J0 + EPS * max(1.0, float(np.abs(J0).max())) * np.eye(4)   # a massless prior link
         E = PARAMETER_BASIS
@@ -366,7 +367,7 @@ def consistent_fit(R, c, K, n, prior, extra: bool, bounds: Bounds | None = None,
     if not prior_weight:
         xs = _least_squares_if_physical(cp, R, c, K, n, prior_u, pscale, extra, bounds, nonnegative, eps)
         if xs is not None:
-            return u * project_physical(xs, n, eps=eps, nonnegative=nonnegative), "CLARABEL (least squares is physical)"
+            return u * project_physical(xs, n, eps=eps, nonnegative=nonnegative), "CLARABEL; least squares is physical"
     # bounds are tried last: when the answer without them already satisfies them, they are
     # inactive and the smaller problem is solved more accurately (interior-point solvers
     # lose digits on many inactive inequality rows: 1e-7 instead of 1e-11 relative on exact data)
