@@ -310,8 +310,9 @@ def test_cli_excite_then_identify(tmp_path, capsys):
     m = np.array([l.body.mass for l in md.load(str(bounded)).links])
     assert np.all(np.abs(m - prior_m) <= 0.3 * prior_m + 1e-6)
     capsys.readouterr()
+    # a URDF prior is written back as URDF (tests/test_identify_urdf.py), never as a DH model file
     assert main(["identify", str(urdf), str(data), "-o", str(tmp_path / "u.toml")]) == 2
-    assert "identify writes a DH model" in capsys.readouterr().err
+    assert "is written back as URDF: -o OUT.urdf" in capsys.readouterr().err
 
 
 def test_cli_identify_usage_errors(tmp_path, capsys):

@@ -1,5 +1,8 @@
 """``manipdyn identify MODEL DATA -o OUT.toml|OUT.urdf|OUT.json``: identify an arm's parameters.
 
+``--payload [--payload-link NAME]``: identify a payload carried by MODEL instead
+(:mod:`.identify_payload`).
+
 Layer: CLI.
 
 MODEL gives the kinematics and the prior; DATA has ``t,q1..qn,tau1..taun`` and
@@ -31,7 +34,7 @@ import sys
 from ..errors import ModelError
 from ..io import save, write_urdf
 from .common import EXIT_DISAGREE as EXIT_FAILED
-from .logopts import log_options_from_args, register_log_options
+from .logopts import log_options_from_args, model_joint_names, register_log_options
 from .common import EXIT_OK, load_arm, usage_error
 
 __all__ = ["register", "run"]
@@ -47,12 +50,21 @@ def register(subparsers) -> None:
                     "and write the model whose full parameters reproduce them, closest to the prior. "
                     "Exit codes: 0 model written, 1 only a base model (JSON) written because the "
                     "parameters are no physical arm, 2 usage, model or data error.")
-    p.add_argument("model", metavar="MODEL", help="prior: bundled model name or .toml model file (DH arm)")
+    p.add_argument("model", metavar="MODEL",
+                   help="prior: bundled model name, .toml model file (DH arm) or URDF (written back as "
+                        "the same URDF with the chain links' <inertial> identified: -o OUT.urdf)")
     p.add_argument("data", metavar="DATA", help="CSV with header t,q1..qn,tau1..taun (optionally qd*, qdd*)")
-    p.add_argument("-o", "--output", required=True, metavar="OUT.toml|OUT.urdf|OUT.json",
-                   help="model file to write (.json: the base model only)")
-    p.add_argument("--method", choices=METHODS, default="consistent",
+    p.add_argument("-o", "--output", default=None, metavar="OUT.toml|OUT.urdf|OUT.json",
+                   help="model file to write (.json: the base model only); required unless --payload")
+    p.add_argument("--method", choices=METHODS, default=None,
                    help="ols, wls (weighted by per-joint noise), consistent (J_i >= 0; default)")
+    p.add_argument("--payload", action="store_true",
+                   help="identify only a rigid payload carried by MODEL (taken as known): its mass, "
+                        "centre of mass and inertia with standard deviations; -o writes MODEL "
+                        "carrying it (.toml or .urdf)")
+    p.add_argument("--payload-link", metavar="NAME", default=None,
+                   help="with --payload: the link carrying it, payload frame at that link's frame "
+                        "(default: the last link, payload frame at the tool frame)")
     p.add_argument("--friction", action="store_true", help="identify viscous and Coulomb friction")
     p.add_argument("--friction-terms", metavar="T1,T2", default=None,
                    help="identify these friction terms instead: some of viscous, coulomb, asymmetric "
@@ -123,16 +135,6 @@ def _friction(args):
     return FrictionTerms(terms, side=args.friction_side, smoothing=v)
 
 
-def _joint_names(arm):
-    """The model's joint names in order (ROS bags map by them), or None."""
-    names = getattr(arm, "joint_names", None)
-    if names:
-        return list(names)
-    links = getattr(arm, "links", ())
-    names = [getattr(l, "name", "") for l in links]
-    return names if all(names) else None
-
-
 def _options(args) -> dict:
     keys = ("method", "friction", "friction_terms", "friction_side", "smoothing", "armature", "mass_bound", "com_bound", "total_mass_bound", "no_bounds",
             "prior_weight", "cutoff", "columns", "deg", "rate", "time_scale", "resample", "no_decimate",
@@ -141,7 +143,18 @@ def _options(args) -> dict:
 
 
 def run(args) -> int:
-    from ..arm import Manipulator
+    if args.payload:
+        from .identify_payload import run_payload
+
+        return run_payload(args)
+    if args.payload_link is not None:
+        return usage_error("identify", "--payload-link: only with --payload")
+    if args.output is None:
+        return usage_error("identify", "-o/--output: required (the model file to write), unless --payload")
+    if args.method is None:
+        args.method = "consistent"
+    from .._files import atomic_write_text
+    from ..arm import Manipulator, URDFArm
     from ..identification import fit, format_report, read_log
     from ..identification.basemodel import prior_text, write_base_model
     from ..identification.provenance import model_metadata, provenance
@@ -155,13 +168,23 @@ def run(args) -> int:
         return usage_error("identify", "--prior-weight: only with --method consistent")
     try:
         arm, _ = load_arm(args.model)
-        if not isinstance(arm, Manipulator) and not out.lower().endswith(".json"):
-            raise ModelError(f"MODEL {args.model}: identify writes a DH model; give a bundled model "
-                             "name or a .toml model file as the prior, or -o OUT.json for a base model")
         bounds = _bounds(args, arm)
         friction = _friction(args)
+        if isinstance(arm, URDFArm):
+            # a URDF prior is written back as the same URDF with new <inertial>s
+            if out.lower().endswith(".toml"):
+                raise ModelError(f"-o {out}: a URDF prior ({args.model}) is written back as URDF: "
+                                 "-o OUT.urdf (or OUT.json for the base model)")
+            if args.armature:
+                raise ModelError("--armature: a URDF has no rotor inertia; identify a URDF prior without it")
+            if args.friction_terms is not None:
+                raise ModelError("--friction-terms: a URDF's <dynamics> holds viscous and Coulomb friction "
+                                 "only; use --friction")
+        elif not isinstance(arm, Manipulator) and not out.lower().endswith(".json"):
+            raise ModelError(f"MODEL {args.model}: identify writes a DH model or a URDF; give a bundled "
+                             "model name, a .toml model file or a URDF as the prior")
         data = read_log(args.data, arm.n, transmission=arm.transmission,
-                        **log_options_from_args(args, _joint_names(arm)))
+                        **log_options_from_args(args, model_joint_names(arm)))
         name = os.path.splitext(os.path.basename(out))[0] or arm.name
         if name.endswith(".base"):
             name = name[:-5]
@@ -188,7 +211,9 @@ def run(args) -> int:
     base_path = out if want_base else args.base_json
     try:
         if not want_base and result.arm is not None:
-            if out.lower().endswith(".toml"):
+            if isinstance(result.arm, URDFArm):
+                atomic_write_text(out, result.arm.urdf_text)
+            elif out.lower().endswith(".toml"):
                 save(result.arm, out)
             else:
                 write_urdf(result.arm, out)
@@ -207,6 +232,8 @@ def run(args) -> int:
         for note in rep["data_notes"]:
             print(f"data: {note}")
         print(format_report(rep))
+        for note in rep.get("fit_notes", []):
+            print(f"note: {note}")
         if rep.get("active_bounds"):
             print("active bounds (the fit sits on them; --no-bounds or wider bounds to free it):")
             for b in rep["active_bounds"]:

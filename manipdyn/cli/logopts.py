@@ -14,7 +14,7 @@ import math
 
 from ..errors import ModelError
 
-__all__ = ["register_log_options", "log_options_from_args"]
+__all__ = ["register_log_options", "log_options_from_args", "model_joint_names"]
 
 
 def register_log_options(parser) -> None:
@@ -72,3 +72,13 @@ def log_options_from_args(args, joint_names=None) -> dict:
     return dict(joint_names=None if names is None else list(names), columns=args.columns, deg=bool(args.deg),
                 rate=args.rate, time_scale=args.time_scale, resample=args.resample, cutoff=args.cutoff,
                 decimate=False if args.no_decimate else None, topic=args.topic, t_range=_t_range(args.t_range))
+
+
+def model_joint_names(arm):
+    """The model's joint names in order (ROS bags map by them), or None."""
+    names = getattr(arm, "joint_names", None)
+    if names:
+        return list(names)
+    links = getattr(arm, "links", ())
+    names = [getattr(l, "name", "") for l in links]
+    return names if all(names) else None

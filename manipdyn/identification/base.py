@@ -26,11 +26,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numbers
+
 import numpy as np
 
-from ..parameters import parameter_names
+from ..errors import ModelError
+from ..parameters import parameter_count, parameter_names
 
-__all__ = ["BaseParameters", "base_parameters", "stacked_regressor"]
+__all__ = ["BaseParameters", "base_parameters", "check_base", "stacked_regressor"]
 
 #: default rank tolerance, relative to the largest pivot (see the module docstring)
 RTOL = 1e-8
@@ -133,6 +136,19 @@ def base_parameters(arm, armature: bool = False, friction: bool = False, samples
     """
     from ._deps import require
 
+    p = parameter_count(arm.n, armature, friction) if friction in (True, False, None) else None
+    if isinstance(samples, (bool, np.bool_)) or not isinstance(samples, numbers.Integral) or samples < 1:
+        raise ModelError(f"samples: expected a positive integer, got {samples!r}")
+    if p is not None and int(samples) * arm.n < p:
+        # fewer rows than columns: the rank is capped by the rows, not by the arm
+        raise ModelError(f"samples: {samples} states give {int(samples) * arm.n} rows for {p} parameter "
+                         f"columns; the base parameters need at least {-(-p // arm.n)} states "
+                         f"(default 200)")
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, numbers.Integral) or seed < 0:
+        raise ModelError(f"seed: expected an integer >= 0, got {seed!r}")
+    if isinstance(rtol, (bool, np.bool_)) or not isinstance(rtol, numbers.Real) or not 0 < rtol < 1:
+        raise ModelError(f"rtol: expected a number in (0, 1), got {rtol!r}")
+    samples, seed = int(samples), int(seed)
     linalg = require("scipy.linalg", "base_parameters")
     W = stacked_regressor(arm, samples, seed, armature, friction)
     _, R, perm = linalg.qr(W, mode="economic", pivoting=True)
@@ -151,3 +167,27 @@ def base_parameters(arm, armature: bool = False, friction: bool = False, samples
     return BaseParameters(count=r, names=parameter_names(arm.n, armature, friction),
                           independent=np.array(ind), dependent=np.sort(dep), K=K,
                           armature=bool(armature), friction=friction)
+
+
+def check_base(base, arm, armature=False, friction=False, what: str = "base") -> None:
+    """Raise :class:`ModelError` unless ``base`` are base parameters of ``arm`` with these
+    armature/friction columns.
+
+    Checked on the numbers, not on names: the full regressor of ``arm`` at a few seeded
+    random states must equal its base columns times ``K`` (``Y = Y[..., independent] K``,
+    the defining property), to ``1e-6`` of the regressor's scale (the factorisation
+    leaves ~1e-10; another arm's kinematics leaves order 1).
+    """
+    if not isinstance(base, BaseParameters):
+        raise ModelError(f"{what}: expected a BaseParameters (from base_parameters), got {type(base).__name__}")
+    if base.names != parameter_names(arm.n, armature, friction):
+        raise ModelError(f"{what}: computed with other armature/friction columns (or for an arm with "
+                         f"another number of joints) than this call: {len(base.names)} parameter columns, "
+                         f"expected {len(parameter_names(arm.n, armature, friction))}")
+    W = stacked_regressor(arm, 4, 12345, armature, friction)
+    err = np.abs(W - W[:, base.independent] @ base.K).max()
+    if not err <= 1e-6 * max(float(np.abs(W).max()), 1e-300):
+        raise ModelError(f"{what}: not the base parameters of {getattr(arm, 'name', '') or 'this arm'!r}: "
+                         f"its regressor is not its base columns times K (off by {err:.3g}, relative "
+                         f"{err / max(float(np.abs(W).max()), 1e-300):.2g}); was it computed for another arm? "
+                         f"Call base_parameters(arm, ...) for this one")

@@ -33,11 +33,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import ModelError
+from .._state import state_array
+from ..errors import ModelError, StateError
 from ..inertia import pseudo_inertia_from_parameters
-from ..parameters import arm_parameters, parameter_count, parameter_names
+from ..parameters import arm_parameters, parameter_count
 from .model import arm_with_parameters
-from .base import BaseParameters, base_parameters
+from .base import BaseParameters, base_parameters, check_base
 from .sdp import Bounds, consistent_fit
 from .uncertainty import base_covariance
 
@@ -89,7 +90,11 @@ class FitResult:
         Covariance of ``beta`` for ``wls`` and ``consistent`` (:mod:`.uncertainty`);
         None for ``ols``.
     report : dict
-        The figures of ``manipdyn identify --json``.
+        The figures of ``manipdyn identify --json``.  For ``consistent`` also
+        ``relative_residual`` and ``least_squares_relative_residual`` (norm of the weighted
+        residual over the weighted torque's, for this fit and the unconstrained optimum),
+        ``stopped_short`` (the solver stopped before the best physical fit) and ``fit_notes``
+        (why the fit leaves more than least squares: the constraints it sits on, or the solver).
     """
 
     arm: object
@@ -156,13 +161,21 @@ def _joint_noise(Yb, y) -> np.ndarray:
 
 
 def _check(q, qd, qdd, tau, n):
+    """The four data arrays as native float64 (N, n), validated as the dynamics calls do
+    (:func:`manipdyn._state.state_array`: bool, complex, object, string, datetime and masked
+    entries refused, other byte orders and integer dtypes converted), or a :class:`ModelError`."""
     arrays = []
     for name, x in (("q", q), ("qd", qd), ("qdd", qdd), ("tau", tau)):
-        a = np.asarray(x, dtype=np.float64)
+        try:
+            a = state_array(x, name, n)
+        except StateError as exc:
+            raise ModelError(str(exc).replace(f"shape ({n},) or (N, {n})", f"shape (N, {n})")) from None
         if a.ndim != 2 or a.shape[1] != n:
             raise ModelError(f"{name}: expected shape (N, {n}), got {a.shape}")
-        if not np.all(np.isfinite(a)):
-            raise ModelError(f"{name}: must be finite")
+        bad = ~np.isfinite(a)
+        if bad.any():
+            i, j = (int(k) for k in np.argwhere(bad)[0])
+            raise ModelError(f"{name}: must be finite; row {i}, column {j} is {float(a[i, j])!r}")
         arrays.append(a)
     if len({a.shape[0] for a in arrays}) != 1:
         raise ModelError(f"q, qd, qdd, tau: expected the same number of samples, got "
@@ -181,7 +194,11 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         Kinematics and prior (its parameters are the starting point of the
         full-parameter choice; their values do not bias beta).
     q, qd, qdd, tau : (N, n)
-        Joint positions, velocities, accelerations and torques (SI).
+        Joint positions, velocities, accelerations and torques (SI), validated as the
+        dynamics validate states (:func:`manipdyn._state.state_array`: bool, complex, object,
+        string, datetime and masked entries are refused, other byte orders and integer
+        dtypes converted); a :class:`ModelError` names the argument and, for a NaN or inf,
+        its row and column.
     method : "ols" | "wls" | "consistent"
     friction : bool or friction spec
         ``True``: viscous and Coulomb friction (sharp sign, joint side); or which friction
@@ -208,7 +225,8 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         Citation of the identified arm (:func:`.provenance.model_metadata`); default: the
         prior's.
     base : BaseParameters, optional
-        Reuse a :func:`base_parameters` result (same armature/friction flags).
+        Reuse a :func:`base_parameters` result of this arm with the same armature/friction
+        flags (checked on the numbers: :func:`.base.check_base`; another arm's is refused).
     name : str, optional
         Name of the identified arm.
     """
@@ -222,6 +240,8 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         raise ModelError(f"bounds: expected a Bounds, 'plausible' or None, got {type(bounds).__name__}")
     if bounds is not None and method != "consistent":
         raise ModelError("bounds: only the 'consistent' method takes bounds")
+    if bounds is not None:
+        bounds.check(arm.n)
     if not (0.0 <= float(prior_weight) < float("inf")):
         raise ModelError(f"prior_weight: expected a finite number >= 0, got {prior_weight}")
     if prior_weight and method != "consistent":
@@ -230,8 +250,8 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     q, qd, qdd, tau = _check(q, qd, qdd, tau, n)
     if base is None:
         base = base_parameters(arm, armature=armature, friction=friction)
-    elif base.names != parameter_names(n, armature, friction):
-        raise ModelError("base: computed with other armature/friction columns (or another arm) than this fit")
+    else:
+        check_base(base, arm, armature, friction)
     N, r = len(q), base.count
     if N * n < r:
         raise ModelError(f"data: {N} samples give {N * n} equations for {r} base parameters")
@@ -265,15 +285,22 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         solver = "lstsq"
     else:
         w = 1.0 / sigma
-        R, c, _ = _reduce((Yb * w[None, :, None]).reshape(-1, r), (y * w).reshape(-1))
+        R, c, rho_w = _reduce((Yb * w[None, :, None]).reshape(-1, r), (y * w).reshape(-1))
         cov = base_covariance(R)     # rows have unit variance after weighting (.uncertainty)
         if method == "wls":
             beta = np.linalg.lstsq(R, c, rcond=None)[0]
             pi = base.full_closest_to(beta, prior)
             solver = "lstsq"
         else:
-            pi, solver = consistent_fit(R, c, base.K, n, prior, extra=len(base.names) > 10 * n,
-                                        bounds=bounds, nonnegative=_nonnegative(base.names, n), prior_weight=float(prior_weight), rows=N * n)
+            try:
+                pi, solver = consistent_fit(R, c, base.K, n, prior, extra=len(base.names) > 10 * n,
+                                            bounds=bounds, nonnegative=_nonnegative(base.names, n),
+                                            prior_weight=float(prior_weight), rows=N * n)
+                if bounds is not None and not bounds.satisfied(pi, n, rtol=1e-6):
+                    raise ModelError("consistent fit: the answer does not satisfy the bounds (the solver "
+                                     "cannot resolve them at the data's scale)")
+            except ModelError as exc:
+                raise ModelError(f"{exc}{_scale_hint(R, c, base.K, prior, bounds)}") from None
             beta = base.from_full(pi)
     residuals = y - Yb @ beta
     eig = link_min_eigenvalues(pi, n)
@@ -299,4 +326,66 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     result.report = build_report(result, solver=solver, samples=N, cov=cov, min_eigenvalues=eig)
     result.report["active_bounds"] = bounds.active(pi, n) if bounds is not None else []
     result.report["prior_weight"] = float(prior_weight)
+    if method == "consistent":
+        result.report.update(_shortfall(R, c, rho_w, y * w, residuals * w, pi, n, base, bounds, solver,
+                                        result.report["active_bounds"]))
     return result
+
+
+def _scale_hint(R, c, K, prior, bounds) -> str:
+    """A clause naming the measured torque's ratio to the prior's when bounds are in play and
+    the ratio is far from 1 (torques in other units, a wrong prior), else ''."""
+    tp = float(np.linalg.norm(R @ (K @ prior)))
+    ratio = float(np.linalg.norm(c)) / tp if tp > 0 else float("inf")
+    if bounds is None or 0.1 <= ratio <= 10:
+        return ""
+    return (f"; the measured torques are {ratio:.3g} times the prior's, far outside the plausibility "
+            f"bounds around it: are the torques in the prior's units (N m, N)? Otherwise drop the "
+            f"bounds (bounds=None, --no-bounds)")
+
+
+#: relative growth of the weighted residual over least squares' that :func:`_shortfall` explains
+SHORTFALL_RTOL = 1e-2
+#: and the absolute floor (of the weighted torque's norm) below which it is rounding
+SHORTFALL_ATOL = 1e-6
+
+
+def _shortfall(R, c, rho0, yw, ew, pi, n, base, bounds, solver, active_bounds) -> dict:
+    """How much more of the (weighted) torque the consistent fit leaves than least squares,
+    and why: the constraints it sits on, or a solver that stopped short.
+
+    Returns ``relative_residual`` (``||e_w|| / ||tau_w||``, weighted rows),
+    ``least_squares_relative_residual`` (the same for the unconstrained optimum),
+    ``stopped_short`` (bool) and ``fit_notes`` (sentences, empty when the two agree).
+    """
+    norm = max(float(np.linalg.norm(yw)), 1e-300)
+    rel = float(np.linalg.norm(ew)) / norm
+    beta_ls = np.linalg.lstsq(R, c, rcond=None)[0]
+    ls = float(np.sqrt(np.sum((R @ beta_ls - c) ** 2) + rho0**2)) / norm
+    out = {"relative_residual": rel, "least_squares_relative_residual": ls, "stopped_short": False,
+           "fit_notes": []}
+    inaccurate = "inaccurate" in str(solver)
+    J = pseudo_inertia_from_parameters(np.asarray(pi)[:10 * n].reshape(n, 10))
+    ev = np.linalg.eigvalsh(J)
+    at_psd = [i + 1 for i in range(n) if ev[i, 0] <= 1e-6 * max(float(ev[i, -1]), 1e-300)]
+    extra = np.asarray(pi)[10 * n:][_nonnegative(base.names, n)] if len(pi) > 10 * n else np.zeros(0)
+    at_zero = int(np.sum(extra <= 1e-9 * max(float(np.abs(pi).max()), 1e-300)))
+    reasons = ([f"J_i >= 0 of link(s) {', '.join(map(str, at_psd))}"] if at_psd else []) \
+        + ([f"{at_zero} armature/friction coefficient(s) at 0"] if at_zero else []) + list(active_bounds)
+    if bounds is not None and not bounds.satisfied(pi, n, rtol=1e-6):
+        out["fit_notes"].append("the answer is outside its bounds: the data and the bounds disagree beyond "
+                                "what the solver can resolve (are the torques in other units than the "
+                                "prior's masses?); widen or drop the bounds")
+        reasons.append("the bounds")
+    if rel <= ls * (1 + SHORTFALL_RTOL) + SHORTFALL_ATOL and not inaccurate:
+        return out
+    head = (f"the consistent fit leaves {rel:.3g} of the weighted torque unexplained where least squares "
+            f"leaves {ls:.3g}")
+    if reasons and not inaccurate:
+        out["fit_notes"].append(f"{head}: the constraints it sits on cost that ({'; '.join(reasons)})")
+    else:
+        out["stopped_short"] = True
+        why = "the solver reported an inaccurate answer" if inaccurate else "no constraint is active"
+        out["fit_notes"].append(f"{head}, and {why}: the solver ({solver}) stopped short of the best "
+                                "physical fit; this answer is not it")
+    return out

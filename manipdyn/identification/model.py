@@ -1,6 +1,17 @@
-"""The identified arm: a DH arm carrying a parameter vector.
+"""The identified arm: a DH arm or a URDF arm carrying a parameter vector.
 
 Layer: application (identification).
+
+A DH arm (:class:`manipdyn.Manipulator`) gets new links.  A URDF arm
+(:class:`manipdyn.arm.URDFArm`) gets a new URDF text, the original with only the
+``<inertial>`` of each chain link changed (:func:`urdf_with_parameters`): same
+kinematics, joints, names, limits, comments.  A chain body is the chain link
+plus every link lumped into it (fixed children, locked subtrees); the identified
+change of the body, ``J_new - J_prior`` (URDF link frame), is added to the chain
+link's own ``<inertial>`` so the lumped links keep theirs.  When that would make
+the chain link's own inertial unphysical (the change takes more than it holds),
+the chain link carries the whole identified body and the lumped links' inertials
+are removed, with a comment saying so.
 """
 
 from __future__ import annotations
@@ -15,12 +26,18 @@ from ..inertia import LinkInertia, pseudo_inertia_from_parameters, transform_pse
 from ..kinematics import transform_inverse
 from ..parameters import parameter_count
 
-__all__ = ["arm_with_parameters"]
+__all__ = ["arm_with_parameters", "urdf_with_parameters"]
 
 
 def arm_with_parameters(arm, pi, armature: bool = False, friction: bool = False,
                         name: str | None = None, strict: bool = False, metadata=None):
-    """A copy of the DH arm ``arm`` whose links carry the parameters ``pi``.
+    """A copy of the DH or URDF arm ``arm`` whose links carry the parameters ``pi``.
+
+    A URDF arm comes back as a URDF arm read from :func:`urdf_with_parameters`'s text
+    (``.urdf_text``; write that to keep the file's structure).  URDF has no rotor
+    inertia (``armature=True`` raises) and its ``<dynamics>`` holds viscous and Coulomb
+    friction only (``friction=True``); another friction law is carried by the returned
+    arm (``friction_model``), not by its text.
 
     Parameters
     ----------
@@ -43,9 +60,13 @@ def arm_with_parameters(arm, pi, armature: bool = False, friction: bool = False,
     that), naming the link.  A link whose identified mass is exactly 0 has no
     centre of mass: its first moments are dropped.
     """
+    from ..arm import URDFArm
+
+    if isinstance(arm, URDFArm):
+        return _urdf_arm_with_parameters(arm, pi, armature, friction, name, strict, metadata)
     if not isinstance(arm, Manipulator):
-        raise ModelError(f"arm: writing identified parameters needs a DH arm (a Manipulator), "
-                         f"got {type(arm).__name__} {arm.name!r}")
+        raise ModelError(f"arm: writing identified parameters needs a DH arm (a Manipulator) or a URDF "
+                         f"arm, got {type(arm).__name__} {arm.name!r}")
     n = arm.n
     pi = np.asarray(pi, dtype=np.float64)
     expect = parameter_count(n, armature, friction)
@@ -120,3 +141,111 @@ def _friction_law(friction, values, n, transmission):
         kw["sigmoid_alpha"], kw["sigmoid_p3"] = spec.sigmoid_alpha, spec.sigmoid_p3
     return Friction(**kw, side=spec.side, smoothing=spec.smoothing, deadband=spec.deadband,
                     stribeck_exponent=spec.stribeck_exponent, n=n)
+
+
+def _urdf_arm_with_parameters(arm, pi, armature, friction, name, strict, metadata):
+    from ..urdf_in import load_urdf
+
+    n = arm.n
+    if armature:
+        raise ModelError(f"arm {arm.name!r}: a URDF has no rotor inertia (armature); identify without "
+                         "armature, or from a DH model file prior")
+    pi = np.asarray(pi, dtype=np.float64)
+    law = None
+    if friction is not True and friction is not False and friction is not None:
+        law = _friction_law(friction, pi[10 * n:], n, arm.transmission)
+    elif friction is False and arm.custom_drive:
+        law = arm.friction_model
+    text = urdf_with_parameters(arm, pi, friction=friction is True, metadata=metadata)
+    return load_urdf(text, tip=arm.tip, name=arm.name if name is None else name, gravity=arm.gravity,
+                     strict=strict, transmission=arm.transmission if arm.custom_drive else None,
+                     friction=law)
+
+
+def _psd(J, rtol=1e-12) -> bool:
+    w = np.linalg.eigvalsh(0.5 * (J + J.T))
+    return bool(w[0] >= -rtol * max(float(np.abs(w).max()), 1e-300))
+
+
+def _inertial_element(etree, J, where):
+    """An ``<inertial>`` element holding the body of pseudo-inertia ``J`` (link frame)."""
+    from ..inertia import tensor_from_pseudo_inertia
+
+    J = 0.5 * (J + J.T)
+    m, c, I = tensor_from_pseudo_inertia(J, name=where) if J[3, 3] > 0 else (0.0, np.zeros(3), np.zeros((3, 3)))
+    el = etree.Element("inertial")
+    el.text = "\n      "
+    etree.SubElement(el, "origin", xyz=" ".join(repr(float(x)) for x in c), rpy="0 0 0").tail = "\n      "
+    etree.SubElement(el, "mass", value=repr(float(m))).tail = "\n      "
+    etree.SubElement(el, "inertia", **{k: repr(float(I[a, b])) for k, (a, b) in
+                                       (("ixx", (0, 0)), ("ixy", (0, 1)), ("ixz", (0, 2)),
+                                        ("iyy", (1, 1)), ("iyz", (1, 2)), ("izz", (2, 2)))}).tail = "\n    "
+    return el
+
+
+def _replace_inertial(etree, link_el, new):
+    old = link_el.find("inertial")
+    if old is None:
+        link_el.insert(0, new)
+    else:
+        new.tail = old.tail
+        link_el.replace(old, new)
+
+
+def urdf_with_parameters(arm, pi, friction: bool = False, metadata=None) -> str:
+    """The URDF text of the URDF arm ``arm`` with its chain bodies set to ``pi`` (p,).
+
+    Only ``<inertial>`` elements change (module docstring), and with ``friction=True``
+    the chain joints' ``<dynamics damping friction>`` (the viscous and Coulomb entries
+    of ``pi`` after the 10 n body ones).  ``metadata`` (source, sources, description)
+    becomes a comment after ``<robot>``.  Raises :class:`ModelError` for a negative
+    identified mass, naming the link.
+    """
+    from lxml import etree
+
+    from ..urdf_tree import read_link
+
+    n = arm.n
+    pi = np.asarray(pi, dtype=np.float64)
+    if pi.shape[0] < 10 * n or not np.all(np.isfinite(pi)):
+        raise ValueError(f"pi: expected at least {10 * n} finite entries, got shape {pi.shape}")
+    J_new = pseudo_inertia_from_parameters(pi[:10 * n].reshape(n, 10))
+    joints, _ = arm.chain()
+    root = etree.fromstring(arm.urdf_text.encode("utf-8"), etree.XMLParser(remove_blank_text=False,
+                                                                            resolve_entities=False))
+    links = {el.get("name"): el for el in root.iterchildren("link")}
+    joint_els = {el.get("name"): el for el in root.iterchildren("joint")}
+    for k, j in enumerate(joints):
+        where = f"{arm.name}: link '{j.link_name}'"
+        Jk = 0.5 * (J_new[k] + J_new[k].T)
+        if Jk[3, 3] < 0:
+            raise ModelError(f"{where}: identified mass {Jk[3, 3]:.6g} kg is negative; no URDF can hold it "
+                             "(use the 'consistent' method)")
+        el = links[j.link_name]
+        own = read_link(el, arm.name).body
+        J_own = own.J if own is not None else np.zeros((4, 4))
+        J_link = J_own + (Jk - j.body.J)          # the change, on the chain link's own body
+        others = [m for m in arm.lumped_links[k] if m != j.link_name] if k < len(arm.lumped_links) else []
+        if _psd(J_link) and J_link[3, 3] >= 0:
+            _replace_inertial(etree, el, _inertial_element(etree, J_link, where))
+        else:
+            _replace_inertial(etree, el, _inertial_element(etree, Jk, where))
+            for m in others:
+                old = links[m].find("inertial")
+                if old is not None:
+                    links[m].replace(old, etree.Comment(f" inertial identified as part of link "
+                                                        f"'{j.link_name}' (manipdyn identify) "))
+        if friction:
+            dyn = joint_els[j.name].find("dynamics")
+            if dyn is None:
+                dyn = etree.SubElement(joint_els[j.name], "dynamics")
+            dyn.set("damping", repr(float(pi[10 * n + k])))
+            dyn.set("friction", repr(float(pi[11 * n + k])))
+    if metadata is not None:
+        source, sources, description = metadata
+        lines = [f" {source} ", *(f" {key}: {val} " for key, val in (sources or {}).items())]
+        text = "\n".join(lines).replace("--", "- -")
+        comment = etree.Comment(text)
+        comment.tail = "\n  "
+        root.insert(0, comment)
+    return '<?xml version="1.0"?>\n' + etree.tostring(root, encoding="unicode") + "\n"

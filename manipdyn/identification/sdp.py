@@ -7,6 +7,9 @@ pseudo-inertia positive semidefinite; Wensing, Kim and Slotine 2017).  J is
 linear in the ten parameters (``J = sum_k pi_k E_k``,
 :data:`manipdyn.parameters.PARAMETER_BASIS`), so both steps are convex:
 
+0. when the least-squares base parameters ``R^-1 c`` are those of some physical arm (within the
+   bounds), that arm closest to the prior is the answer (step 1's optimum, at least-squares
+   accuracy);
 1. ``min ||R (K pi) - c||`` subject to ``J_i(pi) >= eps I`` for every link
    (plus armature and friction >= 0, plus optional :class:`Bounds`), where
    ``R``, ``c`` are the QR-reduced weighted least-squares problem of the base
@@ -16,7 +19,11 @@ linear in the ten parameters (``J = sum_k pi_k E_k``,
    (margin ``EPS / 2``).  The equality holds to the solver's accuracy, ~1e-9;
    if Clarabel cannot solve step 2, step 1's answer is kept.
 
-``eps = 1e-8`` (kg m^2, kg m, kg) keeps every identified body strictly
+Units: the programs are solved for ``x = pi / u`` with ``u = ||c|| / ||R K prior||``, the
+measured torque over the prior's, so the solver sees data of the prior's magnitude whatever
+the torques' scale (30 or 1e30 times a UR5's): the answer scales with the data.
+
+``eps = 1e-8`` (kg m^2, kg m, kg, in units of ``u`` when ``u < 1``) keeps every identified body strictly
 physical after the solver's rounding (the Schur complement of J, the
 second moment about the COM, is then >= eps I, so the triangle inequalities
 hold with that margin).  Solvers: Clarabel (interior point), then SCS if
@@ -39,6 +46,9 @@ __all__ = ["Bounds", "consistent_fit", "solve_problem", "EPS"]
 EPS = 1e-8
 #: weight of step 1's pull towards the prior (see :func:`consistent_fit`)
 REG = 1e-7
+#: ratio of the data's torque to the prior's beyond which the prior's magnitude is scaled away
+#: (see :func:`consistent_fit`)
+PRIOR_RANGE = 10.0
 #: defaults of :meth:`Bounds.plausible`: link mass factor, COM box (m), total mass fraction
 PLAUSIBLE_MASS = 0.5
 PLAUSIBLE_COM = 0.1
@@ -66,10 +76,23 @@ class Bounds:
             v = getattr(self, name)
             if v is None:
                 continue
+            if isinstance(v, np.ma.MaskedArray):
+                if np.ma.getmaskarray(v).any():
+                    raise ModelError(f"Bounds.{name}: a masked array with masked entries (the mask "
+                                     "would be dropped); pass v.filled(value)")
+                v = np.ma.getdata(v)
             try:
-                a = np.array(v, dtype=np.float64)
-            except (TypeError, ValueError):
-                raise ModelError(f"Bounds.{name}: expected numbers, got {v!r}") from None
+                a = np.asarray(v)
+                if a.dtype.kind == "O" and not isinstance(v, np.ndarray):
+                    a = np.array(v, dtype=np.float64)   # nested Python numbers
+                    if any(isinstance(x, (bool, np.bool_)) for x in np.ravel(np.asarray(v, dtype=object))):
+                        raise TypeError("a bool")
+            except (TypeError, ValueError, OverflowError) as exc:
+                raise ModelError(f"Bounds.{name}: expected real numbers, got {v!r:.60} ({exc})") from None
+            if a.dtype.kind not in "fiu":
+                raise ModelError(f"Bounds.{name}: expected real numbers, got dtype {a.dtype} "
+                                 f"({ {'b': 'bool', 'c': 'complex', 'O': 'object', 'U': 'string', 'S': 'bytes', 'M': 'datetime64', 'm': 'timedelta64'}.get(a.dtype.kind, a.dtype.kind)})")
+            a = np.array(a, dtype=np.float64)   # native byte order, a copy we own
             if not np.all(np.isfinite(a)):
                 raise ModelError(f"Bounds.{name}: must be finite, got {a.tolist()}")
             want = {"mass": (None, 2), "com": (None, 2, 3), "total_mass": (2,)}[name]
@@ -118,6 +141,18 @@ class Bounds:
                 raise ModelError(f"total: expected a fraction in [0, 1), got {total}")
             kw["total_mass"] = (float(m.sum()) * (1 - total), float(m.sum()) * (1 + total))
         return cls(**kw)
+
+    def scaled(self, factor: float) -> "Bounds":
+        """The same bounds for parameters multiplied by ``factor`` (masses scaled, COM boxes kept)."""
+        return Bounds(mass=None if self.mass is None else self.mass * factor, com=self.com,
+                      total_mass=None if self.total_mass is None else self.total_mass * factor)
+
+    def check(self, n: int) -> None:
+        """Raise :class:`ModelError` unless these bounds are for an arm of ``n`` links."""
+        for name in ("mass", "com"):
+            a = getattr(self, name)
+            if a is not None and a.shape[0] != n:
+                raise ModelError(f"Bounds.{name}: {a.shape[0]} rows for an arm of {n} links")
 
     def satisfied(self, pi, n: int, rtol: float = 1e-9) -> bool:
         """Whether the full parameters ``pi`` satisfy every bound (to ``rtol`` of the bound)."""
@@ -280,7 +315,28 @@ def consistent_fit(R, c, K, n, prior, extra: bool, bounds: Bounds | None = None,
     Returns ``(pi, solver)``.
     """
     cp = require("cvxpy", "the consistent fit")
+    R, c, prior = (np.asarray(v, dtype=np.float64) for v in (R, c, prior))
+    K = np.asarray(K, dtype=np.float64)
     p = K.shape[1]
+    # units: the solver works on x = pi / u with u the ratio of the
+    # measured torque to the prior's, ||c|| / ||R K prior||.  Data 30 or 1e30 times a prior's
+    # torque then give the solver the problem of data of the prior's magnitude: its tolerances, the
+    # PSD margin EPS (in units of u) and the pull towards the prior act the same at any
+    # scale, and the answer scales with the data.  R K pi - c = (u R) K x - c: the objective
+    # is unchanged.
+    u = _unit(R, c, K, prior)
+    # the PSD margin: EPS in the solver's units, but never more than EPS in SI (data 1e30 times
+    # the prior's must not force 1e22 kg bodies through the margin against mass bounds)
+    eps = EPS * min(1.0, 1.0 / u)
+    R = R * u
+    # the prior in the solver's units, as the target of the pull (step 1) and of step 2: the
+    # prior itself while the data are within PRIOR_RANGE of its magnitude; beyond, scaled
+    # with the data (continuously) so that the target stays within PRIOR_RANGE of the answer:
+    # a prior 1e30 times off says nothing about its magnitude, and an interior-point solver
+    # cannot resolve parameters 1e30 apart
+    prior_u = prior / float(np.clip(u, 1.0 / PRIOR_RANGE, PRIOR_RANGE))
+    if bounds is not None:
+        bounds = bounds.scaled(1.0 / u)
     x = cp.Variable(p)
     scale = max(1e-300, float(np.linalg.norm(c)))
     # step 1: the best fit among physical arms.  The norm, not its square: a
@@ -290,38 +346,87 @@ def consistent_fit(R, c, K, n, prior, extra: bool, bounds: Bounds | None = None,
     # weight REG towards the prior makes the minimiser unique (interior-point
     # solvers report "inaccurate" on unbounded optimal faces) and moves the fit
     # by ~REG relative.  Step 2 then picks the full parameters.
-    pscale = max(1.0, float(np.linalg.norm(prior)))
+    pscale = max(1.0, float(np.linalg.norm(prior_u)))
     if prior_weight and prior_weight > 0:
         if not rows:
             raise ValueError("rows: needed with prior_weight")
         from ..inertia import pseudo_inertia_from_parameters
 
-        J0 = pseudo_inertia_from_parameters(np.asarray(prior)[:10 * n].reshape(n, 10))
+        # d(u J', J0) = d(J', J0 / u): the divergence in the solver's units, to the prior scaled
+        # as above when the data are beyond PRIOR_RANGE of it
+        J0 = pseudo_inertia_from_parameters(prior_u[:10 * n].reshape(n, 10))
         J0 = J0 + EPS * max(1.0, float(np.abs(J0).max())) * np.eye(4)   # a massless prior link
         E = PARAMETER_BASIS
         div = sum(cp.trace(np.linalg.inv(J0[i]) @ sum(x[10 * i + k] * E[k] for k in range(10)))
                   - cp.log_det(sum(x[10 * i + k] * E[k] for k in range(10))) for i in range(n))
         obj = cp.sum_squares(R @ (K @ x) - c) / rows + float(prior_weight) * div / n
     else:
-        obj = cp.norm(R @ (K @ x) - c) / scale + REG * cp.norm(x - prior) / pscale
+        # the pull's target is the prior scaled with the data (x = prior): the fit (beta) is
+        # then the same problem at any scale of the data
+        obj = cp.norm(R @ (K @ x) - c) / scale + REG * cp.norm(x - prior) / max(1.0, float(np.linalg.norm(prior)))
+    if not prior_weight:
+        xs = _least_squares_if_physical(cp, R, c, K, n, prior_u, pscale, extra, bounds, nonnegative, eps)
+        if xs is not None:
+            return u * project_physical(xs, n, eps=eps, nonnegative=nonnegative), "CLARABEL; least squares is physical"
     # bounds are tried last: when the answer without them already satisfies them, they are
     # inactive and the smaller problem is solved more accurately (interior-point solvers
     # lose digits on many inactive inequality rows: 1e-7 instead of 1e-11 relative on exact data)
     if bounds is not None:
         try:
-            pi, solver = _two_steps(cp, x, obj, K, n, prior, pscale, extra, None, nonnegative)
-            if bounds.satisfied(pi, n):
-                return project_physical(pi, n, nonnegative=nonnegative), solver
+            xs, solver = _two_steps(cp, x, obj, K, n, prior_u, pscale, extra, None, nonnegative, eps, (R, c))
+            if bounds.satisfied(xs, n):
+                return u * project_physical(xs, n, eps=eps, nonnegative=nonnegative), solver
         except ModelError:
             pass
-    pi, solver = _two_steps(cp, x, obj, K, n, prior, pscale, extra, bounds, nonnegative)
-    return project_physical(pi, n, nonnegative=nonnegative), solver
+    xs, solver = _two_steps(cp, x, obj, K, n, prior_u, pscale, extra, bounds, nonnegative, eps, (R, c))
+    return u * project_physical(xs, n, eps=eps, nonnegative=nonnegative), solver
 
 
-def _two_steps(cp, x, obj, K, n, prior, pscale, extra, bounds, nonnegative):
+def _unit(R, c, K, prior) -> float:
+    """``||c|| / ||R K prior||`` (the data's torque over the prior's), or the least-squares
+    answer's norm over the prior's when the prior predicts no torque; 1 if neither says anything."""
+    cn = float(np.linalg.norm(c))
+    tp = float(np.linalg.norm(R @ (K @ prior)))
+    ratio = cn / tp if tp > 0 and np.isfinite(tp) else 0.0
+    if not (ratio > 0 and np.isfinite(ratio)):
+        beta = np.linalg.lstsq(R, c, rcond=None)[0]
+        ratio = float(np.linalg.norm(np.linalg.pinv(K) @ beta)) / max(1.0, float(np.linalg.norm(prior)))
+    if not (ratio > 0 and np.isfinite(ratio)):
+        return 1.0
+    return ratio
+
+
+def _least_squares_if_physical(cp, R, c, K, n, prior, pscale, extra, bounds, nonnegative, eps):
+    """The full parameters closest to the prior whose base parameters are the least-squares
+    ones, ``K x = R^-1 c``, when some physical (and in-bounds) x has them, else None.
+
+    Such an x minimises step 1's residual over all x, so it is step 1's answer (up to the
+    REG pull); taking it directly keeps the least-squares accuracy (1e-11 of the smallest
+    joint's torque on exact data) where a conic solver would stop at ~1e-8 of the largest.
+    """
+    beta = np.linalg.lstsq(R, c, rcond=None)[0]
+    x2 = cp.Variable(K.shape[1])
+    prob = cp.Problem(cp.Minimize(cp.sum_squares((x2 - prior) / pscale)),
+                      [K @ x2 == beta] + _constraints(cp, x2, n, extra, bounds, eps=eps / 2,
+                                                      nonnegative=nonnegative))
+    try:
+        if _solve(cp, prob, "least squares", solvers=("CLARABEL",)) != "CLARABEL":
+            return None
+    except ModelError:   # infeasible: the least-squares answer is no physical arm
+        return None
+    x = np.asarray(x2.value, dtype=np.float64)
+    r_ls = float(np.linalg.norm(R @ beta - c))
+    if float(np.linalg.norm(R @ (K @ x) - c)) > r_ls + 1e-10 * max(float(np.linalg.norm(c)), 1e-300):
+        return None      # the equality held too loosely for the smallest joint's torques
+    if bounds is not None and not bounds.satisfied(x, n):
+        return None
+    return x
+
+
+def _two_steps(cp, x, obj, K, n, prior, pscale, extra, bounds, nonnegative, eps=EPS, data=None):
     """Step 1 (the fit) and step 2 (closest to the prior, same base parameters): ``(pi, solver)``."""
     p = K.shape[1]
-    step1 = cp.Problem(cp.Minimize(obj), _constraints(cp, x, n, extra, bounds, nonnegative=nonnegative))
+    step1 = cp.Problem(cp.Minimize(obj), _constraints(cp, x, n, extra, bounds, eps=eps, nonnegative=nonnegative))
     solver = _solve(cp, step1, "step 1 (fit)")
     x1 = np.asarray(x.value, dtype=np.float64)
     # step 2: closest to the prior with the same base parameters, K pi = K x1
@@ -329,7 +434,7 @@ def _two_steps(cp, x, obj, K, n, prior, pscale, extra, bounds, nonnegative):
     # step 1's answer, often on the EPS boundary, is then strictly feasible.
     x2 = cp.Variable(p)
     step2 = cp.Problem(cp.Minimize(cp.sum_squares((x2 - prior) / pscale)),
-                       [K @ x2 == K @ x1] + _constraints(cp, x2, n, extra, bounds, eps=EPS / 2,
+                       [K @ x2 == K @ x1] + _constraints(cp, x2, n, extra, bounds, eps=eps / 2,
                                                          nonnegative=nonnegative))
     try:
         _solve(cp, step2, "step 2 (closest to the prior)", solvers=("CLARABEL",))
@@ -337,6 +442,13 @@ def _two_steps(cp, x, obj, K, n, prior, pscale, extra, bounds, nonnegative):
         beta1 = K @ x1
         if np.linalg.norm(K @ pi - beta1) > 1e-7 * max(float(np.linalg.norm(beta1)), 1e-300):
             pi = x1   # an inaccurate step 2 moved the base parameters: keep step 1's
+        elif data is not None:
+            # the equality holds to ~1e-9 of the largest base parameter, which can still be much
+            # of a small one (a wrist's): keep step 2 only if it fits the data as well as step 1
+            R, c = data
+            r1, r2 = (float(np.linalg.norm(R @ (K @ v) - c)) for v in (x1, pi))
+            if r2 > r1 + 1e-10 * max(float(np.linalg.norm(c)), 1e-300):
+                pi = x1
     except ModelError:
         pi = x1   # step 1's answer has the same base parameters and is physical
     return pi, solver

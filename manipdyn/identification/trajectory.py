@@ -35,12 +35,13 @@ arm's limits).
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..errors import ModelError
-from .base import base_parameters
+from .base import base_parameters, check_base
 
 __all__ = ["Excitation", "excitation", "fourier_trajectory", "DEFAULT_VMAX", "DEFAULT_AMAX"]
 
@@ -287,19 +288,23 @@ def excitation(arm, duration: float = 10.0, harmonics: int = 5, rate: float = 10
 
     optimize = require("scipy.optimize", "excitation")
     for name, v in (("duration", duration), ("rate", rate)):
-        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+        # any real number (a numpy int64 or float32 too), not a bool
+        if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real) or not (
+                math.isfinite(float(v)) and v > 0):
             raise ModelError(f"{name}: expected a positive number, got {v!r}")
+    duration, rate = float(duration), float(rate)
     for name, v in (("harmonics", harmonics), ("grid", grid)):
-        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+        if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) or v < 1:
             raise ModelError(f"{name}: expected a positive integer, got {v!r}")
+    harmonics, grid = int(harmonics), int(grid)
     n, K = arm.n, int(harmonics)
     vmax, amax, lo, hi = _limits(arm, vmax, amax, margin)
     q0 = 0.5 * (lo + hi)
     samples = int(round(duration * rate))
     if base is None:
         base = base_parameters(arm, armature=armature, friction=friction)
-    elif (base.armature, base.friction) != (bool(armature), bool(friction)):
-        raise ModelError("base: computed with other armature/friction flags than this excitation")
+    else:
+        check_base(base, arm, armature, friction)
     for what, count in (("duration * rate", samples), ("grid", grid)):
         if count * n < base.count:
             raise ModelError(f"{what}: {count} samples give {count * n} equations, too few for the "
