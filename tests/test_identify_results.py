@@ -205,3 +205,26 @@ def test_validate_draws_calibrated_prediction_bands(tmp_path, capsys):
     assert main(["validate", str(base), str(files[1]), "--json", "--plot", str(fig)]) == 0
     cov = json.loads(capsys.readouterr().out)["band_95_coverage"]
     assert len(cov) == 6 and all(0.90 <= c <= 0.99 for c in cov), cov
+
+
+def test_cli_prior_weight_auto_and_bootstrap(tmp_path, capsys, ur5_motion):
+    from manipdyn.cli import main
+
+    arm, ex = ur5_motion
+    tau = arm.inverse_dynamics(ex.q, ex.qd, ex.qdd) + 0.05 * np.random.default_rng(4).standard_normal(ex.q.shape)
+    data = tmp_path / "d.csv"
+    write_measurements_csv(data, ex.t, ex.q, tau, qd=ex.qd, qdd=ex.qdd)
+    out = tmp_path / "auto.toml"
+    assert main(["identify", "ur5", str(data), "-o", str(out), "--prior-weight", "auto", "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    chosen = rep["prior_weight"]
+    scores = {row["prior_weight"]: row["score"] for row in rep["prior_weight_selection"]}
+    assert chosen in scores and scores[chosen] == min(scores.values())
+    assert main(["identify", "ur5", str(data), "-o", str(tmp_path / "b.json"), "--method", "wls",
+                 "--bootstrap", "4", "--json"]) == 0
+    boot = json.loads(capsys.readouterr().out)["bootstrap"]
+    assert boot["replicates"] == 4 and len(boot["std"]) == 36 and all(s > 0 for s in boot["std"])
+    assert main(["identify", "ur5", str(data), "-o", str(out), "--scheduler", "local"]) == 2
+    assert "only with --bootstrap" in capsys.readouterr().err
+    assert main(["identify", "ur5", str(data), "-o", str(out), "--prior-weight", "lots"]) == 2
+    assert "'auto'" in capsys.readouterr().err

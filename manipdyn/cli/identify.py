@@ -28,6 +28,8 @@ are no physical arm); 2 usage, model or data error (one line on stderr).
 from __future__ import annotations
 
 import json
+
+import numpy as np
 import os
 import sys
 
@@ -83,9 +85,16 @@ def register(subparsers) -> None:
                    help="consistent: total mass within +-F (fraction) of the prior's (default 0.25)")
     p.add_argument("--no-bounds", action="store_true",
                    help="consistent: no plausibility bounds, only J_i >= 0")
-    p.add_argument("--prior-weight", type=float, default=0.0, metavar="W",
+    p.add_argument("--prior-weight", default="0", metavar="W|auto",
                    help="consistent: weight of the entropic pull of each body towards the prior's "
-                        "(0, the default: the data alone; e.g. 0.01)")
+                        "(0, the default: the data alone; auto: chosen by 5-fold blocked cross-validation "
+                        "inside the data, manipdyn.identification.selection)")
+    p.add_argument("--bootstrap", type=int, default=0, metavar="N",
+                   help="also refit on N block-resampled copies of the data (blocks in time) and report "
+                        "the spread of each base parameter")
+    p.add_argument("--scheduler", default=None, metavar="ADDR",
+                   help="--bootstrap on Dask: 'local' (a cluster of this machine's cores) or "
+                        "tcp://HOST:PORT; default: in this process (same numbers either way)")
     p.add_argument("--base-json", metavar="FILE.json", default=None,
                    help="also write the base model (base parameters, standard deviations) here")
     p.add_argument("--json", action="store_true", help="print a JSON object instead of text")
@@ -137,7 +146,7 @@ def _friction(args):
 
 def _options(args) -> dict:
     keys = ("method", "friction", "friction_terms", "friction_side", "smoothing", "armature", "mass_bound", "com_bound", "total_mass_bound", "no_bounds",
-            "prior_weight", "cutoff", "columns", "deg", "rate", "time_scale", "resample", "no_decimate",
+            "prior_weight", "bootstrap", "scheduler", "cutoff", "columns", "deg", "rate", "time_scale", "resample", "no_decimate",
             "t_range", "topic", "joint_names")
     return {k: getattr(args, k) for k in keys if getattr(args, k, None) not in (None, False)}
 
@@ -162,8 +171,17 @@ def run(args) -> int:
     out = args.output
     if not out.lower().endswith((".toml", ".urdf", ".json")):
         return usage_error("identify", f"-o: expected a file name ending in .toml, .urdf or .json, got {out!r}")
-    if not (0 <= args.prior_weight < float("inf")):
-        return usage_error("identify", f"--prior-weight: expected a finite number >= 0, got {args.prior_weight}")
+    if args.prior_weight != "auto":
+        try:
+            args.prior_weight = float(args.prior_weight)
+        except ValueError:
+            return usage_error("identify", f"--prior-weight: expected a number >= 0 or 'auto', got {args.prior_weight!r}")
+        if not (0 <= args.prior_weight < float("inf")):
+            return usage_error("identify", f"--prior-weight: expected a finite number >= 0, got {args.prior_weight}")
+    if args.bootstrap and args.bootstrap < 2:
+        return usage_error("identify", f"--bootstrap: expected at least 2 replicates, got {args.bootstrap}")
+    if args.scheduler is not None and not args.bootstrap:
+        return usage_error("identify", "--scheduler: only with --bootstrap N")
     if args.prior_weight and args.method != "consistent":
         return usage_error("identify", "--prior-weight: only with --method consistent")
     try:
@@ -188,6 +206,13 @@ def run(args) -> int:
         name = os.path.splitext(os.path.basename(out))[0] or arm.name
         if name.endswith(".base"):
             name = name[:-5]
+        selection = None
+        if args.prior_weight == "auto":
+            from ..identification.selection import choose_prior_weight
+
+            args.prior_weight, selection = choose_prior_weight(
+                arm, data.q, data.qd, data.qdd, data.tau, friction=friction, armature=args.armature,
+                bounds=bounds)
         opts = _options(args)
         # the provenance's residuals are only known after the fit: fit once, then attach them
         result = fit(arm, data.q, data.qd, data.qdd, data.tau, method=args.method,
@@ -200,9 +225,22 @@ def run(args) -> int:
             result.arm = arm_with_parameters(arm, result.parameters, armature=args.armature,
                                              friction=friction, name=name,
                                              metadata=model_metadata(prov))
+        boot = None
+        if args.bootstrap:
+            from ..identification.bootstrap import bootstrap
+
+            bs = bootstrap(arm, data, args.bootstrap, scheduler=args.scheduler, method=args.method,
+                           friction=friction, armature=args.armature, bounds=bounds,
+                           prior_weight=args.prior_weight)
+            boot = {"replicates": int(args.bootstrap), "block": int(bs.block), "failed": list(map(int, bs.failed)),
+                    "std": [float(x) if np.isfinite(x) else None for x in bs.std]}
     except ModelError as exc:
         return usage_error("identify", str(exc))
     rep = dict(result.report)
+    if selection is not None:
+        rep["prior_weight_selection"] = selection
+    if boot is not None:
+        rep["bootstrap"] = boot
     rep.update({"model": args.model, "data": args.data, "output": None, "base_model": None,
                 "derived_derivatives": data.derived, "provenance": prov,
                 "data_notes": list(getattr(data, "notes", []))})
@@ -238,6 +276,13 @@ def run(args) -> int:
             print("active bounds (the fit sits on them; --no-bounds or wider bounds to free it):")
             for b in rep["active_bounds"]:
                 print(f"  {b}")
+        if selection is not None:
+            print("prior weight by 5-fold blocked cross-validation: " + ", ".join(
+                f"{row['prior_weight']:g} (score {row['score']:.4f})" for row in selection)
+                  + f" -> {args.prior_weight:g}")
+        if boot is not None:
+            print(f"bootstrap: {boot['replicates']} replicates in blocks of {boot['block']} samples, "
+                  f"{len(boot['failed'])} failed; std of each base parameter in --json")
         if rep["output"]:
             print(f"wrote {out}")
         if rep["base_model"]:
