@@ -228,3 +228,25 @@ def test_cli_prior_weight_auto_and_bootstrap(tmp_path, capsys, ur5_motion):
     assert "only with --bootstrap" in capsys.readouterr().err
     assert main(["identify", "ur5", str(data), "-o", str(out), "--prior-weight", "lots"]) == 2
     assert "'auto'" in capsys.readouterr().err
+
+
+def test_cli_refuses_meaningless_data(tmp_path, capsys, ur5_motion):
+    """Issue 20, items 16 and 19: all-zero torques, q in degrees and an absurd --com-bound are
+    usage errors (exit 2, one line), never a model or an internal error."""
+    from manipdyn.cli import main
+
+    arm, ex = ur5_motion
+    tau = arm.inverse_dynamics(ex.q, ex.qd, ex.qdd)
+    zero, deg = tmp_path / "zero.csv", tmp_path / "deg.csv"
+    write_measurements_csv(zero, ex.t, ex.q, 0 * tau, qd=ex.qd, qdd=ex.qdd)
+    write_measurements_csv(deg, ex.t, np.degrees(ex.q), tau, qd=np.degrees(ex.qd), qdd=np.degrees(ex.qdd))
+    out = tmp_path / "x.toml"
+    cases = [([str(zero)], "zero torque in every sample"),
+             ([str(deg)], "outside the model's joint limits"),
+             ([str(zero), "--com-bound", "1e308"], "--com-bound: expected a number in")]
+    for extra, msg in cases:
+        assert main(["identify", "ur5", extra[0], "-o", str(out)] + extra[1:]) == 2, extra
+        err = capsys.readouterr().err
+        assert msg in err and len(err.strip().splitlines()) == 1
+        assert not out.exists()
+    assert main(["identify", "ur5", str(deg), "-o", str(out), "--deg"]) == 0

@@ -116,9 +116,11 @@ def _bounds(args, arm):
         if given:
             raise ModelError(f"{given[0]}: not with --no-bounds")
         return None
-    for opt, v in (("--mass-bound", args.mass_bound), ("--com-bound", args.com_bound)):
-        if v is not None and not (0 <= v < float("inf")):
-            raise ModelError(f"{opt}: expected a finite number >= 0, got {v}")
+    from .. import limits
+
+    for opt, v, top in (("--mass-bound", args.mass_bound, 1e6), ("--com-bound", args.com_bound, limits.MAX_LENGTH)):
+        if v is not None and not (0 <= v <= top):
+            raise ModelError(f"{opt}: expected a number in [0, {top:g}], got {v}")
     if args.total_mass_bound is not None and not 0 <= args.total_mass_bound < 1:
         raise ModelError(f"--total-mass-bound: expected a fraction in [0, 1), got {args.total_mass_bound}")
     return Bounds.plausible(
@@ -142,6 +144,21 @@ def _friction(args):
         raise ModelError(f"--smoothing: expected a finite velocity >= 0, got {v}")
     terms = tuple(t.strip() for t in args.friction_terms.split(",") if t.strip())
     return FrictionTerms(terms, side=args.friction_side, smoothing=v)
+
+
+def _check_limits(data, arm, deg: bool) -> None:
+    """Refuse positions far outside the model's joint limits (degrees read as radians, another
+    model's zero): over 5 % of the samples beyond a limit by more than 10 % of the joint's range."""
+    lim = np.asarray(arm.qlim, dtype=np.float64)
+    span = lim[:, 1] - lim[:, 0]
+    out = (data.q < lim[:, 0] - 0.1 * span) | (data.q > lim[:, 1] + 0.1 * span)
+    frac = out.mean(axis=0)
+    bad = np.flatnonzero(frac > 0.05)
+    if bad.size:
+        j = int(bad[0])
+        hint = "" if deg else "; positions in degrees? add --deg"
+        raise ModelError(f"q{j + 1}: {100 * frac[j]:.0f} % of the samples lie outside the model's joint limits "
+                         f"[{lim[j, 0]:g}, {lim[j, 1]:g}] rad (by more than 10 % of the range){hint}")
 
 
 def _options(args) -> dict:
@@ -203,6 +220,7 @@ def run(args) -> int:
                              "model name, a .toml model file or a URDF as the prior")
         data = read_log(args.data, arm.n, transmission=arm.transmission,
                         **log_options_from_args(args, model_joint_names(arm)))
+        _check_limits(data, arm, args.deg)
         name = os.path.splitext(os.path.basename(out))[0] or arm.name
         if name.endswith(".base"):
             name = name[:-5]
