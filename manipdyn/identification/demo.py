@@ -170,19 +170,18 @@ def run_demo(name: str = "ur5", seed: int = 0, iterations: int = 15, plot: str |
             import matplotlib.pyplot as plt
         except ImportError:
             raise MissingExtraError("--plot needs matplotlib: pip install 'manipdyn[plot]'") from None
-        pred = fits["consistent"].predict(held.q, held.qd, held.qdd)
-        fig, axes = plt.subplots(prior.n, 1, figsize=(8, 2 * prior.n), sharex=True)
-        for j, ax in enumerate(axes):
-            ax.plot(held.t, held_tau[:, j], lw=0.6, label="measured")
-            ax.plot(held.t, pred[:, j], lw=1.0, label="predicted (consistent)")
-            ax.set_ylabel(f"tau{j + 1}")
-        axes[0].legend(loc="upper right")
-        axes[-1].set_xlabel("t [s]")
-        fig.tight_layout()
-        from .._files import atomic_write
+        from .measurements import Measurements
+        from .validation import plot_validation, validate
 
-        ext = plot.rsplit(".", 1)[-1].lower() if "." in plot else "png"
-        atomic_write(plot, lambda fh: fig.savefig(fh, format=ext, dpi=120), binary=True)
+        class _Predicts:       # a FitResult scored like a model (validate calls inverse_dynamics)
+            n, name = prior.n, "consistent fit"
+
+            def inverse_dynamics(self, q, qd, qdd):
+                return fits["consistent"].predict(q, qd, qdd)
+
+        scored = validate(_Predicts(), Measurements(held.t, held.q, held.qd, held.qdd, held_tau))
+        plot_validation(scored, plot, title=f"identification demo ({name}): held-out joint torques, "
+                                             "measured and predicted by the consistent fit")
         print(f"plot written to {plot}", file=out)
     return figures
 

@@ -110,7 +110,7 @@ def validate(model, data, name: str | None = None) -> ValidationResult:
 
 
 def plot_validation(results, path, title: str | None = None, units=None) -> None:
-    """Measured against predicted torque per joint, one panel each, written to ``path``.
+    """Measured against predicted torque per joint, with a residual panel under each, written to ``path``.
 
     ``results`` is one :class:`ValidationResult` or a list of them (several models on the
     same data, e.g. identified against published); ``units`` per joint (default N m).
@@ -124,26 +124,31 @@ def plot_validation(results, path, title: str | None = None, units=None) -> None
     units = units or ["N m"] * n
     ncol = 2 if n > 3 else 1
     nrow = math.ceil(n / ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(11 if ncol == 2 else 7, 2.1 * nrow + 0.8),
-                             sharex=True, squeeze=False)
-    for j in range(nrow * ncol):
-        ax = axes[j // ncol][j % ncol]
-        if j >= n:
-            ax.set_visible(False)
-            continue
+    fig = plt.figure(figsize=(12 if ncol == 2 else 7.5, 2.9 * nrow + 0.9))
+    outer = fig.add_gridspec(nrow, ncol, hspace=0.5, wspace=0.3, top=1 - 1.3 / (2.9 * nrow + 0.9))
+    for j in range(n):
+        inner = outer[j // ncol, j % ncol].subgridspec(2, 1, height_ratios=(3, 1), hspace=0.05)
+        ax, axr = fig.add_subplot(inner[0]), fig.add_subplot(inner[1])
         ax.plot(r0.t, r0.measured[:, j], color="0.55", lw=1.2, label="measured")
         for k, r in enumerate(results):
             if r.band is not None:
                 ax.fill_between(r.t, r.predicted[:, j] - r.band[:, j], r.predicted[:, j] + r.band[:, j],
-                                color=f"C{k}", alpha=0.25, lw=0,
-                                label=f"95 % band (holds {100 * r.coverage[j]:.0f} %)")
-            ax.plot(r.t, r.predicted[:, j], lw=1.0, color=f"C{k}",
-                    label=f"{r.model} (RMS {r.rms[j]:.3g} {units[j]})")
-        ax.set_ylabel(f"joint {j + 1} torque ({units[j]})")
-        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
+                                color=f"C{k}", alpha=0.25, lw=0, label=f"{r.model}: 95 % prediction band")
+            ax.plot(r.t, r.predicted[:, j], lw=1.0, color=f"C{k}", label=f"{r.model}: predicted")
+            axr.plot(r.t, r.measured[:, j] - r.predicted[:, j], lw=0.8, color=f"C{k}")
+        axr.axhline(0.0, color="0.3", lw=0.6)
+        ax.set_ylabel(f"torque ({units[j]})")
+        axr.set_ylabel(f"residual ({units[j]})", fontsize=8)
+        ax.tick_params(labelbottom=False)
+        ax.set_title(f"joint {j + 1}: RMS error " + ", ".join(
+            f"{r.rms[j]:.3g} {units[j]}" + (f" (band holds {100 * r.coverage[j]:.0f} %)" if r.coverage is not None
+                                           else "") for r in results), fontsize=9)
+        if j == 0:
+            handles, labels = ax.get_legend_handles_labels()
         ax.grid(alpha=0.3)
-        if j // ncol == nrow - 1 or j + ncol >= n:
-            ax.set_xlabel("time (s)")
+        axr.grid(alpha=0.3)
+        axr.set_xlabel("time (s)", fontsize=8)
+    fig.legend(handles, labels, loc="upper center", ncol=len(labels), frameon=False,
+               bbox_to_anchor=(0.5, 1 - 0.55 / (2.9 * nrow + 0.9)))
     fig.suptitle(title or f"measured and predicted joint torques: {', '.join(r.model for r in results)}")
-    fig.tight_layout()
     save_figure(fig, path)
