@@ -241,7 +241,7 @@ def test_cli_refuses_meaningless_data(tmp_path, capsys, ur5_motion):
     write_measurements_csv(zero, ex.t, ex.q, 0 * tau, qd=ex.qd, qdd=ex.qdd)
     write_measurements_csv(deg, ex.t, np.degrees(ex.q), tau, qd=np.degrees(ex.qd), qdd=np.degrees(ex.qdd))
     out = tmp_path / "x.toml"
-    cases = [([str(zero)], "zero torque in every sample"),
+    cases = [([str(zero)], "every torque of every joint is 0"),
              ([str(deg)], "outside the model's joint limits"),
              ([str(zero), "--com-bound", "1e308"], "--com-bound: expected a number in")]
     for extra, msg in cases:

@@ -242,16 +242,15 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         raise ModelError("bounds: only the 'consistent' method takes bounds")
     if bounds is not None:
         bounds.check(arm.n)
-    still = np.flatnonzero(np.all(np.asarray(tau, dtype=np.float64) == 0.0, axis=0)) if np.ndim(tau) == 2 else []
-    if len(still):
-        raise ModelError(f"tau: joint(s) {', '.join(str(j + 1) for j in still)} have zero torque in every sample; "
-                         "a logged torque is never exactly 0 throughout (a missing column, or the wrong one?)")
     if not (0.0 <= float(prior_weight) < float("inf")):
         raise ModelError(f"prior_weight: expected a finite number >= 0, got {prior_weight}")
     if prior_weight and method != "consistent":
         raise ModelError("prior_weight: only the 'consistent' method takes a prior weight")
     n = arm.n
     q, qd, qdd, tau = _check(q, qd, qdd, tau, n)
+    if not np.any(tau):
+        raise ModelError("tau: every torque of every joint is 0; a logged torque is never exactly 0 "
+                         "throughout (a missing column, or the wrong one?)")
     if base is None:
         base = base_parameters(arm, armature=armature, friction=friction)
     else:
