@@ -190,9 +190,14 @@ class PinocchioDerivatives:
         ``qdd = D^-1 (tau - h - g - F)`` with the full ``D`` (CRBA plus the rotor coupling), so
         ``dqdd/dx = -D^-1 dtau/dx`` at ``(q, qd, qdd)`` for x = q, qd, and ``dqdd/dtau = D^-1``.
         """
-        qdd = self.forward_dynamics(q, qd, tau)
+        D = self.mass_matrix(q)                               # one CRBA: qdd and the derivatives share it
+        try:
+            Dinv = np.linalg.inv(D)
+        except np.linalg.LinAlgError:
+            raise SingularMassMatrixError.for_mass_matrix(D) from None
+        rhs = as_state(tau, "tau", self.n) - self.inverse_dynamics(q, qd, np.zeros(np.shape(qd)))
+        qdd = (Dinv @ rhs[..., None])[..., 0]                 # D qdd = tau - h - g - F
         dq, dv = self.inverse_dynamics_derivatives(q, qd, qdd)
-        Dinv = np.linalg.inv(self.mass_matrix(q))
         return -(Dinv @ dq), -(Dinv @ dv), Dinv
 
     def gravity_derivative(self, q) -> np.ndarray:

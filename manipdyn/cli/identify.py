@@ -236,7 +236,8 @@ def run(args) -> int:
         result = fit(arm, data.q, data.qd, data.qdd, data.tau, method=args.method,
                      friction=friction, armature=args.armature, bounds=bounds, name=name,
                      prior_weight=args.prior_weight)
-        prov = provenance(args.data, args.method, opts, args.model, result.report["rms_residual"])
+        prov = provenance(args.data, args.method, opts, args.model, result.report["rms_residual"],
+                          sha256=getattr(data, "source_sha256", None))   # read_log hashed the bytes it read
         if result.arm is not None:
             from ..identification.model import arm_with_parameters
 

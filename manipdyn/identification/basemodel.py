@@ -38,6 +38,7 @@ import numpy as np
 from .. import limits
 from .._files import atomic_write_text
 from ..errors import ModelError
+from .report import friction_to_json
 
 __all__ = ["BASE_MODEL_FORMAT", "BaseModel", "base_model_dict", "write_base_model", "load_base_model",
            "prior_text"]
@@ -56,23 +57,6 @@ def prior_text(arm) -> dict:
     if not src:
         raise ModelError(f"prior {arm.name!r}: has neither model-file nor URDF text to embed")
     return {"kind": "urdf", "text": src, "tip": getattr(arm, "tip", None)}
-
-
-def friction_to_json(friction, n: int):
-    """A regressor's ``friction=`` as JSON: a bool, or the law's terms, side, smoothing,
-    deadband and nonlinear shapes (:func:`friction_from_json` reads it back)."""
-    if friction is None or friction is False or friction is True:
-        return bool(friction)
-    from ..friction import friction_spec
-
-    spec = friction_spec(friction, n)
-    out = {"terms": list(spec.terms), "side": spec.side, "smoothing": spec.smoothing,
-           "deadband": spec.deadband, "stribeck_exponent": spec.stribeck_exponent}
-    for key in ("stribeck_velocity", "sigmoid_alpha", "sigmoid_p3"):
-        v = getattr(spec, key)
-        if v is not None:
-            out[key] = [float(x) for x in v]
-    return out
 
 
 def friction_from_json(value, n: int):
@@ -193,14 +177,10 @@ class BaseModel:
         where those were not identified, the prior's own armature and friction torques are
         added (as :meth:`FitResult.predict` does).
         """
-        eng = self.arm.lagrange
-        Y = eng.regressor(q, qd, qdd, armature=self.armature, friction=self.friction)
-        tau = Y @ self.parameters
-        if not self.armature:
-            tau = tau + np.asarray(qdd, dtype=np.float64) @ np.asarray(self.arm.rotor_inertia)
-        if self.friction is False and self.arm.friction_model is not None:
-            tau = tau + eng.friction_torque(qd)
-        return tau
+        from .estimation import known_torque
+
+        Y = self.arm.lagrange.regressor(q, qd, qdd, armature=self.armature, friction=self.friction)
+        return Y @ self.parameters + known_torque(self.arm, qd, qdd, self.armature, self.friction)
 
 
 def load_base_model(path) -> BaseModel:

@@ -165,21 +165,14 @@ def run_demo(name: str = "ur5", seed: int = 0, iterations: int = 15, plot: str |
     if plot:
         from ._deps import MissingExtraError
         try:
-            import matplotlib
-            matplotlib.use("Agg")
-            import matplotlib.pyplot as plt
+            import matplotlib  # noqa: F401  (the figure itself: validation.plot_validation)
         except ImportError:
             raise MissingExtraError("--plot needs matplotlib: pip install 'manipdyn[plot]'") from None
         from .measurements import Measurements
         from .validation import plot_validation, validate
 
-        class _Predicts:       # a FitResult scored like a model (validate calls inverse_dynamics)
-            n, name = prior.n, "consistent fit"
-
-            def inverse_dynamics(self, q, qd, qdd):
-                return fits["consistent"].predict(q, qd, qdd)
-
-        scored = validate(_Predicts(), Measurements(held.t, held.q, held.qd, held.qdd, held_tau))
+        scored = validate(fits["consistent"], Measurements(held.t, held.q, held.qd, held.qdd, held_tau),
+                          name="consistent fit")
         plot_validation(scored, plot, title=f"identification demo ({name}): held-out joint torques, "
                                              "measured and predicted by the consistent fit")
         print(f"plot written to {plot}", file=out)

@@ -42,7 +42,7 @@ from .base import BaseParameters, base_parameters, check_base
 from .sdp import Bounds, consistent_fit
 from .uncertainty import base_covariance
 
-__all__ = ["fit", "FitResult", "METHODS", "link_min_eigenvalues"]
+__all__ = ["fit", "FitResult", "METHODS", "link_min_eigenvalues", "known_torque"]
 
 METHODS = ("ols", "wls", "consistent")
 
@@ -111,16 +111,32 @@ class FitResult:
     covariance: np.ndarray | None = None     # (r, r) of beta, wls and consistent (.uncertainty)
     report: dict = field(default_factory=dict)
 
+    @property
+    def n(self) -> int:
+        return self.prior.n
+
+    @property
+    def name(self) -> str:
+        return f"{self.method} fit"
+
+    def inverse_dynamics(self, q, qd, qdd) -> np.ndarray:
+        """:meth:`predict`, under the name every model has (so a fit can be scored by
+        :func:`manipdyn.identification.validation.validate`)."""
+        return self.predict(q, qd, qdd)
+
     def predict(self, q, qd, qdd) -> np.ndarray:
         """Torques of the identified model, (N, n) or (n,): ``Y_b beta`` plus the prior's
         armature and friction torques where those were not identified."""
         b = self.base
         Y = self.prior.lagrange.regressor(q, qd, qdd, armature=b.armature, friction=b.friction)
-        return b.regressor(Y) @ self.beta + _known_torque(self.prior, qd, qdd, b.armature, b.friction)
+        return b.regressor(Y) @ self.beta + known_torque(self.prior, qd, qdd, b.armature, b.friction)
 
 
-def _known_torque(prior, qd, qdd, armature, friction):
-    """Prior torques outside the fitted parameters (rotor inertia, friction), (..., n)."""
+def known_torque(prior, qd, qdd, armature, friction):
+    """Prior torques outside the fitted parameters (rotor inertia, friction), (..., n).
+
+    Shared by :meth:`FitResult.predict`, :func:`fit` (subtracted from the measurements) and
+    :meth:`manipdyn.identification.basemodel.BaseModel.inverse_dynamics`."""
     out = np.zeros(np.shape(qd))
     if not armature:
         out = out + np.asarray(qdd) @ np.asarray(prior.rotor_inertia)   # R^T diag(Jm) R, symmetric
@@ -259,7 +275,7 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     if N * n < r:
         raise ModelError(f"data: {N} samples give {N * n} equations for {r} base parameters")
     Yb = base.regressor(arm.lagrange.regressor(q, qd, qdd, armature=armature, friction=friction))
-    y = tau - _known_torque(arm, qd, qdd, armature, friction)
+    y = tau - known_torque(arm, qd, qdd, armature, friction)
     R0, c0, _ = _reduce(Yb.reshape(-1, r), y.reshape(-1))
     s = np.linalg.svd(R0, compute_uv=False)              # the singular values of the stacked Y_b
     cond = float(s[0] / s[-1]) if s[-1] > 0 else float("inf")

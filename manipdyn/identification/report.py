@@ -9,18 +9,25 @@ import numpy as np
 
 from .uncertainty import STD_SOURCE
 
-__all__ = ["build_report", "format_report"]
+__all__ = ["build_report", "format_report", "friction_to_json"]
 
 
-def _friction_label(friction, n):
-    """False, True (viscous + sharp Coulomb), or the identified friction parameter names' terms."""
-    if friction is False or friction is None or friction is True:
+def friction_to_json(friction, n: int):
+    """A regressor's ``friction=`` as JSON: a bool, or the law's terms, side, smoothing,
+    deadband and nonlinear shapes (:func:`friction_from_json` reads it back)."""
+    if friction is None or friction is False or friction is True:
         return bool(friction)
     from ..friction import friction_spec
 
     spec = friction_spec(friction, n)
-    return {"terms": list(spec.terms), "side": spec.side, "smoothing": spec.smoothing,
-            "deadband": spec.deadband}
+    out = {"terms": list(spec.terms), "side": spec.side, "smoothing": spec.smoothing,
+           "deadband": spec.deadband, "stribeck_exponent": spec.stribeck_exponent}
+    for key in ("stribeck_velocity", "sigmoid_alpha", "sigmoid_p3"):
+        v = getattr(spec, key)
+        if v is not None:
+            out[key] = [float(x) for x in v]
+    return out
+
 
 
 def build_report(result, solver: str, samples: int, cov=None, min_eigenvalues=None) -> dict:
@@ -49,7 +56,7 @@ def build_report(result, solver: str, samples: int, cov=None, min_eigenvalues=No
         "min_eigenvalue_J": [float(x) for x in (min_eigenvalues if min_eigenvalues is not None else [])],
         "samples": int(samples),
         "solver": solver,
-        "friction": _friction_label(b.friction, len(result.sigma)),
+        "friction": friction_to_json(b.friction, len(result.sigma)),
         "armature": bool(b.armature),
         "arm_error": result.arm_error,
         "base_parameters": rows,
