@@ -34,6 +34,7 @@ import os
 import sys
 
 from ..errors import ModelError
+from ..friction import Friction
 from ..io import save, write_urdf
 from .common import EXIT_DISAGREE as EXIT_FAILED
 from .logopts import log_options_from_args, model_joint_names, register_log_options
@@ -70,12 +71,21 @@ def register(subparsers) -> None:
     p.add_argument("--friction", action="store_true", help="identify viscous and Coulomb friction")
     p.add_argument("--friction-terms", metavar="T1,T2", default=None,
                    help="identify these friction terms instead: some of viscous, coulomb, asymmetric "
-                        "(separate + and - Coulomb levels), offset (constant torque per joint)")
+                        "(separate + and - Coulomb levels), offset (constant torque per joint), stribeck, "
+                        "sigmoid (Gaz et al.'s; the nonlinear shapes of these two are fitted by variable "
+                        "projection, manipdyn.identification.varpro)")
     p.add_argument("--friction-side", choices=("joint", "motor"), default="joint",
                    help="with --friction-terms: the law acts on the joint or the motor velocities")
     p.add_argument("--smoothing", type=float, default=None, metavar="V",
                    help="with --friction-terms: Coulomb sign smoothed as tanh(v / V) (default 0.01 rad/s; "
                         "0 = sharp sign)")
+    p.add_argument("--stribeck-velocity", type=float, default=None, metavar="V",
+                   help="with --friction-terms ...,stribeck: the Stribeck velocity the search starts from, "
+                        "rad/s on the law's side (default 0.1 rad/s at the joint: 0.1 |R_kk| at motor k)")
+    p.add_argument("--sigmoid-alpha", type=float, default=None, metavar="A",
+                   help="with --friction-terms ...,sigmoid: the steepness the search starts from, s/rad "
+                        "on the law's side (default 10 s/rad at the joint: 10 / |R_kk| at motor k); "
+                        "the shift starts at 0")
     p.add_argument("--armature", action="store_true", help="identify armature (reflected rotor inertia)")
     p.add_argument("--mass-bound", type=float, default=None, metavar="F",
                    help="consistent: each link's mass within +-F (fraction) of the prior's (default 0.5)")
@@ -129,13 +139,22 @@ def _bounds(args, arm):
         total=PLAUSIBLE_TOTAL if args.total_mass_bound is None else args.total_mass_bound)
 
 
-def _friction(args):
-    """``--friction`` (True) or a FrictionTerms from ``--friction-terms``/``--friction-side``/``--smoothing``."""
+#: where variable projection starts the shapes, at the joint (motor k: scaled by |R_kk|)
+START_STRIBECK_VELOCITY = 0.1   # rad/s
+START_SIGMOID_ALPHA = 10.0      # s/rad
+SHAPED = ("stribeck", "sigmoid")
+
+
+def _friction(args, arm):
+    """``--friction`` (True), a FrictionTerms from ``--friction-terms``/``--friction-side``/``--smoothing``,
+    or, with a Stribeck or sigmoid term, a Friction holding the shapes' starting values."""
     from ..friction import DEFAULT_SMOOTHING, FrictionTerms
 
+    shape_opts = [o for o, v in (("--stribeck-velocity", args.stribeck_velocity),
+                                 ("--sigmoid-alpha", args.sigmoid_alpha)) if v is not None]
     if args.friction_terms is None:
-        if args.smoothing is not None or args.friction_side != "joint":
-            raise ModelError("--smoothing/--friction-side: only with --friction-terms")
+        if args.smoothing is not None or args.friction_side != "joint" or shape_opts:
+            raise ModelError(f"{(shape_opts or ['--smoothing/--friction-side'])[0]}: only with --friction-terms")
         return bool(args.friction)
     if args.friction:
         raise ModelError("--friction-terms: give either --friction (viscous + sharp Coulomb) or --friction-terms")
@@ -143,7 +162,32 @@ def _friction(args):
     if not 0 <= v < float("inf"):
         raise ModelError(f"--smoothing: expected a finite velocity >= 0, got {v}")
     terms = tuple(t.strip() for t in args.friction_terms.split(",") if t.strip())
-    return FrictionTerms(terms, side=args.friction_side, smoothing=v)
+    shaped = [t for t in terms if t in SHAPED]
+    for opt, term in (("--stribeck-velocity", "stribeck"), ("--sigmoid-alpha", "sigmoid")):
+        if opt in shape_opts and term not in shaped:
+            raise ModelError(f"{opt}: only with a {term} term in --friction-terms")
+    linear = FrictionTerms(tuple(t for t in terms if t not in SHAPED), side=args.friction_side, smoothing=v)
+    if not shaped:
+        return linear
+    for opt, x in (("--stribeck-velocity", args.stribeck_velocity), ("--sigmoid-alpha", args.sigmoid_alpha)):
+        if x is not None and not 0 < x < float("inf"):
+            raise ModelError(f"{opt}: expected a finite number > 0, got {x}")
+    scale = np.ones(arm.n)
+    if args.friction_side == "motor":
+        scale = np.abs(np.diag(np.asarray(arm.transmission.R, dtype=np.float64)))
+    z = np.zeros(arm.n)
+    kw = {t: z for t in linear.terms if t != "asymmetric"}
+    if "asymmetric" in linear.terms:
+        kw.update(coulomb_pos=z, coulomb_neg=z)
+    if "stribeck" in shaped:
+        vs = START_STRIBECK_VELOCITY if args.stribeck_velocity is None else args.stribeck_velocity
+        kw.update(stribeck_level=z, stribeck_velocity=vs * (scale if args.stribeck_velocity is None else 1.0)
+                  * np.ones(arm.n))
+    if "sigmoid" in shaped:
+        a = START_SIGMOID_ALPHA if args.sigmoid_alpha is None else args.sigmoid_alpha
+        kw.update(sigmoid_A=z, sigmoid_alpha=a / (scale if args.sigmoid_alpha is None else 1.0) * np.ones(arm.n),
+                  sigmoid_p3=z)
+    return Friction(**kw, side=args.friction_side, smoothing=v, n=arm.n)
 
 
 def _check_limits(data, arm, deg: bool) -> None:
@@ -162,7 +206,8 @@ def _check_limits(data, arm, deg: bool) -> None:
 
 
 def _options(args) -> dict:
-    keys = ("method", "friction", "friction_terms", "friction_side", "smoothing", "armature", "mass_bound", "com_bound", "total_mass_bound", "no_bounds",
+    keys = ("method", "friction", "friction_terms", "friction_side", "smoothing", "stribeck_velocity",
+            "sigmoid_alpha", "armature", "mass_bound", "com_bound", "total_mass_bound", "no_bounds",
             "prior_weight", "bootstrap", "scheduler", "cutoff", "columns", "deg", "rate", "time_scale", "resample", "no_decimate",
             "t_range", "topic", "joint_names")
     return {k: getattr(args, k) for k in keys if getattr(args, k, None) not in (None, False)}
@@ -204,7 +249,7 @@ def run(args) -> int:
     try:
         arm, _ = load_arm(args.model)
         bounds = _bounds(args, arm)
-        friction = _friction(args)
+        friction = _friction(args, arm)
         if isinstance(arm, URDFArm):
             # a URDF prior is written back as the same URDF with new <inertial>s
             if out.lower().endswith(".toml"):
@@ -221,6 +266,12 @@ def run(args) -> int:
         data = read_log(args.data, arm.n, transmission=arm.transmission,
                         **log_options_from_args(args, model_joint_names(arm)))
         _check_limits(data, arm, args.deg)
+        shapes = None
+        if isinstance(friction, Friction) and set(friction.terms) & set(SHAPED):
+            # the shapes first (a wls search, varpro's module docstring), then every fit holds them
+            from ..identification.varpro import fit_shapes
+
+            friction, shapes = fit_shapes(arm, data, friction, armature=args.armature)
         name = os.path.splitext(os.path.basename(out))[0] or arm.name
         if name.endswith(".base"):
             name = name[:-5]
@@ -260,6 +311,8 @@ def run(args) -> int:
         rep["prior_weight_selection"] = selection
     if boot is not None:
         rep["bootstrap"] = boot
+    if shapes is not None:
+        rep["friction_shapes"] = shapes
     rep.update({"model": args.model, "data": args.data, "output": None, "base_model": None,
                 "derived_derivatives": data.derived, "provenance": prov,
                 "data_notes": list(getattr(data, "notes", []))})
@@ -299,6 +352,12 @@ def run(args) -> int:
             print("prior weight by 5-fold blocked cross-validation: " + ", ".join(
                 f"{row['prior_weight']:g} (score {row['score']:.4f})" for row in selection)
                   + f" -> {args.prior_weight:g}")
+        if shapes is not None:
+            print("friction shapes by variable projection (" + ("converged" if shapes["converged"] else
+                  "NOT converged: " + shapes["message"]) + f", {shapes['evaluations']} evaluations): "
+                  + "; ".join(f"{k} " + " ".join(f"{x:.4g}" for x in v) for k, v in shapes["fitted"].items()))
+            if shapes["at_bound"]:
+                print(f"  at the search's bound (not determined by the data?): {', '.join(shapes['at_bound'])}")
         if boot is not None:
             print(f"bootstrap: {boot['replicates']} replicates in blocks of {boot['block']} samples, "
                   f"{len(boot['failed'])} failed; std of each base parameter in --json")

@@ -23,7 +23,9 @@ at the initial shapes.  The link regressor ``Y_b`` does not depend on
 evaluation.  Shapes are searched on a log scale for ``vs`` and ``alpha``
 (both > 0), within a factor :data:`SHAPE_RANGE` of the initial value either
 way; ``p3`` within ``+-`` :data:`SHAPE_RANGE` times the initial ``|p3|``
-(at least ``SHAPE_RANGE / alpha``).  The Stribeck exponent is held fixed.
+(at least ``SHAPE_RANGE / alpha``).  The search is local, so it starts from the best of
+a coarse grid per actuator (:func:`_grid_start`: the initial ``vs`` and ``alpha`` times
+each of :data:`GRID`).  The Stribeck exponent is held fixed.
 
 The answer is one final :func:`~manipdyn.identification.fit` at the fitted
 shapes with the asked-for method (so ``consistent``'s constraints and the
@@ -41,7 +43,7 @@ from ..friction import Friction
 from .base import base_parameters
 from .estimation import fit
 
-__all__ = ["fit_friction_shapes", "SHAPE_RANGE", "SHAPES"]
+__all__ = ["fit_friction_shapes", "fit_shapes", "SHAPE_RANGE", "SHAPES"]
 
 #: how far (a factor, either way) a shape may move from its initial value
 SHAPE_RANGE = 100.0
@@ -106,6 +108,36 @@ def _unpack(x, unknowns, n):
     return out
 
 
+#: factors of the initial scale shapes (``vs``, ``alpha``) tried per actuator before the search
+GRID = (0.1, 0.3, 1.0, 3.0, 10.0)
+
+
+def _grid_start(residual, x0, unknowns, n):
+    """``(x0, factor (n,))``: per actuator, the factor of :data:`GRID` on its scale shapes whose
+    residual on that joint's rows is smallest.
+
+    The search is local: started a factor of 5 away from a sigmoid's steepness it can settle
+    in a wrong valley (a shifted, flat sigmoid).  Every actuator's scale shapes are set to
+    ``factor * initial`` at once, and each joint keeps the factor that explains its own
+    rows best (the link parameters, shared by all joints, are re-solved each time), so
+    this costs ``len(GRID)`` linear solves.  Shifts (``p3``) start where they were.
+    """
+    logs = [k for k, (f, _) in enumerate(unknowns) if f in _LOG]
+    best, norms = np.ones(n), np.full(n, np.inf)
+    for g in GRID:
+        x = x0.copy()
+        for k in logs:
+            x[k * n:(k + 1) * n] += np.log(g)
+        r = residual(x).reshape(-1, n)
+        rn = np.einsum("ij,ij->j", r, r)
+        better = rn < norms
+        best[better], norms[better] = g, rn[better]
+    x = x0.copy()
+    for k in logs:
+        x[k * n:(k + 1) * n] += np.log(best)
+    return x, best
+
+
 def fit_friction_shapes(arm, data, friction: Friction, method: str = "wls", *, armature: bool = False,
                         max_nfev: int = 60, **fit_kwargs):
     """Identify ``arm`` with a friction law whose nonlinear shapes are fitted too (module docstring).
@@ -135,6 +167,21 @@ def fit_friction_shapes(arm, data, friction: Friction, method: str = "wls", *, a
         Of the final fit; its arm carries the fitted shapes (``arm.friction_model``), and
         ``report["friction_shapes"]`` holds the initial and fitted shapes, the weighted
         residual norm before and after, the evaluations and the solver's message.
+    """
+    law, info = fit_shapes(arm, data, friction, armature=armature, max_nfev=max_nfev)
+    q, qd, qdd, tau = (np.asarray(a, dtype=np.float64) for a in _samples(data))
+    result = fit(arm, q, qd, qdd, tau, method=method, friction=law, armature=armature, **fit_kwargs)
+    result.report["friction_shapes"] = info
+    return result
+
+
+def fit_shapes(arm, data, friction: Friction, *, armature: bool = False, max_nfev: int = 60):
+    """``(law, info)``: the shapes of ``friction`` fitted by variable projection (module docstring).
+
+    The search of :func:`fit_friction_shapes` alone, for callers that go on to fit with the
+    shapes held (e.g. to choose a prior weight first).  ``law`` is ``friction`` with the fitted
+    shapes (its amplitudes untouched: zeros for a spec); ``info`` is what
+    ``report["friction_shapes"]`` holds.  Parameters as for :func:`fit_friction_shapes`.
     """
     from ._deps import require
 
@@ -168,18 +215,18 @@ def fit_friction_shapes(arm, data, friction: Friction, method: str = "wls", *, a
 
     x0, lo, hi = _pack_bounds(unknowns)
     cost0 = float(np.linalg.norm(residual(x0)))
+    x0, grid = _grid_start(residual, x0, unknowns, n)
     res = optimize.least_squares(residual, x0, bounds=(lo, hi), method="trf", x_scale="jac",
                                  max_nfev=int(max_nfev), diff_step=1e-4)
     shapes = _unpack(res.x, unknowns, n)
-    law = _with_shapes(friction, shapes)
-    result = fit(arm, q, qd, qdd, tau, method=method, friction=law, armature=armature, **fit_kwargs)
     at_bound = [f"{f}[{i + 1}]" for k, (f, _) in enumerate(unknowns) for i in range(n)
                 if res.active_mask[k * n + i] != 0]
-    result.report["friction_shapes"] = {
+    info = {
         "initial": {f: v.tolist() for f, v in unknowns},
+        "start_factor": grid.tolist(),
         "fitted": {f: v.tolist() for f, v in shapes.items()},
         "weighted_residual_norm": {"initial": cost0, "fitted": float(np.linalg.norm(res.fun))},
         "evaluations": int(res.nfev), "converged": bool(res.status > 0), "message": str(res.message),
         "at_bound": at_bound,
     }
-    return result
+    return _with_shapes(friction, shapes), info
