@@ -86,9 +86,8 @@ def test_hard_log_is_hard(tmp_path):
 
 def test_identification_from_the_hard_log_meets_the_issue_targets(tmp_path):
     """Issue 17, item 7.  Identify from the log as written (motor-side positions and currents,
-    messy stamps), on the first 30 s, validate on the last 10 s.  Seed 0 only: on seeds 1 and 2
-    (benchmarks/bench_hardlog.py) the held-out and friction targets hold too, but a wrist
-    rotor inertia misses 5 % (14.5 % and 11.1 %) and so do offsets (20.9 %, 6.0 %)."""
+    messy stamps), on the first 30 s, validate on the last 10 s.  Seed 0 here; seeds 0 to 7
+    in benchmarks/bench_hardlog.py."""
     h = hard_log(0, tmp_path)                                    # 40 s, 10 s held out
     prior = md.load(h.prior_file)
     data = read_log(h.log, 6, transmission=prior.transmission, t_range=(None, h.split))
@@ -107,14 +106,8 @@ def test_identification_from_the_hard_log_meets_the_issue_targets(tmp_path):
     assert {k for k, v in rec.items() if not v["identifiable"]} == {"joint1.armature", "joint2.armature"}
     errors = {k: v["error"] for k, v in rec.items() if v["identifiable"]}
     assert len(errors) == 4 + 6 * 6           # armatures 3..6; fv, fc+, fc-, offset, Stribeck level and velocity
-    # the issue's target, 5 %, on every identifiable rotor and friction parameter but the offsets
-    off = {k: e for k, e in errors.items() if not k.endswith(".offset")}
-    assert max(abs(e) for e in off.values()) < 0.05, {k: round(e, 4) for k, e in off.items() if abs(e) >= 0.05}
-    worst = max(abs(e) for k, e in errors.items() if k.endswith(".offset"))
-    if worst >= 0.05:
-        pytest.xfail(f"a joint torque offset is off by {100 * worst:.2f} % (target 5 %); the probable cause "
-                     "(not yet verified): a constant offset is nearly collinear with the asymmetric Coulomb levels, (fc+ - fc-)/2 |sign(v)|, which differ "
-                     "from it only while a motor turns slower than the sign's smoothing")
+    # the issue's target, 5 %, on every identifiable rotor and friction parameter
+    assert max(abs(e) for e in errors.values()) < 0.05, {k: round(e, 4) for k, e in errors.items() if abs(e) >= 0.05}
 
 
 def test_cli_identify_fits_sigmoid_shapes_by_variable_projection(tmp_path, capsys):

@@ -248,7 +248,7 @@ def test_cutoff_chosen_from_a_fast_motion_and_decimated(tmp_path):
     assert m.cutoff > 5.0                 # 3 x 4.5 Hz = 13.5 Hz: the motion passes
     assert m.decimation > 1 and m.rate < rate / 2
     assert any(f"decimated by {m.decimation}" in x for x in m.notes)
-    assert any("99.9 % of q's power" in x for x in m.notes)
+    assert any("99.99 % of qd's power" in x for x in m.notes)
     ref = qdd_ref[np.searchsorted(t, m.t[0]):][:: m.decimation][: len(m.t)]
     # the top harmonic at 4.5 Hz passes a 13.5 Hz cut-off with 1.5e-4 error
     assert np.abs(m.qdd - ref).max() < 2e-3 * np.abs(ref).max()
