@@ -43,6 +43,15 @@ _crba, _rnea, _aba, _gravity = pin.crba, pin.rnea, pin.aba, pin.computeGeneraliz
 #: more than it saves on small batches)
 PARALLEL_MIN_STATES = 2048
 
+#: the process in which a batch call first ran on several threads: Pinocchio's
+#: ``*InParallel`` calls start GNU OpenMP's thread pool there, and a process forked
+#: from it inherits a pool whose threads did not survive the fork, so its next
+#: parallel region waits for them forever (measured: a 4096-state batch in a child
+#: forked after the parent ran one never returns).  A forked child therefore runs
+#: its batches on one thread (a team of one never touches the pool); the numbers
+#: are the same either way.
+_POOL_PID = [None]
+
 
 
 
@@ -191,7 +200,14 @@ class PinocchioEngine(PinocchioDerivatives):  # derivatives: manipdyn.pinocchio_
         return pin.rneaInParallel(self._batch_threads(len(q)), pool, q.T, qd.T, qdd.T).T.reshape(q.shape)
 
     def _batch_threads(self, N: int) -> int:
-        return self._num_threads if N >= PARALLEL_MIN_STATES else 1
+        if N < PARALLEL_MIN_STATES or self._num_threads == 1:
+            return 1
+        pid = os.getpid()
+        if _POOL_PID[0] is None:
+            _POOL_PID[0] = pid
+        elif _POOL_PID[0] != pid:      # forked from the process that started the pool (see _POOL_PID)
+            return 1
+        return self._num_threads
 
     def _friction(self, qd):
         if self._law is not None:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+import signal
 import warnings
 
 import numpy as np
@@ -127,3 +129,36 @@ def test_mixed_single_and_batch_states_name_the_argument(arm, method):
     for eng in (arm.pinocchio, arm.lagrange):
         with pytest.raises(ValueError, match=r"^qd: got shape \(3, 6\), expected \(6,\) to match q"):
             getattr(eng, method)(*args)
+
+
+@pytest.mark.skipif("fork" not in __import__("multiprocessing").get_all_start_methods(),
+                    reason="needs the fork start method (POSIX)")
+def test_a_forked_child_runs_a_large_batch_after_its_parent_did():
+    """GNU OpenMP's pool does not survive fork: before the fix, a child forked after its parent ran
+    a parallel batch (>= PARALLEL_MIN_STATES states, several threads) hung in its own batch.  The
+    child must answer, with the parent's numbers; it is killed (by its pid) after 60 s."""
+    import multiprocessing as mp
+
+    from manipdyn.pinocchio_engine import PARALLEL_MIN_STATES
+
+    arm = md.load("ur5")
+    arm.pinocchio.num_threads = 2
+    rng = np.random.default_rng(0)
+    q, qd, qdd = (rng.uniform(-1, 1, (2 * PARALLEL_MIN_STATES, 6)) for _ in range(3))
+    parent = arm.inverse_dynamics(q, qd, qdd)            # starts the pool here
+
+    def child(conn):
+        conn.send(arm.inverse_dynamics(q, qd, qdd))
+        conn.close()
+
+    ctx = mp.get_context("fork")
+    recv, send = ctx.Pipe(duplex=False)
+    p = ctx.Process(target=child, args=(send,), daemon=True)
+    p.start()
+    try:
+        assert recv.poll(60), "the forked child's batch did not return within 60 s"
+        np.testing.assert_array_equal(recv.recv(), parent)
+    finally:
+        if p.is_alive():
+            os.kill(p.pid, signal.SIGKILL)
+        p.join(10)

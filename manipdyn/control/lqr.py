@@ -232,10 +232,8 @@ class LQR(Controller):
         if q_d.shape != (N + 1, self.n):
             raise ValueError(f"trajectory: expected ({N + 1}, {self.n}) samples for an array of times, "
                              f"got {q_d.shape}")
-        # one state at a time: a batch of 2048 states or more would go to Pinocchio's OpenMP
-        # pool, which hangs in a process forked from one that used it (a forked Monte-Carlo
-        # or fuzzing worker); the numbers are the same either way
-        tau = np.array([self.arm.inverse_dynamics(a, b, c) for a, b, c in zip(q_d, qd_d, qdd_d)])
+        # a batch (a forked worker runs it on one thread: pinocchio_engine._POOL_PID)
+        tau = self.arm.inverse_dynamics(q_d, qd_d, qdd_d)
         A, B = self.arm.linearize(q_d, qd_d, tau, dt=self.dt)
         Q, R = self.Q, self.R
         n2 = 2 * self.n
