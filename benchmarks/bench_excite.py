@@ -30,19 +30,16 @@ import json
 import os
 import platform
 import sys
-import tempfile
 import time
 import warnings
-from pathlib import Path
 
 import numpy as np
 
 import manipdyn as md
-from benchmarks.timing import blas_config
+from benchmarks.timing import blas_config, write_run
 from manipdyn.identification import base_parameters, excitation
 from manipdyn.identification import trajectory as _trajectory
 
-RESULTS = Path(__file__).resolve().parent / "results"
 #: manipdyn/cli/excite.py's defaults
 CLI_DEFAULTS = dict(duration=10.0, harmonics=5, rate=100.0, seed=0, iterations=60)
 
@@ -53,12 +50,6 @@ def _load(name):
         return md.load(name)
 
 
-def _write(path: Path, text: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=path.suffix)
-    with os.fdopen(fd, "w", encoding="utf-8") as fh:
-        fh.write(text)
-    os.replace(tmp, path)
 
 
 def check(arm, ex, start) -> list[str]:
@@ -132,10 +123,8 @@ def main(argv=None) -> int:
             print(f"  !!! WRONG ANSWER ({r['arm']}): {prob}", file=sys.stderr)
     print(f"load average {env['loadavg_start']} -> {env['loadavg_end']}")
     if not args.no_write:
-        stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
-        out = Path(args.out) if args.out else RESULTS / "runs" / f"{stamp}-excite"
-        _write(out / "results.json", json.dumps({"environment": env, "results": rows}, indent=2) + "\n")
-        print(f"wrote {out / 'results.json'}")
+        path = write_run(json.dumps({"environment": env, "results": rows}, indent=2) + "\n", "excite", args.out)
+        print(f"wrote {path}")
     return 2 if any(r["problems"] for r in rows) else 0
 
 

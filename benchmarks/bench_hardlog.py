@@ -35,27 +35,19 @@ import sys
 import tempfile
 import time
 import warnings
-from pathlib import Path
 
 import numpy as np
 
 import manipdyn as md
 from benchmarks.bench_identification import environment
+from benchmarks.timing import write_run
 from manipdyn.friction import Friction
 from manipdyn.identification import read_log
 from manipdyn.identification.hardlog import SMOOTHING, hard_log, recovered
 from manipdyn.identification.varpro import fit_friction_shapes
 
-RESULTS = Path(__file__).resolve().parent / "results"
 
 
-def _write(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` atomically (a temporary file, then a rename)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=path.suffix)
-    with os.fdopen(fd, "w", encoding="utf-8") as fh:
-        fh.write(text)
-    os.replace(tmp, path)
 
 
 KINDS = ("armature", "fv", "fc_pos", "fc_neg", "offset", "stribeck", "stribeck_velocity")
@@ -114,10 +106,8 @@ def main(argv=None) -> int:
         print(f"  not identifiable alone: {', '.join(r['not_identifiable']) or 'none'}")
     print(f"BLAS: {env['blas']}; load average {env['loadavg_start']} -> {env['loadavg_end']}")
     if not args.no_write:
-        stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
-        out = Path(args.out) if args.out else RESULTS / "runs" / f"{stamp}-hardlog"
-        _write(out / "results.json", json.dumps({"environment": env, "runs": runs}, indent=2) + "\n")
-        print(f"wrote {out / 'results.json'}")
+        path = write_run(json.dumps({"environment": env, "runs": runs}, indent=2) + "\n", "hardlog", args.out)
+        print(f"wrote {path}")
     return 0
 
 

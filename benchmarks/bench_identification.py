@@ -30,7 +30,6 @@ import json
 import os
 import platform
 import sys
-import tempfile
 import time
 import warnings
 from pathlib import Path
@@ -38,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 import manipdyn as md
-from benchmarks.timing import blas_config, interleaved, paired_ratio
+from benchmarks.timing import blas_config, interleaved, paired_ratio, write_atomic, write_run
 from manipdyn.identification import excitation, fit
 from manipdyn.identification.demo import measure, true_arm
 
@@ -129,12 +128,6 @@ def bench_fit(name: str, samples: int, repeats: int) -> dict:
     return out
 
 
-def _write(path: Path, text: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=path.suffix)
-    with os.fdopen(fd, "w", encoding="utf-8") as fh:
-        fh.write(text)
-    os.replace(tmp, path)
 
 
 def main(argv=None) -> int:
@@ -169,13 +162,11 @@ def main(argv=None) -> int:
               f"{o['median_s']:7.3f} s (x{o['ratio_to_ols']:.2f})   (consistent: {v['consistent']}, {v['solver']})")
     print(f"BLAS: {env['blas']}; load average {env['loadavg_start']} -> {env['loadavg_end']}")
     if not args.no_write:
-        stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
-        out = Path(args.out) if args.out else RESULTS / "runs" / f"{stamp}-identification"
         text = json.dumps(result, indent=2) + "\n"
-        _write(out / "results.json", text)
-        print(f"wrote {out / 'results.json'}")
+        path = write_run(text, "identification", args.out)
+        print(f"wrote {path}")
         if args.publish:
-            _write(REFERENCE, text)
+            write_atomic(REFERENCE, text)
             print(f"wrote {REFERENCE}")
     return 0
 

@@ -41,10 +41,9 @@ from pathlib import Path
 import numpy as np
 
 import manipdyn as md
-from benchmarks.bench_hardlog import _write
 from benchmarks.bench_identification import environment
+from benchmarks.timing import write_run
 
-RESULTS = Path(__file__).resolve().parent / "results"
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "realdata" / "panda_gaz2019" / "panda_as_logged.csv"
 #: Gaz et al. (2019)'s sigmoid friction, the realdata README's table
 SIGMOID = dict(sigmoid_A=[0.54615, 0.87224, 0.64068, 1.2794, 0.83904, 0.30301, 0.56489],
@@ -174,10 +173,8 @@ def main(argv=None) -> int:
     print(_row("oracle (fitted on the held-out too)", res["oracle_held_out_rms"]))
     print(f"{res['wall_s']:.0f} s; BLAS: {env['blas']}")
     if not args.no_write:
-        stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
-        out = Path(args.out) if args.out else RESULTS / "runs" / f"{stamp}-panda"
-        _write(out / "results.json", json.dumps({"environment": env, "results": res}, indent=2) + "\n")
-        print(f"wrote {out / 'results.json'}")
+        path = write_run(json.dumps({"environment": env, "results": res}, indent=2) + "\n", "panda", args.out)
+        print(f"wrote {path}")
     return 0
 
 

@@ -151,3 +151,38 @@ def blas_config() -> list | str:
         return "threadpoolctl not installed (pip install 'manipdyn[bench]')"
     keep = ("user_api", "internal_api", "prefix", "version", "num_threads", "threading_layer", "architecture")
     return [{k: v for k, v in pool.items() if k in keep} for pool in threadpool_info()]
+
+
+def write_atomic(path, text: str) -> None:
+    """Write ``text`` to ``path`` atomically (a temporary file beside it, then a rename)."""
+    import os
+    import tempfile
+    from pathlib import Path
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=path.suffix)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        mask = os.umask(0)
+        os.umask(mask)
+        os.chmod(tmp, 0o666 & ~mask)          # mkstemp's 0600 is not what a results file should have
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def write_run(text: str, label: str, out=None):
+    """Write a benchmark's ``results.json`` text into ``out`` or, by default, its own
+    ``benchmarks/results/runs/<UTC time>-<label>/`` folder (ignored by git); returns the file."""
+    import time
+    from pathlib import Path
+
+    stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
+    folder = Path(out) if out else Path(__file__).resolve().parent / "results" / "runs" / f"{stamp}-{label}"
+    path = folder / "results.json"
+    write_atomic(path, text)
+    return path
