@@ -259,8 +259,8 @@ def model_text(arm) -> tuple:
         return ("toml", model_to_toml(arm), None, arm.name, None)
     text = getattr(arm, "urdf_text", None)
     if text is None:
-        raise ModelError(f"cannot send {type(arm).__name__} {arm.name!r} to workers "
-                         "as text (expected a DH arm or a URDF arm)")
+        raise ModelError(f"arm: cannot send {type(arm).__name__} {getattr(arm, 'name', arm)!r:.80} to workers "
+                         "as text (expected a DH arm or a URDF arm: manipdyn.load(...))")
     if getattr(arm, "custom_drive", False):
         raise ModelError(f"cannot send URDF arm {arm.name!r} to workers as text: its transmission or friction "
                          "law is not in the URDF (run it here, scheduler=None)")

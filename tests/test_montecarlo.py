@@ -297,3 +297,14 @@ def test_a_worker_killed_mid_study_loses_no_run_and_counts_none_twice(puma):
     assert _without_timing(report.to_json()) == _without_timing(local.to_json())
     # every chunk came back once, from the survivor or from the victim before it died
     assert sum(report.timing["chunks_by_process"].values()) == 20
+
+
+def test_study_takes_a_model_name_and_names_a_wrong_arm():
+    """``study("puma560", ...)`` loads the bundled arm as the command line does; something that is
+    not an arm is a ModelError naming the argument, not an AttributeError."""
+    from manipdyn.montecarlo import study
+
+    st = study("puma560", runs=2, seed=0, controllers=("pd",))
+    assert st.arm.name == "puma560" and st.arm == md.load("puma560")
+    with pytest.raises(md.ModelError, match=r"arm: cannot send int"):
+        study(42, runs=2)

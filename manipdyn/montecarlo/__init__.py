@@ -82,8 +82,9 @@ def study(arm, runs: int, seed: int = 0, controllers=CONTROLLER_KEYS, duration: 
 
     Parameters
     ----------
-    arm : manipdyn.Arm
-        The nominal arm: the controllers' model, and the plant before variation.
+    arm : manipdyn.Arm or str
+        The nominal arm: the controllers' model, and the plant before variation (a bundled
+        model name or a file path is loaded with :func:`manipdyn.load`).
     runs, seed : int
         Number of runs; study seed (run k uses ``SeedSequence(seed, spawn_key=(k,))``).
     controllers : sequence of str
@@ -103,8 +104,14 @@ def study(arm, runs: int, seed: int = 0, controllers=CONTROLLER_KEYS, duration: 
         :mod:`.identified`); the payload, link scale and added friction of
         ``distributions`` are then set to 0 (the start offset and torque noise stay).
     """
+    import os
+
     import numpy as np
 
+    if isinstance(arm, (str, os.PathLike)):
+        from ..loading import load
+
+        arm = load(arm)           # a bundled name, a model file or a URDF, as the command line takes
     check_study_size(runs, len(tuple(controllers)), duration, dt, bandwidth)
     lim = None
     if tau_max is not None:
