@@ -43,32 +43,33 @@ _aba_d = pin.computeABADerivatives
 _grav_d = pin.computeGeneralizedGravityDerivatives
 
 
-#: the shortcut takes states whose entries are all below this in magnitude: with
-#: the model's numbers capped (:mod:`manipdyn.limits`: lengths 1e4 m, masses and
-#: inertias 1e9, gravity 1e4, at most 100 joints), the derivatives are polynomials
-#: of degree <= 3 in such entries (times sines and cosines) and stay far below
-#: float64's 1e308, so a finite input gives a finite answer and the answer need not
-#: be read again (reading 2 n^2 numbers would cost more than the checks it saves)
+#: the shortcut takes states whose entries, together, have a Euclidean norm below
+#: this: with the model's numbers capped (:mod:`manipdyn.limits`: lengths 1e4 m,
+#: masses and inertias 1e9, gravity 1e4, at most 100 joints), the derivatives are
+#: polynomials of degree <= 3 in such entries (times sines and cosines) and stay far
+#: below float64's 1e308, so a finite input gives a finite answer and the answer need
+#: not be read again (reading 2 n^2 numbers would cost more than the checks it saves)
 _SHORTCUT_BOUND = 1e50
+_hypot = math.hypot
 
 
 def _plain(q, qd=None, x=None) -> bool:
-    """True for plain 1-D native-float64 ndarrays, finite and within :data:`_SHORTCUT_BOUND`.
+    """True for plain 1-D native-float64 ndarrays, finite, of norm below :data:`_SHORTCUT_BOUND`.
 
     Anything else (lists, other dtypes or byte orders, subclasses, batches,
     NaN, inf, huge values) takes the general path, which converts or refuses
-    it and names the argument.  A NaN makes the sum NaN; an inf makes the
-    sum, the max or the min fail the bounds.
+    it and names the argument.  One C call decides finiteness and size:
+    ``math.hypot`` of every entry is NaN or inf when one is (so the comparison
+    is False) and never overflows on its way to a huge value.
     """
     if type(q) is not _ND or q.dtype is not _F64 or q.ndim != 1:
         return False
-    v = q.tolist()
-    if qd is not None:
-        if (type(qd) is not _ND or type(x) is not _ND or qd.dtype is not _F64 or x.dtype is not _F64
-                or qd.ndim != 1 or x.ndim != 1):
-            return False
-        v += qd.tolist() + x.tolist()
-    return _isfinite(sum(v)) and -_SHORTCUT_BOUND < min(v) and max(v) < _SHORTCUT_BOUND
+    if qd is None:
+        return _hypot(*q.tolist()) < _SHORTCUT_BOUND
+    if (type(qd) is not _ND or type(x) is not _ND or qd.dtype is not _F64 or x.dtype is not _F64
+            or qd.ndim != 1 or x.ndim != 1):
+        return False
+    return _hypot(*q.tolist(), *qd.tolist(), *x.tolist()) < _SHORTCUT_BOUND
 
 
 class PinocchioDerivatives:
