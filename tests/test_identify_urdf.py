@@ -127,3 +127,31 @@ def test_a_change_the_chain_link_cannot_hold_moves_the_lumped_inertials():
     assert "inertial identified as part of link 'wrist_3'" in new.urdf_text
     out = etree.fromstring(new.urdf_text.encode())
     assert next(el for el in out.iterchildren("link") if el.get("name") == "tool").find("inertial") is None
+
+
+def test_identify_takes_a_tree_urdf_with_tip(tmp_path, capsys):
+    """A URDF with a gripper branches; ``identify --tip LINK`` (like check, track, montecarlo) takes
+    the chain to that link, and the written URDF, read back with the same tip, predicts what the
+    fit predicted (the hand and fingers lumped into the last body are written back once)."""
+    prior = md.load("erd:panda", tip="panda_hand_tcp")
+    ex = excitation(prior, duration=6.0, harmonics=3, rate=100.0, iterations=0)
+    tau = prior.inverse_dynamics(ex.q, ex.qd, ex.qdd)
+    tau = tau + 0.01 * np.abs(tau).max(axis=0) * np.random.default_rng(0).standard_normal(tau.shape)
+    log = tmp_path / "log.csv"
+    write_measurements_csv(log, ex.t, ex.q, tau, qd=ex.qd, qdd=ex.qdd)
+    out = tmp_path / "panda_id.urdf"
+    assert main(["identify", "erd:panda", str(log), "-o", str(out)]) == 2      # a tree: the tip is needed
+    assert "--tip" in capsys.readouterr().err
+    assert main(["identify", "erd:panda", str(log), "--tip", "panda_hand_tcp", "-o", str(out)]) == 0
+    capsys.readouterr()
+    ident = md.load(str(out), tip="panda_hand_tcp")
+    fitted = fit(prior, ex.q, ex.qd, ex.qdd, tau, method="consistent")
+    scale = np.abs(tau).max()
+    np.testing.assert_allclose(ident.inverse_dynamics(ex.q, ex.qd, ex.qdd), fitted.predict(ex.q, ex.qd, ex.qdd),
+                               rtol=0, atol=1e-9 * scale)
+    # excite takes the tip too
+    traj = tmp_path / "traj.csv"
+    assert main(["excite", "erd:panda", "-o", str(traj), "--tip", "panda_hand_tcp", "--duration", "4",
+                 "--iterations", "0", "--no-progress"]) == 0
+    capsys.readouterr()
+    assert traj.read_text().splitlines()[0].split(",")[:8] == ["t"] + [f"q{i}" for i in range(1, 8)]

@@ -15,9 +15,8 @@ import sys
 
 from .. import limits
 from ..errors import ModelError
-from ..loading import load_with_notes
-from .common import (EXIT_OK, Progress, add_progress_options, check_output_file, progress_wanted,
-                     require_numbers, usage_error)
+from .common import (EXIT_OK, TIP_HELP, Progress, add_progress_options, check_output_file, load_arm,
+                     progress_wanted, require_numbers, usage_error)
 
 __all__ = ["register", "run"]
 
@@ -33,6 +32,7 @@ def register(subparsers) -> None:
                     "limits and the velocity and acceleration limits; write it as CSV "
                     "(t,q1..qn,qd1..qdn,qdd1..qddn). Exit codes: 0 written, 2 usage or model error.")
     p.add_argument("model", metavar="MODEL", help="bundled model name, .toml model file, .urdf file or erd:NAME (manipdyn models --erd)")
+    p.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
     p.add_argument("-o", "--output", required=True, metavar="TRAJ.csv", help="CSV file to write")
     p.add_argument("--duration", type=float, default=10.0, metavar="S", help="period and length, s (default 10)")
     p.add_argument("--harmonics", type=int, default=5, metavar="K", help=f"harmonics per joint (default 5, at most {limits.MAX_HARMONICS})")
@@ -97,7 +97,7 @@ def run(args) -> int:
 
     try:
         check_options(args)
-        arm, _ = load_with_notes(args.model)
+        arm, _ = load_arm(args.model, args.tip)
         ex = excitation(arm, duration=args.duration, harmonics=args.harmonics, rate=args.rate,
                         seed=args.seed, vmax=args.vmax, amax=args.amax, iterations=args.iterations,
                         friction=args.friction, progress=Progress("optimising", progress_wanted(args), unit="iterations"))

@@ -38,7 +38,7 @@ from ..friction import Friction
 from ..io import save, write_urdf
 from .common import EXIT_DISAGREE as EXIT_FAILED
 from .logopts import log_options_from_args, model_joint_names, register_log_options
-from .common import EXIT_OK, load_arm, usage_error
+from .common import EXIT_OK, TIP_HELP, load_arm, usage_error
 
 __all__ = ["register", "run"]
 
@@ -68,6 +68,7 @@ def register(subparsers) -> None:
     p.add_argument("--payload-link", metavar="NAME", default=None,
                    help="with --payload: the link carrying it, payload frame at that link's frame "
                         "(default: the last link, payload frame at the tool frame)")
+    p.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
     p.add_argument("--friction", action="store_true", help="identify viscous and Coulomb friction")
     p.add_argument("--friction-terms", metavar="T1,T2", default=None,
                    help="identify these friction terms instead: some of viscous, coulomb, asymmetric "
@@ -247,7 +248,7 @@ def run(args) -> int:
     if args.prior_weight and args.method != "consistent":
         return usage_error("identify", "--prior-weight: only with --method consistent")
     try:
-        arm, _ = load_arm(args.model)
+        arm, _ = load_arm(args.model, args.tip)
         bounds = _bounds(args, arm)
         friction = _friction(args, arm)
         if isinstance(arm, URDFArm):

@@ -69,7 +69,7 @@ def run_payload(args) -> int:
         return usage_error("identify", f"-o: with --payload, expected a file name ending in .toml or .urdf "
                                        f"(the arm carrying the payload), got {out!r}")
     try:
-        arm, _ = load_arm(args.model)
+        arm, _ = load_arm(args.model, args.tip)
         data = read_log(args.data, arm.n, transmission=arm.transmission,
                         **log_options_from_args(args, model_joint_names(arm)))
         res = identify_payload(arm, data.q, data.qd, data.qdd, data.tau, link=args.payload_link)
