@@ -308,3 +308,57 @@ def test_study_takes_a_model_name_and_names_a_wrong_arm():
     assert st.arm.name == "puma560" and st.arm == md.load("puma560")
     with pytest.raises(md.ModelError, match=r"arm: cannot send int"):
         study(42, runs=2)
+
+
+def test_a_stiff_plant_is_integrated_not_declared_diverged():
+    """The UR5's last link (J = 1.3e-4 kg m^2) with a drawn viscous friction of 0.45 N m s has a mode
+    at -b/J ~ -3400 1/s: one RK4 step of 1 ms (h |lambda| = 3.4 > 2.785) blows up within a few
+    steps, for any controller.  The run's own plant asks for more steps per period
+    (control/stiffness.py); the study then runs them, its numbers replay bit for bit, and the
+    answer converges (four times as many steps move q by under 2 % of the tracking error)."""
+    from manipdyn.control import simulate
+
+    arm = md.load("ur5")
+    s = mc.study(arm, runs=8, seed=1, controllers=("pd", "ct"), duration=0.3,
+                 distributions=mc.Distributions(payload_mass=0.0))
+    setups = {run: s.setup(run, "pd") for run in range(8)}
+    stiff = [run for run, st in setups.items() if st.substeps > 1]
+    assert stiff and len(stiff) < 8, {run: st.substeps for run, st in setups.items()}
+    blew_up = 0
+    for run in stiff:
+        kw = setups[run].simulate_kwargs()
+        try:
+            simulate(**{**kw, "substeps": 1})
+        except SimulationDiverged:                         # the integrator, not the arm
+            blew_up += 1
+        log = simulate(**s.setup(run, "pd").simulate_kwargs())
+        assert log.substeps == setups[run].substeps and np.abs(log.e).max() < 1.0
+        # the sharp Coulomb sign makes the right-hand side jump at v = 0, so RK4 converges at first
+        # order there: four times the steps move q by 0.1 to 1 % of the tracking error (measured),
+        # where one step per period ran away
+        fine = simulate(**{**s.setup(run, "pd").simulate_kwargs(), "substeps": 4 * log.substeps})
+        assert np.abs(fine.q - log.q).max() < 0.02 * np.abs(log.e).max()
+    # h rho past RK4's 2.785 (runs 3, 5, 6 of this seed) blows up in one step per period;
+    # between 2.0 (SAFE_STEP) and 2.785 it does not yet: the margin
+    assert blew_up >= 2
+    report = mc.run(s, scheduler="sync", chunk_size=8)     # stiff and non-stiff runs in one chunk
+    assert all(e["diverged"] == 0 for e in report.controllers.values())
+    _replays_match(report)
+
+
+def test_substeps_argument_and_the_cap_name_what_is_wrong():
+    from manipdyn.control import simulate
+    from manipdyn.control.stiffness import MAX_SUBSTEPS, rk4_substeps
+
+    arm = md.load("ur5")
+    s = mc.study(arm, runs=8, seed=1, controllers=("pd",), duration=0.3,
+                 distributions=mc.Distributions(payload_mass=0.0))
+    kw = s.setup(6, "pd").simulate_kwargs()
+    for bad in (0, -1, 1.5, True):
+        with pytest.raises(ValueError, match="substeps: expected an integer >= 1"):
+            simulate(**{**kw, "substeps": bad})
+    q = np.zeros((1, 6))
+    m, rho = rk4_substeps(kw["plant"], q, q, q, 1e-3)
+    assert m >= 2 and rho * 1e-3 / m <= 2.0
+    with pytest.raises(ValueError, match=r"plant: its fastest mode .* over 1000"):
+        rk4_substeps(kw["plant"], q, q, q, 2.0 * MAX_SUBSTEPS / rho * 1.5)

@@ -9,9 +9,12 @@ Time stepping.  At each step ``t_k = k dt`` the controller is called once,
 ``[t_k, t_k + dt)`` (zero-order hold, as a digital controller sampling at
 ``1/dt`` does).  The plant's forward dynamics ``qdd = FD(q, qd, tau_k)`` (the
 fast path, Pinocchio's ABA, friction included) is integrated over the step by
-the classical 4th-order Runge-Kutta method.  So the integration error is
-O(dt^4) for the given torque sequence; the sampling itself (the hold) is part
-of the simulated system, not an error of the integrator.
+the classical 4th-order Runge-Kutta method, in ``m`` equal steps when the
+plant is too stiff for one (:mod:`manipdyn.control.stiffness`: a light link
+with friction; ``m = 1`` otherwise, and ``SimulationLog.substeps`` says which).
+So the integration error is O((dt/m)^4) for the given torque sequence; the
+sampling itself (the hold) is part of the simulated system, not an error of
+the integrator.
 
 Divergence.  The run stops with :class:`SimulationDiverged` (a
 ``RuntimeError``) when a joint position leaves ``|q_i| <= max_position``
@@ -87,6 +90,8 @@ class SimulationLog:
     joint_types : tuple of str
     wall_time : float
         Seconds the run took.
+    substeps : int
+        Runge-Kutta steps per control period (:mod:`manipdyn.control.stiffness`).
     """
 
     t: np.ndarray
@@ -101,6 +106,7 @@ class SimulationLog:
     plant: str = ""
     joint_types: tuple = ()
     wall_time: float = 0.0
+    substeps: int = 1
 
     @property
     def e(self) -> np.ndarray:
@@ -132,7 +138,9 @@ class SimulationLog:
         """A table: RMS and max error and peak torque per joint (units by joint type)."""
         rms, mx, pk = self.rms_error(since), self.max_error(since), self.peak_torque(since)
         head = f"{self.controller or 'controller'} on {self.plant or 'plant'}: " \
-               f"{self.t[-1]:g} s at {1 / self.dt:g} Hz (RK4, zero-order hold), {self.wall_time:.2f} s wall"
+               f"{self.t[-1]:g} s at {1 / self.dt:g} Hz (RK4" + \
+               (f", {self.substeps} steps per period" if self.substeps > 1 else "") + \
+               f", zero-order hold), {self.wall_time:.2f} s wall"
         if since is not None:
             head += f"; errors over t >= {since:g} s"
         rows = [head, f"  {'joint':<6} {'RMS error':>12} {'max error':>12} {'peak torque':>14}"]
@@ -147,7 +155,7 @@ class SimulationLog:
         """The first ``k`` samples."""
         return SimulationLog(self.t[:k], self.q[:k], self.qd[:k], self.q_d[:k], self.qd_d[:k],
                              self.qdd_d[:k], self.tau[:k], self.dt, self.controller, self.plant,
-                             self.joint_types, self.wall_time)
+                             self.joint_types, self.wall_time, self.substeps)
 
 
 def _reference(trajectory, t: np.ndarray, n: int):
@@ -169,7 +177,7 @@ def _name(x) -> str:
 
 def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, plant=None,
              q0=None, qd0=None, max_position: float = DEFAULT_MAX_POSITION,
-             max_velocity: float = DEFAULT_MAX_VELOCITY, progress=None) -> SimulationLog:
+             max_velocity: float = DEFAULT_MAX_VELOCITY, progress=None, substeps=None) -> SimulationLog:
     """Simulate ``controller`` tracking ``trajectory`` on ``plant`` (default ``arm``).
 
     Parameters
@@ -196,6 +204,9 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
     progress : callable, optional
         Called as ``progress(steps_done, steps_total)`` about a hundred times
         over the run, and once at its end.
+    substeps : int, optional
+        Runge-Kutta steps per control period; default as many as the plant needs
+        along the reference (:func:`manipdyn.control.stiffness.rk4_substeps`).
 
     Returns
     -------
@@ -215,9 +226,16 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
     q, qd = _initial_state(q_d, qd_d, q0, qd0, n)
     # once, checked: a model problem (a singular D) is named here, not met as a NaN in the loop
     plant.forward_dynamics(q, qd, np.zeros(n))
+    if substeps is None:
+        from .stiffness import reference_samples, rk4_substeps
+
+        i = reference_samples(N)
+        substeps, _ = rk4_substeps(plant, q_d[i], qd_d[i], qdd_d[i], dt)
+    elif isinstance(substeps, bool) or not isinstance(substeps, (int, np.integer)) or substeps < 1:
+        raise ValueError(f"substeps: expected an integer >= 1, got {substeps!r}")
     log = SimulationLog(t, np.empty((N + 1, n)), np.empty((N + 1, n)), q_d, qd_d, qdd_d,
                         np.empty((N + 1, n)), dt, _name(controller), plant.name or "plant",
-                        tuple(plant.joint_types))
+                        tuple(plant.joint_types), substeps=int(substeps))
     watch = _Divergence(log, plant, N, dt, max_position, max_velocity)
     _integrate(log, watch, plant, controller, trajectory, q, qd, progress)
     log.wall_time = time.perf_counter() - t_wall
@@ -333,7 +351,9 @@ def _integrate(log, watch, plant, controller, trajectory, q, qd, progress) -> No
         rows = (list(log.q_d), list(log.qd_d), list(log.qdd_d))
     else:
         step = rows = None
-    h, h2, h6 = dt, 0.5 * dt, dt / 6.0
+    m = log.substeps
+    h = dt / m                               # m == 1: exactly dt, the arithmetic it always had
+    h2, h6 = 0.5 * h, h / 6.0
     # Non-finite values are detected below and end the run with SimulationDiverged,
     # so numpy's overflow and invalid-value warnings would only repeat it.
     with np.errstate(over="ignore", invalid="ignore"):
@@ -349,18 +369,19 @@ def _integrate(log, watch, plant, controller, trajectory, q, qd, progress) -> No
                 raise ValueError(f"controller: returned shape {tau.shape}, expected ({n},)")
             watch.check_torque(k, tau)
             TAU[k] = tau
-            try:
-                a1 = fd(q, qd, tau)
-                v2 = qd + h2 * a1
-                a2 = fd(q + h2 * qd, v2, tau)
-                v3 = qd + h2 * a2
-                a3 = fd(q + h2 * v2, v3, tau)
-                v4 = qd + h * a3
-                a4 = fd(q + h * v3, v4, tau)
-            except StateError:   # checked plant: a stage went non-finite, the step blew up
-                watch.fail(k + 1, "state", qd, math.inf, "an intermediate Runge-Kutta stage is not finite")
-            q = q + h6 * (qd + 2.0 * (v2 + v3) + v4)
-            qd = qd + h6 * (a1 + 2.0 * (a2 + a3) + a4)
+            for _ in range(m):       # the torque is held over the whole period
+                try:
+                    a1 = fd(q, qd, tau)
+                    v2 = qd + h2 * a1
+                    a2 = fd(q + h2 * qd, v2, tau)
+                    v3 = qd + h2 * a2
+                    a3 = fd(q + h2 * v2, v3, tau)
+                    v4 = qd + h * a3
+                    a4 = fd(q + h * v3, v4, tau)
+                except StateError:   # checked plant: a stage went non-finite, the step blew up
+                    watch.fail(k + 1, "state", qd, math.inf, "an intermediate Runge-Kutta stage is not finite")
+                q = q + h6 * (qd + 2.0 * (v2 + v3) + v4)
+                qd = qd + h6 * (a1 + 2.0 * (a2 + a3) + a4)
             watch.check_state(k + 1, q, qd)
             if progress is not None and (k + 1) % every == 0:
                 progress(k + 1, N)

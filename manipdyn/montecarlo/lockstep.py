@@ -42,9 +42,24 @@ def simulate_lockstep(setups, max_position: float = DEFAULT_MAX_POSITION,
     Controllers may be shared between setups when they keep no state
     (:meth:`Controller.step` of PD, PD + gravity and computed torque); a
     controller that does (the adaptive one) is copied per run and reset.
+    Runs step together when they take the same number of Runge-Kutta steps per
+    period (``RunSetup.substeps``, their own plant's: :mod:`manipdyn.control.stiffness`),
+    so a run's arithmetic never depends on the others in its chunk.
     Returns ``[(log, diverged), ...]`` in the order of ``setups``, each log a
     :class:`SimulationLog` cut where the run ended.
     """
+    groups = {}
+    for i, s in enumerate(setups):
+        groups.setdefault(int(getattr(s, "substeps", 1)), []).append(i)
+    out = [None] * len(setups)
+    for m, idx in groups.items():
+        for i, r in zip(idx, _lockstep([setups[i] for i in idx], m, max_position, max_velocity)):
+            out[i] = r
+    return out
+
+
+def _lockstep(setups, m, max_position, max_velocity) -> list:
+    """:func:`simulate_lockstep` for runs that all take ``m`` Runge-Kutta steps per period."""
     first = setups[0]
     path, dt, duration = first.trajectory, first.dt, first.duration
     K, n = len(setups), first.arm.n
@@ -90,7 +105,8 @@ def simulate_lockstep(setups, max_position: float = DEFAULT_MAX_POSITION,
 
     stop = [N + 1] * K                         # samples kept per run
     active = list(range(K))
-    h, h2, h6 = dt, 0.5 * dt, dt / 6.0
+    h = dt / m                                 # as md.simulate: m == 1 gives exactly dt
+    h2, h6 = 0.5 * h, h / 6.0
 
     def end(i, k):
         # the run's log stops at sample k; its rows are zeroed so that stepping
@@ -128,17 +144,18 @@ def simulate_lockstep(setups, max_position: float = DEFAULT_MAX_POSITION,
                 for i in [i for i in active if not np.isfinite(T[i]).all()]:
                     end(i, k)
             TAU[:, k] = T
-            less_friction(qd)
-            for i in active:
-                A1[i] = aba(models[i], datas[i], qr[i], qdr[i], tin[i])
-            stage(h2, A1, qd, V2, V2r, A2)                 # v2 = qd + h2 a1 at q + h2 qd
-            stage(h2, A2, V2, V3, V3r, A3)                 # v3 = qd + h2 a2 at q + h2 v2
-            stage(h, A3, V3, V4, V4r, A4)                  # v4 = qd + h a3  at q + h v3
-            # q + h6 (qd + 2 (v2 + v3) + v4), and qd + h6 (a1 + 2 (a2 + a3) + a4), in that order
-            add(add(qd, mul(2.0, add(V2, V3, out=S), out=S), out=S), V4, out=S)
-            add(add(A1, mul(2.0, add(A2, A3, out=W), out=W), out=W), A4, out=W)
-            add(q, mul(h6, S, out=S), out=q)
-            add(qd, mul(h6, W, out=W), out=qd)
+            for _ in range(m):                             # T held over the whole period
+                less_friction(qd)
+                for i in active:
+                    A1[i] = aba(models[i], datas[i], qr[i], qdr[i], tin[i])
+                stage(h2, A1, qd, V2, V2r, A2)             # v2 = qd + h2 a1 at q + h2 qd
+                stage(h2, A2, V2, V3, V3r, A3)             # v3 = qd + h2 a2 at q + h2 v2
+                stage(h, A3, V3, V4, V4r, A4)              # v4 = qd + h a3  at q + h v3
+                # q + h6 (qd + 2 (v2 + v3) + v4), and qd + h6 (a1 + 2 (a2 + a3) + a4), in that order
+                add(add(qd, mul(2.0, add(V2, V3, out=S), out=S), out=S), V4, out=S)
+                add(add(A1, mul(2.0, add(A2, A3, out=W), out=W), out=W), A4, out=W)
+                add(q, mul(h6, S, out=S), out=q)
+                add(qd, mul(h6, W, out=W), out=qd)
             if not state_ok():
                 for i in [i for i in active if not (np.isfinite(qr[i]).all() and np.isfinite(qdr[i]).all()
                                                      and np.all(np.abs(qr[i]) <= max_position)
@@ -155,7 +172,7 @@ def simulate_lockstep(setups, max_position: float = DEFAULT_MAX_POSITION,
     for i, s in enumerate(setups):
         k = stop[i]
         log = SimulationLog(t[:k], Q[i, :k], V[i, :k], q_d[:k], qd_d[:k], qdd_d[:k], TAU[i, :k], dt,
-                            ctrls[i].name, s.plant.name, tuple(s.plant.joint_types))
+                            ctrls[i].name, s.plant.name, tuple(s.plant.joint_types), substeps=m)
         out.append((log, k <= N))
     return out
 

@@ -82,10 +82,12 @@ class RunSetup:
     q0: np.ndarray
     duration: float
     dt: float
+    substeps: int = 1
 
     def simulate_kwargs(self) -> dict:
         return {"arm": self.arm, "controller": self.controller, "trajectory": self.trajectory,
-                "duration": self.duration, "dt": self.dt, "plant": self.plant, "q0": self.q0}
+                "duration": self.duration, "dt": self.dt, "plant": self.plant, "q0": self.q0,
+                "substeps": self.substeps}
 
 
 @dataclass(frozen=True)
@@ -202,7 +204,19 @@ class Study:
         if self.distributions.torque_noise > 0:
             ctrl = TorqueNoise(ctrl, plant.draw.torque_noise, self.dt)
         q0 = path(0.0)[0] + plant.draw.q0_offset
-        return RunSetup(self.arm, ctrl, path, plant, q0, float(self.duration), float(self.dt))
+        return RunSetup(self.arm, ctrl, path, plant, q0, float(self.duration), float(self.dt),
+                        self.substeps(plant))
+
+    def substeps(self, plant) -> int:
+        """Runge-Kutta steps per period for ``plant`` along the path, as :func:`manipdyn.simulate`
+        chooses them (:func:`manipdyn.control.stiffness.rk4_substeps`): a run's own plant decides."""
+        from ..control.stiffness import reference_samples, rk4_substeps
+
+        N = self.steps
+        i = reference_samples(N)
+        ref = self.path()(np.arange(N + 1) * self.dt)       # as simulate evaluates it, then the samples
+        q_d, qd_d, qdd_d = (np.asarray(r, dtype=np.float64)[i] for r in ref)
+        return rk4_substeps(plant, q_d, qd_d, qdd_d, self.dt)[0]
 
     def replay(self, run: int, controller: str):
         """Simulate run ``run`` of ``controller`` alone: the study's :class:`SimulationLog`.
