@@ -47,9 +47,11 @@ class StudyReport:
     study : Study
     per_run : list of dict
         One record per (run, controller), in run order then controller order:
-        ``run, controller, rms_error, max_error, peak_torque, diverged, saturated``
-        (errors in rad, or m for prismatic joints; torque in N m or N; the
-        figures of a diverged run cover the samples before it diverged).
+        ``run, controller, rms_error, max_error, peak_torque, diverged, saturated,
+        substeps`` (errors in rad, or m for prismatic joints; torque in N m or N; the
+        figures of a diverged run cover the samples before it diverged; ``substeps``
+        the Runge-Kutta steps per control period its plant needed,
+        :mod:`manipdyn.control.stiffness`).
     timing : dict
         Wall time, workers, chunks and where chunks ran (not reproducible).
     """
@@ -113,7 +115,18 @@ class StudyReport:
         foot = (f"{s.runs * len(s.controllers)} simulations in {t.get('wall_s', 0.0):.1f} s on "
                 f"{t.get('workers', 1)} worker(s) ({t.get('scheduler', '')}); replay a run with "
                 f"study.replay(run, controller)")
-        return f"{head}\n{self.table()}\n{foot}"
+        return f"{head}\n{self.table()}\n{self.integration()}{foot}"
+
+    def integration(self) -> str:
+        """One line when some plants needed more than one Runge-Kutta step per period, else ''."""
+        steps = {}
+        for r in self.per_run:
+            steps[r["run"]] = max(steps.get(r["run"], 1), int(r.get("substeps", 1)))
+        stiff = [m for m in steps.values() if m > 1]
+        if not stiff:
+            return ""
+        return (f"integration: {len(stiff)} of {len(steps)} plants are too fast for one RK4 step per "
+                f"{self.study.dt * 1e3:g} ms period and took up to {max(stiff)} (manipdyn.control.stiffness)\n")
 
 
 def _finite_or_null(x):

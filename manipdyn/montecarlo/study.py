@@ -284,7 +284,7 @@ def run_one(study: Study, run: int, key: str, cache: dict) -> dict:
     m = _metrics(log, lim, ctrl.noise if isinstance(ctrl, TorqueNoise) else None)
     return {"run": int(run), "controller": key, "rms_error": m["rms_error"],
             "max_error": m["max_error"], "peak_torque": m["peak_torque"],
-            "diverged": diverged, "saturated": m["saturated"]}
+            "diverged": diverged, "saturated": m["saturated"], "substeps": int(log.substeps)}
 
 
 def run_many(study: Study, runs, key: str, cache: dict) -> list:
@@ -298,7 +298,7 @@ def run_many(study: Study, runs, key: str, cache: dict) -> list:
         m = _metrics(log, ctrl.tau_max, ctrl.noise if isinstance(ctrl, TorqueNoise) else None)
         out.append({"run": int(setup.plant.draw.run), "controller": key, "rms_error": m["rms_error"],
                     "max_error": m["max_error"], "peak_torque": m["peak_torque"],
-                    "diverged": diverged, "saturated": m["saturated"]})
+                    "diverged": diverged, "saturated": m["saturated"], "substeps": int(log.substeps)})
     return out
 
 
