@@ -166,3 +166,10 @@ def test_item12_a_wrong_scaling_answer_names_the_wrong_side(tmp_path, monkeypatc
     assert code == 2
     err = capsys.readouterr().err
     assert "WRONG ANSWER (manipdyn trace form) scaling" in err
+
+
+def test_bench_panda_without_the_real_data_says_where_it_looked(tmp_path, capsys):
+    from benchmarks.bench_panda import main
+
+    assert main(["--data", str(tmp_path / "none.csv"), "--no-write"]) == 2
+    assert "none.csv: no such file" in capsys.readouterr().err

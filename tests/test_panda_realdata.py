@@ -67,10 +67,3 @@ def test_published_joint2_error_belongs_to_the_fit_windows_states():
     b = np.flatnonzero((d.t >= 1.5 + 40 / 3) & (d.t < 5.0 + 40 / 3))[: a.sum()]
     assert np.abs(d.q[a][: len(b)] - d.q[b]).max() < 0.05             # the same states...
     assert np.corrcoef(e[a][: len(b)], e[b])[0, 1] > 0.8                # ...the same error
-
-
-def test_bench_panda_without_the_data_says_where_it_looked(tmp_path, capsys):
-    from benchmarks.bench_panda import main
-
-    assert main(["--data", str(tmp_path / "none.csv"), "--no-write"]) == 2
-    assert "none.csv: no such file" in capsys.readouterr().err
