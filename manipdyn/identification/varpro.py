@@ -138,6 +138,17 @@ def _grid_start(residual, x0, unknowns, n):
     return x, best
 
 
+def _fd_steps(x0, unknowns, n) -> np.ndarray:
+    """Absolute finite-difference steps per entry of theta: 1e-4 on the log scale shapes
+    (a 0.01 % change of ``vs`` or ``alpha``), 1e-4 of ``max(|p3|, 1 / alpha)`` on a shift."""
+    steps = np.full(x0.shape, 1e-4)
+    alpha = dict(unknowns).get("sigmoid_alpha")
+    for k, (f, v) in enumerate(unknowns):
+        if f not in _LOG:
+            steps[k * n:(k + 1) * n] = 1e-4 * np.maximum(np.abs(v), 1.0 / alpha)
+    return steps
+
+
 def fit_friction_shapes(arm, data, friction: Friction, method: str = "wls", *, armature: bool = False,
                         max_nfev: int = 60, **fit_kwargs):
     """Identify ``arm`` with a friction law whose nonlinear shapes are fitted too (module docstring).
@@ -216,9 +227,39 @@ def fit_shapes(arm, data, friction: Friction, *, armature: bool = False, max_nfe
     x0, lo, hi = _pack_bounds(unknowns)
     cost0 = float(np.linalg.norm(residual(x0)))
     x0, grid = _grid_start(residual, x0, unknowns, n)
-    res = optimize.least_squares(residual, x0, bounds=(lo, hi), method="trf", x_scale="jac",
-                                 max_nfev=int(max_nfev), diff_step=1e-4)
-    shapes = _unpack(res.x, unknowns, n)
+    steps = _fd_steps(x0, unknowns, n)
+    last = {}
+    # the search runs on y = x - lo >= 0, never near 0 at its start: least_squares sizes its
+    # first trust region by |y0|, and a log-shape of exactly 1 (x0 = 4e-16 after the grid)
+    # made that region 1e-15 wide and the search stop at once (measured, before this shift)
+    lo0 = lo.copy()
+
+    def cached(y):
+        key = y.tobytes()
+        if key not in last:
+            last.clear()
+            last[key] = residual(y + lo0)
+        return last[key]
+
+    def jacobian(y):
+        x = y + lo0
+        # forward differences with ABSOLUTE steps (_fd_steps): scipy's relative diff_step
+        # shrinks to ~1e-8 at x = 0, i.e. at a log-shape of exactly 1 or a shift of 0, where
+        # the difference then vanished and the search stopped at its start (measured: a
+        # Stribeck velocity started at 0.1 rad/s, moved by the grid to 1.0, "converged" after
+        # one evaluation with a zero gradient)
+        r0 = cached(y)
+        J = np.empty((r0.size, x.size))
+        for k in range(x.size):
+            h = steps[k] if x[k] + steps[k] <= hi[k] else -steps[k]
+            xk = x.copy()
+            xk[k] += h
+            J[:, k] = (residual(xk) - r0) / h
+        return J
+
+    res = optimize.least_squares(cached, x0 - lo0, jac=jacobian, bounds=(np.zeros_like(lo), hi - lo0),
+                                 method="trf", x_scale="jac", max_nfev=int(max_nfev))
+    shapes = _unpack(res.x + lo0, unknowns, n)
     at_bound = [f"{f}[{i + 1}]" for k, (f, _) in enumerate(unknowns) for i in range(n)
                 if res.active_mask[k * n + i] != 0]
     info = {
