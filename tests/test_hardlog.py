@@ -183,3 +183,23 @@ def test_varpro_moves_off_a_start_of_exactly_one():
     # 0.1 % noise on 4000 samples: a few 0.1 % on each velocity; 3 % leaves room for the seed,
     # where staying at the start is off by 8 to 25 %
     assert np.all(np.abs(got / vs - 1) < 0.03), got / vs
+
+
+def test_hard_log_through_the_command_line(tmp_path, capsys):
+    """The README's commands: identify from the log as written (motor side, currents, the prior's
+    transmission, Stribeck shapes by variable projection), then validate on the last 10 s."""
+    import json
+
+    from manipdyn.cli import main
+
+    h = hard_log(0, tmp_path)
+    out = tmp_path / "id.toml"
+    assert main(["identify", h.prior_file, h.log, "-o", str(out), "--t-range", ":30", "--armature",
+                 "--friction-terms", "viscous,asymmetric,offset,stribeck", "--friction-side", "motor",
+                 "--smoothing", "2", "--stribeck-velocity", "5"]) == 0
+    capsys.readouterr()
+    assert main(["validate", str(out), h.log, "--t-range", "30:", "--json"]) == 0
+    ratio = np.array(json.loads(capsys.readouterr().out)["rms"]) / h.sigma
+    # linear resampling of the jittered stamps leaves sqrt(2/3) = 0.816 of the white noise (the
+    # mean of (1 - a)^2 + a^2 over a uniform a); 0.9 leaves a model error of at most 0.37 sigma
+    assert np.all((0.75 < ratio) & (ratio < 0.9)), ratio
