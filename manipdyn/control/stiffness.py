@@ -35,6 +35,8 @@ import math
 
 import numpy as np
 
+from ..errors import SingularMassMatrixError, StateError
+
 __all__ = ["rk4_substeps", "reference_samples", "SAFE_STEP", "MAX_SUBSTEPS", "SAMPLES"]
 
 #: the largest h |lambda| allowed (RK4 is stable to 2.785 on the negative real axis)
@@ -65,8 +67,13 @@ def rk4_substeps(plant, q, qd, qdd, dt: float):
     if fdd is None or inv is None:
         return 1, None
     q, qd, qdd = (np.atleast_2d(np.asarray(x, dtype=np.float64)) for x in (q, qd, qdd))
-    tau = np.asarray(inv(q, qd, qdd), dtype=np.float64).reshape(q.shape)
-    dq, dv, _ = fdd(q, qd, tau)
+    try:
+        tau = np.asarray(inv(q, qd, qdd), dtype=np.float64).reshape(q.shape)
+        dq, dv, _ = fdd(q, qd, tau)
+    except (SingularMassMatrixError, StateError, np.linalg.LinAlgError):
+        # a singular D somewhere on the path: the simulation meets it and says so (a run that
+        # diverges); the step count cannot be read there
+        return 1, None
     dq, dv = np.asarray(dq).reshape(len(q), q.shape[1], -1), np.asarray(dv).reshape(len(q), q.shape[1], -1)
     S, n = q.shape
     A = np.zeros((S, 2 * n, 2 * n))
