@@ -37,7 +37,7 @@ from ..errors import ModelError
 from ..friction import Friction
 from ..io import save, write_urdf
 from .common import EXIT_DISAGREE as EXIT_FAILED
-from .logopts import log_options_from_args, model_joint_names, register_log_options
+from .logopts import DATA_HELP, log_options_from_args, model_joint_names, register_log_options
 from .common import EXIT_OK, TIP_HELP, load_arm, usage_error
 
 __all__ = ["register", "run"]
@@ -56,7 +56,7 @@ def register(subparsers) -> None:
     p.add_argument("model", metavar="MODEL",
                    help="prior: bundled model name, .toml model file (DH arm) or URDF (written back as "
                         "the same URDF with the chain links' <inertial> identified: -o OUT.urdf)")
-    p.add_argument("data", metavar="DATA", help="CSV with header t,q1..qn,tau1..taun (optionally qd*, qdd*)")
+    p.add_argument("data", metavar="DATA", help=DATA_HELP)
     p.add_argument("-o", "--output", default=None, metavar="OUT.toml|OUT.urdf|OUT.json",
                    help="model file to write (.json: the base model only); required unless --payload")
     p.add_argument("--method", choices=METHODS, default=None,

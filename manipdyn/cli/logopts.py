@@ -17,6 +17,12 @@ from ..errors import ModelError
 __all__ = ["register_log_options", "log_options_from_args", "model_joint_names"]
 
 
+#: help of the DATA argument of identify and validate
+DATA_HELP = ("the log: a CSV with header t,q1..qn,tau1..taun (optionally qd*, qdd*; motor side qm*, with "
+             "taum* or currents i* read through the model's [transmission]; other names with --columns; "
+             "no t column: --rate), or a ROS 2 bag / MCAP file with sensor_msgs/JointState (--topic)")
+
+
 def register_log_options(parser) -> None:
     """Add the log-reading options (an argument group "reading the log") to ``parser``."""
     g = parser.add_argument_group("reading the log")

@@ -15,7 +15,7 @@ from __future__ import annotations
 import json
 
 from ..errors import ModelError
-from .logopts import log_options_from_args, register_log_options
+from .logopts import DATA_HELP, log_options_from_args, register_log_options
 from .common import EXIT_OK, check_plot_target, load_arm, usage_error
 
 __all__ = ["register", "run"]
@@ -30,7 +30,7 @@ def register(subparsers) -> None:
                     "measured RMS, R^2 and the mean error. Exit codes: 0 scored, 2 usage, model or "
                     "data error.")
     p.add_argument("model", metavar="MODEL|BASE.json", help="model name, .toml, .urdf, or a base model JSON")
-    p.add_argument("data", metavar="DATA", help="CSV with header t,q1..qn,tau1..taun (optionally qd*, qdd*)")
+    p.add_argument("data", metavar="DATA", help=DATA_HELP)
     p.add_argument("--tip", default=None, help="tree URDF: the link that ends the chain")
     p.add_argument("--json", action="store_true", help="print a JSON object instead of text")
     p.add_argument("--plot", metavar="FIG.png", default=None,
