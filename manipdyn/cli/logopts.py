@@ -14,7 +14,7 @@ import math
 
 from ..errors import ModelError
 
-__all__ = ["register_log_options", "log_options_from_args", "model_joint_names"]
+__all__ = ["register_log_options", "log_options_from_args", "model_joint_names", "DATA_HELP"]
 
 
 #: help of the DATA argument of identify and validate
