@@ -383,3 +383,21 @@ def test_cli_log_options(tmp_path):
     for bad, match in ((["--t-range", "5"], "--t-range: expected T0:T1"), (["--rate", "-1"], "--rate: expected")):
         with pytest.raises(md.ModelError, match=match):
             log_options_from_args(parser.parse_args(bad))
+
+
+def test_a_log_with_more_joints_than_the_model_is_refused(tmp_path, capsys):
+    """A 7-joint log read for a 5-joint model (another arm, or a chain cut short with --tip) used to
+    fit the first five joints silently, with a note; joints 6 and 7 moved, so that model is wrong."""
+    from manipdyn.cli import main
+
+    t = np.arange(0, 12, 0.01)
+    q = np.sin(np.outer(t, np.arange(1, 8) * 0.3))
+    p = tmp_path / "seven.csv"
+    write_csv(p, ["t"] + [f"q{i}" for i in range(1, 8)] + [f"tau{i}" for i in range(1, 8)], [t, q, q])
+    with pytest.raises(md.ModelError, match=r"\['q6', 'tau6'\] belong to joint 6, but the model has 5 joints"):
+        read_log(p, 5)
+    m = read_log(p, 5, extra_joints=True)           # a gripper's columns, knowingly ignored
+    assert m.q.shape[1] == 5 and any("ignored 4 column(s)" in x for x in m.notes)
+    assert read_log(p, 7).q.shape[1] == 7
+    assert main(["validate", "ur5", str(p)]) == 2
+    assert "belong to joint 7, but the model has 6 joints" in capsys.readouterr().err

@@ -210,7 +210,7 @@ def _options(args) -> dict:
     keys = ("method", "friction", "friction_terms", "friction_side", "smoothing", "stribeck_velocity",
             "sigmoid_alpha", "armature", "mass_bound", "com_bound", "total_mass_bound", "no_bounds",
             "prior_weight", "bootstrap", "scheduler", "cutoff", "columns", "deg", "rate", "time_scale", "resample", "no_decimate",
-            "t_range", "topic", "joint_names")
+            "t_range", "topic", "joint_names", "extra_joints")
     return {k: getattr(args, k) for k in keys if getattr(args, k, None) not in (None, False)}
 
 

@@ -42,6 +42,9 @@ def register_log_options(parser) -> None:
                    help="keep every sample after filtering (default: decimate to 10-20 x the cut-off, >= 200 Hz)")
     g.add_argument("--t-range", metavar="T0:T1", default=None,
                    help="keep T0 <= t < T1 s (either may be empty), e.g. ':10' or '10:13.8'")
+    g.add_argument("--extra-joints", action="store_true",
+                   help="accept a CSV with columns for joints beyond the model's (q8 for a 7-joint model: a "
+                        "gripper) and ignore them; by default such a log is refused (another arm, or --tip?)")
     g.add_argument("--topic", default=None, help="ROS bag: the sensor_msgs/msg/JointState topic")
     g.add_argument("--joint-names", metavar="A,B,...", default=None,
                    help="ROS bag: the model's joint names in order (default: the model's own)")
@@ -77,7 +80,8 @@ def log_options_from_args(args, joint_names=None) -> dict:
             raise ModelError(f"{opt}: expected a finite number > 0, got {v}")
     return dict(joint_names=None if names is None else list(names), columns=args.columns, deg=bool(args.deg),
                 rate=args.rate, time_scale=args.time_scale, resample=args.resample, cutoff=args.cutoff,
-                decimate=False if args.no_decimate else None, topic=args.topic, t_range=_t_range(args.t_range))
+                decimate=False if args.no_decimate else None, topic=args.topic, t_range=_t_range(args.t_range),
+                extra_joints=bool(getattr(args, "extra_joints", False)))
 
 
 def model_joint_names(arm):

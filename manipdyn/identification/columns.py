@@ -54,11 +54,13 @@ class ColumnMap:
             return [pat]
         return [pat.replace("{i0}", str(j)).replace("{i}", str(j + 1)) for j in range(n)]
 
-    def resolve(self, header, n: int, where: str):
+    def resolve(self, header, n: int, where: str, extra_joints: bool = False):
         """``(index, unused)``: ``index[signal]`` is the list of column numbers of each
         signal found in ``header`` (``t`` is a one-element list), ``unused`` the
         header names no signal claims.  Raises :class:`ModelError` when a signal is
-        present in part, or when no (or more than one) position or torque signal is.
+        present in part, when no (or more than one) position or torque signal is, or,
+        unless ``extra_joints``, when a signal has a column for joint ``n + 1`` (the
+        log has more joints than the model: a silent fit of the first n would be wrong).
         """
         pos = {h: k for k, h in enumerate(header)}
         index, partial = {}, []
@@ -87,6 +89,12 @@ class ColumnMap:
                                  f"which is the {what}? map the other one away, e.g. columns='{have[1]}=unused{{i}}'")
         claimed = {k for ks in index.values() for k in ks}
         unused = [h for k, h in enumerate(header) if k not in claimed]
+        beyond = [name for sig in index if sig != "t" for name in [self.names(sig, n + 1)[n]] if name in pos]
+        if beyond and not extra_joints:
+            raise ModelError(f"{where}: column(s) {beyond} belong to joint {n + 1}, but the model has {n} joints: "
+                             "a log of another arm, or a chain cut short (--tip)? Fitting n joints of a log "
+                             "whose other joints moved gives a wrong model; if those columns are not joints of "
+                             "this arm (a gripper), allow them with extra_joints=True (--extra-joints)")
         return index, unused
 
     def _expected(self, n: int) -> str:

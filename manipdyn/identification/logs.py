@@ -51,10 +51,10 @@ def _deg_factors(deg, n, where):
     return np.array([math.pi / 180 if f else 1.0 for f in flags])
 
 
-def _from_csv(path, n, where, columns, deg, time_scale, drive_args, rate):
+def _from_csv(path, n, where, columns, deg, time_scale, drive_args, rate, extra_joints=False):
     table = read_table(path, where)
     cmap = column_map(columns)
-    index, unused = cmap.resolve(table.header, n, where)
+    index, unused = cmap.resolve(table.header, n, where, extra_joints)
     notes = []
     if unused:
         notes.append(f"columns: ignored {len(unused)} column(s) no signal maps to: {', '.join(unused[:12])}"
@@ -114,7 +114,7 @@ def _window(t, arrays, t_range, where, notes):
 
 def read_log(path, n: int, *, joint_names=None, columns=None, deg=False, rate=None, time_scale: float = 1.0,
              resample=None, cutoff=None, decimate=None, topic=None, transmission=None, R=None,
-             motor_offset=None, torque_constant=None, t_range=None) -> Measurements:
+             motor_offset=None, torque_constant=None, t_range=None, extra_joints: bool = False) -> Measurements:
     """Read a measurement log for an arm of ``n`` joints (module docstring).
 
     ``path``: a CSV file, a rosbag2 directory, an ``.mcap`` or ``.bag`` file.
@@ -131,7 +131,9 @@ def read_log(path, n: int, *, joint_names=None, columns=None, deg=False, rate=No
     ``transmission``: an object or mapping with ``R`` (n, n), ``motor_offset``
     (n,), ``torque_constant`` (n,); the keyword arrays override it.
     ``t_range``: ``(t0, t1)`` keeps ``t0 <= t < t1`` s (either may be None),
-    taken after filtering so the window keeps its edges.
+    taken after filtering so the window keeps its edges.  ``extra_joints``: a CSV
+    whose signals have columns for joints beyond ``n`` (``q8`` for a 7-joint model)
+    is refused unless True (they are then ignored, and the note says so).
 
     Returns :class:`Measurements` with ``notes``, ``rate``, ``cutoff``,
     ``decimation``, ``qd_motor``, ``source_sha256``.  Raises
@@ -154,7 +156,7 @@ def read_log(path, n: int, *, joint_names=None, columns=None, deg=False, rate=No
         if topic is not None:
             raise ModelError(f"{where}: topic= is for ROS bags; this is read as a CSV file")
         t, q, qd, qdd, tau, rows, drive, notes, sha = _from_csv(path, n, where, columns, deg, time_scale,
-                                                                 drive_args, rate)
+                                                                 drive_args, rate, bool(extra_joints))
     parts = [q] + [a for a in (qd, qdd) if a is not None] + [tau]
     t, values, fs, tnotes = uniform_samples(t, np.hstack(parts), rows, where, rate=rate, resample=resample)
     notes += tnotes
