@@ -250,3 +250,17 @@ def test_cli_refuses_meaningless_data(tmp_path, capsys, ur5_motion):
         assert msg in err and len(err.strip().splitlines()) == 1
         assert not out.exists()
     assert main(["identify", "ur5", str(deg), "-o", str(out), "--deg"]) == 0
+
+
+def test_validate_refuses_tip_with_a_base_model(tmp_path, capsys, ur5_motion):
+    from manipdyn.cli import main
+
+    arm, ex = ur5_motion
+    tau = arm.inverse_dynamics(ex.q, ex.qd, ex.qdd) + 0.01 * np.random.default_rng(2).standard_normal(ex.q.shape)
+    data = tmp_path / "d.csv"
+    write_measurements_csv(data, ex.t, ex.q, tau, qd=ex.qd, qdd=ex.qdd)
+    base = tmp_path / "w.json"
+    assert main(["identify", "ur5", str(data), "-o", str(base), "--method", "wls"]) == 0
+    capsys.readouterr()
+    assert main(["validate", str(base), str(data), "--tip", "foo"]) == 2
+    assert "--tip: a base model" in capsys.readouterr().err

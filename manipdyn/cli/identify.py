@@ -162,7 +162,15 @@ def _friction(args, arm):
     v = DEFAULT_SMOOTHING if args.smoothing is None else args.smoothing
     if not 0 <= v < float("inf"):
         raise ModelError(f"--smoothing: expected a finite velocity >= 0, got {v}")
-    terms = tuple(t.strip() for t in args.friction_terms.split(",") if t.strip())
+    terms = tuple(t.strip() for t in args.friction_terms.split(","))
+    known = ("viscous", "coulomb", "asymmetric", "offset") + SHAPED
+    bad = [t for t in terms if t not in known]
+    if not terms or bad:
+        raise ModelError(f"--friction-terms: unknown term(s) {bad or [args.friction_terms]}; expected some of "
+                         f"{', '.join(known)}, separated by commas")
+    twice = sorted({t for t in terms if terms.count(t) > 1})
+    if twice:
+        raise ModelError(f"--friction-terms: {', '.join(twice)} given twice")
     shaped = [t for t in terms if t in SHAPED]
     for opt, term in (("--stribeck-velocity", "stribeck"), ("--sigmoid-alpha", "sigmoid")):
         if opt in shape_opts and term not in shaped:

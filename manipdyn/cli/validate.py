@@ -16,7 +16,7 @@ import json
 
 from ..errors import ModelError
 from .logopts import DATA_HELP, log_options_from_args, register_log_options
-from .common import EXIT_OK, check_plot_target, load_arm, usage_error
+from .common import EXIT_OK, TIP_HELP, check_plot_target, load_arm, usage_error
 
 __all__ = ["register", "run"]
 
@@ -31,7 +31,7 @@ def register(subparsers) -> None:
                     "data error.")
     p.add_argument("model", metavar="MODEL|BASE.json", help="model name, .toml, .urdf, or a base model JSON")
     p.add_argument("data", metavar="DATA", help=DATA_HELP)
-    p.add_argument("--tip", default=None, help="tree URDF: the link that ends the chain")
+    p.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
     p.add_argument("--json", action="store_true", help="print a JSON object instead of text")
     p.add_argument("--plot", metavar="FIG.png", default=None,
                    help="draw measured and predicted torque per joint (needs the plot extra)")
@@ -44,6 +44,9 @@ def load_model(spec: str, tip=None):
     if spec.lower().endswith(".json"):
         from ..identification.basemodel import load_base_model
 
+        if tip is not None:
+            raise ModelError(f"--tip: a base model ({spec}) carries its own chain (the identification's "
+                             "prior); --tip is for a tree URDF given as MODEL")
         m = load_base_model(spec)
         return m, f"{m.name} (base model)"
     arm, _ = load_arm(spec, tip)
