@@ -155,3 +155,14 @@ def test_identify_takes_a_tree_urdf_with_tip(tmp_path, capsys):
                  "--iterations", "0", "--no-progress"]) == 0
     capsys.readouterr()
     assert traj.read_text().splitlines()[0].split(",")[:8] == ["t"] + [f"q{i}" for i in range(1, 8)]
+    # a URDF prior with a friction law or rotor inertias: refused for a URDF output, which cannot hold
+    # them, taken when only the base model is written
+    base = tmp_path / "panda_id.json"
+    assert main(["identify", "erd:panda", str(log), "--tip", "panda_hand_tcp", "-o", str(tmp_path / "x.urdf"),
+                 "--friction-terms", "viscous,offset"]) == 2
+    assert "or write only the base model" in capsys.readouterr().err
+    assert main(["identify", "erd:panda", str(log), "--tip", "panda_hand_tcp", "-o", str(base), "--method", "wls",
+                 "--friction-terms", "viscous,offset", "--armature"]) == 0
+    capsys.readouterr()
+    assert main(["validate", str(base), str(log), "--json"]) == 0
+    assert len(json.loads(capsys.readouterr().out)["rms"]) == 7

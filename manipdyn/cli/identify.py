@@ -264,11 +264,13 @@ def run(args) -> int:
             if out.lower().endswith(".toml"):
                 raise ModelError(f"-o {out}: a URDF prior ({args.model}) is written back as URDF: "
                                  "-o OUT.urdf (or OUT.json for the base model)")
-            if args.armature:
-                raise ModelError("--armature: a URDF has no rotor inertia; identify a URDF prior without it")
-            if args.friction_terms is not None:
+            base_only = out.lower().endswith(".json")      # no URDF is written: the base model holds them
+            if args.armature and not base_only:
+                raise ModelError("--armature: a URDF has no rotor inertia; identify a URDF prior without it "
+                                 "(or write only the base model, -o OUT.json)")
+            if args.friction_terms is not None and not base_only:
                 raise ModelError("--friction-terms: a URDF's <dynamics> holds viscous and Coulomb friction "
-                                 "only; use --friction")
+                                 "only; use --friction (or write only the base model, -o OUT.json)")
         elif not isinstance(arm, Manipulator) and not out.lower().endswith(".json"):
             raise ModelError(f"MODEL {args.model}: identify writes a DH model or a URDF; give a bundled "
                              "model name, a .toml model file or a URDF as the prior")
