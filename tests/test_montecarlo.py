@@ -357,6 +357,8 @@ def test_substeps_argument_and_the_cap_name_what_is_wrong():
     for bad in (0, -1, 1.5, True):
         with pytest.raises(ValueError, match="substeps: expected an integer >= 1"):
             simulate(**{**kw, "substeps": bad})
+    with pytest.raises(ValueError, match="substeps: at most 1000"):
+        simulate(**{**kw, "substeps": 10**9})
     q = np.zeros((1, 6))
     m, rho = rk4_substeps(kw["plant"], q, q, q, 1e-3)
     assert m >= 2 and rho * 1e-3 / m <= 2.0

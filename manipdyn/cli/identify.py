@@ -369,6 +369,9 @@ def run(args) -> int:
                   + "; ".join(f"{k} " + " ".join(f"{x:.4g}" for x in v) for k, v in shapes["fitted"].items()))
             if shapes["at_bound"]:
                 print(f"  at the search's bound (not determined by the data?): {', '.join(shapes['at_bound'])}")
+            if shapes.get("undetermined"):
+                print(f"  not determined by the data (the residual does not change with them over the log's "
+                      f"speeds; another start?): {', '.join(shapes['undetermined'])}")
         if boot is not None:
             print(f"bootstrap: {boot['replicates']} replicates in blocks of {boot['block']} samples, "
                   f"{len(boot['failed'])} failed; std of each base parameter in --json")

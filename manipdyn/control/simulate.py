@@ -233,6 +233,12 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
         substeps, _ = rk4_substeps(plant, q_d[i], qd_d[i], qdd_d[i], dt)
     elif isinstance(substeps, bool) or not isinstance(substeps, (int, np.integer)) or substeps < 1:
         raise ValueError(f"substeps: expected an integer >= 1, got {substeps!r}")
+    else:
+        from .stiffness import MAX_SUBSTEPS
+
+        if substeps > MAX_SUBSTEPS:
+            raise ValueError(f"substeps: at most {MAX_SUBSTEPS} Runge-Kutta steps per control period, got "
+                             f"{substeps}; a shorter dt is the way to a finer integration")
     log = SimulationLog(t, np.empty((N + 1, n)), np.empty((N + 1, n)), q_d, qd_d, qdd_d,
                         np.empty((N + 1, n)), dt, _name(controller), plant.name or "plant",
                         tuple(plant.joint_types), substeps=int(substeps))

@@ -208,7 +208,11 @@ def fit_shapes(arm, data, friction: Friction, *, armature: bool = False, max_nfe
     n = arm.n
     unknowns = _unknowns(friction)
     # the weights: each joint's noise level at the initial shapes (wls's, module docstring)
-    first = fit(arm, q, qd, qdd, tau, method="wls", friction=friction, armature=armature)
+    try:
+        first = fit(arm, q, qd, qdd, tau, method="wls", friction=friction, armature=armature)
+    except ModelError as exc:
+        raise ModelError(f"friction shapes: the search by variable projection runs weighted least squares "
+                         f"at the starting shapes, and {exc}") from None
     w = 1.0 / first.sigma
     base0 = base_parameters(arm, armature=armature, friction=False)
     Yb = base0.regressor(arm.lagrange.regressor(q, qd, qdd, armature=armature, friction=False))
@@ -262,12 +266,17 @@ def fit_shapes(arm, data, friction: Friction, *, armature: bool = False, max_nfe
     shapes = _unpack(res.x + lo0, unknowns, n)
     at_bound = [f"{f}[{i + 1}]" for k, (f, _) in enumerate(unknowns) for i in range(n)
                 if res.active_mask[k * n + i] != 0]
+    # a shape the residual does not feel (a Stribeck velocity far above every speed in the log, a
+    # sigmoid so flat it is viscous friction) is not determined by the data: say which
+    cols = np.linalg.norm(jacobian(res.x), axis=0)
+    flat = [f"{f}[{i + 1}]" for k, (f, _) in enumerate(unknowns) for i in range(n)
+            if not cols[k * n + i] > 1e-6 * max(float(cols.max()), 1e-300)]
     info = {
         "initial": {f: v.tolist() for f, v in unknowns},
         "start_factor": grid.tolist(),
         "fitted": {f: v.tolist() for f, v in shapes.items()},
         "weighted_residual_norm": {"initial": cost0, "fitted": float(np.linalg.norm(res.fun))},
         "evaluations": int(res.nfev), "converged": bool(res.status > 0), "message": str(res.message),
-        "at_bound": at_bound,
+        "at_bound": at_bound, "undetermined": flat,
     }
     return _with_shapes(friction, shapes), info
