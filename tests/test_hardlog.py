@@ -203,3 +203,20 @@ def test_hard_log_through_the_command_line(tmp_path, capsys):
     # linear resampling of the jittered stamps leaves sqrt(2/3) = 0.816 of the white noise (the
     # mean of (1 - a)^2 + a^2 over a uniform a); 0.9 leaves a model error of at most 0.37 sigma
     assert np.all((0.75 < ratio) & (ratio < 0.9)), ratio
+
+
+def test_varpro_names_shapes_the_data_do_not_determine():
+    """A Stribeck velocity started at 1e9 rad/s (far above every speed of the log) leaves the
+    residual unchanged: the search cannot move it, and the report says so instead of only
+    'converged'."""
+    prior = _ur5()
+    q, qd, qdd = _motion(prior.n, 3)
+    rng = np.random.default_rng(6)
+    tau = prior.inverse_dynamics(q, qd, qdd) + 0.01 * rng.standard_normal(q.shape)
+    z = np.zeros(prior.n)
+    start = Friction(viscous=z, stribeck_level=z, stribeck_velocity=np.full(prior.n, 1e9))
+    info = fit_friction_shapes(prior, (q, qd, qdd, tau), friction=start, method="wls").report["friction_shapes"]
+    assert info["undetermined"] == [f"stribeck_velocity[{i}]" for i in range(1, prior.n + 1)]
+    start = Friction(viscous=z, stribeck_level=z, stribeck_velocity=np.full(prior.n, 0.5))
+    info = fit_friction_shapes(prior, (q, qd, qdd, tau), friction=start, method="wls").report["friction_shapes"]
+    assert info["undetermined"] == []
