@@ -401,3 +401,10 @@ def test_a_log_with_more_joints_than_the_model_is_refused(tmp_path, capsys):
     assert read_log(p, 7).q.shape[1] == 7
     assert main(["validate", "ur5", str(p)]) == 2
     assert "belong to joint 7, but the model has 6 joints" in capsys.readouterr().err
+
+
+def test_a_json_file_given_as_the_log_is_named(tmp_path):
+    p = tmp_path / "base.json"
+    p.write_text('{\n  "format": "manipdyn base model"\n}\n')
+    with pytest.raises(md.ModelError, match=r"base.json: starts with '\{': a JSON file .* not a CSV log"):
+        read_log(p, 6)

@@ -250,7 +250,7 @@ def run(args) -> int:
         if not (0 <= args.prior_weight < float("inf")):
             return usage_error("identify", f"--prior-weight: expected a finite number >= 0, got {args.prior_weight}")
     if args.bootstrap and args.bootstrap < 2:
-        return usage_error("identify", f"--bootstrap: expected at least 2 replicates, got {args.bootstrap}")
+        return usage_error("identify", f"--bootstrap: expected at least 2 replicates (0: none), got {args.bootstrap}")
     if args.scheduler is not None and not args.bootstrap:
         return usage_error("identify", "--scheduler: only with --bootstrap N")
     if args.prior_weight and args.method != "consistent":
@@ -318,6 +318,10 @@ def run(args) -> int:
     except ModelError as exc:
         return usage_error("identify", str(exc))
     rep = dict(result.report)
+    if args.friction_side == "motor" and np.array_equal(np.asarray(arm.transmission.R), np.eye(arm.n)):
+        rep["fit_notes"] = list(rep.get("fit_notes", [])) + [
+            "--friction-side motor: the model has no transmission (R = I, no gear ratios), so the motor "
+            "side is the joint side; give the model a [transmission] for motor-side friction"]
     if selection is not None:
         rep["prior_weight_selection"] = selection
     if boot is not None:
@@ -360,7 +364,8 @@ def run(args) -> int:
             for b in rep["active_bounds"]:
                 print(f"  {b}")
         if selection is not None:
-            print("prior weight by 5-fold blocked cross-validation: " + ", ".join(
+            print("prior weight by 5-fold blocked cross-validation (score: mean log RMS over the joints of the "
+                  "held-out blocks, lower is better): " + ", ".join(
                 f"{row['prior_weight']:g} (score {row['score']:.4f})" for row in selection)
                   + f" -> {args.prior_weight:g}")
         if shapes is not None:

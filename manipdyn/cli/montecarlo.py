@@ -131,7 +131,7 @@ def register(subparsers) -> None:
                         "default all five")
     p.add_argument("--seed", type=int, default=0, help="study seed (default 0)")
     p.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
-                   help="run on this Dask scheduler (default: a local cluster on every core; "
+                   help="run on this Dask scheduler (default, or 'local': a local cluster on every core; "
                         "'sync': in this process)")
     p.add_argument("--workers", type=int, default=None, help="local worker processes (default: one per core)")
     p.add_argument("--chunk-size", type=int, default=None, metavar="RUNS",

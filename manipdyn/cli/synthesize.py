@@ -58,7 +58,7 @@ def register(sub) -> None:
         description="Compute the joint torques of MODEL along TRAJ.csv (as written by 'manipdyn excite'), "
                     "add seeded Gaussian noise of --noise times each joint's peak torque, and write "
                     "DATA.csv (t,q1..qn,tau1..taun) for 'manipdyn identify'. With --perturb the torques "
-                    "are those of an arm around MODEL (masses +-20 %%, centres of mass moved up to 2 cm, "
+                    "are those of an arm around MODEL (masses +-20 %, centres of mass moved up to 2 cm, "
                     "friction added; seeded by --seed), so that identify has something to find. "
                     "Exit codes: 0 written, 2 usage, model or data error.")
     p.add_argument("model", metavar="MODEL",

@@ -189,6 +189,9 @@ def read_table(path, label: str | None = None) -> Table:
                     raise limits.over_limit(where, "the data file size", f"over {cap} bytes", "MAX_DATA_BYTES")
                 digest.update(chunk)
                 buf = pending + chunk
+                if first and buf.lstrip(b"\xef\xbb\xbf \t\r\n")[:1] in (b"{", b"["):
+                    raise ModelError(f"{where}: starts with {buf.lstrip()[:1].decode()!r}: a JSON file (a base "
+                                     "model?), not a CSV log; DATA is the measurements, MODEL the model")
                 cut = buf.rfind(b"\n")
                 if cut < 0:
                     pending = buf
