@@ -22,9 +22,9 @@ __all__ = ["StudyReport", "METRICS", "PERCENTILES"]
 
 #: per-run figures: name -> (description, unit)
 METRICS = {
-    "rms_error": ("RMS over time of the norm of the joint tracking error", "rad"),
-    "max_error": ("largest absolute joint tracking error", "rad"),
-    "peak_torque": ("largest absolute joint torque", "N m"),
+    "rms_error": ("RMS over time of the norm of the error vector (all joints)", "rad"),
+    "max_error": ("largest error of one joint", "rad"),
+    "peak_torque": ("largest torque of one joint", "N m"),
 }
 PERCENTILES = (50, 90, 99)
 #: worst runs listed per controller
@@ -115,7 +115,8 @@ class StudyReport:
         foot = (f"{s.runs * len(s.controllers)} simulations in {t.get('wall_s', 0.0):.1f} s on "
                 f"{t.get('workers', 1)} worker(s) ({t.get('scheduler', '')}); replay a run with "
                 f"study.replay(run, controller)")
-        return f"{head}\n{self.table()}\n{self.integration()}{foot}"
+        legend = "; ".join(f"{m.replace('_', ' ')}: {d}" for m, (d, _) in METRICS.items())
+        return f"{head}\n{self.table()}\n{legend}\n{self.integration()}{foot}"
 
     def integration(self) -> str:
         """One line when some plants needed more than one Runge-Kutta step per period, else ''."""
