@@ -135,7 +135,7 @@ def run(path: Path) -> dict:
 
 
 def _row(label, xs):
-    return f"  {label:<34}" + " ".join(f"{x:7.3f}" for x in xs)
+    return f"  {label:<38}" + " ".join(f"{x:7.3f}" for x in xs)
 
 
 def main(argv=None) -> int:
@@ -160,7 +160,7 @@ def main(argv=None) -> int:
           f"[{res['q2_range']['fit'][0]:.2f}, {res['q2_range']['fit'][1]:.2f}] rad; held out "
           f"{res['held_out'][0]:.2f}-{res['held_out'][1]:.2f} s, q2 in "
           f"[{res['q2_range']['held_out'][0]:.2f}, {res['q2_range']['held_out'][1]:.2f}] rad")
-    print("N m per joint" + " " * 24 + "".join(f"{'j' + str(j + 1):>8}" for j in range(7)))
+    print(f"  {'N m per joint':<38}" + " ".join(f"{'j' + str(j + 1):>7}" for j in range(7)))
     for k in ("fit", "held_out"):
         print(_row(f"published, {k} window, rms", res["published"][k]["rms"]))
         print(_row(f"published, {k} window, mean", res["published"][k]["mean"]))
