@@ -61,6 +61,7 @@ import math
 import numpy as np
 
 from .errors import SingularMassMatrixError
+from .friction_jacobian import friction_jacobian
 
 __all__ = ["TraceFormDerivatives"]
 
@@ -97,11 +98,7 @@ class TraceFormDerivatives:
         A friction law beyond the links' kind gives :meth:`manipdyn.Friction.derivative` (the
         model's own derivative of its law: the cross-check compares the rigid-body parts
         independently, the friction law's derivative is the model layer's)."""
-        if getattr(self, "_law", None) is not None:
-            return self._law.derivative(qd, self.transmission)
-        if self.friction is None:
-            return None
-        return np.zeros(qd.shape + (self.n,)) + np.diag(self.friction[0])
+        return friction_jacobian(getattr(self, "_law", None), self.friction, qd, self.n, self.transmission)
 
     def friction_derivative(self, qd) -> np.ndarray:
         """``dF/dqd`` of the joint friction ``F = Fv qd + Fc sign(qd)``: (n, n) or (N, n, n), N m s/rad.

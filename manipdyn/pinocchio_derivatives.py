@@ -31,6 +31,7 @@ import pinocchio as pin
 
 from ._state import as_state, check_result, same_batch
 from .errors import SingularMassMatrixError
+from .friction_jacobian import friction_jacobian
 
 __all__ = ["PinocchioDerivatives"]
 
@@ -89,11 +90,7 @@ class PinocchioDerivatives:
 
         A friction law beyond the links' kind (smooth or asymmetric Coulomb, motor side, ...)
         gives :meth:`manipdyn.Friction.derivative` (motor side ``R^T diag(f') R``)."""
-        if getattr(self, "_law", None) is not None:
-            return self._law.derivative(qd, self.transmission)
-        if self.friction is None:
-            return None
-        return np.zeros(qd.shape + (self.n,)) + np.diag(self.friction[0])
+        return friction_jacobian(getattr(self, "_law", None), self.friction, qd, self.n, self.transmission)
 
     def friction_derivative(self, qd) -> np.ndarray:
         """``dF/dqd`` of the joint friction ``F = Fv qd + Fc sign(qd)``: (n, n) or (N, n, n), N m s/rad.
