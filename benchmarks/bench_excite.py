@@ -26,7 +26,6 @@ or ``--out DIR``).
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import platform
 import sys
@@ -36,7 +35,7 @@ import warnings
 import numpy as np
 
 import manipdyn as md
-from benchmarks.timing import blas_config, write_run
+from benchmarks.timing import blas_config, publish
 from manipdyn.identification import base_parameters, excitation
 from manipdyn.identification import trajectory as _trajectory
 
@@ -122,9 +121,7 @@ def main(argv=None) -> int:
         for prob in r["problems"]:
             print(f"  !!! WRONG ANSWER ({r['arm']}): {prob}", file=sys.stderr)
     print(f"load average {env['loadavg_start']} -> {env['loadavg_end']}")
-    if not args.no_write:
-        path = write_run(json.dumps({"environment": env, "results": rows}, indent=2) + "\n", "excite", args.out)
-        print(f"wrote {path}")
+    publish(args, env, {"results": rows}, "excite")
     return 2 if any(r["problems"] for r in rows) else 0
 
 

@@ -29,7 +29,6 @@ or ``--out DIR``).
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import tempfile
@@ -40,7 +39,7 @@ import numpy as np
 
 import manipdyn as md
 from benchmarks.bench_identification import environment
-from benchmarks.timing import write_run
+from benchmarks.timing import publish
 from manipdyn.friction import Friction
 from manipdyn.identification import read_log
 from manipdyn.identification.hardlog import SMOOTHING, hard_log, recovered
@@ -105,9 +104,7 @@ def main(argv=None) -> int:
             f"{k} {100 * v['error']:.2f} % ({v['parameter']})" for k, v in r["worst_by_kind"].items()))
         print(f"  not identifiable alone: {', '.join(r['not_identifiable']) or 'none'}")
     print(f"BLAS: {env['blas']}; load average {env['loadavg_start']} -> {env['loadavg_end']}")
-    if not args.no_write:
-        path = write_run(json.dumps({"environment": env, "runs": runs}, indent=2) + "\n", "hardlog", args.out)
-        print(f"wrote {path}")
+    publish(args, env, {"runs": runs}, "hardlog")
     return 0
 
 

@@ -31,7 +31,6 @@ Results are printed and written, atomically, to
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import time
@@ -42,7 +41,7 @@ import numpy as np
 
 import manipdyn as md
 from benchmarks.bench_identification import environment
-from benchmarks.timing import write_run
+from benchmarks.timing import publish
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "realdata" / "panda_gaz2019" / "panda_as_logged.csv"
 #: Gaz et al. (2019)'s sigmoid friction, the realdata README's table
@@ -172,9 +171,7 @@ def main(argv=None) -> int:
               + ("   wins all" if row["wins_all"] else ""))
     print(_row("oracle (fitted on the held-out too)", res["oracle_held_out_rms"]))
     print(f"{res['wall_s']:.0f} s; BLAS: {env['blas']}")
-    if not args.no_write:
-        path = write_run(json.dumps({"environment": env, "results": res}, indent=2) + "\n", "panda", args.out)
-        print(f"wrote {path}")
+    publish(args, env, {"results": res}, "panda")
     return 0
 
 

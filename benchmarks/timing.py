@@ -186,3 +186,13 @@ def write_run(text: str, label: str, out=None):
     path = folder / "results.json"
     write_atomic(path, text)
     return path
+
+
+def publish(args, env: dict, payload: dict, label: str) -> None:
+    """Unless ``args.no_write``: write ``{"environment": env, **payload}`` as the run's
+    ``results.json`` (:func:`write_run`, into ``args.out`` if given) and say where."""
+    import json
+
+    if not args.no_write:
+        path = write_run(json.dumps({"environment": env, **payload}, indent=2) + "\n", label, args.out)
+        print(f"wrote {path}")

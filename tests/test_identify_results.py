@@ -23,6 +23,15 @@ def ur5_motion():
     return arm, ex
 
 
+def _noisy_log(tmp_path, ur5_motion, seed, noise=0.01):
+    """The excitation's exact torques plus ``noise`` N m of seeded white noise, written as d.csv."""
+    arm, ex = ur5_motion
+    tau = arm.inverse_dynamics(ex.q, ex.qd, ex.qdd) + noise * np.random.default_rng(seed).standard_normal(ex.q.shape)
+    data = tmp_path / "d.csv"
+    write_measurements_csv(data, ex.t, ex.q, tau, qd=ex.qd, qdd=ex.qdd)
+    return data
+
+
 def _with_law(arm, law):
     return md.Manipulator(arm.links, convention=arm.convention, gravity=arm.gravity, name="truth",
                           friction=law)
@@ -139,10 +148,7 @@ def test_identified_model_says_where_it_came_from(tmp_path, capsys, ur5_motion):
     from manipdyn.cli import main
     from manipdyn.identification.provenance import file_sha256
 
-    arm, ex = ur5_motion
-    tau = arm.inverse_dynamics(ex.q, ex.qd, ex.qdd) + 0.01 * np.random.default_rng(1).standard_normal(ex.q.shape)
-    data = tmp_path / "d.csv"
-    write_measurements_csv(data, ex.t, ex.q, tau, qd=ex.qd, qdd=ex.qdd)
+    data = _noisy_log(tmp_path, ur5_motion, 1)
     out = tmp_path / "ident.toml"
     assert main(["identify", "ur5", str(data), "-o", str(out), "--friction-terms", "viscous,coulomb,offset"]) == 0
     capsys.readouterr()
@@ -255,10 +261,7 @@ def test_cli_refuses_meaningless_data(tmp_path, capsys, ur5_motion):
 def test_validate_refuses_tip_with_a_base_model(tmp_path, capsys, ur5_motion):
     from manipdyn.cli import main
 
-    arm, ex = ur5_motion
-    tau = arm.inverse_dynamics(ex.q, ex.qd, ex.qdd) + 0.01 * np.random.default_rng(2).standard_normal(ex.q.shape)
-    data = tmp_path / "d.csv"
-    write_measurements_csv(data, ex.t, ex.q, tau, qd=ex.qd, qdd=ex.qdd)
+    data = _noisy_log(tmp_path, ur5_motion, 2)
     base = tmp_path / "w.json"
     assert main(["identify", "ur5", str(data), "-o", str(base), "--method", "wls"]) == 0
     capsys.readouterr()
