@@ -15,8 +15,9 @@ minimises over ``theta`` alone the residual left after that solution:
 
     min_theta || W (I - A(theta) A(theta)^+) y ||,    A(theta) = W [Y_b | F(theta)],
 
-with ``scipy.optimize.least_squares`` (trust-region reflective, finite
-differences).  ``W`` divides each joint's rows by its noise level ``sigma_j``
+with ``scipy.optimize.least_squares`` (trust-region reflective; forward
+differences with absolute steps, on variables shifted to start away from 0:
+see :func:`fit_shapes`'s comments for why).  ``W`` divides each joint's rows by its noise level ``sigma_j``
 (``wls``'s weights), estimated once by :func:`~manipdyn.identification.fit`
 at the initial shapes.  The link regressor ``Y_b`` does not depend on
 ``theta``: it is computed once, and only the friction columns are rebuilt per
@@ -176,8 +177,11 @@ def fit_friction_shapes(arm, data, friction: Friction, method: str = "wls", *, a
     -------
     FitResult
         Of the final fit; its arm carries the fitted shapes (``arm.friction_model``), and
-        ``report["friction_shapes"]`` holds the initial and fitted shapes, the weighted
-        residual norm before and after, the evaluations and the solver's message.
+        ``report["friction_shapes"]`` holds the initial shapes, the grid factor each search
+        started from (``start_factor``), the fitted shapes, the weighted residual norm before
+        and after, the evaluations, the solver's message, the shapes that ended at the search's
+        bound (``at_bound``) and those the data do not determine (``undetermined``: the
+        residual does not change with them).
     """
     law, info = fit_shapes(arm, data, friction, armature=armature, max_nfev=max_nfev)
     q, qd, qdd, tau = (np.asarray(a, dtype=np.float64) for a in _samples(data))
