@@ -42,7 +42,7 @@ from .base import BaseParameters, base_parameters, check_base
 from .sdp import Bounds, consistent_fit
 from .uncertainty import base_covariance
 
-__all__ = ["fit", "FitResult", "METHODS", "link_min_eigenvalues", "known_torque"]
+__all__ = ["fit", "FitResult", "METHODS", "link_min_eigenvalues", "known_torque", "joint_noise"]
 
 METHODS = ("ols", "wls", "consistent")
 
@@ -162,8 +162,9 @@ def _reduce(A, y):
     return Ra[:r, :r], Ra[:r, r], rho0
 
 
-def _joint_noise(Yb, y) -> np.ndarray:
-    """Per-joint noise level from each joint's own OLS fit (module docstring), (n,)."""
+def joint_noise(Yb, y) -> np.ndarray:
+    """Per-joint noise level ``sigma_j`` (n,) from each joint's own OLS fit (module docstring):
+    ``Yb`` (N, n, p) the regressor, ``y`` (N, n) the torques it should explain."""
     N, n, _ = Yb.shape
     sigma = np.empty(n)
     for j in range(n):
@@ -285,7 +286,7 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
                          f"threshold {limit:.0e}: the motion does not excite every base parameter (is q "
                          f"constant, or a column scaled wrongly?); use an excitation trajectory "
                          f"(manipdyn excite)")
-    sigma = _joint_noise(Yb, y)
+    sigma = joint_noise(Yb, y)
     # noise below 1e-6 of the largest joint's RMS torque is rounding, not noise:
     # flooring it keeps the weights (and the semidefinite program) well scaled
     # on exact data, where every sigma_j would otherwise be ~1e-12 and arbitrary

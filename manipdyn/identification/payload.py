@@ -62,6 +62,7 @@ from ..inertia import (LINK_PARAMETERS, parameters_from_pseudo_inertia, tensor_f
                        transform_pseudo_inertia)
 from ..parameters import PARAMETER_BASIS
 from ._deps import require
+from .estimation import joint_noise
 from .sdp import EPS, solve_problem
 
 __all__ = ["PayloadResult", "identify_payload", "payload_parameter_map"]
@@ -246,20 +247,6 @@ def _check(arm, q, qd, qdd, tau):
     return arrays
 
 
-def _joint_noise(Y, r) -> np.ndarray:
-    """``sigma_j`` (n,) from joint j's equations alone (module docstring, step 1)."""
-    N, n, _ = Y.shape
-    sigma = np.empty(n)
-    for j in range(n):
-        A = Y[:, j, :]
-        d = np.linalg.norm(A, axis=0)
-        d = np.where(d > 0, d, 1.0)
-        x, _, rank, _ = np.linalg.lstsq(A / d, r[:, j], rcond=RANK_RTOL)
-        rho = r[:, j] - (A / d) @ x
-        sigma[j] = np.sqrt(float(rho @ rho) / max(1, N - rank))
-    return sigma
-
-
 def _consistent(A, b, x_wls, length):
     """Step 3 of the module docstring: ``(pi, solver)``."""
     cp = require("cvxpy", "payload identification")
@@ -326,7 +313,7 @@ def identify_payload(arm, q, qd, qdd, tau, link: str | None = None, frame=None, 
     r = tau - arm.inverse_dynamics(q, qd, qdd)                # what the payload explains
 
     # 1. per-joint noise, each joint's own OLS fit
-    sigma = _joint_noise(Y, r)
+    sigma = joint_noise(Y, r)             # each joint's own OLS fit, as fit() weighs wls
     floor = 1e-6 * max(float(np.sqrt(np.mean(tau**2, axis=0)).max()), 1e-300)
     sigma = np.maximum(sigma, floor)
 
