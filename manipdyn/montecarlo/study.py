@@ -204,19 +204,22 @@ class Study:
         if self.distributions.torque_noise > 0:
             ctrl = TorqueNoise(ctrl, plant.draw.torque_noise, self.dt)
         q0 = path(0.0)[0] + plant.draw.q0_offset
-        return RunSetup(self.arm, ctrl, path, plant, q0, float(self.duration), float(self.dt),
-                        self.substeps(plant))
+        key = ("substeps", int(run))              # one run's plant, whichever controller drives it
+        if _cache is None or key not in _cache:
+            m = self.substeps(plant)
+            if _cache is not None:
+                _cache[key] = m
+        else:
+            m = _cache[key]
+        return RunSetup(self.arm, ctrl, path, plant, q0, float(self.duration), float(self.dt), m)
 
     def substeps(self, plant) -> int:
         """Runge-Kutta steps per period for ``plant`` along the path, as :func:`manipdyn.simulate`
         chooses them (:func:`manipdyn.control.stiffness.rk4_substeps`): a run's own plant decides."""
-        from ..control.stiffness import reference_samples, rk4_substeps
+        from ..control.stiffness import rk4_substeps
 
-        N = self.steps
-        i = reference_samples(N)
-        ref = self.path()(np.arange(N + 1) * self.dt)       # as simulate evaluates it, then the samples
-        q_d, qd_d, qdd_d = (np.asarray(r, dtype=np.float64)[i] for r in ref)
-        return rk4_substeps(plant, q_d, qd_d, qdd_d, self.dt)[0]
+        return rk4_substeps(plant, *_reference_samples(self.model, float(self.duration), float(self.dt)),
+                            self.dt)[0]
 
     def replay(self, run: int, controller: str):
         """Simulate run ``run`` of ``controller`` alone: the study's :class:`SimulationLog`.
@@ -246,6 +249,21 @@ def _path(model: tuple, duration: float):
     from ..control.demo import demo_path
 
     return demo_path(arm_from_text(*model), duration)
+
+
+@functools.lru_cache(maxsize=8)
+def _reference_samples(model: tuple, duration: float, dt: float):
+    """``(q_d, qd_d, qdd_d)`` at the samples :func:`~manipdyn.control.stiffness.rk4_substeps`
+    reads, taken from the reference as :func:`manipdyn.simulate` evaluates it (all N + 1 times)."""
+    from ..control.stiffness import reference_samples
+
+    N = max(1, int(round(duration / dt)))
+    i = reference_samples(N)
+    ref = _path(model, duration)(np.arange(N + 1) * dt)
+    out = tuple(np.asarray(r, dtype=np.float64)[i] for r in ref)
+    for a in out:
+        a.setflags(write=False)
+    return out
 
 
 # -- one run, and a chunk of runs ------------------------------------------------------
