@@ -425,12 +425,17 @@ class FrictionTerms:
             raise ModelError("friction terms: 'coulomb' and 'asymmetric' describe the same torque; give one")
         object.__setattr__(self, "terms", terms)
 
-    def as_friction(self, n: int) -> Friction:
-        """A :class:`Friction` with these terms, all parameters zero."""
+    def as_friction(self, n: int, *, stribeck_velocity=None, sigmoid_alpha=None) -> Friction:
+        """A :class:`Friction` with these terms, all parameters zero; given a ``stribeck_velocity``
+        or a ``sigmoid_alpha`` (n,), also that term with those shapes (the sigmoid's shift 0)."""
         z = np.zeros(n)
         kw = {t: z for t in self.terms if t != "asymmetric"}
         if "asymmetric" in self.terms:
             kw.update(coulomb_pos=z, coulomb_neg=z)
+        if stribeck_velocity is not None:
+            kw.update(stribeck_level=z, stribeck_velocity=stribeck_velocity)
+        if sigmoid_alpha is not None:
+            kw.update(sigmoid_A=z, sigmoid_alpha=sigmoid_alpha, sigmoid_p3=z)
         return Friction(**kw, side=self.side, smoothing=self.smoothing, deadband=self.deadband, n=n)
 
 

@@ -149,7 +149,7 @@ SHAPED = ("stribeck", "sigmoid")
 def _friction(args, arm):
     """``--friction`` (True), a FrictionTerms from ``--friction-terms``/``--friction-side``/``--smoothing``,
     or, with a Stribeck or sigmoid term, a Friction holding the shapes' starting values."""
-    from ..friction import DEFAULT_SMOOTHING, FrictionTerms
+    from ..friction import DEFAULT_SMOOTHING, FRICTION_TERMS, FrictionTerms
 
     shape_opts = [o for o, v in (("--stribeck-velocity", args.stribeck_velocity),
                                  ("--sigmoid-alpha", args.sigmoid_alpha)) if v is not None]
@@ -163,11 +163,10 @@ def _friction(args, arm):
     if not 0 <= v < float("inf"):
         raise ModelError(f"--smoothing: expected a finite velocity >= 0, got {v}")
     terms = tuple(t.strip() for t in args.friction_terms.split(","))
-    known = ("viscous", "coulomb", "asymmetric", "offset") + SHAPED
-    bad = [t for t in terms if t not in known]
+    bad = [t for t in terms if t not in FRICTION_TERMS]
     if not terms or bad:
         raise ModelError(f"--friction-terms: unknown term(s) {bad or [args.friction_terms]}; expected some of "
-                         f"{', '.join(known)}, separated by commas")
+                         f"{', '.join(FRICTION_TERMS)}, separated by commas")
     twice = sorted({t for t in terms if terms.count(t) > 1})
     if twice:
         raise ModelError(f"--friction-terms: {', '.join(twice)} given twice")
@@ -184,19 +183,14 @@ def _friction(args, arm):
     scale = np.ones(arm.n)
     if args.friction_side == "motor":
         scale = np.abs(np.diag(np.asarray(arm.transmission.R, dtype=np.float64)))
-    z = np.zeros(arm.n)
-    kw = {t: z for t in linear.terms if t != "asymmetric"}
-    if "asymmetric" in linear.terms:
-        kw.update(coulomb_pos=z, coulomb_neg=z)
+    shapes = {}
     if "stribeck" in shaped:
-        vs = START_STRIBECK_VELOCITY if args.stribeck_velocity is None else args.stribeck_velocity
-        kw.update(stribeck_level=z, stribeck_velocity=vs * (scale if args.stribeck_velocity is None else 1.0)
-                  * np.ones(arm.n))
+        vs = args.stribeck_velocity
+        shapes["stribeck_velocity"] = np.full(arm.n, vs) if vs is not None else START_STRIBECK_VELOCITY * scale
     if "sigmoid" in shaped:
-        a = START_SIGMOID_ALPHA if args.sigmoid_alpha is None else args.sigmoid_alpha
-        kw.update(sigmoid_A=z, sigmoid_alpha=a / (scale if args.sigmoid_alpha is None else 1.0) * np.ones(arm.n),
-                  sigmoid_p3=z)
-    return Friction(**kw, side=args.friction_side, smoothing=v, n=arm.n)
+        a = args.sigmoid_alpha
+        shapes["sigmoid_alpha"] = np.full(arm.n, a) if a is not None else START_SIGMOID_ALPHA / scale
+    return linear.as_friction(arm.n, **shapes)
 
 
 def _check_limits(data, arm, deg: bool) -> None:
