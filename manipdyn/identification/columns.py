@@ -89,7 +89,8 @@ class ColumnMap:
                                  f"which is the {what}? map the other one away, e.g. columns='{have[1]}=unused{{i}}'")
         claimed = {k for ks in index.values() for k in ks}
         unused = [h for k, h in enumerate(header) if k not in claimed]
-        beyond = [name for sig in index if sig != "t" for name in [self.names(sig, n + 1)[n]] if name in pos]
+        nxt = {sig: self.names(sig, n + 1)[n] for sig in index if sig != "t"}   # joint n + 1's column
+        beyond = [name for name in nxt.values() if name in pos]
         if beyond and not extra_joints:
             raise ModelError(f"{where}: column(s) {beyond} belong to joint {n + 1}, but the model has {n} joints: "
                              "a log of another arm, or a chain cut short (--tip)? Fitting n joints of a log "

@@ -272,7 +272,7 @@ def fit_shapes(arm, data, friction: Friction, *, armature: bool = False, max_nfe
                 if res.active_mask[k * n + i] != 0]
     # a shape the residual does not feel (a Stribeck velocity far above every speed in the log, a
     # sigmoid so flat it is viscous friction) is not determined by the data: say which
-    cols = np.linalg.norm(jacobian(res.x), axis=0)
+    cols = np.linalg.norm(res.jac, axis=0)       # trf returns the Jacobian at res.x (our own)
     flat = [f"{f}[{i + 1}]" for k, (f, _) in enumerate(unknowns) for i in range(n)
             if not cols[k * n + i] > 1e-6 * max(float(cols.max()), 1e-300)]
     info = {
