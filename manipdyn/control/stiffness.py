@@ -47,10 +47,11 @@ MAX_SUBSTEPS = 1000
 SAMPLES = 9
 
 
-def _derivatives(plant):
-    eng = getattr(plant, "pinocchio", None)
-    f = getattr(eng, "forward_dynamics_derivatives", None)
-    return f if callable(f) else getattr(plant, "forward_dynamics_derivatives", None)
+def _call(plant, name: str):
+    """The plant's Pinocchio engine's ``name`` (a Monte-Carlo plant or an arm), else its own, else None."""
+    f = getattr(getattr(plant, "pinocchio", None), name, None)
+    f = f if callable(f) else getattr(plant, name, None)
+    return f if callable(f) else None
 
 
 def rk4_substeps(plant, q, qd, qdd, dt: float):
@@ -61,9 +62,7 @@ def rk4_substeps(plant, q, qd, qdd, dt: float):
     None when the plant has no analytical derivatives (``m`` is then 1).  Raises
     ``ValueError`` when ``m`` would exceed :data:`MAX_SUBSTEPS`.
     """
-    fdd = _derivatives(plant)
-    inv = getattr(getattr(plant, "pinocchio", None), "inverse_dynamics", None) or getattr(
-        plant, "inverse_dynamics", None)
+    fdd, inv = _call(plant, "forward_dynamics_derivatives"), _call(plant, "inverse_dynamics")
     if fdd is None or inv is None:
         return 1, None
     q, qd, qdd = (np.atleast_2d(np.asarray(x, dtype=np.float64)) for x in (q, qd, qdd))
