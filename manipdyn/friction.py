@@ -430,12 +430,9 @@ class FrictionTerms:
         or a ``sigmoid_alpha`` (n,), also that term with those shapes (the sigmoid's shift 0)."""
         z = np.zeros(n)
         kw = {t: z for t in self.terms if t != "asymmetric"}
-        if "asymmetric" in self.terms:
-            kw.update(coulomb_pos=z, coulomb_neg=z)
-        if stribeck_velocity is not None:
-            kw.update(stribeck_level=z, stribeck_velocity=stribeck_velocity)
-        if sigmoid_alpha is not None:
-            kw.update(sigmoid_A=z, sigmoid_alpha=sigmoid_alpha, sigmoid_p3=z)
+        kw.update({"coulomb_pos": z, "coulomb_neg": z} if "asymmetric" in self.terms else {})
+        kw.update({} if stribeck_velocity is None else {"stribeck_level": z, "stribeck_velocity": stribeck_velocity})
+        kw.update({} if sigmoid_alpha is None else {"sigmoid_A": z, "sigmoid_alpha": sigmoid_alpha, "sigmoid_p3": z})
         return Friction(**kw, side=self.side, smoothing=self.smoothing, deadband=self.deadband, n=n)
 
 
