@@ -108,6 +108,9 @@ def register(subparsers) -> None:
                         "tcp://HOST:PORT; default: in this process (same numbers either way)")
     p.add_argument("--base-json", metavar="FILE.json", default=None,
                    help="also write the base model (base parameters, standard deviations) here")
+    p.add_argument("--band-folds", type=int, default=5, metavar="K",
+                   help="refit on K-1 of K blocks in time and score the held-out one, for the 95 %% prediction "
+                        "band validate draws (model error and correlated noise; default 5, 0: none)")
     p.add_argument("--json", action="store_true", help="print a JSON object instead of text")
     register_log_options(p)
     p.set_defaults(func=run)
@@ -231,7 +234,7 @@ def run(args) -> int:
     from ..arm import Manipulator, URDFArm
     from ..identification import fit, format_report, read_log
     from ..identification.basemodel import prior_text, write_base_model
-    from ..identification.provenance import model_metadata, provenance
+    from ..identification.provenance import fit_record, model_metadata, provenance
 
     out = args.output
     if not out.lower().endswith((".toml", ".urdf", ".json")):
@@ -243,6 +246,8 @@ def run(args) -> int:
             return usage_error("identify", f"--prior-weight: expected a number >= 0 or 'auto', got {args.prior_weight!r}")
         if not (0 <= args.prior_weight < float("inf")):
             return usage_error("identify", f"--prior-weight: expected a finite number >= 0, got {args.prior_weight}")
+    if not 0 <= args.band_folds <= 100 or args.band_folds == 1:
+        return usage_error("identify", f"--band-folds: expected 0 (no band) or 2 to 100, got {args.band_folds}")
     if args.bootstrap and args.bootstrap < 2:
         return usage_error("identify", f"--bootstrap: expected at least 2 replicates (0: none), got {args.bootstrap}")
     if args.scheduler is not None and not args.bootstrap:
@@ -294,6 +299,9 @@ def run(args) -> int:
                      prior_weight=args.prior_weight)
         prov = provenance(args.data, args.method, opts, args.model, result.report["rms_residual"],
                           sha256=getattr(data, "source_sha256", None))   # read_log hashed the bytes it read
+        record, record_notes = fit_record(arm, data, folds=args.band_folds, method=args.method, friction=friction,
+                                          armature=args.armature, bounds=bounds, prior_weight=args.prior_weight)
+        prov.update(record)      # the fitted range and the band travel with the model (provenance.fit_record)
         if result.arm is not None:
             from ..identification.model import arm_with_parameters
 
@@ -325,6 +333,7 @@ def run(args) -> int:
     rep.update({"model": args.model, "data": args.data, "output": None, "base_model": None,
                 "derived_derivatives": data.derived, "provenance": prov,
                 "data_notes": list(getattr(data, "notes", []))})
+    rep["fit_notes"] = list(rep.get("fit_notes", [])) + record_notes
     code = EXIT_OK
     want_base = out.lower().endswith(".json")
     base_path = out if want_base else args.base_json

@@ -1,11 +1,14 @@
-"""``manipdyn validate MODEL|BASE.json DATA [--json] [--plot FIG.png]``: score a model on data.
+"""``manipdyn validate MODEL|BASE.json [MODEL2 ...] DATA [--json] [--plot FIG.png] [--predictions OUT.csv]``.
 
 Layer: CLI.
 
 MODEL is anything ``manipdyn`` loads (a bundled name, a .toml model file, a URDF) or a
 base model JSON written by ``manipdyn identify``.  DATA is read as ``identify`` reads it.
 Per joint: RMS error, RMS relative to the measured RMS, R^2 and the mean error
-(:mod:`manipdyn.identification.validation`).
+(:mod:`manipdyn.identification.validation`), the 95 % band's coverage and the joints
+that leave the fitted range; several models: side by side, the best per joint marked
+(:mod:`manipdyn.identification.comparison`).  The data notes are printed as ``identify``
+prints them.
 
 Exit codes: 0 scored; 2 usage, model or data error (one line on stderr).
 """
@@ -29,12 +32,15 @@ def register(subparsers) -> None:
                     "from identify) and report per joint the RMS error, the RMS relative to the "
                     "measured RMS, R^2 and the mean error. Exit codes: 0 scored, 2 usage, model or "
                     "data error.")
-    p.add_argument("model", metavar="MODEL|BASE.json", help="model name, .toml, .urdf, or a base model JSON")
+    p.add_argument("model", metavar="MODEL|BASE.json", nargs="+",
+                   help="model name, .toml, .urdf, or a base model JSON; several: scored side by side")
     p.add_argument("data", metavar="DATA", help=DATA_HELP)
     p.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
     p.add_argument("--json", action="store_true", help="print a JSON object instead of text")
     p.add_argument("--plot", metavar="FIG.png", default=None,
                    help="draw measured and predicted torque per joint (needs the plot extra)")
+    p.add_argument("--predictions", metavar="OUT.csv", default=None,
+                   help="write t, tau1..n (measured), pred1..n, lo1..n, hi1..n (the 95 %% band) per sample")
     register_log_options(p)
     p.set_defaults(func=run)
 
@@ -55,28 +61,41 @@ def load_model(spec: str, tip=None):
 
 def run(args) -> int:
     from ..identification import read_log
-    from ..identification.validation import plot_validation, validate
+    from ..identification.comparison import format_side_by_side, side_by_side_dict
+    from ..identification.validation import plot_validation, validate, write_predictions
 
     try:
         if args.plot:
             check_plot_target(args.plot)
-        model, label = load_model(args.model, args.tip)
+        if args.predictions and len(args.model) > 1:
+            raise ModelError("--predictions: one MODEL at a time (the file holds one model's predictions)")
+        models = [load_model(spec, args.tip) for spec in args.model]
+        model, label = models[0]
         arm = getattr(model, "arm", model)
         data = read_log(args.data, model.n, transmission=getattr(arm, "transmission", None),
                         **log_options_from_args(args, list(getattr(arm, "joint_names", None) or []) or None))
-        res = validate(model, data, name=label)
+        results = [validate(m, data, name=lab) for m, lab in models]
+        res = results[0]
+        if args.predictions:
+            write_predictions(res, args.predictions)
         if args.plot:
             units = ["N" if t == "prismatic" else "N m"
                      for t in getattr(getattr(model, "arm", model), "joint_types", ["revolute"] * model.n)]
-            plot_validation(res, args.plot, units=units)
+            plot_validation(results, args.plot, units=units)
     except ModelError as exc:
         return usage_error("validate", str(exc))
+    except OSError as exc:
+        return usage_error("validate", f"{exc.filename or args.predictions}: cannot write: {exc.strerror or exc}")
+    notes = list(getattr(data, "notes", []))
     if args.json:
-        out = res.to_dict()
-        out.update({"data": args.data, "plot": args.plot})
+        out = res.to_dict() if len(results) == 1 else side_by_side_dict(results)
+        out.update({"data": args.data, "plot": args.plot, "predictions": args.predictions, "data_notes": notes})
         print(json.dumps(out, indent=2, allow_nan=False))
     else:
-        print(res.format())
-        if args.plot:
-            print(f"wrote {args.plot}")
+        for note in notes:
+            print(f"data: {note}")
+        print(res.format() if len(results) == 1 else format_side_by_side(results))
+        for path in (args.predictions, args.plot):
+            if path:
+                print(f"wrote {path}")
     return EXIT_OK

@@ -12,7 +12,11 @@ instead, in the model file's ``source`` and ``[sources]`` table (and in a base m
 * ``method`` and ``options`` (the command-line or API options of the fit);
 * ``date``: UTC, ISO 8601;
 * ``prior``: the prior's name (only its name: the label the user gave);
-* ``residuals``: the RMS residual per joint on the fit data, N m.
+* ``residuals``: the RMS residual per joint on the fit data, N m;
+* ``fitted_range``: the states the fit saw (:mod:`.coverage`) and ``prediction_band``: the
+  band's half-widths from blocked hold-outs of the fit data (:mod:`.bands`), both written by
+  :func:`fit_record`, and read back from a model or a base model by :func:`carried`, which is
+  how ``validate`` reports extrapolation and bands on new data.
 """
 
 from __future__ import annotations
@@ -24,7 +28,7 @@ import os
 from .. import limits
 from ..errors import ModelError
 
-__all__ = ["file_sha256", "provenance", "model_metadata"]
+__all__ = ["file_sha256", "provenance", "model_metadata", "fit_record", "carried"]
 
 
 def file_sha256(path, label: str | None = None) -> str:
@@ -74,6 +78,68 @@ def model_metadata(prov: dict) -> tuple[str, dict, str]:
         "prior": prov["prior"],
         "residuals": "RMS residual per joint on the fit data, N m: " + _one_line(prov["rms_residual"]),
     }
+    n = len(prov["rms_residual"])
+    if prov.get("fitted_range") is not None:
+        from .coverage import StateRange
+
+        sources["fitted_range"] = StateRange.from_dict(prov["fitted_range"], n, "fitted_range").to_text()
+    if prov.get("prediction_band") is not None:
+        from .bands import PredictionBand
+
+        sources["prediction_band"] = PredictionBand.from_dict(prov["prediction_band"], n,
+                                                              "prediction_band").to_text()
     description = (f"Inertial parameters identified from {prov['data']}; kinematics, limits and "
                    f"drives of the prior {prov['prior']}.")
     return source, sources, description
+
+
+def fit_record(arm, data, folds: int | None = None, **fit_kwargs) -> tuple[dict, list]:
+    """``(record, notes)``: what a fit on ``data`` (``q``, ``qd``, ``qdd``, ``tau`` (N, n)) adds
+    to its provenance: ``fitted_range`` (:func:`.coverage.fitted_range`) and, unless
+    ``folds`` is 0, ``prediction_band`` (:func:`.bands.calibrate_band` with ``fit_kwargs``,
+    the fit's own options; ``folds`` None: the default 5).  When the band cannot be had (data
+    too short for the blocks, a refit failing) it is left out and ``notes`` says why.
+    """
+    from .bands import DEFAULT_FOLDS, calibrate_band
+    from .coverage import fitted_range
+
+    record = {"fitted_range": fitted_range(data.q, data.qd, data.tau).to_dict()}
+    notes = []
+    folds = DEFAULT_FOLDS if folds is None else int(folds)
+    if folds:
+        try:
+            band = calibrate_band(arm, data.q, data.qd, data.qdd, data.tau, folds=folds, **fit_kwargs)
+            record["prediction_band"] = band.to_dict()
+        except ModelError as exc:
+            notes.append(f"no prediction band from blocked hold-outs: {exc}")
+    return record, notes
+
+
+def carried(model) -> tuple[object, object, list]:
+    """``(fitted_range, prediction_band, notes)`` that ``model`` carries from its fit, each None when
+    it has none: an arm read from a model file (its ``sources``), or a base model (its
+    ``provenance``).  A record that does not read is reported in ``notes``, not raised: the
+    model still predicts."""
+    from .bands import PredictionBand
+    from .coverage import StateRange
+
+    n = model.n
+    data = getattr(model, "data", None)
+    if isinstance(data, dict) and "base_parameters" in data:       # a base model
+        prov = data.get("provenance") if isinstance(data.get("provenance"), dict) else {}
+        readers = {"fitted_range": StateRange.from_dict, "prediction_band": PredictionBand.from_dict}
+    else:
+        prov = getattr(model, "sources", None) or {}
+        readers = {"fitted_range": StateRange.from_text, "prediction_band": PredictionBand.from_text}
+    out, notes = [], []
+    for key, read in readers.items():
+        value = prov.get(key)
+        if value is None:
+            out.append(None)
+            continue
+        try:
+            out.append(read(value, n, f"the model's {key}"))
+        except ModelError as exc:
+            out.append(None)
+            notes.append(f"{exc}; ignored")
+    return out[0], out[1], notes

@@ -11,9 +11,13 @@ measured states; the score per joint is
 * ``r2``: the coefficient of determination ``1 - SS_res / SS_tot`` about the measured
   mean (1 perfect, 0 as good as the mean, negative worse than the mean);
 * ``mean_error``: the mean of measured minus predicted (a bias the RMS hides);
-* with a base model that carries a covariance: a 95 % prediction band per sample,
-  ``1.96 sqrt(y_b C y_b^T + sigma_j^2)`` (parameter uncertainty plus the joint's noise level
-  ``noise_sigma`` from the fit), and the fraction of measured torques inside it.
+* a 95 % prediction band per sample and the fraction of measured torques inside it
+  (per joint and pooled): the band the model carries from blocked hold-outs of its fit
+  data (:mod:`.bands`: model error and correlated noise), or, for an older base model that
+  carries only a covariance, ``1.96 sqrt(y_b C y_b^T + sigma_j^2)`` (parameter uncertainty
+  plus white noise: too narrow on real data, and said so);
+* with a model that carries its fitted range (:mod:`.coverage`): per joint, the fraction
+  of samples outside the states the fit saw, and the joints that extrapolate.
 
 The model's own friction and armature are included: what :meth:`Arm.inverse_dynamics`
 predicts, the fast path.
@@ -22,13 +26,15 @@ predicts, the fast path.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..errors import ModelError
 
-__all__ = ["ValidationResult", "validate", "plot_validation"]
+__all__ = ["ValidationResult", "validate", "plot_validation", "write_predictions"]
+
+COVARIANCE_BAND = "parameter covariance and white noise only: no model error, too narrow on real data"
 
 
 @dataclass
@@ -46,8 +52,16 @@ class ValidationResult:
     t: np.ndarray
     measured: np.ndarray
     predicted: np.ndarray
-    band: np.ndarray | None = None
-    coverage: np.ndarray | None = None
+    band: np.ndarray | None = None          # (N, n) half-width of the 95 % band
+    coverage: np.ndarray | None = None      # (n,) fraction of measured torques inside it
+    band_method: str | None = None
+    extrapolation: object = None            # coverage.Extrapolation, or None
+    notes: list = field(default_factory=list)
+
+    @property
+    def pooled_coverage(self) -> float | None:
+        """The band's coverage over all joints' samples together."""
+        return None if self.coverage is None else float(np.mean(self.coverage))
 
     def to_dict(self) -> dict:
         """JSON-ready figures (NaN, e.g. R^2 of a joint with constant torque, becomes None)."""
@@ -59,6 +73,10 @@ class ValidationResult:
                "mean_error": clean(self.mean_error)}
         if self.coverage is not None:
             out["band_95_coverage"] = clean(self.coverage)
+            out["band_95_pooled"] = self.pooled_coverage
+            out["band_method"] = self.band_method
+        out["extrapolation"] = None if self.extrapolation is None else self.extrapolation.to_list()
+        out["model_notes"] = list(self.notes)
         return out
 
     def format(self, unit: str = "N m") -> str:
@@ -69,8 +87,12 @@ class ValidationResult:
             lines.append(f"{j + 1:>5}   {self.rms[j]:10.4g}   {self.relative_rms[j]:18.4g}   "
                          f"{self.r2[j]:7.4f}   {self.mean_error[j]:+14.4g}")
         if self.coverage is not None:
-            lines.append("95 % prediction band (parameter covariance and noise) holds the measured torque: "
-                         + ", ".join(f"j{j + 1} {100 * c:.1f} %" for j, c in enumerate(self.coverage)))
+            lines.append(f"95 % prediction band ({self.band_method}) holds the measured torque: "
+                         + ", ".join(f"j{j + 1} {100 * c:.1f} %" for j, c in enumerate(self.coverage))
+                         + f"; pooled {100 * self.pooled_coverage:.1f} %")
+        if self.extrapolation is not None:
+            lines.append(self.extrapolation.format(units=None if unit == "N m" else [unit] * len(self.rms)))
+        lines += [f"note: {x}" for x in self.notes]
         return "\n".join(lines)
 
 
@@ -98,15 +120,41 @@ def validate(model, data, name: str | None = None) -> ValidationResult:
     with np.errstate(divide="ignore", invalid="ignore"):
         rel = np.where(meas_rms > 0, rms / meas_rms, np.nan)
         r2 = np.where(ss_tot > 0, 1.0 - np.sum(err**2, axis=0) / ss_tot, np.nan)
-    band = coverage = None
-    std = model.prediction_std(data.q, data.qd, data.qdd) if hasattr(model, "prediction_std") else None
+    from .provenance import carried
+
+    fitted, held_out, notes = carried(model)
+    band = coverage = method = None
+    std = None
+    if held_out is not None:
+        band, method = np.broadcast_to(held_out.half_width, pred.shape), held_out.describe()
+    elif hasattr(model, "prediction_std"):
+        std = model.prediction_std(data.q, data.qd, data.qdd)
     if std is not None:
         noise = np.asarray(model.data.get("noise_sigma") or np.zeros(n), dtype=np.float64)
         band = 1.959964 * np.sqrt(std**2 + noise**2)      # 95 % of a Gaussian
+        method = COVARIANCE_BAND
+    if band is not None:
         coverage = np.mean(np.abs(err) <= band, axis=0)
     return ValidationResult(model=name or getattr(model, "name", "model"), rms=rms, relative_rms=rel,
                             r2=r2, mean_error=err.mean(axis=0), t=np.asarray(data.t), measured=data.tau,
-                            predicted=pred, band=band, coverage=coverage)
+                            predicted=pred, band=band, coverage=coverage, band_method=method,
+                            extrapolation=None if fitted is None else fitted.outside(data), notes=notes)
+
+
+def write_predictions(result: ValidationResult, path) -> None:
+    """Write ``t, tau1..taun`` (measured), ``pred1..predn`` and, with a band, ``lo1..lon, hi1..hin``
+    per sample as CSV, atomically (s, N m or N): anyone can check the band with it."""
+    from .._files import atomic_write_text
+
+    n = result.measured.shape[1]
+    cols = [result.t[:, None], result.measured, result.predicted]
+    names = ["t"] + [f"{k}{j + 1}" for k in ("tau", "pred") for j in range(n)]
+    if result.band is not None:
+        cols += [result.predicted - result.band, result.predicted + result.band]
+        names += [f"{k}{j + 1}" for k in ("lo", "hi") for j in range(n)]
+    table = np.hstack(cols)
+    lines = [",".join(names)] + [",".join(repr(float(x)) for x in row) for row in table]
+    atomic_write_text(path, "\n".join(lines) + "\n")
 
 
 def plot_validation(results, path, title: str | None = None, units=None) -> None:
@@ -140,15 +188,26 @@ def plot_validation(results, path, title: str | None = None, units=None) -> None
         ax.set_ylabel(f"torque ({units[j]})")
         axr.set_ylabel(f"residual ({units[j]})", fontsize=8)
         ax.tick_params(labelbottom=False)
-        ax.set_title(f"joint {j + 1}: RMS error " + ", ".join(
-            f"{r.rms[j]:.3g} {units[j]}" + (f" (band holds {100 * r.coverage[j]:.0f} %)" if r.coverage is not None
-                                           else "") for r in results), fontsize=9)
+        best = int(np.argmin([r.rms[j] if np.isfinite(r.rms[j]) else np.inf for r in results]))
+        flagged = any(r.extrapolation is not None and bool(r.extrapolation.flagged[j]) for r in results)
+        scores = [f"{r.rms[j]:.3g} {units[j]}" + (f" (band holds {100 * r.coverage[j]:.0f} %)"
+                                                  if r.coverage is not None else "") for r in results]
+        warn = " - EXTRAPOLATES (outside the fitted states)" if flagged else ""
+        if len(results) == 1:
+            ax.set_title(f"joint {j + 1}: RMS error {scores[0]}{warn}", fontsize=9, color="C3" if flagged else "black")
+        else:           # one line per model inside the panel, the best marked
+            ax.set_title(f"joint {j + 1}: best {results[best].model}{warn}", fontsize=9,
+                         color="C3" if flagged else "black")
+            ax.text(0.01, 0.97, "\n".join(("* " if k == best else "  ") + f"{r.model}: {scores[k]}"
+                                          for k, r in enumerate(results)),
+                    transform=ax.transAxes, va="top", ha="left", fontsize=7, family="monospace",
+                    bbox=dict(facecolor="white", alpha=0.7, lw=0))
         if j == 0:
             handles, labels = ax.get_legend_handles_labels()
         ax.grid(alpha=0.3)
         axr.grid(alpha=0.3)
         axr.set_xlabel("time (s)", fontsize=8)
-    fig.legend(handles, labels, loc="upper center", ncol=len(labels), frameon=False,
+    fig.legend(handles, labels, loc="upper center", ncol=min(len(labels), 4), frameon=False, fontsize=8,
                bbox_to_anchor=(0.5, 1 - 0.55 / (2.9 * nrow + 0.9)))
     fig.suptitle(title or f"measured and predicted joint torques: {', '.join(r.model for r in results)}")
     save_figure(fig, path)
