@@ -1,0 +1,207 @@
+"""Bands that hold and what the data never saw (issue 24, items 3 and 4; issue 27, item 12):
+``identify`` records the fitted states and a band from blocked hold-outs of the fit data,
+``validate`` scores the band, flags the joints that extrapolate, scores several models side
+by side, writes ``--predictions`` and prints the data notes."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+import manipdyn as md
+from manipdyn.errors import ModelError
+
+pytest.importorskip("cvxpy", reason="identification needs the identify extra (cvxpy)")
+from manipdyn.cli import main  # noqa: E402
+from manipdyn.identification import excitation, write_measurements_csv  # noqa: E402
+from manipdyn.identification.bands import PredictionBand, conformal_half_width  # noqa: E402
+from manipdyn.identification.coverage import StateRange, fitted_range  # noqa: E402
+
+#: the noise level per joint of the synthetic UR5, N m: about 1 % of each joint's peak torque
+#: along these excitations (joint 6 carries almost no torque: its noise alone)
+SIGMA = np.array([0.06, 0.5, 0.15, 0.02, 0.004, 0.001])
+
+
+def _coloured(rng, shape, phi=0.5):
+    """Unit-variance AR(1) noise along axis 0 (correlation phi between neighbouring samples)."""
+    w = rng.standard_normal(shape)
+    e = np.empty_like(w)
+    e[0] = w[0]
+    for k in range(1, len(w)):
+        e[k] = phi * e[k - 1] + np.sqrt(1 - phi**2) * w[k]
+    return e
+
+
+def _log(path, arm, seed, shift=None):
+    """A 10 s, 100 Hz excitation of ``arm`` (seeded), its exact torques plus coloured noise of SIGMA,
+    written with measured qd and qdd (nothing filtered).  ``shift``: added to q (n,) before the torques."""
+    ex = excitation(arm, duration=10.0, harmonics=3, rate=100.0, iterations=0, seed=seed)
+    q = ex.q + (0.0 if shift is None else np.asarray(shift))
+    tau = arm.inverse_dynamics(q, ex.qd, ex.qdd) + SIGMA * _coloured(np.random.default_rng(100 + seed), q.shape)
+    write_measurements_csv(path, ex.t, q, tau, qd=ex.qd, qdd=ex.qdd)
+    return q, ex.qd, tau
+
+
+def test_band_holds_on_another_trajectory_with_the_right_model(tmp_path, capsys):
+    """Issue 24 item 3, synthetic target: the nominal 95 % band, computed from the fit log alone,
+    holds 93 to 97 % of another trajectory's samples (pooled over the joints) when the model class
+    is right and the noise is coloured (AR(1), 0.5 between neighbours).  Measured: 95.3 % on these
+    seeds; the same set-up over six seed pairs (fit on excitation 2k+1, score on 2k+2, k = 0..5)
+    gave 93.0, 94.9, 95.3, 95.0, 95.2 and 96.0 %, a mean of 94.9 %.  6000 samples with a
+    correlation time of ~3 give a standard error near 0.5 %, and the 95 % quantile of 1000
+    held-out residuals moves each joint's coverage by about 0.7 %: 93-97 is the issue's target,
+    and about 2.5 of these standard errors either way.  Per joint, 85 % is far below what any of
+    the six gave (91.4 % the lowest)."""
+    arm = md.load("ur5")
+    fit_log, new_log = tmp_path / "fit.csv", tmp_path / "new.csv"
+    _log(fit_log, arm, 1)
+    _, _, tau_new = _log(new_log, arm, 2)
+    model = tmp_path / "ur5_id.json"
+    assert main(["identify", "ur5", str(fit_log), "-o", str(model), "--method", "wls"]) == 0
+    capsys.readouterr()
+    pred_csv = tmp_path / "pred.csv"
+    assert main(["validate", str(model), str(new_log), "--json", "--predictions", str(pred_csv)]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["band_method"].startswith("blocked hold-outs")
+    assert 0.93 <= out["band_95_pooled"] <= 0.97, out["band_95_coverage"]
+    assert all(c >= 0.85 for c in out["band_95_coverage"]), out["band_95_coverage"]
+    # the predictions file: t, tau, pred, lo, hi per sample; the band read back from it holds as reported
+    with open(pred_csv, newline="") as fh:
+        rows = list(csv.reader(fh))
+    n = 6
+    assert rows[0] == ["t"] + [f"{k}{j}" for k in ("tau", "pred", "lo", "hi") for j in range(1, n + 1)]
+    table = np.array(rows[1:], dtype=float)
+    tau, pred, lo, hi = (table[:, 1 + k * n:1 + (k + 1) * n] for k in range(4))
+    np.testing.assert_allclose(tau, tau_new, rtol=0, atol=1e-9)
+    assert np.all(lo <= pred) and np.all(pred <= hi)
+    np.testing.assert_allclose(np.mean((lo <= tau) & (tau <= hi), axis=0), out["band_95_coverage"], atol=1e-12)
+
+
+def test_the_band_and_the_fitted_range_travel_with_a_model_file(tmp_path, capsys):
+    """A .toml model carries both in its [sources]; md.load reads them back unchanged, and a
+    hand-broken record is ignored with a note rather than failing validate."""
+    arm = md.load("ur5")
+    fit_log = tmp_path / "fit.csv"
+    q, qd, tau = _log(fit_log, arm, 3)
+    model = tmp_path / "ur5_id.toml"
+    assert main(["identify", "ur5", str(fit_log), "-o", str(model), "--band-folds", "4", "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    band = PredictionBand.from_dict(rep["provenance"]["prediction_band"], 6, "report")
+    assert band.folds == 4 and band.samples == len(q)
+    loaded = md.load(str(model))
+    back = PredictionBand.from_text(loaded.sources["prediction_band"], 6, "model")
+    np.testing.assert_allclose(back.half_width, band.half_width, rtol=1e-5)
+    rng = StateRange.from_text(loaded.sources["fitted_range"], 6, "model")
+    assert np.all(rng.q[:, 0] <= q.min(axis=0)) and np.all(rng.q[:, 1] >= q.max(axis=0))
+    assert np.all(rng.tau[:, 1] - tau.max(axis=0) <= 1e-4)     # rounded outwards to 1e-4, no further
+    # validating on the fit log itself: nothing outside, nothing flagged
+    assert main(["validate", str(model), str(fit_log), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert [row["outside_fraction"] for row in out["extrapolation"]] == [0.0] * 6
+    # a broken record: validate still scores, says so, and has no band
+    text = model.read_text().replace(loaded.sources["prediction_band"], "95 % band: garbage")
+    broken = tmp_path / "broken.toml"
+    broken.write_text(text)
+    assert main(["validate", str(broken), str(fit_log), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert "band_95_coverage" not in out and any("prediction_band" in x for x in out["model_notes"])
+    # no band asked for
+    assert main(["identify", "ur5", str(fit_log), "-o", str(model), "--band-folds", "0"]) == 0
+    capsys.readouterr()
+    assert "prediction_band" not in md.load(str(model)).sources
+    assert main(["identify", "ur5", str(fit_log), "-o", str(model), "--band-folds", "1"]) == 2
+    assert "--band-folds" in capsys.readouterr().err
+
+
+def test_validate_flags_the_joint_that_leaves_the_fitted_states(tmp_path, capsys):
+    """Issue 24 item 4: a log whose q2 is shifted 0.6 rad past anything the fit saw is flagged on
+    joint 2, with the fraction of samples outside counted as a plain comparison with the fit
+    log's extremes would count it; the text report names the joint."""
+    arm = md.load("ur5")
+    fit_log, shifted = tmp_path / "fit.csv", tmp_path / "shifted.csv"
+    q_fit, _, _ = _log(fit_log, arm, 4)
+    q_new, _, _ = _log(shifted, arm, 4, shift=[0.0, 0.6, 0.0, 0.0, 0.0, 0.0])
+    model = tmp_path / "id.json"
+    assert main(["identify", "ur5", str(fit_log), "-o", str(model), "--method", "wls", "--band-folds", "0"]) == 0
+    capsys.readouterr()
+    assert main(["validate", str(model), str(shifted), "--json"]) == 0
+    ex = json.loads(capsys.readouterr().out)["extrapolation"]
+    assert len(ex) == 6 and [row["joint"] for row in ex] == list(range(1, 7))
+    assert ex[1]["extrapolates"] is True
+    expected = np.mean(q_new[:, 1] > np.ceil(q_fit[:, 1].max() * 1e4) / 1e4)
+    assert ex[1]["q"]["outside_fraction"] == pytest.approx(expected) and expected > 0.1
+    assert ex[1]["q"]["fitted"][1] >= q_fit[:, 1].max()
+    assert all(ex[j]["q"]["outside_fraction"] == 0.0 for j in (0, 2, 3, 4, 5))
+    assert main(["validate", str(model), str(shifted)]) == 0
+    text = capsys.readouterr().out
+    assert "EXTRAPOLATES joint 2: q2 in" in text
+
+
+def test_validate_scores_several_models_side_by_side(tmp_path, capsys):
+    """Issue 24 item 4: ``validate A B LOG`` puts both in one table with the best per joint marked,
+    in one figure; the JSON names the best per joint.  The truth beats a model whose masses are
+    20 % off on the joints that hold the arm against gravity (2 to 4); ``validate MODEL LOG``
+    keeps its single-model form."""
+    arm = md.load("ur5")
+    log = tmp_path / "d.csv"
+    _log(log, arm, 5)
+    truth = tmp_path / "truth.toml"
+    md.save(arm, truth)
+    off = md.Manipulator(arm.links, convention=arm.convention, gravity=np.asarray(arm.gravity) * 1.2,
+                         name="heavier")      # every gravity torque 20 % too large
+    heavier = tmp_path / "heavier.toml"
+    md.save(off, heavier)
+    fig = tmp_path / "both.png"
+    assert main(["validate", str(heavier), str(truth), str(log), "--plot", str(fig)]) == 0
+    text = capsys.readouterr().out
+    assert "2 models on 1000 samples" in text and fig.stat().st_size > 0
+    rows = [line.split() for line in text.splitlines() if line[:5].strip().isdigit()]
+    assert len(rows) == 6 and all(r[2].endswith("*") for r in rows[1:4]), text
+    assert main(["validate", str(heavier), str(truth), str(log), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert [m["model"] for m in out["models"]] == ["heavier", "ur5"]
+    assert [b["index"] for b in out["best"][1:4]] == [1, 1, 1]
+    assert main(["validate", str(truth), str(log), "--json"]) == 0
+    single = json.loads(capsys.readouterr().out)
+    assert single["model"] == "ur5" and len(single["rms"]) == 6
+    assert main(["validate", str(truth), str(heavier), str(log), "--predictions", str(tmp_path / "p.csv")]) == 2
+    assert "--predictions: one MODEL" in capsys.readouterr().err
+
+
+def test_validate_prints_the_data_notes_as_identify_does(tmp_path, capsys):
+    """Issue 27 item 12: resampling, duplicates and the window are said by validate too."""
+    arm = md.load("ur5")
+    log = tmp_path / "d.csv"
+    _log(log, arm, 6)
+    lines = log.read_text().splitlines()
+    log.write_text("\n".join(lines[:50] + [lines[49]] + lines[50:]) + "\n")    # one row logged twice
+    assert main(["validate", "ur5", str(log), "--t-range", "1:9"]) == 0
+    text = capsys.readouterr().out
+    assert "data: time: dropped 1 duplicate row" in text and "data: window:" in text
+    assert text.index("data:") < text.index("model ur5")
+    assert main(["validate", "ur5", str(log), "--json"]) == 0
+    notes = json.loads(capsys.readouterr().out)["data_notes"]
+    assert any("duplicate" in x for x in notes)
+
+
+def test_records_refuse_what_they_cannot_read():
+    band = PredictionBand(0.95, np.array([1.0, 2.0]), 5, 100, np.array([0.5, 1.0]))
+    assert PredictionBand.from_text(band.to_text(), 2, "b").to_dict() == band.to_dict()
+    with pytest.raises(ModelError, match="expected 3 numbers"):
+        PredictionBand.from_dict(band.to_dict(), 3, "b")
+    with pytest.raises(ModelError, match="finite numbers >= 0"):
+        PredictionBand(0.95, np.array([1.0, -2.0]), 5, 100, np.array([0.5, 1.0]))
+    with pytest.raises(ModelError, match="level"):
+        PredictionBand(1.5, np.array([1.0]), 5, 100, np.array([0.5]))
+    r = fitted_range(np.zeros((3, 2)), np.ones((3, 2)), np.arange(6.0).reshape(3, 2))
+    assert StateRange.from_text(r.to_text(), 2, "r").to_dict() == r.to_dict()
+    with pytest.raises(ModelError, match="r: key 'q'"):
+        StateRange.from_dict({"q": [[0, 1]], "qd": [[0, 1]] * 2, "tau": [[0, 1]] * 2}, 2, "r")
+    with pytest.raises(ModelError, match="min <= max"):
+        StateRange(q=np.array([[1.0, 0.0]]), qd=np.zeros((1, 2)), tau=np.zeros((1, 2)))
+    # the split-conformal rank: ceil((m + 1) 0.95) of m = 99 residuals is the 95th smallest
+    res = np.arange(1.0, 100.0)[:, None]
+    assert conformal_half_width(res)[0] == 95.0
