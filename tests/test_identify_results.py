@@ -154,7 +154,8 @@ def test_identified_model_says_where_it_came_from(tmp_path, capsys, ur5_motion):
     capsys.readouterr()
     ident = md.load(str(out))
     assert file_sha256(data) in ident.source and "consistent" in ident.source
-    assert set(ident.sources) == {"data", "method", "options", "date", "prior", "residuals"}
+    assert set(ident.sources) == {"data", "method", "options", "date", "prior", "residuals", "fitted_range",
+                                  "prediction_band"}      # the last two: what validate reads (issue 24)
     text = out.read_text()
     assert "Universal Robots" not in text and "ROS description" not in text   # nothing of the prior's citation
     assert ident.friction_model is not None and ident.friction_model.offset is not None

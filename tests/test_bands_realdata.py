@@ -1,0 +1,57 @@
+"""Bands that hold and what the data never saw, on the real Franka Panda log
+(../shared/realdata/panda_gaz2019, measured outside the project): issue 24, items 3 and 4.
+
+The README's protocol: identify on t < 10 s, validate on the rest of the log (another stretch of
+the trajectory, visiting states the first 10 s never visit)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+DATA = Path(__file__).resolve().parents[1].parent / "shared" / "realdata" / "panda_gaz2019" / "panda_as_logged.csv"
+pytestmark = pytest.mark.skipif(not DATA.is_file(), reason=f"the real-data folder is absent ({DATA.name} not found "
+                                                            "beside the project in shared/realdata)")
+pytest.importorskip("cvxpy", reason="identification needs the identify extra")
+
+
+@pytest.fixture(scope="module")
+def panda_model(tmp_path_factory):
+    from manipdyn.cli import main
+
+    out = tmp_path_factory.mktemp("panda") / "panda_id.toml"
+    assert main(["identify", "panda", str(DATA), "-o", str(out), "--t-range", "0:10",
+                 "--friction-terms", "viscous,coulomb,offset", "--json"]) == 0
+    return out
+
+
+def test_panda_band_holds_on_the_rest_of_the_log(panda_model, capsys):
+    """Issue 24 item 3, real target: the nominal 95 % band, from the fit window alone, holds 90 to
+    98 % of the samples of 10 s <= t < 21 s pooled over the joints and at least 80 % on each joint.
+    Measured (README): 95.1 % pooled, 91.7 to 97.0 % per joint."""
+    from manipdyn.cli import main
+
+    capsys.readouterr()
+    assert main(["validate", str(panda_model), str(DATA), "--t-range", "10:21", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["band_method"].startswith("blocked hold-outs")
+    assert 0.90 <= out["band_95_pooled"] <= 0.98, out["band_95_coverage"]
+    assert min(out["band_95_coverage"]) >= 0.80, out["band_95_coverage"]
+
+
+def test_panda_joint2_is_flagged_where_the_fit_never_went(panda_model, capsys):
+    """Issue 24 item 4: on 10 s <= t < 13.8 s q2 reaches 1.18 rad; the fit window's q2 stays below
+    0.31 rad.  validate flags joint 2, and the recorded range says why."""
+    from manipdyn.cli import main
+
+    capsys.readouterr()
+    assert main(["validate", str(panda_model), str(DATA), "--t-range", "10:13.8", "--json"]) == 0
+    ex = json.loads(capsys.readouterr().out)["extrapolation"]
+    j2 = ex[1]
+    assert j2["joint"] == 2 and j2["extrapolates"] is True
+    assert j2["q"]["fitted"][1] < 0.32 and j2["q"]["data"][1] > 1.1
+    assert j2["q"]["outside_fraction"] > 0.3
+    assert main(["validate", str(panda_model), str(DATA), "--t-range", "10:13.8"]) == 0
+    assert "EXTRAPOLATES joint 2: q2 in" in capsys.readouterr().out
