@@ -383,6 +383,10 @@ def run(args) -> int:
         if boot is not None:
             print(f"bootstrap: {boot['replicates']} replicates in blocks of {boot['block']} samples, "
                   f"{len(boot['failed'])} failed; std of each base parameter in --json")
+        if prov.get("prediction_band"):
+            b = prov["prediction_band"]
+            print(f"95 % prediction band from {b['folds']} blocked hold-outs of the fit data (validate scores it on "
+                  "new data): +- " + ", ".join(f"{x:.3g}" for x in b["half_width"]))
         if rep["output"]:
             print(f"wrote {out}")
         if rep["base_model"]:
