@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 import manipdyn as md
-from manipdyn.check import draw_states
-from manipdyn.drive import DEFAULT_SMOOTHING, Friction, FrictionTerms, Transmission
-from manipdyn.random_arms import random_arm
+from manipdyn.check.crosscheck import draw_states
+from manipdyn.model.drive import DEFAULT_SMOOTHING, Friction, FrictionTerms, Transmission
+from manipdyn.model.random_arms import random_arm
 
 # float64 sums of a few products of O(1..100) numbers: rounding stays near 1e-13
 # relative; 1e-10 is far below any modelling error (1e-3 and up)

@@ -17,12 +17,12 @@ import numpy as np
 import pytest
 
 import manipdyn as md
-from manipdyn.errors import ModelError
-from manipdyn import random_arms as arms
+from manipdyn._support.errors import ModelError
+from manipdyn.model import random_arms as arms
 from manipdyn.identification import (Bounds, MissingExtraError, base_parameters, excitation, fit,
                                      read_measurements, write_measurements_csv)
 from manipdyn.identification.base import stacked_regressor
-from manipdyn.identification.data import derivatives
+from manipdyn.formats.logs.data import derivatives
 from manipdyn.identification.demo import measure, true_arm
 from manipdyn.identification.estimation import link_min_eigenvalues
 from manipdyn.identification.trajectory import Excitation, fourier_trajectory

@@ -302,7 +302,7 @@ def test_a_worker_killed_mid_study_loses_no_run_and_counts_none_twice(puma):
 def test_study_takes_a_model_name_and_names_a_wrong_arm():
     """``study("puma560", ...)`` loads the bundled arm as the command line does; something that is
     not an arm is a ModelError naming the argument, not an AttributeError."""
-    from manipdyn.montecarlo import study
+    from manipdyn.control.montecarlo import study
 
     st = study("puma560", runs=2, seed=0, controllers=("pd",))
     assert st.arm.name == "puma560" and st.arm == md.load("puma560")

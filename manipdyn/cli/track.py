@@ -1,6 +1,6 @@
 """``manipdyn track``: run a tracking controller on the standard demo path.
 
-Layer: CLI.
+Layer 7 (CLI, the top).
 
     manipdyn track MODEL [--controller pd|pdg|ct|adaptive|lqr] [--payload KG]
                          [--duration S] [--plot out.png] [--compare]
@@ -22,10 +22,10 @@ import sys
 import numpy as np
 
 from ..control.demo import CONTROLLERS, DEFAULT_BANDWIDTH, DEFAULT_GAMMA, DEFAULT_PAYLOAD_COM, demo_path, make_controller
-from ..control.plant import with_payload
+from ..model.variants import with_payload
 from ..control.plots import PLOT_INSTALL, plot_compare, plot_single
 from ..control.simulate import SimulationDiverged, simulate
-from ..errors import ModelError
+from .._support.errors import ModelError
 from .common import TIP_HELP, Progress, add_progress_options, check_plot_target, load_arm, progress_wanted
 
 __all__ = ["register", "run"]
