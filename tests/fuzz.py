@@ -52,7 +52,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 URDFS = sorted((ROOT / "urdf").glob("*.urdf"))
-MODELS = sorted((ROOT / "manipdyn" / "models").glob("*.toml"))
+MODELS = sorted((ROOT / "manipdyn" / "formats" / "models").glob("*.toml"))
 
 #: the outcomes that satisfy the contract
 PASS = ("refused at load", "refused by the engine", "agree", "agree (qdd not compared: D singular, indefinite or ill-conditioned)")

@@ -30,7 +30,7 @@ from manipdyn.cli import main as cli_main
 
 ROOT = Path(__file__).resolve().parents[1]
 UR5 = (ROOT / "urdf" / "ur5.urdf").read_text(encoding="utf-8")
-PUMA_TOML = (ROOT / "manipdyn" / "models" / "puma560.toml").read_text(encoding="utf-8")
+PUMA_TOML = (ROOT / "manipdyn" / "formats" / "models" / "puma560.toml").read_text(encoding="utf-8")
 
 
 def first_attr(text: str, attr: str) -> re.Match:

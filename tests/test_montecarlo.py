@@ -237,8 +237,8 @@ def test_plot_is_written(small_report, tmp_path):
 # -- cross-check in parts ------------------------------------------------------------------
 def test_state_slices_are_rows_of_the_full_draw():
     arm = arms.random_arm(5)
-    full = md.check.draw_states(arm, 1000, 7)
-    part = md.check.draw_states(arm, 1000, 7, 250, 600)
+    full = md.check.crosscheck.draw_states(arm, 1000, 7)
+    part = md.check.crosscheck.draw_states(arm, 1000, 7, 250, 600)
     for a, b in zip(full, part):
         np.testing.assert_array_equal(a[250:600], b)
 
