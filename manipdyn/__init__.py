@@ -33,7 +33,7 @@ from .engines.protocol import DynamicsEngine
 from .model.arm import register_engine
 from .engines.lagrange.engine import trace_form_engine
 from .check.crosscheck import CrosscheckReport, crosscheck
-from .control.linearize import linearize  # also arm.linearize (registered as a service)
+from .engines.linearize import linearize  # also arm.linearize (registered as a service)
 # ``compare`` is the function; the package of the same name is manipdyn/check/compare/
 # (binding the name here, after the import, makes md.compare the function)
 from .check.compare import CompareReport, compare

@@ -247,7 +247,7 @@ def test_fit_argument_errors():
 def test_missing_extra_gives_the_install_command(monkeypatch):
     import importlib
 
-    from manipdyn.identification import _deps
+    from manipdyn._support import deps as _deps
 
     real = importlib.import_module
 
@@ -345,7 +345,7 @@ def test_cli_without_the_extra_names_the_install_command(monkeypatch, tmp_path, 
     import importlib
 
     from manipdyn.cli import main
-    from manipdyn.identification import _deps
+    from manipdyn._support import deps as _deps
 
     real = importlib.import_module
 

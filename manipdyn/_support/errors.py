@@ -12,7 +12,7 @@ import os
 import sys
 import warnings
 
-_PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__)) + os.sep
+_PACKAGE_DIR = os.path.dirname(os.path.dirname(os.path.abspath(__file__))) + os.sep  # manipdyn/, not _support/
 
 __all__ = ["ModelError", "TipError", "ModelNoteWarning", "PhysicalConsistencyWarning", "SuspiciousValueWarning",
            "SingularMassMatrixError", "StateError", "warn_at_caller", "warn_notes", "MissingExtraError"]

@@ -1,6 +1,6 @@
 """Linearised dynamics ``(A, B)`` of the state ``x = (q, qd)``: ``arm.linearize``.
 
-Layer 6 (control): uses an engine's forward-dynamics derivatives
+Layer 3 (engines): uses any engine's forward-dynamics derivatives
 (:meth:`manipdyn.engines.protocol.DynamicsEngine.forward_dynamics_derivatives`) and is
 attached to the model as :meth:`manipdyn.Arm.linearize` through
 :func:`manipdyn.model.arm.register_service`.
