@@ -26,18 +26,30 @@ def _defaults(parser: argparse.ArgumentParser) -> dict:
 
 
 def _pipelines():
+    import manipdyn as md
+    from manipdyn import montecarlo as mc
     from manipdyn.control.track import track
+    from manipdyn.identification import excitation, synthesize
 
+    same = lambda *names: {n: n for n in names}  # noqa: E731
     return {
-        # subcommand: (library function, {argparse dest: parameter name})
-        "track": (track, {"payload": "payload", "duration": "duration", "dt": "dt",
-                          "bandwidth": "bandwidth", "gamma": "gamma"}),
+        # "subcommand/function": (library function, {argparse dest: parameter name})
+        "track/track": (track, same("payload", "duration", "dt", "bandwidth", "gamma")),
+        "montecarlo/study": (mc.study, same("seed", "duration", "dt", "bandwidth", "tau_max")
+                             | {"plants_from": "plants"}),
+        "montecarlo/run": (mc.run, same("scheduler", "workers", "chunk_size")),
+        "excite/excitation": (excitation, same("duration", "harmonics", "rate", "seed", "vmax", "amax",
+                                               "iterations", "friction")),
+        "synthesize/synthesize": (synthesize, same("noise", "seed")),
+        "check/crosscheck": (md.crosscheck, same("samples", "seed", "scheduler", "workers")),
+        "compare/compare": (md.compare, same("samples", "seed")),
     }
 
 
-@pytest.mark.parametrize("command", sorted(_pipelines()))
-def test_cli_defaults_are_the_library_defaults(command):
-    func, mapping = _pipelines()[command]
+@pytest.mark.parametrize("key", sorted(_pipelines()))
+def test_cli_defaults_are_the_library_defaults(key):
+    command = key.split("/")[0]
+    func, mapping = _pipelines()[key]
     cli = _defaults(_subparser(command))
     params = inspect.signature(func).parameters
     for dest, name in mapping.items():
@@ -59,6 +71,16 @@ def test_the_defaults_check_can_fail(monkeypatch):
     cli = _defaults(_subparser("track"))
     assert cli["duration"] != inspect.signature(drifted).parameters["duration"].default
     assert cli["duration"] == inspect.signature(track_module.track).parameters["duration"].default
+
+
+def test_montecarlo_cli_distributions_and_controllers_are_the_library_defaults():
+    from manipdyn import montecarlo as mc
+
+    cli = _defaults(_subparser("montecarlo"))
+    for field, value in vars(mc.Distributions()).items():
+        if field in cli:
+            assert cli[field] == value, field
+    assert tuple(cli["controllers"].split(",")) == inspect.signature(mc.study).parameters["controllers"].default
 
 
 def test_track_cli_controller_default_is_the_library_default():
