@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import manipdyn as md
-from manipdyn.errors import ModelError
+from manipdyn._support.errors import ModelError
 
 pytest.importorskip("cvxpy", reason="identification needs the identify extra (cvxpy)")
 from manipdyn.cli import main  # noqa: E402

@@ -56,7 +56,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ModelError
+from .._support.errors import ModelError
 
 __all__ = ["PredictionBand", "calibrate_band", "held_out_residuals", "DEFAULT_FOLDS", "DEFAULT_LEVEL"]
 

@@ -144,7 +144,7 @@ def validate(model, data, name: str | None = None) -> ValidationResult:
 def write_predictions(result: ValidationResult, path) -> None:
     """Write ``t, tau1..taun`` (measured), ``pred1..predn`` and, with a band, ``lo1..lon, hi1..hin``
     per sample as CSV, atomically (s, N m or N): anyone can check the band with it."""
-    from .._files import atomic_write_text
+    from .._support.files import atomic_write_text
 
     n = result.measured.shape[1]
     cols = [result.t[:, None], result.measured, result.predicted]
