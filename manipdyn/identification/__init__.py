@@ -15,6 +15,9 @@ Layer 5 (identification).  May import: ``manipdyn.check``, ``manipdyn.engines``,
   (J >= 0), :class:`PayloadResult`;
 * :func:`bootstrap`: a moving-block bootstrap of a fit (refits on data resampled in
   blocks of time), in this process or on Dask, bit-identical;
+* :func:`calibrate_band` (:class:`PredictionBand`): a 95 % band from blocked hold-outs of
+  the fit data; :func:`fitted_range` (:class:`StateRange`): the states a fit saw, against
+  which new data is checked for extrapolation;
 * :func:`synthesize`: torques of a model along a trajectory, with noise (a log
   without a robot; ``manipdyn synthesize``).
 
@@ -23,7 +26,9 @@ Needs the ``identify`` extra (scipy, cvxpy, clarabel, scs):
 """
 
 from .._support.deps import INSTALL, MissingExtraError
+from .bands import PredictionBand, calibrate_band
 from .base import BaseParameters, base_parameters
+from .coverage import StateRange, fitted_range
 from .bootstrap import BootstrapResult, bootstrap
 from ..formats.logs.data import Measurements, read_measurements, write_measurements_csv
 from .estimation import METHODS, FitResult, fit
@@ -40,4 +45,5 @@ __all__ = ["BaseParameters", "BootstrapResult", "Bounds", "Excitation", "FitResu
            "Measurements", "MissingExtraError", "PayloadResult", "base_parameters", "bootstrap", "excitation", "fit",
            "format_report", "fit_friction_shapes", "HardLog", "hard_log", "identify_payload", "read_log",
            "read_measurements", "write_measurements_csv",
-           "Trajectory", "read_trajectory", "synthesize"]
+           "Trajectory", "read_trajectory", "synthesize", "PredictionBand", "calibrate_band", "StateRange",
+           "fitted_range"]
