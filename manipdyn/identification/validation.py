@@ -192,7 +192,7 @@ def plot_validation(results, path, title: str | None = None, units=None) -> None
         flagged = any(r.extrapolation is not None and bool(r.extrapolation.flagged[j]) for r in results)
         scores = [f"{r.rms[j]:.3g} {units[j]}" + (f" (band holds {100 * r.coverage[j]:.0f} %)"
                                                   if r.coverage is not None else "") for r in results]
-        warn = " - EXTRAPOLATES (outside the fitted states)" if flagged else ""
+        warn = ", EXTRAPOLATES" if flagged else ""     # beyond the states the fit saw (coverage.py)
         if len(results) == 1:
             ax.set_title(f"joint {j + 1}: RMS error {scores[0]}{warn}", fontsize=9, color="C3" if flagged else "black")
         else:           # one line per model inside the panel, the best marked
