@@ -31,7 +31,7 @@ def register(subparsers) -> None:
         "validate", help="score a model's torque predictions on (held-out) joint data",
         description="Predict the joint torques of DATA with MODEL (a model, or a base model JSON "
                     "from identify) and report per joint the RMS error, the RMS relative to the "
-                    "measured RMS, R^2 and the mean error; with a model from identify, how often its 95 %% "
+                    "measured RMS, R^2 and the mean error; with a model from identify, how often its 95 % "
                     "prediction band holds the measured torque and which joints leave the states it was "
                     "fitted on (EXTRAPOLATES). Several models: one table, the best per joint marked. "
                     "Exit codes: 0 scored, 2 usage, model or data error.")
