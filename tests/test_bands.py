@@ -209,3 +209,17 @@ def test_records_refuse_what_they_cannot_read():
     # the split-conformal rank: ceil((m + 1) 0.95) of m = 99 residuals is the 95th smallest
     res = np.arange(1.0, 100.0)[:, None]
     assert conformal_half_width(res)[0] == 95.0
+
+
+def test_too_little_data_for_the_blocks_gives_no_band_and_says_so():
+    """fit_record leaves the band out (the model still gets its fitted range) and notes why."""
+    from manipdyn.formats.logs.measurements import Measurements
+    from manipdyn.identification.provenance import fit_record
+
+    arm = md.load("ur5")
+    ex = excitation(arm, duration=0.9, harmonics=3, rate=100.0, iterations=0, seed=7)
+    tau = arm.inverse_dynamics(ex.q, ex.qd, ex.qdd)
+    data = Measurements(ex.t, ex.q, ex.qd, ex.qdd, tau)
+    record, notes = fit_record(arm, data, folds=5, method="wls")
+    assert "prediction_band" not in record and "fitted_range" in record
+    assert len(notes) == 1 and "90 samples are too few for 5 blocks" in notes[0]
