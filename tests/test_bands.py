@@ -223,3 +223,19 @@ def test_too_little_data_for_the_blocks_gives_no_band_and_says_so():
     record, notes = fit_record(arm, data, folds=5, method="wls")
     assert "prediction_band" not in record and "fitted_range" in record
     assert len(notes) == 1 and "90 samples are too few for 5 blocks" in notes[0]
+
+
+def test_refits_keep_the_runs_apart():
+    """Stacked runs: each refit is told the sample counts of what it keeps of each run."""
+    from manipdyn.identification.bands import _blocks, _kept_segments
+
+    edges = _blocks(100, 5)
+    test = np.zeros(100, dtype=bool)
+    test[edges[1]:edges[2]] = True                       # samples 20..39 held out
+    assert _kept_segments([30, 70], test) == [20, 60]
+    test[:] = False
+    test[:20] = True
+    assert _kept_segments([20, 80], test) == [80]       # a run wholly held out is dropped
+    assert _kept_segments(None, test) is None
+    with pytest.raises(ModelError, match="adding up to the 100"):
+        _kept_segments([20, 20], test)

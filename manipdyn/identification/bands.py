@@ -158,12 +158,25 @@ def _blocks(N: int, folds: int) -> np.ndarray:
     return edges
 
 
-def held_out_residuals(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, **fit_kwargs) -> np.ndarray:
+def _kept_segments(segments, test) -> list | None:
+    """The runs' sample counts (``segments``) left after removing the ``test`` samples (empty runs dropped)."""
+    if segments is None:
+        return None
+    edges = np.concatenate([[0], np.cumsum([int(k) for k in segments])])
+    if edges[-1] != len(test):
+        raise ModelError(f"segments: expected sample counts adding up to the {len(test)} samples, "
+                         f"got {list(segments)}")
+    kept = [int(np.sum(~test[a:b])) for a, b in zip(edges[:-1], edges[1:])]
+    return [k for k in kept if k > 0]
+
+
+def held_out_residuals(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, segments=None, **fit_kwargs) -> np.ndarray:
     """Measured minus predicted torque (N, n), each block predicted by a fit on the others.
 
-    ``q, qd, qdd, tau`` (N, n) in time order (one log; several logs: concatenate them in
-    order, a block then spans the boundary, which is harmless: every sample is still
-    predicted by a fit that did not see it).  ``fit_kwargs`` go to
+    ``q, qd, qdd, tau`` (N, n) in time order (one log; several logs: stacked in order, a block
+    then may span a boundary, which is harmless: every sample is still predicted by a fit that
+    did not see it).  ``segments``: the stacked runs' sample counts, when the fit takes them
+    (each refit gets the counts of what it keeps).  ``fit_kwargs`` go to
     :func:`manipdyn.identification.fit` (``method``, ``friction``, ``armature``, ``bounds``,
     ``prior_weight``): the refits are the fit the user asked for, on less data.
     """
@@ -176,7 +189,9 @@ def held_out_residuals(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, **fit_k
     for k in range(len(edges) - 1):
         test = np.zeros(N, dtype=bool)
         test[edges[k]:edges[k + 1]] = True
-        r = fit(arm, q[~test], qd[~test], qdd[~test], tau[~test], **fit_kwargs)
+        kept = _kept_segments(segments, test)
+        extra = {} if kept is None else {"segments": kept}
+        r = fit(arm, q[~test], qd[~test], qdd[~test], tau[~test], **fit_kwargs, **extra)
         res[test] = tau[test] - r.predict(q[test], qd[test], qdd[test])
     return res
 
