@@ -239,3 +239,17 @@ def test_refits_keep_the_runs_apart():
     assert _kept_segments(None, test) is None
     with pytest.raises(ModelError, match="adding up to the 100"):
         _kept_segments([20, 20], test)
+
+
+def test_the_readme_says_which_model_to_trust():
+    """Issue 24 item 6: the README's section, with the cross-trajectory protocol's commands and the
+    motor-side form recommended for coupled wrists (its Panda figures are checked against a run
+    in tests/test_bands_realdata.py)."""
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    start = text.index("### Which model should I trust on my robot?")
+    section = text[start:text.index("\n## ", start)]
+    assert "--friction-terms viscous,coulomb,offset --friction-side motor --armature" in section
+    assert "manipdyn validate panda_id.toml $LOG --t-range 10:21" in section
+    assert "EXTRAPOLATES joint 2" in section

@@ -7,10 +7,12 @@ the trajectory, visiting states the first 10 s never visit)."""
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import pytest
 
+README = Path(__file__).resolve().parents[1] / "README.md"
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "realdata" / "panda_gaz2019" / "panda_as_logged.csv"
 pytestmark = pytest.mark.skipif(not DATA.is_file(), reason=f"the real-data folder is absent ({DATA.name} not found "
                                                             "beside the project in shared/realdata)")
@@ -39,6 +41,11 @@ def test_panda_band_holds_on_the_rest_of_the_log(panda_model, capsys):
     assert out["band_method"].startswith("blocked hold-outs")
     assert 0.90 <= out["band_95_pooled"] <= 0.98, out["band_95_coverage"]
     assert min(out["band_95_coverage"]) >= 0.80, out["band_95_coverage"]
+    # the README's table ("Which model should I trust on my robot?") is this run, to its digits
+    row = next(line for line in README.read_text().splitlines() if line.startswith("| the 95 % band holds |"))
+    printed = [float(x) for x in re.findall(r"([0-9.]+) %", row)]
+    measured = [100 * c for c in out["band_95_coverage"]] + [100 * out["band_95_pooled"]]
+    assert printed == [round(x, 1) for x in measured], (printed, measured)
 
 
 def test_panda_joint2_is_flagged_where_the_fit_never_went(panda_model, capsys):
