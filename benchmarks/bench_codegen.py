@@ -399,7 +399,12 @@ def bench_arm(name: str, work: Path, pin_bins: dict, opt_rows, count: int, outer
     gen_dir = folder / "generated"
     generated = hasattr(md, "codegen")
     if generated:
-        md.codegen(arm, gen_dir, prefix=name)
+        try:
+            md.codegen(arm, gen_dir, prefix=name)
+        except (ImportError, ValueError, OSError) as exc:   # a missing extra, a refused model
+            generated = False
+            result["generated"] = f"md.codegen failed ({type(exc).__name__}: {exc}): Pinocchio timed alone"
+            log(f"!!! {name}: {result['generated']}")
     else:
         result["generated"] = "manipdyn has no codegen: Pinocchio timed alone"
     for label, opt in opt_rows.items():
