@@ -76,6 +76,9 @@ CACHE = HERE / "results" / "runs" / "cache"
 OPS = ("inverse_dynamics", "mass_matrix", "forward_dynamics", "inverse_dynamics_derivatives")
 PIN_NAMES = {"inverse_dynamics": "rnea", "mass_matrix": "crba", "forward_dynamics": "aba",
              "inverse_dynamics_derivatives": "computeRNEADerivatives"}
+#: the printed table's row names
+LABELS = {"inverse_dynamics": "RNEA (inverse_dynamics)", "mass_matrix": "CRBA (mass_matrix)",
+          "forward_dynamics": "ABA (forward_dynamics)", "inverse_dynamics_derivatives": "RNEA derivatives"}
 GOALS = {"inverse_dynamics": 0.5, "mass_matrix": 0.5, "forward_dynamics": 0.7, "inverse_dynamics_derivatives": 0.5}
 MOONSHOTS = {"inverse_dynamics": 0.3}
 #: relative agreement required of the answers (the cross-check's measure); forward
@@ -472,7 +475,7 @@ def environment(opt_rows) -> dict:
 
 
 def print_table(results: list, log=print) -> None:
-    log(f"\n{'arm':6s} {'flags':9s} {'call':29s} {'generated':>10s} {'pin hdr':>9s} {'pin .so':>9s} "
+    log(f"\n{'arm':6s} {'flags':9s} {'call':24s} {'generated':>10s} {'pin hdr':>9s} {'pin .so':>9s} "
         f"{'gen/hdr':>7s} {'gen/.so':>7s} {'goal':>5s}  verdict")
     for r in results:
         for label, row in r["rows"].items():
@@ -483,7 +486,7 @@ def print_table(results: list, log=print) -> None:
                 g = t.get("generated", {}).get(op, {})
                 rat = lambda k: f"{g[f'ratio_to_{k}']:7.3f}" if f"ratio_to_{k}" in g else f"{'-':>7s}"  # noqa: E731
                 verdict = v.get(op, {}).get("verdict", "-")
-                log(f"{r['arm']:6s} {label:9s} {op + ' (' + PIN_NAMES[op] + ')':29s} {cell('generated'):>10s} "
+                log(f"{r['arm']:6s} {label:9s} {LABELS[op]:24s} {cell('generated'):>10s} "
                     f"{cell('pinocchio-header')} {cell('pinocchio-library')} {rat('pinocchio-header')} "
                     f"{rat('pinocchio-library')} {GOALS[op]:5.2f}  {verdict}")
     log("ns per call, median over blocks; gen/hdr, gen/.so: paired ratios against Pinocchio compiled "
