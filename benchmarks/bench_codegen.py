@@ -65,7 +65,7 @@ from pathlib import Path
 import numpy as np
 
 import manipdyn as md
-from manipdyn.check import TOLERANCE, draw_states
+from manipdyn.check.crosscheck import TOLERANCE, draw_states
 
 from .timing import publish
 
