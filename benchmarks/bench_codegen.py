@@ -502,9 +502,9 @@ def main(argv=None) -> int:
                    help="few states and rounds, -O2 only, Pinocchio as shipped only (its quickest build): "
                         "proves the pipeline runs; the times mean little")
     p.add_argument("--no-native", action="store_true", help="skip the -O3 -march=native row")
-    p.add_argument("--states", type=int, default=None, help="states per file (default 500; quick 20)")
+    p.add_argument("--states", type=int, default=None, help="states per file (default 256; quick 20)")
     p.add_argument("--outer", type=int, default=None, help="interleaved runs of each driver (default 11; quick 2)")
-    p.add_argument("--inner", type=int, default=None, help="rounds inside one run (default 40; quick 3)")
+    p.add_argument("--inner", type=int, default=None, help="rounds inside one run (default 50; quick 3)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--no-library", action="store_true",
                    help="skip Pinocchio as shipped (the wheel's compiled algorithms); time the header-only build")
@@ -512,9 +512,9 @@ def main(argv=None) -> int:
                    help="folder of results.json (default benchmarks/results/runs/<UTC time>-codegen)")
     p.add_argument("--no-write", action="store_true", help="print only")
     args = p.parse_args(argv)
-    count = args.states or (20 if args.quick else 500)
+    count = args.states or (20 if args.quick else 256)
     outer = args.outer or (2 if args.quick else 11)
-    inner = args.inner or (3 if args.quick else 40)
+    inner = args.inner or (3 if args.quick else 50)
     opt_rows = {"O2": OPT_ROWS["O2"]} if (args.quick or args.no_native) else dict(OPT_ROWS)
     env = environment(opt_rows)
     if not hasattr(md, "codegen"):
