@@ -193,6 +193,21 @@ def pinocchio_flags(opt=("-O2",), instantiation: bool = True) -> list[str]:
     return flags
 
 
+def portable(cmd: list[str]) -> list[str]:
+    """``cmd`` with this machine's paths of the wheel and of the checkout written as
+    ``<pin prefix>`` and ``benchmarks/c`` (for the results file)."""
+    try:
+        prefix = str(pin_prefix())
+    except Unavailable:
+        prefix = None
+    out = []
+    for c in cmd:
+        if prefix:
+            c = c.replace(prefix, "<pin prefix>")
+        out.append(c.replace(str(C_DIR), "benchmarks/c"))
+    return out
+
+
 def _compile(cmd: list[str], out: Path, what: str) -> None:
     tmp = out.with_name(out.name + f".tmp{os.getpid()}")
     res = subprocess.run([*cmd, "-o", str(tmp)], capture_output=True, text=True, check=False)
@@ -415,8 +430,8 @@ def bench_arm(name: str, work: Path, pin_bins: dict, opt_rows, count: int, outer
         row = {"flags": list(opt)}
         if generated:
             binary = folder / f"generated-{label}"
-            row["generated_command"] = [Path(c).name if c.startswith(str(work)) else c
-                                        for c in build_generated(gen_dir, name, opt, binary)]
+            row["generated_command"] = [c.replace(str(folder), "<run>")
+                                        for c in portable(build_generated(gen_dir, name, opt, binary))]
             dump = folder / f"generated-{label}.dump"
             subprocess.run([str(binary), str(states), "1", "1", str(dump)], check=True, capture_output=True)
             err = rel_errors(read_dump(dump, arm.n, count), reference)
@@ -467,8 +482,8 @@ def environment(opt_rows) -> dict:
     try:
         env["eigen"] = _pkg_config("--modversion", "eigen3")
         env["urdfdom_headers"] = _pkg_config("--modversion", "urdfdom_headers")
-        env["pinocchio_flags"] = {k: [f for f in pinocchio_flags(v, True) if not f.startswith(("-I", "-L", "-Wl"))]
-                                  for k, v in opt_rows.items()}
+        env["pinocchio_flags"] = {**{f"header-{k}": portable(pinocchio_flags(v, False)) for k, v in opt_rows.items()},
+                                  "library": portable(pinocchio_flags(OPT_ROWS["O2"], True))}
     except Unavailable as exc:
         env["toolchain"] = str(exc)
     return env
