@@ -6,7 +6,7 @@ Run, with OpenBLAS's tuning variables unset in that command alone::
 
 For each arm (default: the bundled 6-joint ur5 and 7-joint panda) it
 
-1. draws seeded random states (:func:`manipdyn.check.draw_states`, the
+1. draws seeded random states (:func:`manipdyn.check.crosscheck.draw_states`, the
    cross-check's distribution; tau for forward dynamics is the arm's inverse
    dynamics at them) and writes them, once, to a states file that both timing
    drivers read, so both time the same inputs (``benchmarks/c/states_io.h``);
@@ -18,9 +18,10 @@ For each arm (default: the bundled 6-joint ur5 and 7-joint panda) it
    twice: with ``-DPINOCCHIO_ENABLE_TEMPLATE_INSTANTIATION`` (RNEA, CRBA, ABA
    and the RNEA derivatives run the code compiled into the wheel's
    ``libpinocchio_default.so``: Pinocchio as shipped) and header-only (every
-   algorithm compiled here, with ``-O2``, the generated C's first row).  That takes minutes,
-   so the binaries are cached by the hash of their sources, flags and compiler
-   under ``benchmarks/results/runs/cache/`` (ignored by git);
+   algorithm compiled here, with ``-O2``, the generated C's first row).  That
+   takes minutes (2 to 25 here, by the load), so the binaries are cached by
+   the hash of their sources, flags and compiler under
+   ``benchmarks/results/runs/cache/`` (ignored by git);
 4. checks before timing: Pinocchio's C++ against manipdyn's Pinocchio engine
    (that the driver built the same model: URDF, gravity, armature) and the
    generated C against Pinocchio's C++, on every state, with the cross-check's
@@ -38,8 +39,9 @@ For each arm (default: the bundled 6-joint ur5 and 7-joint panda) it
 
 Rows: ``-O2`` for both sides, and the generated C rebuilt with ``-O3
 -march=native`` (``--no-native`` skips it) against the same Pinocchio binaries:
-Pinocchio is compiled with ``-O2`` only (:data:`PIN_OPT`, which says why).  Goals (issue 26): generated / Pinocchio <= 0.5 for RNEA, <= 0.5 for CRBA,
-<= 0.7 for ABA, <= 0.5 for the RNEA derivatives (moonshot 0.3 for RNEA).  The
+Pinocchio is compiled with ``-O2`` only (:data:`PIN_OPT`, which says why).
+Goals (issue 26): generated / Pinocchio <= 0.5 for RNEA, <= 0.5 for CRBA, <= 0.7
+for ABA, <= 0.5 for the RNEA derivatives (moonshot 0.3 for RNEA).  The
 verdict is taken against the faster of the two Pinocchio builds.  Nothing is
 asserted about time: a missed goal is reported, not an error.
 
@@ -55,7 +57,6 @@ import argparse
 import hashlib
 import os
 import shlex
-import shutil
 import subprocess
 import sys
 import tempfile

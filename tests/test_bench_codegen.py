@@ -136,7 +136,9 @@ def test_driver_sources_compile_cleanly(pendulum, tmp_path):
 
 def test_quick_run_against_pinocchio_cpp(tmp_path):
     """The whole benchmark on ur5, quick: Pinocchio's C++ (the wheel's) must answer as
-    manipdyn's Pinocchio engine does; the generated C too when md.codegen exists."""
+    manipdyn's Pinocchio engine does; the generated C too when md.codegen exists.
+    The first run compiles Pinocchio's driver (minutes); later runs take seconds
+    (the binary is cached in benchmarks/results/runs/cache/)."""
     if bc.compiler_version(os.environ.get("CXX") or "c++") is None:
         pytest.skip("no C++ compiler (c++, or $CXX)")
     try:
