@@ -55,6 +55,7 @@ class ValidationResult:
     band: np.ndarray | None = None          # (N, n) half-width of the 95 % band
     coverage: np.ndarray | None = None      # (n,) fraction of measured torques inside it
     band_method: str | None = None
+    carried_band: object = None             # bands.PredictionBand the model carries, or None
     extrapolation: object = None            # coverage.Extrapolation, or None
     notes: list = field(default_factory=list)
 
@@ -75,6 +76,8 @@ class ValidationResult:
             out["band_95_coverage"] = clean(self.coverage)
             out["band_95_pooled"] = self.pooled_coverage
             out["band_method"] = self.band_method
+            if self.carried_band is not None:
+                out["band_95_half_width"] = clean(self.carried_band.half_width)
         out["extrapolation"] = None if self.extrapolation is None else self.extrapolation.to_list()
         out["model_notes"] = list(self.notes)
         return out
@@ -87,6 +90,9 @@ class ValidationResult:
             lines.append(f"{j + 1:>5}   {self.rms[j]:10.4g}   {self.relative_rms[j]:18.4g}   "
                          f"{self.r2[j]:7.4f}   {self.mean_error[j]:+14.4g}")
         if self.coverage is not None:
+            if self.carried_band is not None:
+                lines.append("95 % prediction band: predicted +- " + ", ".join(
+                    f"{x:.3g}" for x in self.carried_band.half_width) + f" {unit} per joint")
             lines.append(f"95 % prediction band ({self.band_method}) holds the measured torque: "
                          + ", ".join(f"j{j + 1} {100 * c:.1f} %" for j, c in enumerate(self.coverage))
                          + f"; pooled {100 * self.pooled_coverage:.1f} %")
@@ -137,7 +143,7 @@ def validate(model, data, name: str | None = None) -> ValidationResult:
         coverage = np.mean(np.abs(err) <= band, axis=0)
     return ValidationResult(model=name or getattr(model, "name", "model"), rms=rms, relative_rms=rel,
                             r2=r2, mean_error=err.mean(axis=0), t=np.asarray(data.t), measured=data.tau,
-                            predicted=pred, band=band, coverage=coverage, band_method=method,
+                            predicted=pred, band=band, coverage=coverage, band_method=method, carried_band=held_out,
                             extrapolation=None if fitted is None else fitted.outside(data), notes=notes)
 
 
