@@ -29,7 +29,7 @@ __all__ = ["find_compiler", "check_compiles", "compile_shared", "cache_dir", "ST
 #: the flags the generated C must pass cleanly (the issue's)
 STRICT_FLAGS = ("-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror")
 #: the flags of the engine's shared library
-BUILD_FLAGS = ("-std=c99", "-O2", "-shared", "-fPIC")
+BUILD_FLAGS = ("-std=c99", "-shared", "-fPIC")   # and the optimisation flag, -O2 by default
 #: the environment variable that overrides the cache folder
 CACHE_ENV = "MANIPDYN_CACHE_DIR"
 #: seconds one compiler run may take before it is stopped

@@ -52,12 +52,19 @@ def _version() -> str:
     return __version__
 
 
-def library_for(arm, cc: str | None = None) -> str:
-    """Path of the compiled library of ``arm``: from the cache, or generated and built into it."""
+def library_for(arm, cc: str | None = None, opt: str = "-O2") -> str:
+    """Path of the compiled library of ``arm``: from the cache, or generated and built into it.
+
+    ``opt``: the optimisation flag (``-O0`` to ``-O3``).  The results do not depend on it
+    (``-std=c99`` keeps GCC from contracting ``a * b + c`` into fused multiply-adds);
+    only the build time and the speed do, so tests that build hundreds of arms use ``-O0``.
+    """
+    if opt not in ("-O0", "-O1", "-O2", "-O3", "-Os"):
+        raise ModelError(f"opt: expected one of -O0, -O1, -O2, -O3, -Os, got {opt!r:.40}")
     from .source import GENERATOR_VERSION, generate, model_sha256
 
     cc = cc or build.require_compiler("the 'c' engine")
-    key = build.build_key(model_sha256(arm), _version(), GENERATOR_VERSION, cc)
+    key = build.build_key(model_sha256(arm), _version(), GENERATOR_VERSION + opt, cc)
     folder = os.path.join(build.cache_dir(), "c", key)
     so = os.path.join(folder, f"lib{ENGINE_PREFIX}.so")
     if os.path.isfile(so):
@@ -67,15 +74,15 @@ def library_for(arm, cc: str | None = None) -> str:
     atomic_write_text(os.path.join(folder, f"{ENGINE_PREFIX}.h"), gen.header)
     cpath = os.path.join(folder, f"{ENGINE_PREFIX}.c")
     atomic_write_text(cpath, gen.source)
-    build.compile_shared(cc, cpath, so)
+    build.compile_shared(cc, cpath, so, extra=(opt,))
     return so
 
 
-def compiled_engine(arm) -> "CompiledEngine":
-    """The generated-C engine of ``arm`` (the factory behind ``arm.engine("c")``)."""
+def compiled_engine(arm, opt: str = "-O2") -> "CompiledEngine":
+    """The generated-C engine of ``arm`` (the factory behind ``arm.engine("c")``), built with ``opt``."""
     law = arm.friction_model
     p = len(arm.parameters(armature=True, friction=law if law is not None else False))
-    return CompiledEngine(library_for(arm), arm.n, p, transmission=arm.transmission, friction_model=law)
+    return CompiledEngine(library_for(arm, opt=opt), arm.n, p, transmission=arm.transmission, friction_model=law)
 
 
 class CompiledEngine:
