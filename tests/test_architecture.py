@@ -41,7 +41,7 @@ LAYERS = {
         "manipdyn.scale"),
     5: ("manipdyn.engine", "manipdyn.lagrange", "manipdyn.trace_drive", "manipdyn.lagrange_derivatives",
         "manipdyn.pinocchio_engine", "manipdyn.pinocchio_fast", "manipdyn.pinocchio_derivatives",
-        "manipdyn.pinocchio_agree"),
+        "manipdyn.pinocchio_agree", "manipdyn.codegen_c"),
     6: ("manipdyn.check",),
     7: ("manipdyn.comparison", "manipdyn.compare", "manipdyn.control", "manipdyn.identification",
         "manipdyn.montecarlo", "manipdyn.random_arms", "manipdyn.linearize"),

@@ -12,7 +12,7 @@ import importlib
 
 from ..errors import MissingExtraError
 
-__all__ = ["casadi", "INSTALL"]
+__all__ = ["casadi", "INSTALL", "manipdyn_version"]
 
 #: the command that installs what code generation needs
 INSTALL = "pip install 'manipdyn[codegen]'"
@@ -26,3 +26,14 @@ def casadi():
         raise MissingExtraError(
             f"generating C (md.codegen, the 'c' engine) needs the Python package 'casadi', which is not "
             f"installed ({exc}); install the code-generation extra: {INSTALL}") from None
+
+
+def manipdyn_version() -> str:
+    """The installed manipdyn's version (read from the package metadata: this layer does not
+    import the package top), or "unknown" when it runs from a source tree that is not installed."""
+    from importlib import metadata
+
+    try:
+        return metadata.version("manipdyn")
+    except metadata.PackageNotFoundError:
+        return "unknown"

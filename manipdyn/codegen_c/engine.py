@@ -47,9 +47,9 @@ _FUNCS = {
 
 
 def _version() -> str:
-    from .. import __version__
+    from .deps import manipdyn_version
 
-    return __version__
+    return manipdyn_version()
 
 
 def library_for(arm, cc: str | None = None, opt: str = "-O2") -> str:

@@ -17,6 +17,15 @@ frame's origin, tensor sign), here symbols ``pi`` so that the regressor is
 ``d tau / d pi``; the numbers are substituted (folded) for every other
 function.
 
+Rounding residue.  Rotations written from ``rpy`` angles such as pi/2 hold
+entries like ``cos(pi/2) = 6.1e-17``: not a property of the arm but the
+rounding error of a zero.  Entries of joint origins, axes and the tool
+transform under :data:`SNAP` (1e-15, below float64's resolution of a unit
+rotation entry, 2.2e-16 ulp, by a few units, and a femtometre for
+translations) are folded as exact zeros, so that CasADi removes the products
+they would feed (on the Panda's URDF this halves the derivatives' operations).
+The change is within the rounding of the numbers themselves.
+
 What the graph cannot express is refused by name (:class:`ModelError`): a
 friction term this module does not know, a joint that is neither revolute nor
 prismatic.
@@ -32,8 +41,17 @@ from ..parameters import parameter_names
 
 __all__ = ["ArmGraph", "KNOWN_FRICTION_TERMS"]
 
+#: entries of rotations, axes (unit) and translations (m) under this magnitude are rounding residue: 0
+SNAP = 1e-15
+
 #: the friction terms the generated C writes out (:mod:`manipdyn.friction`)
 KNOWN_FRICTION_TERMS = ("viscous", "coulomb", "asymmetric", "offset", "stribeck", "sigmoid")
+
+
+def _snap(a) -> np.ndarray:
+    a = np.array(a, dtype=np.float64)
+    a[np.abs(a) < SNAP] = 0.0
+    return a
 
 
 def _ca():
@@ -174,14 +192,15 @@ class ArmGraph:
         if self._kin is None:
             ca, out = self.ca, []
             for k, j in enumerate(self.joints):
-                Ro = [[float(j.origin[r, c]) for c in range(3)] for r in range(3)]
-                po = [float(j.origin[r, 3]) for r in range(3)]
+                origin, axis = _snap(j.origin), _snap(j.axis)
+                Ro = [[float(origin[r, c]) for c in range(3)] for r in range(3)]
+                po = [float(origin[r, 3]) for r in range(3)]
                 if j.joint == "revolute":
-                    E = _matmul3(Ro, _rotation(ca, j.axis, ca.cos(self.q[k]), ca.sin(self.q[k])))
+                    E = _matmul3(Ro, _rotation(ca, axis, ca.cos(self.q[k]), ca.sin(self.q[k])))
                     p = po
                 else:
                     E = Ro
-                    p = _add(po, _scale(self.q[k], _mv(Ro, [float(a) for a in j.axis])))
+                    p = _add(po, _scale(self.q[k], _mv(Ro, [float(a) for a in axis])))
                 out.append((E, p))
             self._kin = out
         return self._kin
@@ -190,7 +209,7 @@ class ArmGraph:
         return [_Body([pi[10 * k + i] for i in range(10)]) for k in range(self.n)]
 
     def _subspace(self, k):
-        a = [float(x) for x in self.joints[k].axis]
+        a = [float(x) for x in _snap(self.joints[k].axis)]
         z = [0.0, 0.0, 0.0]
         return (a, z) if self.joints[k].joint == "revolute" else (z, a)
 
@@ -319,7 +338,7 @@ class ArmGraph:
         for E, p in self._joint_transforms():
             pb = _add(pb, _mv(Rb, p))
             Rb = _matmul3(Rb, E)
-        T = self.tool
+        T = _snap(self.tool)
         pt = _add(pb, _mv(Rb, [float(T[r, 3]) for r in range(3)]))
         Rt = _matmul3(Rb, [[float(T[r, c]) for c in range(3)] for r in range(3)])
         return [Rt[r] + [pt[r]] for r in range(3)] + [[0.0, 0.0, 0.0, 1.0]]

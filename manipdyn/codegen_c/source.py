@@ -35,9 +35,9 @@ FUNCTIONS = ("inverse_dynamics", "mass_matrix", "gravity", "nonlinear_effects", 
 
 
 def _version() -> str:
-    from .. import __version__
+    from .deps import manipdyn_version
 
-    return __version__
+    return manipdyn_version()
 
 
 def model_sha256(arm) -> str:
