@@ -195,9 +195,14 @@ def test_coupled_drive_and_every_friction_law_agree(law):
 def test_200_random_arms_three_engines_agree():
     """200 seeded random DH arms (1 to 8 joints, standard or modified, R and P, rotors or not),
     a few states each: every quantity of the three engines within TOL."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    arms = [random_arm(seed) for seed in range(200)]
+    with ThreadPoolExecutor(2) as pool:        # one thread generates while the other's compiler runs
+        engines = list(pool.map(lambda arm: compiled_engine(arm, opt="-O0"), arms))
     bad = {}
-    for seed in range(200):
-        arm = _with_c(random_arm(seed))
+    for seed, (arm, eng) in enumerate(zip(arms, engines)):
+        arm.set_engine("c", eng)
         report = md.crosscheck(arm, samples=3, seed=seed, engines=ENGINES)
         worst = {k: q.max_rel for k, q in report.quantities.items() if not q.max_rel <= TOL}
         if worst or report.not_compared:
@@ -367,3 +372,19 @@ def test_cli_check_engines(capsys):
     assert "engines lagrange, pinocchio, c" in out and "D[c vs pinocchio]" in out and "1/1 arms agree" in out
     assert main(["check", "ur5", "--engines", "lagrange"]) == 2
     assert "--engines" in capsys.readouterr().err
+
+
+def test_default_crosscheck_keeps_its_quantity_names_and_output():
+    """Without ``engines`` the report is today's: plain names, no "engines" field, the same head line."""
+    arm = random_arm(4, n=3)
+    report = md.crosscheck(arm, samples=4)
+    assert report.engines == ("lagrange", "pinocchio")
+    assert "D" in report.quantities and not any("[" in k for k in report.quantities)
+    assert "engines" not in report.to_dict()
+    assert str(report).startswith(f"crosscheck {arm.name!r} (3 joints, 4 states, seed 0): all agree")
+    same = md.crosscheck(arm, samples=4, engines="lagrange,pinocchio")
+    assert same.to_dict() == report.to_dict()
+    with pytest.raises(md.ModelError, match="engines: expected at least two distinct"):
+        md.crosscheck(arm, samples=4, engines=("lagrange", "lagrange"))
+    with pytest.raises(md.ModelError, match="no engine 'fortran'"):
+        md.crosscheck(arm, samples=4, engines=("lagrange", "fortran"))

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import ctypes
 import os
+import threading
 
 import numpy as np
 
@@ -32,6 +33,9 @@ from ..friction import Friction, friction_spec
 from . import build
 
 __all__ = ["CompiledEngine", "compiled_engine", "library_for", "ENGINE_PREFIX"]
+
+#: CasADi's graphs are not thread-safe: one generation at a time per process (compiles run in parallel)
+_GENERATE = threading.Lock()
 
 #: the prefix of the engine's own build (the files ``md.codegen`` writes use the arm's name)
 ENGINE_PREFIX = "md"
@@ -55,6 +59,8 @@ def _version() -> str:
 def library_for(arm, cc: str | None = None, opt: str = "-O2") -> str:
     """Path of the compiled library of ``arm``: from the cache, or generated and built into it.
 
+    Thread-safe: threads building several arms generate one at a time and compile in parallel.
+
     ``opt``: the optimisation flag (``-O0`` to ``-O3``).  The results do not depend on it
     (``-std=c99`` keeps GCC from contracting ``a * b + c`` into fused multiply-adds);
     only the build time and the speed do, so tests that build hundreds of arms use ``-O0``.
@@ -69,7 +75,8 @@ def library_for(arm, cc: str | None = None, opt: str = "-O2") -> str:
     so = os.path.join(folder, f"lib{ENGINE_PREFIX}.so")
     if os.path.isfile(so):
         return so
-    gen = generate(arm, ENGINE_PREFIX)
+    with _GENERATE:
+        gen = generate(arm, ENGINE_PREFIX)
     os.makedirs(folder, exist_ok=True)
     atomic_write_text(os.path.join(folder, f"{ENGINE_PREFIX}.h"), gen.header)
     cpath = os.path.join(folder, f"{ENGINE_PREFIX}.c")
