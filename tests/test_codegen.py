@@ -25,14 +25,15 @@ import numpy as np
 import pytest
 
 import manipdyn as md
-from manipdyn.check import draw_states
-from manipdyn.friction import Friction
+from manipdyn.check.crosscheck import draw_states
+from manipdyn._support.errors import MissingExtraError
+from manipdyn.model.friction import Friction
 from tests.arms import random_arm
 
 casadi = pytest.importorskip("casadi", reason="generating C needs CasADi: pip install 'manipdyn[codegen]'")
 
-from manipdyn.codegen_c import build, compiled_engine, generate  # noqa: E402
-from manipdyn.codegen_c.engine import CompiledEngine, library_for  # noqa: E402
+from manipdyn.engines.c import build, compiled_engine, generate, model_sha256  # noqa: E402
+from manipdyn.engines.c.engine import CompiledEngine  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 CC = build.find_compiler()
@@ -119,7 +120,7 @@ def test_generated_c_is_strict_c99_math_h_only_and_stateless(tmp_path):
         assert sig in hdr, sig
     assert f"#define drv_NQ {arm.n}" in hdr
     assert f"#define drv_NP {len(arm.parameters(armature=True, friction=arm.friction_model))}" in hdr
-    assert md.codegen_c.model_sha256(arm) in hdr and f"manipdyn {md.__version__}" in hdr
+    assert model_sha256(arm) in hdr and f"manipdyn {md.__version__}" in hdr
     # a second, independent strict compile (also -O2, where more warnings are computed)
     res = subprocess.run([CC, *build.STRICT_FLAGS, "-O2", "-c", c, "-o", str(tmp_path / "x.o")],
                          capture_output=True, text=True)
@@ -135,7 +136,7 @@ def test_default_prefix_is_the_name_as_a_c_identifier_and_a_bad_prefix_is_refuse
 
 
 def test_what_the_c_cannot_express_is_refused_by_name(monkeypatch):
-    from manipdyn.codegen_c import graph
+    from manipdyn.engines.c import graph
 
     arm = _coupled_arm("stribeck")
     monkeypatch.setattr(graph, "KNOWN_FRICTION_TERMS", ("viscous", "coulomb"))
@@ -145,7 +146,7 @@ def test_what_the_c_cannot_express_is_refused_by_name(monkeypatch):
 
 def test_without_casadi_codegen_says_which_extra(monkeypatch, tmp_path):
     monkeypatch.setitem(sys.modules, "casadi", None)
-    with pytest.raises(md.errors.MissingExtraError, match=re.escape("pip install 'manipdyn[codegen]'")):
+    with pytest.raises(MissingExtraError, match=re.escape("pip install 'manipdyn[codegen]'")):
         md.codegen(random_arm(0, n=2), tmp_path)
 
 

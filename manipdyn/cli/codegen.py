@@ -5,7 +5,7 @@ Layer: CLI.  A thin shell over :func:`manipdyn.codegen`.
 
 from __future__ import annotations
 
-from ..codegen_c import codegen
+from ..engines.c import codegen
 from .common import EXIT_OK, TIP_HELP, load_all
 
 __all__ = ["register", "run"]
