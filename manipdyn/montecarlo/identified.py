@@ -142,7 +142,8 @@ class IdentifiedPlants:
     nonnegative : tuple (p - 10 n,) of bool
         Which extra entries (armature, friction) must be >= 0 (offsets need not).
     covariance : str
-        Where ``C`` comes from: ``"fit"`` or ``"bootstrap (N replicates)"``.
+        Where ``C`` comes from: ``"fit"``, ``"bootstrap (N refits)"``, or ``"fit (...)"`` saying why
+        the file's bootstrap was not used.
     friction_columns : tuple
         ``(viscous, coulomb)``: the entries of ``pi`` holding each joint's coefficient (``()``:
         not identified, the prior's).
@@ -398,12 +399,25 @@ def load_identified(path) -> IdentifiedPlants:
     nonneg = tuple(bool(v) for v in nonnegative_extras(names, arm.n))
     boot = bm.data.get("bootstrap") or {}
     source = "fit"
-    if boot.get("covariance") is not None:
-        cov, correlated = np.array(boot["covariance"], dtype=np.float64), True
+    if not isinstance(boot, dict):
+        raise ModelError(f"{where}: key 'bootstrap': expected an object")
+    failed = boot.get("failed") or []
+    if not isinstance(failed, list):
+        raise ModelError(f"{where}: key 'bootstrap.failed': expected a list of replicate numbers")
+    kept = _count(boot.get("replicates"), where) - len(failed)
+    if boot.get("covariance") is not None and kept <= len(bm.beta):
+        # fewer refits than base parameters + 1: their covariance is singular, and draws from it
+        # would leave most directions fixed; the fit's covariance is complete
+        source = f"fit (the bootstrap's {kept} refits are too few for {len(bm.beta)} base parameters)"
+    if boot.get("covariance") is not None and kept > len(bm.beta):
+        try:
+            cov, correlated = np.array(boot["covariance"], dtype=np.float64), True
+        except (TypeError, ValueError):
+            cov = np.zeros(0)
         if cov.shape != (len(bm.beta),) * 2:
             raise ModelError(f"{where}: key 'bootstrap.covariance': expected {len(bm.beta)} x {len(bm.beta)} "
-                             f"numbers, got shape {cov.shape}")
-        source = f"bootstrap ({int(boot.get('replicates', 0))} replicates)"
+                             f"numbers (a list of rows)")
+        source = f"bootstrap ({kept} refits)"
     elif bm.covariance is not None:
         cov, correlated = bm.covariance, True
     elif np.all(np.isfinite(bm.std)):
@@ -421,6 +435,14 @@ def load_identified(path) -> IdentifiedPlants:
                             armature=bool(bm.armature), friction=bool(bm.friction), correlated=correlated,
                             K=_tuple(base.K), whiten=_tuple(W), nonnegative=nonneg, covariance=source,
                             friction_columns=_friction_columns(names, arm.n))
+
+
+def _count(value, where: str) -> int:
+    if value is None:
+        return 0
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= 10**9:
+        raise ModelError(f"{where}: key 'bootstrap.replicates': expected a count, got {value!r}")
+    return value
 
 
 def _friction_columns(names, n: int) -> tuple:
