@@ -29,6 +29,7 @@ import numpy as np
 import pinocchio as pin
 
 from ._state import as_state, check_result, same_batch
+from ._threads import free_cores
 from .errors import ModelError, SingularMassMatrixError
 from .parameters import with_extra_columns
 from .pinocchio_agree import check_same_arm
@@ -118,7 +119,9 @@ class PinocchioEngine(PinocchioDerivatives):  # derivatives: manipdyn.pinocchio_
         Viscous and Coulomb coefficients (joint side, sharp sign), or a friction
         law (:class:`manipdyn.drive.Friction`), applied outside the Lagrangian.
     num_threads : int or None
-        Threads for batch calls (default: the CPUs available, at most 8).
+        Threads for batch calls (default: the CPUs available, at most 8, and of those only
+        as many as no other task wants at the time of the call; a number given here, or set
+        later, is used as given).
     tool_frame : str or None
         The URDF frame whose pose :meth:`fkine` gives (default: the last frame of the model).
     transmission : Transmission or None
@@ -163,6 +166,7 @@ class PinocchioEngine(PinocchioDerivatives):  # derivatives: manipdyn.pinocchio_
             O.setflags(write=False)
             self._O = O
         self._num_threads = num_threads or _threads()
+        self._explicit_threads = bool(num_threads)
         self._pool = self._pool0 = None
         self.unchecked = UncheckedView(self)
         install_fast_path(self)
@@ -184,6 +188,7 @@ class PinocchioEngine(PinocchioDerivatives):  # derivatives: manipdyn.pinocchio_
         if value != self._num_threads:
             self._num_threads = value
             self._pool = self._pool0 = None  # a pool holds one Data per thread: rebuild
+        self._explicit_threads = True
 
     def _get_pool(self):
         if self._pool is None:
@@ -200,6 +205,12 @@ class PinocchioEngine(PinocchioDerivatives):  # derivatives: manipdyn.pinocchio_
         return pin.rneaInParallel(self._batch_threads(len(q)), pool, q.T, qd.T, qdd.T).T.reshape(q.shape)
 
     def _batch_threads(self, N: int) -> int:
+        """Threads for a batch of ``N`` states: 1 below :data:`PARALLEL_MIN_STATES` or in a forked
+        child (``_POOL_PID``); else :attr:`num_threads`, limited, unless it was given explicitly, to
+        the cores no other task wants now (:func:`manipdyn._threads.free_cores`): a thread that
+        must share a core with another process makes the whole batch wait for it (measured on a
+        2-core machine under one other busy process, 20,000 UR5 states: 0.93 us per state on 2
+        threads, 0.72 on one; ``benchmarks/bench_batch_threads.py``)."""
         if N < PARALLEL_MIN_STATES or self._num_threads == 1:
             return 1
         pid = os.getpid()
@@ -207,7 +218,7 @@ class PinocchioEngine(PinocchioDerivatives):  # derivatives: manipdyn.pinocchio_
             _POOL_PID[0] = pid
         elif _POOL_PID[0] != pid:      # forked from the process that started the pool (see _POOL_PID)
             return 1
-        return self._num_threads
+        return self._num_threads if self._explicit_threads else min(self._num_threads, free_cores(self._num_threads))
 
     def _friction(self, qd):
         if self._law is not None:
