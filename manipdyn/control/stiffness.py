@@ -27,6 +27,14 @@ A sharp Coulomb sign has no derivative off ``v = 0`` and adds nothing (it
 chatters at rest, boundedly); a smoothed sign ``tanh(v / v_s)`` is stiff near
 ``v = 0`` (``Fc / (v_s J)``) and is counted.  Plants without analytical
 derivatives (a user's callable) keep ``m = 1`` unless ``substeps`` is given.
+
+What more steps cannot fix: the *loop*.  The torque is held over the whole period
+whatever ``m``, so a controller whose damping ``K_d`` moves the plant at a rate
+``|eig(D_plant^-1 K_d)| > 2 / dt`` diverges at any ``m``; only a shorter period (or
+a softer controller, or a heavier plant) holds it.  :func:`sampled_loop_rate`
+measures that rate for a plant and a controller along the reference; the
+Monte-Carlo studies record it per run and name it as the cause of a divergence
+(:mod:`manipdyn.montecarlo.diverged`).
 """
 
 from __future__ import annotations
