@@ -5,9 +5,10 @@
 ``arm.pinocchio.inverse_dynamics`` on a batch of ``--states`` UR5 states runs on
 Pinocchio's thread pool (``rneaInParallel``).  A thread that has to share its core
 with another process makes the whole batch wait for it, so on a loaded machine the
-parallel batch can be slower than one thread.  The engine now takes, per batch, only
-the cores no other task wants (:func:`manipdyn._threads.free_cores`, read from the
-instantaneous count of runnable tasks), unless a thread count was given.
+parallel batch can be slower than one thread, and under heavier load faster again.
+The engine now times its batches and runs each on the faster of one thread and all
+of them (:class:`manipdyn.pinocchio_engine.ThreadChoice`), unless a thread count
+was given.
 
 For each ``--load K`` this starts ``K`` busy processes (pure Python spin loops, on
 top of whatever else the machine runs), then times, interleaved in rounds (load
@@ -19,7 +20,9 @@ hits every candidate alike), per state:
 * ``python loop``: ``pin.rnea`` per state in a Python loop.
 
 The claim is ``auto <= one thread`` (within the rounds' spread) under load, and
-``auto ~ all cores`` when cores are free.  ``/proc/loadavg`` is recorded before and
+``auto ~ all cores`` when cores are free.  Medians of per-round times and the best
+round's are both printed: under heavy outside load the medians of candidates that
+run the same code differ by tens of percent, and the best rounds are the steadier.  ``/proc/loadavg`` is recorded before and
 after each case: on a machine shared with others "quiet" means "as found", and the
 record says how quiet that was.  Results: printed, and written to
 ``benchmarks/results/runs/<UTC time>-batch-threads/results.json`` (``--publish``:
@@ -62,11 +65,10 @@ def measure(states: int, load: int, rounds: int, target_s: float = 0.05) -> dict
     import pinocchio as pin
 
     import manipdyn as md
-    from manipdyn._threads import free_cores
     from manipdyn.pinocchio_engine import PinocchioEngine
 
     arm = md.load("ur5")
-    auto = arm.pinocchio
+    auto = PinocchioEngine(arm.pinocchio.model.copy())       # the default: chooses by measurement
     cores = auto.num_threads                              # the CPUs available, at most 8
     one = PinocchioEngine(auto.model.copy(), num_threads=1)
     every = PinocchioEngine(auto.model.copy(), num_threads=cores)
@@ -90,7 +92,6 @@ def measure(states: int, load: int, rounds: int, target_s: float = 0.05) -> dict
     try:
         time.sleep(1.0 if load else 0.0)                      # let the spinners be scheduled
         before = _loadavg()
-        chosen = [min(cores, free_cores(cores)) for _ in range(50)]     # what auto takes per batch
         fns = {"one thread": lambda: one.inverse_dynamics(q, qd, qdd),
                "all cores": lambda: every.inverse_dynamics(q, qd, qdd),
                "auto": lambda: auto.inverse_dynamics(q, qd, qdd),
@@ -102,12 +103,15 @@ def measure(states: int, load: int, rounds: int, target_s: float = 0.05) -> dict
         for p in procs:
             p.join(5)
     return {"load_processes": load, "states": states, "cores": cores, "loadavg_before": before,
-            "loadavg_after": after, "free_cores_now": free_cores(cores),
-            "auto_threads_chosen": {str(k): chosen.count(k) for k in sorted(set(chosen))},
+            "loadavg_after": after,
+            "auto_cost_us_per_state": {str(k): v * 1e6 for k, v in auto.thread_choice.cost.items()},
             "us_per_state": {k: v.median * 1e6 for k, v in s.items()},
             "us_per_state_iqr": {k: v.iqr * 1e6 for k, v in s.items()},
+            "us_per_state_best": {k: float(np.min(v.times)) * 1e6 for k, v in s.items()},
             "auto_over_one_thread": paired_ratio(s["auto"], s["one thread"]),
-            "all_cores_over_one_thread": paired_ratio(s["all cores"], s["one thread"])}
+            "all_cores_over_one_thread": paired_ratio(s["all cores"], s["one thread"]),
+            "best_auto_over_one_thread": float(np.min(s["auto"].times) / np.min(s["one thread"].times)),
+            "best_all_cores_over_one_thread": float(np.min(s["all cores"].times) / np.min(s["one thread"].times))}
 
 
 def main(argv=None) -> int:
@@ -129,9 +133,13 @@ def main(argv=None) -> int:
         cases.append(r)
         t = r["us_per_state"]
         print(f"+{load} busy process(es); /proc/loadavg {r['loadavg_before']} -> {r['loadavg_after']}; "
-              f"auto chose {r['auto_threads_chosen']} thread(s)")
-        print("  " + "   ".join(f"{k} {v:.3f}" for k, v in t.items())
+              f"auto's measured cost per state (us) by threads: "
+              + ", ".join(f"{k}: {v:.3f}" for k, v in r["auto_cost_us_per_state"].items()))
+        print("  median: " + "   ".join(f"{k} {v:.3f}" for k, v in t.items())
               + f"   auto/one {r['auto_over_one_thread']:.2f}, all cores/one {r['all_cores_over_one_thread']:.2f}")
+        print("  best:   " + "   ".join(f"{k} {v:.3f}" for k, v in r["us_per_state_best"].items())
+              + f"   auto/one {r['best_auto_over_one_thread']:.2f}, all cores/one "
+                f"{r['best_all_cores_over_one_thread']:.2f}")
         sys.stdout.flush()
     result = {"environment": {"python": sys.version.split()[0], "pid_cpus": len(os.sched_getaffinity(0))
                               if hasattr(os, "sched_getaffinity") else os.cpu_count(), "blas": blas},

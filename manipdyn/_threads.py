@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import contextlib
 
-__all__ = ["blas_threads", "free_cores"]
+__all__ = ["blas_threads"]
 
 
 class _Limit(contextlib.AbstractContextManager):
@@ -51,19 +51,3 @@ def blas_threads(n: int | None = 1):
         raise ValueError(f"blas threads: expected a positive integer or None, got {n!r}")
     return _Limit(n)
 
-
-def free_cores(cores: int) -> int:
-    """Of ``cores`` CPUs, how many no other task wants right now (at least 1).
-
-    Read from the instantaneous count of runnable tasks in ``/proc/loadavg`` (its fourth
-    field, ``running/total``, which counts the caller itself): ``cores - (running - 1)``.
-    Not the load averages, which lag by a minute and count this process's own parallel
-    work as load.  Where ``/proc/loadavg`` cannot be read (not Linux), all ``cores``.
-    About 10 microseconds: a call per batch of thousands of states costs ~1 %.
-    """
-    try:
-        with open("/proc/loadavg", "rb") as f:
-            running = int(f.read().split()[3].split(b"/")[0])
-    except (OSError, IndexError, ValueError):
-        return max(1, int(cores))
-    return max(1, min(int(cores), int(cores) - (running - 1)))

@@ -1,59 +1,64 @@
-"""The batch path takes only the cores no other task wants (issue 27, item 26).  Speed itself is
-measured by benchmarks/bench_batch_threads.py, never asserted here; these check the choice."""
+"""The batch path runs on one thread or all, whichever this engine measured faster (issue 27,
+item 26).  Speed itself is measured by benchmarks/bench_batch_threads.py, never asserted here:
+these check the choice, fed with given costs, and that the answers do not depend on it."""
 
 from __future__ import annotations
 
 import numpy as np
 
 import manipdyn as md
-from manipdyn import _threads, pinocchio_engine
-from manipdyn.pinocchio_engine import PARALLEL_MIN_STATES, PinocchioEngine
+from manipdyn import pinocchio_engine
+from manipdyn.pinocchio_engine import PARALLEL_MIN_STATES, PinocchioEngine, ThreadChoice
 
 
-def test_free_cores_reads_the_runnable_tasks(tmp_path, monkeypatch):
-    """``running/total`` of /proc/loadavg counts the caller: 1 running leaves every core free, 2
-    leave one fewer, many leave one; an unreadable file leaves them all."""
-    import builtins
-
-    real_open = builtins.open
-    text = {"value": b"0.50 0.40 0.30 1/200 1234\n"}
-
-    def fake_open(path, *a, **k):
-        if path == "/proc/loadavg":
-            f = tmp_path / "loadavg"
-            f.write_bytes(text["value"])
-            return real_open(f, *a, **k)
-        return real_open(path, *a, **k)
-
-    monkeypatch.setattr(builtins, "open", fake_open)
-    assert _threads.free_cores(2) == 2
-    text["value"] = b"1.00 1.00 1.00 2/200 1234\n"
-    assert _threads.free_cores(2) == 1 and _threads.free_cores(4) == 3
-    text["value"] = b"9.00 9.00 9.00 17/200 1234\n"
-    assert _threads.free_cores(2) == 1
-    text["value"] = b"garbage"
-    assert _threads.free_cores(3) == 3
+def test_choice_tries_both_then_keeps_the_faster_and_looks_again():
+    c = ThreadChoice()
+    assert c.pick(2) == 2                      # first: all threads
+    c.record(2, 0.93e-6)                       # the issue's loaded machine: 2 threads slower
+    assert c.pick(2) == 1
+    c.record(1, 0.72e-6)
+    picks = []
+    for _ in range(3 * ThreadChoice.EXPLORE):
+        k = c.pick(2)
+        picks.append(k)
+        c.record(k, 0.72e-6 if k == 1 else 0.93e-6)
+    assert picks.count(2) == 3 and picks.count(1) == 3 * ThreadChoice.EXPLORE - 3   # one look in EXPLORE
+    for _ in range(4 * ThreadChoice.EXPLORE):  # the load goes: 2 threads become faster
+        k = c.pick(2)
+        c.record(k, 0.72e-6 if k == 1 else 0.40e-6)
+    assert c.pick(2) == 2 or c.pick(2) == 2    # (one of two consecutive picks may be the look)
+    assert c.cost[2] < c.cost[1]
 
 
-def test_a_batch_on_a_loaded_machine_runs_on_the_free_cores_only(monkeypatch):
-    """The default engine asks free_cores per batch; a thread count given by the caller is kept.
-    The answer is the same whatever the threads (bit for bit)."""
-    arm = md.load("ur5")
-    auto = PinocchioEngine(arm.pinocchio.model.copy(), num_threads=None)
-    asked = PinocchioEngine(arm.pinocchio.model.copy(), num_threads=2)
+def test_engine_times_its_batches_and_keeps_a_given_count(monkeypatch):
+    """The default engine feeds its choice the measured cost of each parallel-sized batch and runs
+    the next on what the choice picks; an explicit num_threads is used as given and not timed.
+    The answers are the same bit for bit."""
     monkeypatch.setattr(pinocchio_engine, "_POOL_PID", [None])
-    free = {"n": 1}
-    monkeypatch.setattr(pinocchio_engine, "free_cores", lambda cores: min(cores, free["n"]))
-    auto._num_threads = 2                     # as on a 2-core machine, whatever this one has
-    assert auto._batch_threads(PARALLEL_MIN_STATES) == 1
-    assert asked._batch_threads(PARALLEL_MIN_STATES) == 2
-    free["n"] = 2
-    assert auto._batch_threads(PARALLEL_MIN_STATES) == 2
-    assert auto._batch_threads(PARALLEL_MIN_STATES - 1) == 1
-    auto.num_threads = 2                      # set by the caller: kept
-    free["n"] = 1
-    assert auto._batch_threads(PARALLEL_MIN_STATES) == 2
+    arm = md.load("ur5")
+    auto = PinocchioEngine(arm.pinocchio.model.copy())
+    auto._num_threads = 2                      # as on a 2-core machine, whatever this one has
+    asked = PinocchioEngine(arm.pinocchio.model.copy(), num_threads=2)
+    used = []
+    real = pinocchio_engine.pin.rneaInParallel
+
+    def spy(threads, *args):
+        used.append(threads)
+        return real(threads, *args)
+
+    monkeypatch.setattr(pinocchio_engine.pin, "rneaInParallel", spy)
     rng = np.random.default_rng(0)
     q, qd, qdd = (rng.uniform(-1, 1, (PARALLEL_MIN_STATES, 6)) for _ in range(3))
-    np.testing.assert_array_equal(auto.inverse_dynamics(q, qd, qdd),
-                                  PinocchioEngine(arm.pinocchio.model.copy(), num_threads=1).inverse_dynamics(q, qd, qdd))
+    ref = PinocchioEngine(arm.pinocchio.model.copy(), num_threads=1).inverse_dynamics(q, qd, qdd)
+    used.clear()
+    for _ in range(3):
+        np.testing.assert_array_equal(auto.inverse_dynamics(q, qd, qdd), ref)
+    assert used[:2] == [2, 1] and set(auto.thread_choice.cost) == {1, 2}
+    best = min(auto.thread_choice.cost, key=auto.thread_choice.cost.get)
+    assert used[2] == best
+    used.clear()
+    np.testing.assert_array_equal(asked.inverse_dynamics(q, qd, qdd), ref)
+    assert used == [2] and asked.thread_choice.cost == {}
+    used.clear()
+    auto.inverse_dynamics(q[:10], qd[:10], qdd[:10])    # small batches: one thread, not timed
+    assert used == [1]
