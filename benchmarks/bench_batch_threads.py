@@ -7,7 +7,7 @@ Pinocchio's thread pool (``rneaInParallel``).  A thread that has to share its co
 with another process makes the whole batch wait for it, so on a loaded machine the
 parallel batch can be slower than one thread, and under heavier load faster again.
 The engine now times its batches and runs each on the faster of one thread and all
-of them (:class:`manipdyn.pinocchio_engine.ThreadChoice`), unless a thread count
+of them (:class:`manipdyn.engines.pinocchio.engine.ThreadChoice`), unless a thread count
 was given.
 
 For each ``--load K`` this starts ``K`` busy processes (pure Python spin loops, on
@@ -65,7 +65,7 @@ def measure(states: int, load: int, rounds: int, target_s: float = 0.05) -> dict
     import pinocchio as pin
 
     import manipdyn as md
-    from manipdyn.pinocchio_engine import PinocchioEngine
+    from manipdyn.engines.pinocchio.engine import PinocchioEngine
 
     arm = md.load("ur5")
     auto = PinocchioEngine(arm.pinocchio.model.copy())       # the default: chooses by measurement

@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 
 import manipdyn as md
-from manipdyn import pinocchio_engine
-from manipdyn.pinocchio_engine import PARALLEL_MIN_STATES, PinocchioEngine, ThreadChoice
+from manipdyn.engines.pinocchio import engine as pinocchio_engine
+from manipdyn.engines.pinocchio.engine import PARALLEL_MIN_STATES, PinocchioEngine, ThreadChoice
 
 
 def test_choice_tries_both_then_keeps_the_faster_and_looks_again():

@@ -75,7 +75,7 @@ def test_offsets_are_not_clipped_and_draws_do_not_depend_on_the_order(ur5_wls, t
     plants = mc.load_identified(path)
     assert len(plants.nonnegative) == 2 * prior.n and all(plants.nonnegative)
     first = plants.draw_details(7, 5)["pi"]
-    from manipdyn.montecarlo import identified
+    from manipdyn.control.montecarlo import identified
 
     identified._draw.cache_clear()
     for k in (0, 1, 2):
