@@ -128,6 +128,9 @@ def main(argv=None) -> int:
     p.add_argument("--arms", nargs="+", default=[a for a in DEFAULT_ARMS if a in md.models()])
     p.add_argument("--batch", type=int, default=1000)
     p.add_argument("--rounds", type=int, default=15)
+    p.add_argument("--target-s", type=float, default=0.02,
+                   help="seconds per timed sample (default 0.02; on a loaded machine 0.001 with "
+                        "--rounds 101: short samples are less often interrupted, and the best rounds show it)")
     args = p.parse_args(argv)
     pools = blas_config()
     blas = pools if isinstance(pools, str) else [(i.get("internal_api"), i.get("num_threads")) for i in pools]
@@ -137,7 +140,7 @@ def main(argv=None) -> int:
     print(f"{'arm':9s} {'derivative':9s} {'manipdyn us':>11s} {'raw pin us':>10s} {'ratio':>6s} {'best':>6s} "
           f"{'floor':>6s} {'checks':>6s}  {'trace us/state':>14s} {'trace/raw':>9s}")
     for name in args.arms:
-        r = measure(name, args.batch, args.rounds)
+        r = measure(name, args.batch, args.rounds, args.target_s)
         for k, label in (("inv", "RNEA"), ("fwd", "ABA"), ("grav", "gravity")):
             x = r[k]
             print(f"{name:9s} {label:9s} {x['manipdyn_us']:11.2f} {x['raw_us']:10.2f} {x['ratio']:6.2f} "

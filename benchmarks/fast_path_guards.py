@@ -39,7 +39,7 @@ def _block(f, k: int) -> float:
     return (time.perf_counter() - t) / k
 
 
-def measure(arm_name: str = "ur5", blocks: int = 41, calls: int = 2000) -> list[tuple]:
+def measure(arm_name: str = "ur5", blocks: int = 201, calls: int = 200) -> list[tuple]:
     import pinocchio as pin
 
     import manipdyn as md
@@ -123,8 +123,8 @@ def measure(arm_name: str = "ur5", blocks: int = 41, calls: int = 2000) -> list[
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="python -m benchmarks.fast_path_guards", description=__doc__.split("\n\n")[0])
     p.add_argument("--arm", default="ur5")
-    p.add_argument("--blocks", type=int, default=41)
-    p.add_argument("--calls", type=int, default=2000)
+    p.add_argument("--blocks", type=int, default=201)
+    p.add_argument("--calls", type=int, default=200)
     args = p.parse_args(argv)
     pools = blas_config()
     blas = pools if isinstance(pools, str) else [(i.get("internal_api"), i.get("num_threads")) for i in pools]
