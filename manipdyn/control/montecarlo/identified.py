@@ -37,11 +37,16 @@ Why this and not the alternatives (measured on the README's Panda identification
 
 * **The Frobenius projection** of each ``J_i`` (what this module did before) moves the
   draw in full-parameter space without regard to what the data pinned down: it changed
-  well-identified base parameters by a median 14 of their standard deviations (max 15),
-  and half of the PD runs diverged on the resulting arms.  The covariance metric moves
-  the draw along the directions the data leave loose: a median 1.4 sigma for the
-  largest single base parameter, a Mahalanobis distance of 2.9 for a draw whose own
-  distance from ``beta_hat`` is ``|z| ~ 8``.
+  well-identified base parameters by a median 14 of their standard deviations (max 15).
+  The covariance metric moves the draw along the directions the data leave loose: a
+  median 1.4 sigma for the largest single base parameter, a Mahalanobis distance of 2.9
+  for a draw whose own distance from ``beta_hat`` is ``|z| ~ 8``.  Draws that stay
+  draws keep what the data say, including what a controller tuned to the prior does
+  not survive: the identified Panda's link 2 is light about the axis joints 1 and 3
+  share at the demo path's start, and PD, PD + gravity and adaptive control diverge at
+  1 kHz on the identified arm itself and on most draws (5 of 10 PD runs with the
+  Frobenius projection, whose rounder bodies hid it; 10 of 10 now).  The runs say why
+  (the sampled loop, :mod:`.diverged`), and a shorter ``--dt`` holds them.
 * **Rejection** (redraw until physical) would sample the Gaussian truncated to the
   physical set, the posterior under a flat prior on physical arms.  But a ``consistent``
   fit sits on the ``J_i >= 0`` faces of most links (all seven for the Panda), so
@@ -49,7 +54,7 @@ Why this and not the alternatives (measured on the README's Panda identification
   with exactly their base parameters, even using the non-identifiable directions.
   Rejection would not end.
 * **The consistent bootstrap's refits** are physical by construction, but a study of
-  ``runs`` plants would need as many refits (46 s for 10 on the Panda log), or repeat
+  ``runs`` plants would need as many refits (70 of the Panda log took 2.3 min here), or repeat
   a few; their spread is used instead, as ``C`` (above).
 
 A projected draw has other base parameters than the Gaussian gave it; the study's
