@@ -80,6 +80,7 @@ physical and its distance recomputed in NumPy).
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import os
 from dataclasses import dataclass
@@ -168,6 +169,19 @@ class IdentifiedPlants:
     nonnegative: tuple = ()
     covariance: str = "fit"
     friction_columns: tuple = ((), ())
+
+    def __hash__(self) -> int:
+        # the draws are cached per (plants, seed, run): hashing ~20,000 floats took 1.4 ms, once is enough
+        h = self.__dict__.get("_hash")
+        if h is None:
+            h = hash(tuple(getattr(self, f.name) for f in dataclasses.fields(self)))
+            object.__setattr__(self, "_hash", h)
+        return h
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state.pop("_hash", None)        # strings hash differently in another process
+        return state
 
     @property
     def n(self) -> int:
