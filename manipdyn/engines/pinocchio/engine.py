@@ -68,35 +68,51 @@ class ThreadChoice:
     predicts which.  So each engine times its batches: the first parallel-sized batch
     runs on all threads, the second on one, and from then on each runs on the one with
     the lower cost per state (an average over its recent batches, weight :data:`WEIGHT`
-    for the newest), except every :data:`EXPLORE`-th, which tries the other so that a
-    change of load is seen.  The answers do not depend on the threads (bit for bit).
-    ``benchmarks/bench_batch_threads.py`` times it against one thread and all of them.
+    for the newest), except for a look at the other one after :data:`EXPLORE` batches,
+    then after twice as many each time the look confirms the choice (at most
+    :data:`MAX_INTERVAL`), so that a change of load is seen while a slow option costs
+    little: 3 % of the batches at most once settled.  The answers do not depend on the
+    threads (bit for bit).  ``benchmarks/bench_batch_threads.py`` times it against one
+    thread and all of them.
     """
 
-    #: every EXPLORE-th choice tries the currently slower option
+    #: batches before the first look at the currently slower option
     EXPLORE = 8
+    #: the longest interval between looks, in batches
+    MAX_INTERVAL = 64
     #: weight of the newest batch in the running cost per state
-    WEIGHT = 0.3
+    WEIGHT = 0.5
 
     def __init__(self):
-        self.cost, self.calls = {}, 0
+        self.cost, self.calls, self.interval, self.next_look = {}, 0, self.EXPLORE, self.EXPLORE
+
+    def _best(self, threads: int) -> int:
+        return 1 if self.cost[1] <= self.cost[threads] else threads
 
     def pick(self, threads: int) -> int:
         """Threads for the next batch: 1 or ``threads``."""
         self.calls += 1
-        many, one = self.cost.get(threads), self.cost.get(1)
-        if many is None:
+        if threads not in self.cost:
             return threads
-        if one is None:
+        if 1 not in self.cost:
             return 1
-        best, other = (1, threads) if one <= many else (threads, 1)
-        return other if self.calls % self.EXPLORE == 0 else best
+        best = self._best(threads)
+        if self.calls >= self.next_look:
+            self.next_look = self.calls + self.interval
+            self.interval = min(2 * self.interval, self.MAX_INTERVAL)
+            return threads if best == 1 else 1
+        return best
 
     def record(self, threads: int, seconds_per_state: float) -> None:
-        """The cost per state of a batch that ran on ``threads``."""
+        """The cost per state of a batch that ran on ``threads`` (1 or the engine's count)."""
+        many = max(self.cost.keys() | {threads})
+        before = self._best(many) if len(self.cost) == 2 else None
         old = self.cost.get(threads)
         x = float(seconds_per_state)
         self.cost[threads] = x if old is None else old + self.WEIGHT * (x - old)
+        if before is not None and self._best(many) != before:     # the load changed: look more often
+            self.interval = self.EXPLORE
+            self.next_look = self.calls + self.EXPLORE
 
 
 def model_from_urdf(urdf_text: str, gravity, armature=None) -> "pin.Model":
