@@ -389,3 +389,23 @@ def test_default_crosscheck_keeps_its_quantity_names_and_output():
         md.crosscheck(arm, samples=4, engines=("lagrange", "lagrange"))
     with pytest.raises(md.ModelError, match="no engine 'fortran'"):
         md.crosscheck(arm, samples=4, engines=("lagrange", "fortran"))
+
+
+@needs_cc
+def test_builds_are_cached_by_the_model_hash(monkeypatch):
+    """A second engine of the same model loads the cached library without generating (nor CasADi);
+    another model (gravity changed) misses the cache."""
+    from manipdyn.engines.c import source
+
+    arm = random_arm(7, n=2)
+    first = compiled_engine(arm, opt="-O0")
+
+    def refuse(*a, **k):
+        raise AssertionError("generated again")
+
+    monkeypatch.setattr(source, "generate", refuse)
+    again = compiled_engine(random_arm(7, n=2), opt="-O0")
+    assert again.library == first.library and os.path.isfile(first.library)
+    other = md.Manipulator(arm.links, arm.convention, gravity=-arm.gravity)
+    with pytest.raises(AssertionError, match="generated again"):
+        compiled_engine(other, opt="-O0")

@@ -56,6 +56,18 @@ def _version() -> str:
     return manipdyn_version()
 
 
+def _generator_digest() -> str:
+    """sha256 of the generator's own source (graph, emit, source): a changed generator never
+    serves a build of the old one from the cache."""
+    import hashlib
+
+    h = hashlib.sha256()
+    for name in ("graph.py", "emit.py", "source.py"):
+        with open(os.path.join(os.path.dirname(os.path.abspath(__file__)), name), "rb") as f:
+            h.update(f.read())
+    return h.hexdigest()[:16]
+
+
 def library_for(arm, cc: str | None = None, opt: str = "-O2") -> str:
     """Path of the compiled library of ``arm``: from the cache, or generated and built into it.
 
@@ -70,7 +82,7 @@ def library_for(arm, cc: str | None = None, opt: str = "-O2") -> str:
     from .source import GENERATOR_VERSION, generate, model_sha256
 
     cc = cc or build.require_compiler("the 'c' engine")
-    key = build.build_key(model_sha256(arm), _version(), GENERATOR_VERSION + opt, cc)
+    key = build.build_key(model_sha256(arm), _version(), GENERATOR_VERSION + opt + _generator_digest(), cc)
     folder = os.path.join(build.cache_dir(), "c", key)
     so = os.path.join(folder, f"lib{ENGINE_PREFIX}.so")
     if os.path.isfile(so):
