@@ -35,6 +35,7 @@ import numpy as np
 
 from .._state import state_array
 from ..errors import ModelError, StateError
+from ..limits import check_fit_size
 from ..inertia import pseudo_inertia_from_parameters
 from ..parameters import arm_parameters, parameter_count
 from .model import arm_with_parameters
@@ -273,6 +274,7 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     else:
         check_base(base, arm, armature, friction)
     N, r = len(q), base.count
+    check_fit_size(N, n, len(base.names))
     if N * n < r:
         raise ModelError(f"data: {N} samples give {N * n} equations for {r} base parameters")
     Yb = base.regressor(arm.lagrange.regressor(q, qd, qdd, armature=armature, friction=friction))
