@@ -21,7 +21,7 @@ from ..errors import ModelError
 from ..montecarlo import DISTRIBUTIONS_HELP, Distributions, check_study_size, load_identified, run as run_study, study
 from ..scale import check_scheduler
 from ..montecarlo.plot import plot_report
-from .common import (EXIT_OK, TIP_HELP, Progress, add_progress_options, check_plot_target, load_arm,
+from .common import (EXIT_OK, TIP_HELP, Progress, add_progress_options, check_outputs, load_arm,
                      progress_wanted, require_numbers)
 
 __all__ = ["register", "run"]
@@ -59,8 +59,9 @@ def run(args) -> int:
         raise ModelError(f"--workers: must be >= 1, got {args.workers}")
     check_scheduler(args.scheduler, "--scheduler")
     check_study_size(args.runs, len(keys), args.duration, args.dt, args.bandwidth, cli=True)
-    if args.plot:  # fail before a long run, not after it
-        check_plot_target(args.plot)
+    # fail before a long run, not after it
+    check_outputs([("--plot", args.plot)], [("MODEL", args.model), ("--plants-from", args.plants_from)],
+                  plots=("--plot",))
     try:
         dist = Distributions(**{field: getattr(args, field) for field, _, _ in _DISTRIBUTION_OPTIONS})
     except ValueError as exc:

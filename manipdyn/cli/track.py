@@ -26,7 +26,7 @@ from ..control.plant import with_payload
 from ..control.plots import PLOT_INSTALL, plot_compare, plot_single
 from ..control.simulate import SimulationDiverged, simulate
 from ..errors import ModelError
-from .common import TIP_HELP, Progress, add_progress_options, check_plot_target, load_arm, progress_wanted
+from .common import TIP_HELP, Progress, add_progress_options, check_outputs, load_arm, progress_wanted
 
 __all__ = ["register", "run"]
 
@@ -68,8 +68,8 @@ def check_options(args) -> None:
         raise ModelError(f"--bandwidth: must be > 0 rad/s, got {args.bandwidth}")
     if not (args.gamma >= 0):
         raise ModelError(f"--gamma: must be >= 0, got {args.gamma}")
-    if args.plot:  # fail before a long run, not after it
-        check_plot_target(args.plot)
+    # fail before a long run, not after it
+    check_outputs([("--plot", args.plot)], [("MODEL", args.model)], plots=("--plot",))
 
 
 def run(args) -> int:

@@ -35,6 +35,7 @@ import numpy as np
 
 from .._state import state_array
 from ..errors import ModelError, StateError
+from .. import limits
 from ..limits import check_fit_size
 from ..inertia import pseudo_inertia_from_parameters
 from ..parameters import arm_parameters, parameter_count
@@ -260,8 +261,9 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         raise ModelError("bounds: only the 'consistent' method takes bounds")
     if bounds is not None:
         bounds.check(arm.n)
-    if not (0.0 <= float(prior_weight) < float("inf")):
-        raise ModelError(f"prior_weight: expected a finite number >= 0, got {prior_weight}")
+    if not (0.0 <= float(prior_weight) <= limits.MAX_PRIOR_WEIGHT):
+        raise ModelError(f"prior_weight: expected a number in [0, {limits.MAX_PRIOR_WEIGHT:g}] "
+                         f"(manipdyn.limits.MAX_PRIOR_WEIGHT), got {prior_weight}")
     if prior_weight and method != "consistent":
         raise ModelError("prior_weight: only the 'consistent' method takes a prior weight")
     n = arm.n
