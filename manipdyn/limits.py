@@ -21,7 +21,7 @@ __all__ = ["MAX_FILE_BYTES", "MAX_MODEL_FILE_BYTES", "MAX_LINKS", "MAX_JOINTS", 
            "MAX_NAME_LENGTH", "MAX_LENGTH", "MAX_ANGLE", "MAX_GRAVITY", "MAX_MASS", "MAX_INERTIA",
            "MAX_MAGNITUDE", "MAX_DATA_BYTES", "MAX_DATA_FIELD_BYTES", "MAX_HARMONICS", "MAX_EXCITATION_SAMPLES",
            "MAX_RUN_STEPS", "MAX_STUDY_STEPS", "MAX_BANDWIDTH", "MAX_DEMO_DURATION", "MAX_TRAJECTORY_BYTES",
-           "MAX_GRID_VALUES", "MAX_FIT_ENTRIES", "MAX_BOOTSTRAP", "MAX_PRIOR_WEIGHT", "MAX_JSON_BYTES",
+           "MAX_GRID_VALUES", "MAX_FIT_ENTRIES", "MAX_BOOTSTRAP", "MAX_PRIOR_WEIGHT", 
            "MAX_JSON_DEPTH", "MAX_SCHEDULER_WAIT_S", "CLI_RAISE", "over_limit", "check_fit_size", "check_count", "check_magnitude", "check_range", "open_regular"]
 
 #: largest URDF or model file read, bytes (16 MiB; real ones are under 1 MiB)
@@ -107,9 +107,6 @@ MAX_BOOTSTRAP = 10_000
 #: added to the data's residual; beyond 1e6 the data no longer count beside it and the
 #: solver's scaling breaks down (1e308 overflows)
 MAX_PRIOR_WEIGHT = 1e6
-#: largest base-model JSON read (``validate``, ``montecarlo --plants-from``), bytes: a base
-#: model of a 100-joint arm with its prior's text is under 1 MiB
-MAX_JSON_BYTES = 16 * 1024 * 1024
 #: deepest nesting of lists and objects in a base-model JSON (a real one nests 3 deep;
 #: Python's parser recurses once per level and a deep file raises RecursionError)
 MAX_JSON_DEPTH = 32
