@@ -22,7 +22,7 @@ __all__ = ["MAX_FILE_BYTES", "MAX_MODEL_FILE_BYTES", "MAX_LINKS", "MAX_JOINTS", 
            "MAX_MAGNITUDE", "MAX_DATA_BYTES", "MAX_DATA_FIELD_BYTES", "MAX_HARMONICS", "MAX_EXCITATION_SAMPLES",
            "MAX_RUN_STEPS", "MAX_STUDY_STEPS", "MAX_BANDWIDTH", "MAX_DEMO_DURATION", "MAX_TRAJECTORY_BYTES",
            "MAX_GRID_VALUES", "MAX_FIT_ENTRIES", "MAX_BOOTSTRAP", "MAX_PRIOR_WEIGHT", 
-           "MAX_JSON_DEPTH", "MAX_SCHEDULER_WAIT_S", "CLI_RAISE", "over_limit", "check_fit_size", "check_count", "check_magnitude", "check_range", "open_regular"]
+           "MAX_JSON_DEPTH", "MAX_SIGNAL", "MIN_TORQUE_PEAK", "MAX_SCHEDULER_WAIT_S", "CLI_RAISE", "over_limit", "check_fit_size", "check_signals", "check_count", "check_magnitude", "check_range", "open_regular"]
 
 #: largest URDF or model file read, bytes (16 MiB; real ones are under 1 MiB)
 MAX_FILE_BYTES = 16 * 1024 * 1024
@@ -107,6 +107,13 @@ MAX_BOOTSTRAP = 10_000
 #: added to the data's residual; beyond 1e6 the data no longer count beside it and the
 #: solver's scaling breaks down (1e308 overflows)
 MAX_PRIOR_WEIGHT = 1e6
+#: largest magnitude of a logged signal (q in rad or m, qd, qdd, tau in N m or N): a real
+#: arm's are under 1e5; squares of 1e9 summed over a long log stay far from overflow, while
+#: a cell of 1e300 overflows the fit's sums
+MAX_SIGNAL = 1e9
+#: smallest peak torque of a log (N m or N): below it the torques are not in N m (or the
+#: column is empty), and the fit's squares underflow
+MIN_TORQUE_PEAK = 1e-20
 #: deepest nesting of lists and objects in a base-model JSON (a real one nests 3 deep;
 #: Python's parser recurses once per level and a deep file raises RecursionError)
 MAX_JSON_DEPTH = 32
@@ -153,6 +160,28 @@ def check_fit_size(samples: int, joints: int, parameters: int, where: str = "dat
             f"{entries:.3g} entries ({8 * entries / 2**30:.1f} GiB per copy), over the limit of "
             f"{MAX_FIT_ENTRIES:g} (manipdyn.limits.MAX_FIT_ENTRIES): fit at most {most} samples (decimate, "
             f"resample at a lower rate or cut a window: --resample, --t-range), or raise the limit")
+
+
+def check_signals(where: str, rows=None, **signals) -> None:
+    """Refuse a signal beyond :data:`manipdyn.limits.MAX_SIGNAL` in magnitude (a cell of 1e300), and
+    torques whose peak is below :data:`manipdyn.limits.MIN_TORQUE_PEAK` (scaled by 1e-300): the
+    fit's sums overflow or underflow.  The message names the column and the row."""
+    import numpy as np
+
+    for name, a in signals.items():
+        if a is None or not np.size(a):
+            continue
+        a = np.abs(np.asarray(a, dtype=np.float64))
+        k = int(np.argmax(a))
+        if not a.flat[k] <= MAX_SIGNAL:
+            i, j = np.unravel_index(k, a.shape) if a.ndim == 2 else (k, 0)
+            row = f"row {rows[i]}" if rows is not None else f"sample {i}"
+            raise ModelError(f"{where}: column {name}{j + 1}, {row}: magnitude {float(a.flat[k]):.6g}, over "
+                             f"{MAX_SIGNAL:g} (manipdyn.limits.MAX_SIGNAL); not a joint signal in SI units")
+        if name == "tau" and np.any(a) and a.flat[k] < MIN_TORQUE_PEAK:
+            raise ModelError(f"{where}: the torques peak at {float(a.flat[k]):.6g}, below "
+                             f"{MIN_TORQUE_PEAK:g} (manipdyn.limits.MIN_TORQUE_PEAK); not in N m "
+                             "(or N)? Scale the torque columns")
 
 
 def check_magnitude(value, where: str, field: str, unit: str = "") -> None:

@@ -62,6 +62,14 @@ def run(args) -> int:
     # fail before a long run, not after it
     check_outputs([("--plot", args.plot)], [("MODEL", args.model), ("--plants-from", args.plants_from)],
                   plots=("--plot",))
+    replaced = [f"--{f.replace('_', '-')}" for f in _REPLACED_BY_PLANTS if getattr(args, f) is not None]
+    if args.plants_from is not None and replaced:
+        raise ModelError(f"{', '.join(replaced)}: not with --plants-from (the identification's distribution "
+                         "replaces the payload, link and friction draws)")
+    d0 = Distributions()
+    for f in _REPLACED_BY_PLANTS:       # unset: the default, or 0 with --plants-from
+        if getattr(args, f) is None:
+            setattr(args, f, 0.0 if args.plants_from is not None else getattr(d0, f))
     try:
         dist = Distributions(**{field: getattr(args, field) for field, _, _ in _DISTRIBUTION_OPTIONS})
     except ValueError as exc:
@@ -106,6 +114,8 @@ _DISTRIBUTION_OPTIONS = (
     ("q0_offset", "RAD", "standard deviation of the initial position offset"),
     ("torque_noise", "NM", "standard deviation of the applied-torque noise"),
 )
+#: the draws an identification's distribution replaces (``--plants-from``)
+_REPLACED_BY_PLANTS = ("payload_mass", "link_scale", "friction_viscous", "friction_coulomb")
 
 
 def register(subparsers) -> None:
@@ -145,8 +155,10 @@ def register(subparsers) -> None:
                    help="torque limit of every joint for every controller (default: the model's own, if any)")
     for field, metavar, what in _DISTRIBUTION_OPTIONS:
         default = getattr(d, field)
-        p.add_argument("--" + field.replace("_", "-"), type=float, default=default, metavar=metavar,
-                       help=f"{what} (default {default:g})")
+        p.add_argument("--" + field.replace("_", "-"), type=float, metavar=metavar,
+                       default=None if field in _REPLACED_BY_PLANTS else default,
+                       help=f"{what} (default {default:g}" + (", not with --plants-from)" if field in
+                                                               _REPLACED_BY_PLANTS else ")"))
     p.add_argument("--plants-from", metavar="IDENTIFIED.json", default=None,
                    help="draw every run's plant from this identification's uncertainty (a base model of "
                         "'manipdyn identify --base-json', method wls or consistent): Gaussian base "

@@ -268,6 +268,7 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         raise ModelError("prior_weight: only the 'consistent' method takes a prior weight")
     n = arm.n
     q, qd, qdd, tau = _check(q, qd, qdd, tau, n)
+    limits.check_signals("data", q=q, qd=qd, qdd=qdd, tau=tau)
     if not np.any(tau):
         raise ModelError("tau: every torque of every joint is 0; a logged torque is never exactly 0 "
                          "throughout (a missing column, or the wrong one?)")

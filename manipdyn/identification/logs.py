@@ -31,6 +31,7 @@ import os
 import numpy as np
 
 from ..errors import ModelError
+from ..limits import check_signals
 from .columns import column_map
 from .filtering import choose_cutoff, decimation_factor, zero_phase
 from .measurements import Measurements
@@ -147,9 +148,9 @@ def read_log(path, n: int, *, joint_names=None, columns=None, deg=False, rate=No
     if not (isinstance(time_scale, (int, float)) and math.isfinite(time_scale) and time_scale > 0):
         raise ModelError(f"{where}: time_scale: expected seconds per unit of t > 0, got {time_scale!r}")
     if is_bag(path):
-        if columns is not None or (deg is not False and deg is not None):
-            raise ModelError(f"{where}: columns= and deg= are for CSV logs; a JointState bag is mapped by joint "
-                             "name and is in SI units")
+        if columns is not None or (deg is not False and deg is not None) or time_scale != 1:
+            raise ModelError(f"{where}: columns=, deg= and time_scale= (--columns, --deg, --time-scale) are for "
+                             "CSV logs; a JointState bag is mapped by joint name, is in SI units and stamped in ns")
         t, q, qd, tau, notes, sha = read_joint_states(path, joint_names, topic)
         qdd, rows, drive = None, np.arange(1, len(t) + 1), as_drive(n, **drive_args)
     else:
@@ -157,6 +158,7 @@ def read_log(path, n: int, *, joint_names=None, columns=None, deg=False, rate=No
             raise ModelError(f"{where}: topic= is for ROS bags; this is read as a CSV file")
         t, q, qd, qdd, tau, rows, drive, notes, sha = _from_csv(path, n, where, columns, deg, time_scale,
                                                                  drive_args, rate, bool(extra_joints))
+    check_signals(where, rows, q=q, qd=qd, qdd=qdd, tau=tau)
     parts = [q] + [a for a in (qd, qdd) if a is not None] + [tau]
     t, values, fs, tnotes = uniform_samples(t, np.hstack(parts), rows, where, rate=rate, resample=resample)
     notes += tnotes
