@@ -64,7 +64,12 @@ def _from_csv(path, n, where, columns, deg, time_scale, drive_args, rate, extra_
     get = {s: d[:, ks] for s, ks in index.items() if s != "t"}
     t = None
     if "t" in index and rate is None:
-        t = d[:, index["t"][0]] * float(time_scale)
+        with np.errstate(over="ignore"):
+            t = d[:, index["t"][0]] * float(time_scale)
+        if not np.all(np.isfinite(t)):
+            k = int(np.flatnonzero(~np.isfinite(t))[0])
+            raise ModelError(f"{where}: row {table.rows[k]}: t = {float(d[k, index['t'][0]])!r} times time_scale "
+                             f"(--time-scale) {float(time_scale):g} overflows float64; expected seconds per unit of t")
         if time_scale != 1:
             notes.append(f"time: column {cmap.patterns['t']!r} scaled by {time_scale:g} to s")
     scale = _deg_factors(deg, n, where)
