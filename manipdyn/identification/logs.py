@@ -73,6 +73,10 @@ def _from_csv(path, n, where, columns, deg, time_scale, drive_args, rate, extra_
         if time_scale != 1:
             notes.append(f"time: column {cmap.patterns['t']!r} scaled by {time_scale:g} to s")
     scale = _deg_factors(deg, n, where)
+    pos = get.get("q", get.get("qm"))
+    if np.any(scale != 1) and pos is not None and pos.size and np.abs(pos[:, scale != 1]).max() <= 2 * math.pi:
+        notes.append("units: every position read in degrees lies within +-6.3 degrees (2 pi): radians read as "
+                     "degrees (drop deg= / --deg)?")
     if np.any(scale != 1):
         for s in ("q", "qd", "qdd", "qm", "qdm"):
             if s in get:
@@ -94,6 +98,9 @@ def _from_csv(path, n, where, columns, deg, time_scale, drive_args, rate, extra_
             get["qd"] = drive.rates(get.pop("qdm"))
         if "taum" in get or "i" in get:
             get["tau"] = drive.torques(get.pop("taum", None), get.pop("i", None))
+        if np.array_equal(drive.R, np.eye(n)) and not np.any(drive.offset):
+            notes.append("drive: R = I and no offsets (the model has no [transmission]): the motor-side columns "
+                         "are read as the joints' own; give the model a [transmission] if there are gears")
         notes.append(f"drive: motor-side {', '.join(motor)} converted to the joints (q = R^-1 (q_m - offset), "
                      "qd = R^-1 qd_m, tau = R^T tau_m" + (", tau_m = k_t i" if "i" in motor else "") + ")")
     return t, get["q"], get.get("qd"), get.get("qdd"), get["tau"], table.rows, drive, notes, table.sha256

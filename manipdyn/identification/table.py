@@ -127,6 +127,12 @@ class _Parser:
 
     def _parse(self, lines, nums) -> np.ndarray:
         m = len(self.header)
+        under = next((r for r, ln in enumerate(lines) if "_" in ln), None)
+        if under is not None:     # float() reads '0_5' as 5.0 (Python's digit grouping); no CSV does
+            c = next(c for c, f in enumerate(lines[under].split(self.delim)) if "_" in f)
+            f = lines[under].split(self.delim)[c].strip()
+            raise _field_error(self.where, nums[under], c, self.header, f,
+                               f"{f!r:.40} is not a number (an underscore is no decimal point or digit group)")
         try:
             arr = np.loadtxt(lines, delimiter=self.delim, dtype=np.float64, ndmin=2, comments=None)
             if arr.shape != (len(lines), m):

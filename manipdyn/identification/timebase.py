@@ -97,6 +97,12 @@ def _grid_size(t, rate: float, m: int, where: str, option=None, rows=None) -> in
                      f"(limit {limits.MAX_GRID_VALUES:g} values, manipdyn.limits.MAX_GRID_VALUES)")
 
 
+def _check_given_rate(rate, where, name, what):
+    if not (MIN_RATE <= rate <= MAX_RATE):
+        raise ModelError(f"{where}: {name}= (--{name}) {rate:.6g} Hz as {what} is implausible for a joint log "
+                         f"(expected {MIN_RATE:g} Hz to {MAX_RATE:g} Hz; a rate in Hz, not a step in s?)")
+
+
 def _check_rate(rate, where, what):
     if not (MIN_RATE <= rate <= MAX_RATE):
         raise ModelError(
@@ -125,10 +131,13 @@ def uniform_samples(t, values, rows, where: str, *, rate=None, resample=None):
         raise ModelError(f"{where}: {len(values)} data row(s); a log needs at least 2 samples")
     if resample is not None and not (np.isfinite(resample) and resample > 0):
         raise ModelError(f"{where}: resample: expected a rate in Hz > 0, got {resample!r}")
+    if resample is not None:
+        _check_given_rate(float(resample), where, "resample", "the uniform grid's rate")
     if rate is not None:
         if not (np.isfinite(rate) and rate > 0):
             raise ModelError(f"{where}: rate: expected a sample rate in Hz > 0, got {rate!r}")
         rate = float(rate)
+        _check_given_rate(rate, where, "rate", "the log's sample rate")
         why = "the log has no 't' column" if t is None else "given rate= replaces the 't' column"
         t = np.arange(len(values)) / rate
         notes.append(f"time: {why}; {len(values)} rows taken as uniform samples at {rate:g} Hz")
