@@ -157,7 +157,7 @@ def check_fit_size(samples: int, joints: int, parameters: int, where: str = "dat
         most = int(MAX_FIT_ENTRIES // max(1, joints * parameters))
         raise ModelError(
             f"{where}: {samples} samples x {joints} joints x {parameters} parameters make a regressor of "
-            f"{entries:.3g} entries ({8 * entries / 2**30:.1f} GiB per copy), over the limit of "
+            f"{entries:.3g} entries ({8 * entries / 2**20:.4g} MiB per copy), over the limit of "
             f"{MAX_FIT_ENTRIES:g} (manipdyn.limits.MAX_FIT_ENTRIES): fit at most {most} samples (decimate, "
             f"resample at a lower rate or cut a window: --resample, --t-range), or raise the limit")
 
