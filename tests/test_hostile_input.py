@@ -349,13 +349,14 @@ def test_outputs_are_checked_before_the_fit(logs, tmp_path, capsys, monkeypatch)
 
 
 def test_a_hard_link_to_an_input_is_the_input(logs, tmp_path, capsys):
-    from manipdyn._files import overwrites
-
     hard = tmp_path / "hard.csv"
     os.link(logs / "traj.csv", hard)
-    assert overwrites(hard, logs / "traj.csv") and not overwrites(tmp_path / "new.csv", logs / "traj.csv")
+    before = hard.read_bytes()
     assert main(["synthesize", "ur5", str(logs / "traj.csv"), "-o", str(hard)]) == 2
-    assert "would overwrite TRAJ.csv" in err_line(capsys)
+    assert "would overwrite TRAJ.csv" in err_line(capsys) and hard.read_bytes() == before
+    from manipdyn._files import overwrites
+
+    assert overwrites(hard, logs / "traj.csv") and not overwrites(tmp_path / "new.csv", logs / "traj.csv")
 
 
 # -- 23. one line on exit 2 ----------------------------------------------------------------------
