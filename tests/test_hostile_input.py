@@ -475,3 +475,15 @@ def test_payload_on_absurdly_scaled_torques_is_refused(logs, tmp_path, capsys):
     scaled = write_rows(tmp_path / "scaled.csv", out)
     assert main(["identify", "ur5", str(scaled), "--payload"]) == 2
     assert "MAX_SIGNAL" in err_line(capsys)
+
+
+def test_urdf_and_check_refuse_to_write_over_the_urdf_they_read(tmp_path, capsys):
+    assert main(["urdf", "ur5", str(tmp_path)]) == 0
+    capsys.readouterr()
+    src = tmp_path / "ur5.urdf"
+    before = src.read_bytes()
+    for argv in (["urdf", str(src), str(tmp_path)],
+                 ["check", str(src), "--urdf-out", str(tmp_path), "--samples", "2", "--timing-calls", "0"]):
+        assert main(argv) == 2
+        assert "would overwrite MODEL_OR_FILE" in err_line(capsys)
+        assert src.read_bytes() == before
