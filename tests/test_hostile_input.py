@@ -487,3 +487,10 @@ def test_urdf_and_check_refuse_to_write_over_the_urdf_they_read(tmp_path, capsys
         assert main(argv) == 2
         assert "would overwrite MODEL_OR_FILE" in err_line(capsys)
         assert src.read_bytes() == before
+
+
+def test_scoring_a_base_model_is_capped_like_a_fit(logs, monkeypatch, capsys):
+    monkeypatch.setattr(limits, "MAX_FIT_ENTRIES", 1e5)     # its regressor: 800 x 6 x 60 entries
+    assert main(["validate", str(logs / "id.json"), str(logs / "data.csv")]) == 2
+    assert "MAX_FIT_ENTRIES" in err_line(capsys)
+    assert main(["validate", "ur5", str(logs / "data.csv")]) == 0    # an arm's own dynamics: no regressor
