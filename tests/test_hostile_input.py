@@ -84,7 +84,7 @@ def test_plants_from_refuses_the_options_it_replaces(logs, capsys):
     assert main(argv + ["--payload-mass", "1", "--link-scale", "0.5"]) == 2
     assert err_line(capsys).startswith("manipdyn montecarlo: error: --payload-mass, --link-scale: not with --plants-from")
     assert main(argv + ["--json"]) == 0                        # without them: the identification's draws
-    from manipdyn.montecarlo import Distributions, load_identified, study
+    from manipdyn.control.montecarlo import Distributions, load_identified, study
 
     with pytest.raises(md.ModelError, match="distributions: payload_mass, link_scale.* must be 0 with plants="):
         study(md.load("ur5"), 1, plants=load_identified(logs / "id.json"),
@@ -354,7 +354,7 @@ def test_a_hard_link_to_an_input_is_the_input(logs, tmp_path, capsys):
     before = hard.read_bytes()
     assert main(["synthesize", "ur5", str(logs / "traj.csv"), "-o", str(hard)]) == 2
     assert "would overwrite TRAJ.csv" in err_line(capsys) and hard.read_bytes() == before
-    from manipdyn._files import overwrites
+    from manipdyn._support.files import overwrites
 
     assert overwrites(hard, logs / "traj.csv") and not overwrites(tmp_path / "new.csv", logs / "traj.csv")
 

@@ -1,6 +1,6 @@
 """What ``manipdyn identify`` checks before any work starts: its outputs and its unbounded options.
 
-Layer: CLI.
+Layer 7 (CLI, the top).
 
 Everything here runs before the log is read, so that a mistake costs a second, not a
 fit: every output is writable and none of them is (or resolves to) MODEL or DATA
@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import os
 
-from .. import limits
-from ..errors import ModelError
+from .._support import limits
+from .._support.errors import ModelError
 from .common import check_outputs
 
 __all__ = ["check_identify"]
@@ -43,7 +43,7 @@ def check_identify(args) -> None:
             raise ModelError(f"--prior-weight: expected a number in [0, {limits.MAX_PRIOR_WEIGHT:g}] "
                              f"(manipdyn.limits.MAX_PRIOR_WEIGHT) or 'auto', got {args.prior_weight}")
     if args.scheduler is not None:
-        from ..scale import check_scheduler
+        from ..check.scale import check_scheduler
 
         check_scheduler(args.scheduler, "--scheduler")
     check_outputs([("-o", args.output), ("--base-json", args.base_json),
