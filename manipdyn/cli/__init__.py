@@ -84,7 +84,6 @@ def main(argv=None) -> int:
     """
     argv = _joined_negative_values([str(a) for a in (sys.argv[1:] if argv is None else argv)])
     with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
         code = _main(argv)
     if code not in (EXIT_USAGE, 130):
         shown = set()

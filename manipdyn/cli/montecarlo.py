@@ -62,14 +62,13 @@ def run(args) -> int:
     # fail before a long run, not after it
     check_outputs([("--plot", args.plot)], [("MODEL", args.model), ("--plants-from", args.plants_from)],
                   plots=("--plot",))
-    replaced = [f"--{f.replace('_', '-')}" for f in _REPLACED_BY_PLANTS if getattr(args, f) is not None]
-    if args.plants_from is not None and replaced:
-        raise ModelError(f"{', '.join(replaced)}: not with --plants-from (the identification's distribution "
-                         "replaces the payload, link and friction draws)")
-    d0 = Distributions()
-    for f in _REPLACED_BY_PLANTS:       # unset: the default, or 0 with --plants-from
-        if getattr(args, f) is None:
-            setattr(args, f, 0.0 if args.plants_from is not None else getattr(d0, f))
+    if args.plants_from is not None:
+        given = [f"--{f.replace('_', '-')}" for f in _REPLACED_BY_PLANTS if f in getattr(args, "given", ())]
+        if given:
+            raise ModelError(f"{', '.join(given)}: not with --plants-from (the identification's distribution "
+                             "replaces the payload, link and friction draws)")
+        for f in _REPLACED_BY_PLANTS:
+            setattr(args, f, 0.0)
     try:
         dist = Distributions(**{field: getattr(args, field) for field, _, _ in _DISTRIBUTION_OPTIONS})
     except ValueError as exc:
@@ -118,6 +117,14 @@ _DISTRIBUTION_OPTIONS = (
 _REPLACED_BY_PLANTS = ("payload_mass", "link_scale", "friction_viscous", "friction_coulomb")
 
 
+class _Given(argparse.Action):
+    """Store the value and remember, in ``args.given``, that the option was on the command line."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        setattr(namespace, self.dest, values)
+        namespace.given = set(getattr(namespace, "given", ())) | {self.dest}
+
+
 def register(subparsers) -> None:
     """Add ``manipdyn montecarlo``."""
     d = Distributions()
@@ -155,10 +162,10 @@ def register(subparsers) -> None:
                    help="torque limit of every joint for every controller (default: the model's own, if any)")
     for field, metavar, what in _DISTRIBUTION_OPTIONS:
         default = getattr(d, field)
-        p.add_argument("--" + field.replace("_", "-"), type=float, metavar=metavar,
-                       default=None if field in _REPLACED_BY_PLANTS else default,
-                       help=f"{what} (default {default:g}" + (", not with --plants-from)" if field in
-                                                               _REPLACED_BY_PLANTS else ")"))
+        replaced = field in _REPLACED_BY_PLANTS
+        p.add_argument("--" + field.replace("_", "-"), type=float, metavar=metavar, default=default,
+                       action=_Given if replaced else "store",
+                       help=f"{what} (default {default:g}" + (", not with --plants-from)" if replaced else ")"))
     p.add_argument("--plants-from", metavar="IDENTIFIED.json", default=None,
                    help="draw every run's plant from this identification's uncertainty (a base model of "
                         "'manipdyn identify --base-json', method wls or consistent): Gaussian base "
