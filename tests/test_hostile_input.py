@@ -115,6 +115,27 @@ def test_one_bad_time_stamp_is_refused_before_the_grid(logs, tmp_path, capsys, m
     assert "MAX_GRID_VALUES" in line and f"largest gap is" in line and f"row {n + 1}" in line
 
 
+def test_a_bag_whose_last_stamp_jumps_is_refused_before_the_grid(tmp_path, monkeypatch):
+    pytest.importorskip("rosbags", reason="the ros extra (rosbags) is not installed")
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from manipdyn.identification import read_log
+    from tests.test_rosbag import HEADER, JOINTS, JS, START, TIME, TS
+
+    monkeypatch.setattr(limits, "MAX_GRID_VALUES", 1_000_000)
+    t = np.arange(0, 4.0, 1 / 250)
+    t[-1] = 1e5                                       # the last header stamp jumps by a day
+    with Writer(tmp_path / "bag", version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        conn = w.add_connection("/joint_states", JS.__msgtype__, typestore=TS)
+        for k, tk in enumerate(t):
+            ns = START + int(round(tk * 1e9))
+            q = [0.1 * np.sin(tk + k * 1e-3), 0.2 * np.cos(tk)]
+            msg = JS(header=HEADER(stamp=TIME(sec=ns // 10**9, nanosec=ns % 10**9), frame_id=""), name=JOINTS,
+                     position=np.array(q), velocity=np.zeros(2), effort=np.array([1.0 + q[0], 2.0]))
+            w.write(conn, ns, TS.serialize_cdr(msg, JS.__msgtype__))
+    with pytest.raises(md.ModelError, match=r"largest gap is 99996 s before row 1000 .*MAX_GRID_VALUES"):
+        read_log(tmp_path / "bag", 2, joint_names=JOINTS)
+
+
 def test_resample_far_above_the_rate_is_refused_naming_it(logs, capsys, monkeypatch):
     monkeypatch.setattr(limits, "MAX_GRID_VALUES", 1_000_000)   # 4 s at 100 kHz: 4e5 samples x 24 values
     assert main(["validate", "ur5", str(logs / "data.csv"), "--resample", "1e7"]) == 2
@@ -153,7 +174,7 @@ def test_scheduler_that_is_not_tcp_is_refused(address, capsys):
     assert "--scheduler" in err_line(capsys)
 
 
-def test_port_that_is_not_dask_times_out(monkeypatch, capsys):
+def test_port_that_is_not_dask_times_out(logs, tmp_path, monkeypatch, capsys):
     pytest.importorskip("distributed")
 
     class Quiet(http.server.SimpleHTTPRequestHandler):
@@ -164,15 +185,19 @@ def test_port_that_is_not_dask_times_out(monkeypatch, capsys):
     thread = threading.Thread(target=server.serve_forever, daemon=True)
     thread.start()
     monkeypatch.setattr(limits, "MAX_SCHEDULER_WAIT_S", 2.0)
+    address = f"tcp://127.0.0.1:{server.server_address[1]}"
     try:
         t0 = time.perf_counter()
-        code = main(MC[:-2] + ["--scheduler", f"tcp://127.0.0.1:{server.server_address[1]}"])
+        code = main(MC[:-2] + ["--scheduler", address])
         took = time.perf_counter() - t0
+        assert code == 2 and took < 15
+        assert "no Dask scheduler answered in 2 s" in err_line(capsys)
+        boot = main(["identify", "ur5", str(logs / "data.csv"), "-o", str(tmp_path / "b.toml"), "--method", "wls",
+                     "--bootstrap", "2", "--scheduler", address])
     finally:
         server.shutdown()
         server.server_close()
-    assert code == 2 and took < 15
-    assert "no Dask scheduler answered in 2 s" in err_line(capsys)
+    assert boot == 2 and "no Dask scheduler answered in 2 s" in err_line(capsys)
 
 
 def test_prior_weight_is_bounded(logs, capsys):
