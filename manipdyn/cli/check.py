@@ -96,12 +96,12 @@ def run(args) -> int:
             return usage_error("check", str(exc).replace("engines:", "--engines:", 1))
     loaded = load_all(specs, args.tip)         # every name checked before any arm runs
     seen: dict = {}
+    targets = [urdf_target(args.urdf_out, arm, seen, "--urdf-out", specs) if args.urdf_out else None
+               for _spec, arm, _notes in loaded]                 # every output checked before any work
     show_progress = progress_wanted(args)
     results, worst = [], EXIT_OK
-    for spec, arm, notes in loaded:
-        urdf_path = None
-        if args.urdf_out:
-            urdf_path = urdf_target(args.urdf_out, arm, seen, "--urdf-out")
+    for (spec, arm, notes), urdf_path in zip(loaded, targets):
+        if urdf_path:
             write_urdf(arm, urdf_path)
         report = _crosscheck(arm, args, Progress(arm.name or spec, show_progress))
         timing = _timings(arm, calls=args.timing_calls) if args.timing_calls > 0 else {}
