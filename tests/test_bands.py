@@ -172,7 +172,7 @@ def test_validate_scores_several_models_side_by_side(tmp_path, capsys):
     assert "--predictions: one MODEL" in capsys.readouterr().err
     before = log.read_bytes()
     assert main(["validate", str(truth), str(log), "--predictions", str(log)]) == 2
-    assert "is an input" in capsys.readouterr().err and log.read_bytes() == before
+    assert "would overwrite DATA" in capsys.readouterr().err and log.read_bytes() == before
 
 
 def test_validate_prints_the_data_notes_as_identify_does(tmp_path, capsys):

@@ -16,11 +16,10 @@ Exit codes: 0 scored; 2 usage, model or data error (one line on stderr).
 from __future__ import annotations
 
 import json
-import os
 
 from .._support.errors import ModelError
 from .logopts import DATA_HELP, log_options_from_args, register_log_options
-from .common import EXIT_OK, TIP_HELP, check_output_file, check_plot_target, load_arm, usage_error
+from .common import EXIT_OK, TIP_HELP, check_outputs, load_arm, usage_error
 
 __all__ = ["register", "run"]
 
@@ -68,15 +67,10 @@ def run(args) -> int:
     from ..identification.validation import plot_validation, validate, write_predictions
 
     try:
-        if args.plot:
-            check_plot_target(args.plot)
-        if args.predictions:
-            if len(args.model) > 1:
-                raise ModelError("--predictions: one MODEL at a time (the file holds one model's predictions)")
-            check_output_file(args.predictions, "--predictions")
-            if any(os.path.exists(x) and os.path.realpath(x) == os.path.realpath(args.predictions)
-                   for x in [args.data, *args.model]):
-                raise ModelError(f"--predictions {args.predictions}: is an input of this command; choose another file")
+        if args.predictions and len(args.model) > 1:
+            raise ModelError("--predictions: one MODEL at a time (the file holds one model's predictions)")
+        check_outputs([("--plot", args.plot), ("--predictions", args.predictions)],
+                      [*(("MODEL", m) for m in args.model), ("DATA", args.data)], plots=("--plot",))
         models = [load_model(spec, args.tip) for spec in args.model]
         model, label = models[0]
         arm = getattr(model, "arm", model)
