@@ -32,7 +32,7 @@ import numpy as np
 
 from ..errors import ModelError
 from .columns import column_map
-from .filtering import choose_cutoff, decimation_factor, zero_phase
+from .filtering import choose_cutoff, decimation_factor, edge_samples, zero_phase
 from .measurements import Measurements
 from .motor import as_drive
 from .rosbag import is_bag, read_joint_states
@@ -182,7 +182,7 @@ def read_log(path, n: int, *, joint_names=None, columns=None, deg=False, rate=No
             "qd and qdd derived from q"
         t, q, qd, qdd, (tau,) = zero_phase(t, q, fc, qd=qd, others=(tau,), decimate=D, where=where)
         notes.append(f"filter: zero-phase Butterworth low-pass at {fc:.3g} Hz ({why}); {measured}; "
-                     f"{3 / fc:.3g} s dropped at each end")
+                     f"{edge_samples(fs, fc) / fs:.3g} s dropped at each end (the filter's edges)")
         if D > 1:
             notes.append(f"filter: decimated by {D} after filtering and differentiating: {fs:.6g} -> {fs / D:.6g} Hz "
                          "(torques: every D-th sample, not averaged)")
