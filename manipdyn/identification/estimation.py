@@ -202,7 +202,7 @@ def _check(q, qd, qdd, tau, n):
 
 def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armature: bool = False,
         bounds: Bounds | str | None = "plausible", base: BaseParameters | None = None,
-        name: str | None = None, prior_weight: float = 0.0, metadata=None) -> FitResult:
+        name: str | None = None, prior_weight: float = 0.0, metadata=None, regressor=None) -> FitResult:
     """Identify ``arm``'s parameters from samples (module docstring).
 
     Parameters
@@ -246,6 +246,10 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         flags (checked on the numbers: :func:`.base.check_base`; another arm's is refused).
     name : str, optional
         Name of the identified arm.
+    regressor : (N, n, p) array, optional
+        ``arm.lagrange.regressor(q, qd, qdd, armature=armature, friction=friction)`` when the
+        caller already has it (cross-validation slices one regressor into folds:
+        :mod:`.selection`); its shape is checked, its numbers are trusted.
     """
     if method not in METHODS:
         raise ModelError(f"method: expected one of {', '.join(METHODS)}, got {method!r}")
@@ -275,7 +279,12 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     N, r = len(q), base.count
     if N * n < r:
         raise ModelError(f"data: {N} samples give {N * n} equations for {r} base parameters")
-    Yb = base.regressor(arm.lagrange.regressor(q, qd, qdd, armature=armature, friction=friction))
+    if regressor is None:
+        regressor = arm.lagrange.regressor(q, qd, qdd, armature=armature, friction=friction)
+    elif np.shape(regressor) != (N, n, len(base.names)):
+        raise ModelError(f"regressor: expected shape ({N}, {n}, {len(base.names)}) (the samples' full "
+                         f"regressor), got {np.shape(regressor)}")
+    Yb = base.regressor(regressor)
     y = tau - known_torque(arm, qd, qdd, armature, friction)
     R0, c0, _ = _reduce(Yb.reshape(-1, r), y.reshape(-1))
     s = np.linalg.svd(R0, compute_uv=False)              # the singular values of the stacked Y_b
