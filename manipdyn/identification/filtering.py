@@ -91,7 +91,7 @@ import numpy as np
 from ..errors import ModelError
 
 __all__ = ["SPECTRUM_FRACTION", "CUTOFF_MARGIN", "MIN_CUTOFF", "MAX_CUTOFF", "DECIMATED_MIN_RATE",
-           "EDGE_TRIM", "choose_cutoff", "zero_phase", "decimation_factor", "edge_samples"]
+           "EDGE_TRIM", "choose_cutoff", "zero_phase", "decimation_factor", "edge_samples", "velocity_noise"]
 
 SPECTRUM_FRACTION = 0.9999
 CUTOFF_MARGIN = 3.0
@@ -194,3 +194,20 @@ def zero_phase(t, q, cutoff: float, *, qd=None, others=(), decimate: int = 1, or
     a = np.gradient(v, dt, axis=0)
     keep = slice(trim, len(t) - trim, max(1, int(decimate)))
     return t[keep], qf[keep], v[keep], a[keep], [np.asarray(o)[keep] for o in others]
+
+
+def velocity_noise(q, qd, cutoff: float, rate: float, decimate: int, q_kept, qd_kept) -> np.ndarray:
+    """The velocity's noise level per joint (n,), rad/s (m/s), from what :func:`zero_phase` removed.
+
+    ``q``, ``qd`` (N, n): the samples given to :func:`zero_phase` (``qd`` None when derived);
+    ``q_kept``, ``qd_kept``: what it returned from them at ``cutoff`` Hz, ``rate`` Hz and
+    ``decimate``.  A measured qd: the RMS of ``qd - filtered qd`` over the kept samples (the
+    per-sample noise of the logged velocity, its resolution included).  A derived qd: ``2 pi
+    cutoff`` times the RMS of ``q - filtered q`` (the speed of a sine at the cut-off whose
+    amplitude is q's noise: the finest speed the filtered derivative resolves).
+    """
+    keep = slice(edge_samples(rate, cutoff), len(q) - edge_samples(rate, cutoff), max(1, int(decimate)))
+    if qd is not None:
+        return np.sqrt(np.mean((np.asarray(qd, dtype=np.float64)[keep] - qd_kept) ** 2, axis=0))
+    removed = np.asarray(q, dtype=np.float64)[keep] - q_kept
+    return 2.0 * math.pi * float(cutoff) * np.sqrt(np.mean(removed**2, axis=0))
