@@ -69,7 +69,7 @@ def test_coupled_motor_side_log_fits_its_friction_at_the_motors_and_says_so(tmp_
 
 def test_friction_side_choice_on_diagonal_and_link_side_drives():
     from manipdyn.identification.choices import friction_side
-    from manipdyn.identification.measurements import Measurements
+    from manipdyn.formats.logs.measurements import Measurements
 
     z = np.zeros((3, 2))
     link_side = Measurements(np.arange(3.0), z, z, z, z)
