@@ -196,17 +196,17 @@ def zero_phase(t, q, cutoff: float, *, qd=None, others=(), decimate: int = 1, or
     return t[keep], qf[keep], v[keep], a[keep], [np.asarray(o)[keep] for o in others]
 
 
-def velocity_noise(q, qd, cutoff: float, rate: float, decimate: int, q_kept, qd_kept) -> np.ndarray:
+def velocity_noise(t, q, qd, cutoff: float, decimate: int, q_kept, qd_kept) -> np.ndarray:
     """The velocity's noise level per joint (n,), rad/s (m/s), from what :func:`zero_phase` removed.
 
-    ``q``, ``qd`` (N, n): the samples given to :func:`zero_phase` (``qd`` None when derived);
-    ``q_kept``, ``qd_kept``: what it returned from them at ``cutoff`` Hz, ``rate`` Hz and
-    ``decimate``.  A measured qd: the RMS of ``qd - filtered qd`` over the kept samples (the
+    ``t`` (N,), ``q``, ``qd`` (N, n): the samples given to :func:`zero_phase` (``qd`` None when
+    derived); ``q_kept``, ``qd_kept``: what it returned from them at ``cutoff`` Hz and ``decimate``.  A measured qd: the RMS of ``qd - filtered qd`` over the kept samples (the
     per-sample noise of the logged velocity, its resolution included).  A derived qd: ``2 pi
     cutoff`` times the RMS of ``q - filtered q`` (the speed of a sine at the cut-off whose
     amplitude is q's noise: the finest speed the filtered derivative resolves).
     """
-    keep = slice(edge_samples(rate, cutoff), len(q) - edge_samples(rate, cutoff), max(1, int(decimate)))
+    trim = edge_samples(1.0 / float(np.median(np.diff(t))), cutoff)      # as zero_phase reads the rate
+    keep = slice(trim, len(q) - trim, max(1, int(decimate)))
     if qd is not None:
         return np.sqrt(np.mean((np.asarray(qd, dtype=np.float64)[keep] - qd_kept) ** 2, axis=0))
     removed = np.asarray(q, dtype=np.float64)[keep] - q_kept

@@ -180,9 +180,9 @@ def read_log(path, n: int, *, joint_names=None, columns=None, deg=False, rate=No
         D = decimation_factor(fs, fc) if decimate is None else max(1, int(decimate or 1))
         measured = "measured qd filtered and differentiated for qdd" if qd is not None else \
             "qd and qdd derived from q"
-        raw_q, raw_qd = q, qd
+        raw_t, raw_q, raw_qd = t, q, qd
         t, q, qd, qdd, (tau,) = zero_phase(t, q, fc, qd=qd, others=(tau,), decimate=D, where=where)
-        noise = velocity_noise(raw_q, raw_qd, fc, fs, D, q, qd)
+        noise = velocity_noise(raw_t, raw_q, raw_qd, fc, D, q, qd)
         notes.append(f"filter: zero-phase Butterworth low-pass at {fc:.3g} Hz ({why}); {measured}; "
                      f"{edge_samples(fs, fc) / fs:.3g} s dropped at each end (the filter's edges)")
         if D > 1:
