@@ -35,6 +35,8 @@ import numpy as np
 
 from .._support.state import state_array
 from .._support.errors import ModelError, StateError
+from .._support import limits
+from .._support.limits import check_fit_size
 from ..model.inertia import pseudo_inertia_from_parameters
 from ..model.parameters import arm_parameters, parameter_count
 from .model import arm_with_parameters
@@ -145,7 +147,7 @@ def known_torque(prior, qd, qdd, armature, friction):
     return out
 
 
-def _nonnegative(names, n: int):
+def nonnegative_extras(names, n: int):
     """Which extra parameters (after the 10 n link ones) are constrained >= 0: all but offsets."""
     return np.array([not nm.endswith(".offset") for nm in names[10 * n:]], dtype=bool)
 
@@ -307,12 +309,14 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         raise ModelError("bounds: only the 'consistent' method takes bounds")
     if bounds is not None:
         bounds.check(arm.n)
-    if not (0.0 <= float(prior_weight) < float("inf")):
-        raise ModelError(f"prior_weight: expected a finite number >= 0, got {prior_weight}")
+    if not (0.0 <= float(prior_weight) <= limits.MAX_PRIOR_WEIGHT):
+        raise ModelError(f"prior_weight: expected a number in [0, {limits.MAX_PRIOR_WEIGHT:g}] "
+                         f"(manipdyn.limits.MAX_PRIOR_WEIGHT), got {prior_weight}")
     if prior_weight and method != "consistent":
         raise ModelError("prior_weight: only the 'consistent' method takes a prior weight")
     n = arm.n
     q, qd, qdd, tau = _check(q, qd, qdd, tau, n)
+    limits.check_signals("data", q=q, qd=qd, qdd=qdd, tau=tau)
     if not np.any(tau):
         raise ModelError("tau: every torque of every joint is 0; a logged torque is never exactly 0 "
                          "throughout (a missing column, or the wrong one?)")
@@ -321,6 +325,7 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     else:
         check_base(base, arm, armature, friction)
     N, r = len(q), base.count
+    check_fit_size(N, n, len(base.names))
     if N * n < r:
         raise ModelError(f"data: {N} samples give {N * n} equations for {r} base parameters")
     if regressor is None:
@@ -371,7 +376,7 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         else:
             try:
                 pi, solver = consistent_fit(R, c, base.K, n, prior, extra=len(base.names) > 10 * n,
-                                            bounds=bounds, nonnegative=_nonnegative(base.names, n),
+                                            bounds=bounds, nonnegative=nonnegative_extras(base.names, n),
                                             prior_weight=float(prior_weight), rows=N * n)
                 if bounds is not None and not bounds.satisfied(pi, n, rtol=1e-6):
                     raise ModelError("consistent fit: the answer does not satisfy the bounds (the solver "
@@ -445,7 +450,7 @@ def _shortfall(R, c, rho0, yw, ew, pi, n, base, bounds, solver, active_bounds) -
     J = pseudo_inertia_from_parameters(np.asarray(pi)[:10 * n].reshape(n, 10))
     ev = np.linalg.eigvalsh(J)
     at_psd = [i + 1 for i in range(n) if ev[i, 0] <= 1e-6 * max(float(ev[i, -1]), 1e-300)]
-    extra = np.asarray(pi)[10 * n:][_nonnegative(base.names, n)] if len(pi) > 10 * n else np.zeros(0)
+    extra = np.asarray(pi)[10 * n:][nonnegative_extras(base.names, n)] if len(pi) > 10 * n else np.zeros(0)
     at_zero = int(np.sum(extra <= 1e-9 * max(float(np.abs(pi).max()), 1e-300)))
     reasons = ([f"J_i >= 0 of link(s) {', '.join(map(str, at_psd))}"] if at_psd else []) \
         + ([f"{at_zero} armature/friction coefficient(s) at 0"] if at_zero else []) + list(active_bounds)
