@@ -32,7 +32,7 @@ def panda_model(tmp_path_factory):
 def test_panda_band_holds_on_the_rest_of_the_log(panda_model, capsys):
     """Issue 24 item 3, real target: the nominal 95 % band, from the fit window alone, holds 90 to
     98 % of the samples of 10 s <= t < 21 s pooled over the joints and at least 80 % on each joint.
-    Measured (README): 95.1 % pooled, 91.7 to 97.0 % per joint."""
+    Measured (README): 96.5 % pooled, 95.7 to 98.1 % per joint."""
     from manipdyn.cli import main
 
     capsys.readouterr()
@@ -52,7 +52,8 @@ def test_panda_band_holds_on_the_rest_of_the_log(panda_model, capsys):
 
 def test_panda_joint2_is_flagged_where_the_fit_never_went(panda_model, capsys):
     """Issue 24 item 4: on 10 s <= t < 13.8 s q2 reaches 1.18 rad; the fit window's q2 stays below
-    0.31 rad.  validate flags joint 2, and the recorded range says why."""
+    0.43 rad (0.31 before the filter's edges were corrected).  validate flags joint 2, and the
+    recorded range says why."""
     from manipdyn.cli import main
 
     capsys.readouterr()
@@ -60,7 +61,7 @@ def test_panda_joint2_is_flagged_where_the_fit_never_went(panda_model, capsys):
     ex = json.loads(capsys.readouterr().out)["extrapolation"]
     j2 = ex[1]
     assert j2["joint"] == 2 and j2["extrapolates"] is True
-    assert j2["q"]["fitted"][1] < 0.32 and j2["q"]["data"][1] > 1.1
+    assert j2["q"]["fitted"][1] < 0.45 and j2["q"]["data"][1] > 1.1
     assert j2["q"]["outside_fraction"] > 0.3
     assert main(["validate", str(panda_model), str(DATA), "--t-range", "10:13.8"]) == 0
     assert "EXTRAPOLATES joint 2: q2 in" in capsys.readouterr().out
