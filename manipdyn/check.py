@@ -4,8 +4,10 @@ Layer: 5 (the cross-check): talks to the two engines only through :class:`manipd
 
 For seeded random states within the joint limits, every quantity is computed
 by both engines and compared: D, h, C (the Coriolis matrix), g, tau, the
-forward dynamics of those torques, the end pose, both energies and the
-inverse-dynamics regressor Y (tau = Y pi, :mod:`manipdyn.parameters`).  The error of one state is
+forward dynamics of those torques, the end pose, both energies, the
+inverse-dynamics regressor Y (tau = Y pi, :mod:`manipdyn.parameters`), the
+derivatives, and (when both engines offer it) the tool frame's Jacobian and
+its time derivative.  The error of one state is
 
     err = max_k |pinocchio_k - lagrange_k| / max(1, max_k |lagrange_k|)
 
@@ -62,7 +64,13 @@ QUANTITIES = {
     "dqdd_dq": "derivative of forward dynamics by q, dqdd/dq",
     "dqdd_dqd": "derivative of forward dynamics by qd, dqdd/dqd",
     "dg_dq": "derivative of the gravity torque, dg/dq",
+    "J": "geometric Jacobian of the tool frame (6 x n, linear on top, base axes)",
+    "Jdot": "time derivative of the tool frame's Jacobian, dJ/dt",
 }
+#: quantities of engine methods that are optional (:data:`manipdyn.engine.OPTIONAL_ENGINE_METHODS`):
+#: compared only when both engines offer the method; otherwise the report's notes say so (an engine
+#: without them, such as generated C, is not a disagreement, so they stay out of ``not_compared``)
+OPTIONAL_QUANTITIES = {"J": "jacobian", "Jdot": "jacobian_dot"}
 
 
 @dataclass
@@ -302,6 +310,7 @@ def _crosscheck_states(arm, samples, seed, chunk, progress, first, stop) -> Cros
     P: DynamicsEngine = arm.pinocchio
     parts: dict[str, list] = {}
     skipped: dict[str, str] = {}
+    optional_notes: dict[str, str] = {}
 
     def add(key, a, b):
         ea, es = parts.setdefault(key, ([], []))
@@ -340,6 +349,13 @@ def _crosscheck_states(arm, samples, seed, chunk, progress, first, stop) -> Cros
                              P.inverse_dynamics_derivatives(qs, qds, qdds)):
             add(key, a, b)
         add("dg_dq", L.gravity_derivative(qs), P.gravity_derivative(qs))
+        for key, method in OPTIONAL_QUANTITIES.items():
+            lacking = [e.name for e in (L, P) if not callable(getattr(e, method, None))]
+            if lacking:
+                optional_notes[key] = f"{key} not compared: engine {' and '.join(lacking)} offers no {method}"
+                continue
+            args = (qs,) if method == "jacobian" else (qs, qds)
+            add(key, getattr(L, method)(*args), getattr(P, method)(*args))
         if "qdd" in skipped:      # the same conditioning limits D^-1 dtau (and a singular D has none)
             for key in ("dqdd_dq", "dqdd_dqd"):
                 skipped.setdefault(key, skipped["qdd"].replace("qdd not compared", "dqdd_dq, dqdd_dqd not "
@@ -354,7 +370,8 @@ def _crosscheck_states(arm, samples, seed, chunk, progress, first, stop) -> Cros
 
     states = {"q": q, "qd": qd, "qdd": qdd}
     report = CrosscheckReport(arm=arm.name or "arm", n=arm.n, samples=int(samples_all), seed=int(seed),
-                              notes=list(getattr(arm, "notes", ())) + list(dict.fromkeys(skipped.values())),
+                              notes=list(getattr(arm, "notes", ())) + list(dict.fromkeys(skipped.values()))
+                              + list(optional_notes.values()),
                               not_compared=dict(skipped))
     for key, (ra, rb) in parts.items():
         report.quantities[key] = _compare(key, np.concatenate(ra), np.concatenate(rb), states)

@@ -24,6 +24,7 @@ from ._state import as_state, check_result, same_batch
 from .errors import ModelError, SingularMassMatrixError
 from .kinematics import transform_inverse
 from .lagrange_derivatives import TraceFormDerivatives
+from .lagrange_jacobian import TraceFormJacobian
 from .parameters import PARAMETER_BASIS, with_extra_columns
 from .trace_drive import coupled_rotor_inertia, friction_torque
 
@@ -47,7 +48,7 @@ def _link_sum(S: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 _isfinite = math.isfinite
 
-class TraceFormEngine(TraceFormDerivatives):  # derivatives: manipdyn.lagrange_derivatives
+class TraceFormEngine(TraceFormDerivatives, TraceFormJacobian):  # manipdyn.lagrange_derivatives, _jacobian
     """Trace-form Lagrange-Euler dynamics of one arm.
 
     Built by :class:`manipdyn.Manipulator`; reach it as ``arm.lagrange``.

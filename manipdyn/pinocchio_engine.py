@@ -34,6 +34,7 @@ from .parameters import with_extra_columns
 from .pinocchio_agree import check_same_arm
 from .pinocchio_fast import UncheckedView, install_fast_path
 from .pinocchio_derivatives import PinocchioDerivatives
+from .pinocchio_jacobian import PinocchioJacobian
 from .urdf_out import TOOL_LINK, arm_to_urdf
 
 _isfinite = math.isfinite
@@ -107,7 +108,7 @@ def _threads() -> int:
     return max(1, min(len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1), 8))
 
 
-class PinocchioEngine(PinocchioDerivatives):  # derivatives: manipdyn.pinocchio_derivatives
+class PinocchioEngine(PinocchioDerivatives, PinocchioJacobian):  # manipdyn.pinocchio_derivatives, _jacobian
     """Pinocchio dynamics with the same methods and shapes as ``arm.lagrange``.
 
     Parameters
