@@ -11,7 +11,7 @@ from .identified import plant_source
 
 
 from ..control.demo import CONTROLLERS
-from ..control.plots import pyplot, save_figure
+from ..control.plots import plain_log_ticks, pyplot, save_figure
 
 __all__ = ["plot_report", "pyplot"]
 
@@ -36,6 +36,7 @@ def plot_report(report, path: str) -> None:
                               color=f"C{list(CONTROLLERS).index(key) if key in CONTROLLERS else 0}")
             handles.setdefault(key, line)
         ax.set_xscale("log")
+        plain_log_ticks(ax.xaxis)
         ax.set_xlabel(f"{m.replace('_', ' ')} ({unit})")
         ax.set_ylabel("fraction of runs")
         ax.set_title(desc, fontsize=9)
