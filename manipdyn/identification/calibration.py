@@ -80,9 +80,10 @@ def calibrate(model: str = "ur5", repeats: int = 500, noise: float = 0.01, seed:
     }
 
 
-def main(argv=None) -> int:
+def build_parser() -> argparse.ArgumentParser:
+    """The command line of ``python -m manipdyn.identification.calibration``."""
     p = argparse.ArgumentParser(prog="python -m manipdyn.identification.calibration",
-                                description="Are the identification's error bars right? Identifies `repeats` "
+                                description="Are the identification's error bars right? Identifies --repeats "
                                 "noisy logs of a known arm with wls and prints, as JSON, how often the 95 % "
                                 "intervals hold the truth (base parameters, held-out torques): 93 to 97 % is "
                                 "well calibrated.")
@@ -94,7 +95,11 @@ def main(argv=None) -> int:
                    "torque, white Gaussian (default: 0.01)")
     p.add_argument("--seed", type=int, default=1, help="seed of the truth, the trajectories and the noise "
                    "(default: 1)")
-    args = p.parse_args(argv)
+    return p
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
     print(json.dumps(calibrate(args.model, args.repeats, args.noise, args.seed), indent=2))
     return 0
 
