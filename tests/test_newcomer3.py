@@ -197,6 +197,29 @@ def test_item8_bundled_panda_carries_gaz_friction():
     assert "friction" in arm.sources and "get_FrictionTorque" in arm.sources["friction"]
 
 
+def test_item8_plant_variants_keep_the_friction_law_drive_and_poses():
+    """A payload or scaled plant of the published panda (or any arm with a friction law and a
+    coupled drive) is that arm plus the change, not a frictionless rigid copy."""
+    from manipdyn.control import with_payload, with_scaled_inertia
+
+    base = _load("ur5")
+    law = md.Friction(viscous=np.full(6, 0.3), coulomb=np.full(6, 0.4), n=6)
+    tr = md.Transmission.from_gear_ratios([1.0] * 6, [[6, 5, 0.5]])
+    arm = md.Manipulator(base.links, convention="standard", name="drive", friction=law, transmission=tr,
+                         poses=dict(base.poses))
+    rng = np.random.default_rng(7)
+    q, qd, qdd = arm.random_state(rng, 5), rng.uniform(-1, 1, (5, 6)), rng.uniform(-1, 1, (5, 6))
+    same = with_scaled_inertia(arm, 1.0)
+    np.testing.assert_allclose(same.inverse_dynamics(q, qd, qdd), arm.inverse_dynamics(q, qd, qdd), atol=1e-12)
+    heavy = with_payload(arm, 1.0, (0, 0, 0.05))
+    assert heavy.friction_model == arm.friction_model and heavy.transmission == arm.transmission
+    assert list(heavy.poses) == ["zero", "ready"]
+    panda = _load("panda")
+    v = qd[:, :1].repeat(7, 1)
+    np.testing.assert_array_equal(with_payload(panda, 0.5).pinocchio.friction_torque(v),
+                                  panda.pinocchio.friction_torque(v))
+
+
 @needs_realdata
 def test_item8_validate_panda_is_the_readme_published_row(capsys):
     assert main(["validate", "panda", str(REALDATA), "--t-range", "10:13.8", "--json"]) == 0
