@@ -220,6 +220,30 @@ def test_item8_plant_variants_keep_the_friction_law_drive_and_poses():
                                   panda.pinocchio.friction_torque(v))
 
 
+@pytest.mark.parametrize("name", ["panda", "ur5-smooth-law"])
+def test_item8_single_state_derivatives_include_the_friction_law(name):
+    """Pinocchio's one-state shortcut of dtau/dqd left a friction law's derivative out (the batch
+    path had it): the panda's sigmoid, now bundled, showed it.  Central differences referee."""
+    if name == "panda":
+        arm = _load("panda")
+    else:
+        base = _load("ur5")
+        arm = md.Manipulator(base.links, convention="standard", name=name,
+                             friction=md.Friction(viscous=np.full(6, 0.2), coulomb=np.full(6, 0.5), smoothing=0.3, n=6))
+    rng = np.random.default_rng(8)
+    q, qd, qdd = arm.random_state(rng), rng.uniform(-0.5, 0.5, arm.n), rng.uniform(-1, 1, arm.n)
+    h = 1e-6
+    fd = np.column_stack([(arm.inverse_dynamics(q, qd + h * e, qdd) - arm.inverse_dynamics(q, qd - h * e, qdd)) / (2 * h)
+                          for e in np.eye(arm.n)])
+    for E in (arm.pinocchio, arm.lagrange):
+        for args in ((q, qd, qdd), (q.tolist(), qd.tolist(), qdd.tolist()), (q[None], qd[None], qdd[None])):
+            dv = np.reshape(E.inverse_dynamics_derivatives(*args)[1], (arm.n, arm.n))
+            np.testing.assert_allclose(dv, fd, atol=1e-7)         # central differences, step 1e-6
+    A, _ = arm.linearize(q, qd, arm.inverse_dynamics(q, qd, qdd))
+    Al, _ = arm.linearize(q, qd, arm.inverse_dynamics(q, qd, qdd), engine="lagrange")
+    np.testing.assert_allclose(A, Al, atol=1e-9)
+
+
 @needs_realdata
 def test_item8_validate_panda_is_the_readme_published_row(capsys):
     assert main(["validate", "panda", str(REALDATA), "--t-range", "10:13.8", "--json"]) == 0
