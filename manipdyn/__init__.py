@@ -29,7 +29,7 @@ from .friction import Friction, FrictionTerms
 from .arm import Arm, Convention, Manipulator, URDFArm
 from .loading import load, load_with_notes, models
 from .io import save, to_toml, to_urdf, write_urdf
-from .engine import DynamicsEngine
+from .engine import DynamicsEngine, JacobianEngine
 from .arm import register_engine
 from .lagrange import trace_form_engine
 from .check import CrosscheckReport, crosscheck
@@ -62,7 +62,7 @@ def __getattr__(name):
 __version__ = "0.1.0"
 
 __all__ = ["Transmission", "Friction", "FrictionTerms", 
-    "Arm", "ChainJoint", "Convention", "CompareReport", "CrosscheckReport", "DHLink", "DynamicsEngine",
+    "Arm", "ChainJoint", "Convention", "CompareReport", "CrosscheckReport", "DHLink", "DynamicsEngine", "JacobianEngine",
     "LinkInertia", "Manipulator", "ModelError", "ModelNoteWarning", "PhysicalConsistencyWarning", "SingularMassMatrixError",
     "StateError", "SuspiciousValueWarning", "URDFArm", "compare", "crosscheck", "linearize", "load", "load_with_notes", "models", "save",
     "simulate", "to_toml", "to_urdf", "transform_inverse", "write_urdf",
