@@ -357,12 +357,14 @@ def test_item10_crosscheck_compares_the_jacobian_and_catches_a_wrong_one():
 
 
 def test_item10_an_engine_without_jacobian_is_not_a_failure():
+    from manipdyn.engines.protocol import OPTIONAL_ENGINE_METHODS
+
     class DynamicsOnly:                     # as the generated-C engine: no jacobian, no jacobian_dot
         def __init__(self, eng):
             self._eng, self.name = eng, "c"
 
         def __getattr__(self, attr):
-            if attr in md.engine.OPTIONAL_ENGINE_METHODS:
+            if attr in OPTIONAL_ENGINE_METHODS:
                 raise AttributeError(attr)
             return getattr(self._eng, attr)
 
@@ -371,8 +373,8 @@ def test_item10_an_engine_without_jacobian_is_not_a_failure():
     r = md.crosscheck(arm, samples=10)
     assert r.ok and not r.not_compared and "J" not in r.quantities
     assert any("J not compared: engine c offers no jacobian" in n for n in r.notes)
-    assert isinstance(_load("ur5").lagrange, md.engine.JacobianEngine)
-    assert not isinstance(DynamicsOnly(arm.lagrange), md.engine.JacobianEngine)
+    assert isinstance(_load("ur5").lagrange, md.JacobianEngine)
+    assert not isinstance(DynamicsOnly(arm.lagrange), md.JacobianEngine)
     with pytest.raises(md.ModelError, match="offers no jacobian"):
         arm.jacobian(np.zeros(6))
 
@@ -421,7 +423,7 @@ def test_item10_every_bundled_arm_has_cited_named_poses(tmp_path):
     ("ready = [0.0, 0.0, 0.0, 0.0, 0.0, nan]", "poses.ready"),
 ])
 def test_item10_bad_poses_name_the_key(table, match, tmp_path):
-    text = (Path(md.__file__).parent / "models" / "ur5.toml").read_text()
+    text = (Path(md.__file__).parent / "formats" / "models" / "ur5.toml").read_text()
     head, rest = text.split("[poses]\n", 1)
     bad = tmp_path / "bad.toml"
     bad.write_text(head + "[poses]\n" + table + "\n" + rest[rest.index("\n\n"):])
@@ -492,6 +494,7 @@ def captured_figures(monkeypatch):
     import matplotlib
 
     matplotlib.use("Agg")
+    import manipdyn._support.figures as figures
     import manipdyn.control.plots as plots
 
     figs = []
@@ -501,6 +504,7 @@ def captured_figures(monkeypatch):
         figs.append(fig)
 
     monkeypatch.setattr(plots, "save_figure", keep)
+    monkeypatch.setattr(figures, "save_figure", keep)
     return figs
 
 
@@ -570,7 +574,7 @@ def test_item15_log_axes_print_plain_numbers(lo, hi, captured_figures):
 
 def test_item15_montecarlo_figure_uses_plain_log_ticks(captured_figures, monkeypatch):
     from manipdyn import montecarlo as mc
-    import manipdyn.montecarlo.plot as mplot
+    import manipdyn.control.montecarlo.plot as mplot
 
     monkeypatch.setattr(mplot, "save_figure", lambda fig, path: (fig.canvas.draw(), captured_figures.append(fig)))
     study = mc.study(_load("puma560"), runs=2, seed=1, controllers=("ct",), duration=0.05)

@@ -3,11 +3,11 @@
 ``--payload [--payload-link NAME]``: identify a payload carried by MODEL instead
 (:mod:`.identify_payload`).
 
-Layer: CLI.
+Layer 7 (CLI, the top).
 
 MODEL gives the kinematics and the prior; DATA has ``t,q1..qn,tau1..taun`` and
 optionally ``qd*``, ``qdd*`` (otherwise derived from q by zero-phase filtering,
-:mod:`manipdyn.identification.data`).  The written model loads with ``md.load``
+:mod:`manipdyn.formats.logs.data`).  The written model loads with ``md.load``
 and passes ``manipdyn check``; it says where it came from (data file and its sha256,
 method, options, date, prior, residuals: :mod:`manipdyn.identification.provenance`).
 
@@ -33,9 +33,9 @@ import numpy as np
 import os
 import sys
 
-from ..errors import ModelError
-from ..friction import Friction
-from ..io import save, write_urdf
+from .._support.errors import ModelError
+from ..model.friction import Friction
+from ..formats.save import save, write_urdf
 from .common import EXIT_DISAGREE as EXIT_FAILED
 from .logopts import DATA_HELP, log_options_from_args, model_joint_names, register_log_options
 from .common import EXIT_OK, TIP_HELP, load_arm, usage_error
@@ -127,7 +127,7 @@ def _bounds(args, arm):
         if given:
             raise ModelError(f"{given[0]}: not with --no-bounds")
         return None
-    from .. import limits
+    from .._support import limits
 
     for opt, v, top in (("--mass-bound", args.mass_bound, 1e6), ("--com-bound", args.com_bound, limits.MAX_LENGTH)):
         if v is not None and not (0 <= v <= top):
@@ -149,7 +149,7 @@ SHAPED = ("stribeck", "sigmoid")
 def _friction(args, arm):
     """``--friction`` (True), a FrictionTerms from ``--friction-terms``/``--friction-side``/``--smoothing``,
     or, with a Stribeck or sigmoid term, a Friction holding the shapes' starting values."""
-    from ..friction import DEFAULT_SMOOTHING, FRICTION_TERMS, FrictionTerms
+    from ..model.friction import DEFAULT_SMOOTHING, FRICTION_TERMS, FrictionTerms
 
     shape_opts = [o for o, v in (("--stribeck-velocity", args.stribeck_velocity),
                                  ("--sigmoid-alpha", args.sigmoid_alpha)) if v is not None]
@@ -227,8 +227,8 @@ def run(args) -> int:
         return usage_error("identify", "-o/--output: required (the model file to write), unless --payload")
     if args.method is None:
         args.method = "consistent"
-    from .._files import atomic_write_text
-    from ..arm import Manipulator, URDFArm
+    from .._support.files import atomic_write_text
+    from ..model.arm import Manipulator, URDFArm
     from ..identification import fit, format_report, read_log
     from ..identification.basemodel import prior_text, write_base_model
     from ..identification.provenance import model_metadata, provenance

@@ -1,6 +1,6 @@
 """``manipdyn validate MODEL|BASE.json DATA [--json] [--plot FIG.png]``: score a model on data.
 
-Layer: CLI.
+Layer 7 (CLI, the top).
 
 MODEL is anything ``manipdyn`` loads (a bundled name, a .toml model file, a URDF) or a
 base model JSON written by ``manipdyn identify``.  DATA is read as ``identify`` reads it.
@@ -16,7 +16,7 @@ import os
 
 import json
 
-from ..errors import ModelError
+from .._support.errors import ModelError
 from .logopts import DATA_HELP, log_options_from_args, register_log_options
 from .common import EXIT_OK, TIP_HELP, check_plot_target, load_arm, usage_error
 

@@ -1,6 +1,6 @@
 """Seeded hard logs with known truth: :func:`hard_log`.
 
-Layer: application (identification).
+Layer 5 (identification).
 
 A log the way an industrial 6-axis arm writes it, from a model whose every
 parameter is known, so that identification can be scored against the truth
@@ -62,13 +62,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._files import atomic_write_text
-from ..arm import Manipulator
-from ..drive import Transmission
-from ..errors import ModelError, PhysicalConsistencyWarning
-from ..friction import Friction
-from ..io import save
-from ..loading import load
+from .._support.files import atomic_write_text
+from ..model.arm import Manipulator
+from ..model.drive import Transmission
+from .._support.errors import ModelError, PhysicalConsistencyWarning
+from ..model.friction import Friction
+from ..formats.save import save
+from ..formats.loading import load
 from .trajectory import fourier_trajectory
 
 __all__ = ["HardLog", "hard_log", "hard_arms", "recovered", "GEAR_RATIOS", "WRIST_COUPLING", "SMOOTHING"]
@@ -279,7 +279,7 @@ def recovered(result, truth) -> dict:
     ``result``: a :class:`~manipdyn.identification.FitResult` with ``armature=True``
     and friction columns of the truth's law's terms (any shapes); ``truth``: the
     arm that made the log.  Returns ``{name: {"true", "identified", "error",
-    "identifiable"}}`` in regressor units (:mod:`manipdyn.friction`: motor-side
+    "identifiable"}}`` in regressor units (:mod:`manipdyn.model.friction`: motor-side
     values reflected, ``jointk.armature = R_kk^2 Jm_k``), ``error`` relative
     (identified / true - 1), for every armature and friction parameter, and
     ``motork.stribeck_velocity`` (rad/s at the motor) when the law has a
@@ -288,7 +288,7 @@ def recovered(result, truth) -> dict:
     motor 1's rotor inertia, grouped with link 1's ``Izz``); its value is then
     the prior's share of the group and says nothing about the fit.
     """
-    from ..parameters import arm_parameters
+    from ..model.parameters import arm_parameters
 
     base, n = result.base, truth.n
     law = base.friction
