@@ -307,8 +307,9 @@ def run(args) -> int:
             bs = bootstrap(arm, data, args.bootstrap, scheduler=args.scheduler, method=args.method,
                            friction=friction, armature=args.armature, bounds=bounds,
                            prior_weight=args.prior_weight)
-            boot = {"replicates": int(args.bootstrap), "block": int(bs.block), "failed": list(map(int, bs.failed)),
-                    "std": [float(x) if np.isfinite(x) else None for x in bs.std]}
+            from ..identification.bootstrap import bootstrap_summary
+
+            boot = bootstrap_summary(bs)
     except ModelError as exc:
         return usage_error("identify", str(exc))
     rep = dict(result.report)
@@ -319,7 +320,7 @@ def run(args) -> int:
     if selection is not None:
         rep["prior_weight_selection"] = selection
     if boot is not None:
-        rep["bootstrap"] = boot
+        rep["bootstrap"] = {k: v for k, v in boot.items() if k != "covariance"}   # in the base model
     if shapes is not None:
         rep["friction_shapes"] = shapes
     rep.update({"model": args.model, "data": args.data, "output": None, "base_model": None,
@@ -341,7 +342,7 @@ def run(args) -> int:
             code = EXIT_FAILED
             base_path = base_path or os.path.splitext(out)[0] + ".base.json"
         if base_path:
-            write_base_model(base_path, result, prior_text(arm), prov)
+            write_base_model(base_path, result, prior_text(arm), prov, bootstrap=boot)
             rep["base_model"] = base_path
     except OSError as exc:
         return usage_error("identify", f"{exc.filename or out}: cannot write: {exc.strerror or exc}")
@@ -372,8 +373,9 @@ def run(args) -> int:
                 print(f"  not determined by the data (the residual does not change with them over the log's "
                       f"speeds; another start?): {', '.join(shapes['undetermined'])}")
         if boot is not None:
-            print(f"bootstrap: {boot['replicates']} replicates in blocks of {boot['block']} samples, "
-                  f"{len(boot['failed'])} failed; std of each base parameter in --json")
+            from ..identification.bootstrap import format_bootstrap
+
+            print(format_bootstrap(boot, rep["base_parameters"]))
         if rep["output"]:
             print(f"wrote {out}")
         if rep["base_model"]:
