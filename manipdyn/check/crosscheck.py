@@ -421,10 +421,10 @@ def _crosscheck_states(arm, samples, seed, chunk, progress, first, stop,
                 add(key + sfx, A[key], B[key])
             for key, method in OPTIONAL_QUANTITIES.items():
                 lacking = [n for n, R in ((a, A), (b, B)) if key not in R]
-                if lacking:
-                    optional_notes[key + sfx] = (f"{key}{sfx} not compared: engine {' and '.join(lacking)} "
-                                                 f"offers no {method}")
-                else:
+                for n in lacking:      # one note per engine, however many pairs it is in
+                    optional_notes[n] = (f"{', '.join(OPTIONAL_QUANTITIES)} not compared where engine {n} takes "
+                                         f"part: it offers no {', '.join(OPTIONAL_QUANTITIES.values())} (optional)")
+                if not lacking:
                     add(key + sfx, A[key], B[key])
             if kq in skipped:      # the same conditioning limits D^-1 dtau (and a singular D has none)
                 for key in ("dqdd_dq" + sfx, "dqdd_dqd" + sfx):
