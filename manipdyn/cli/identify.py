@@ -217,6 +217,12 @@ def _options(args) -> dict:
 
 
 def run(args) -> int:
+    from .preflight import check_identify
+
+    try:
+        check_identify(args)        # outputs and unbounded options, before any work
+    except ModelError as exc:
+        return usage_error("identify", str(exc))
     if args.payload:
         from .identify_payload import run_payload
 

@@ -18,7 +18,7 @@ import json
 
 from .._support.errors import ModelError
 from .logopts import DATA_HELP, log_options_from_args, register_log_options
-from .common import EXIT_OK, TIP_HELP, check_plot_target, load_arm, usage_error
+from .common import EXIT_OK, TIP_HELP, check_outputs, load_arm, usage_error
 
 __all__ = ["register", "run"]
 
@@ -61,8 +61,7 @@ def run(args) -> int:
     from ..identification.validation import plot_validation, validate
 
     try:
-        if args.plot:
-            check_plot_target(args.plot)
+        check_outputs([("--plot", args.plot)], [("MODEL", args.model), ("DATA", args.data)], plots=("--plot",))
         model, label = load_model(args.model, args.tip)
         arm = getattr(model, "arm", model)
         data = read_log(args.data, model.n, transmission=getattr(arm, "transmission", None),
