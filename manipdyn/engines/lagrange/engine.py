@@ -388,7 +388,8 @@ class TraceFormEngine(TraceFormDerivatives, TraceFormJacobian):  # .derivatives,
         return self._call(self._kin.poses, "link_poses", q=q)
 
     def fkine(self, q) -> np.ndarray:
-        """End pose (4, 4) or (N, 4, 4) in the base frame."""
+        """Pose of the tool frame in the base frame, (4, 4) or (N, 4, 4): DH frame n (``T_n``, eq. 2.7), or a
+        URDF chain's tip link (its last link frame times the fixed tool transform)."""
         return self._call(lambda x: self._kin.tool(self._kin.poses(x)), "trace form", q=q)
 
     # -- Coriolis matrix ---------------------------------------------------------

@@ -469,7 +469,8 @@ class PinocchioEngine(PinocchioDerivatives, PinocchioJacobian):  # .derivatives,
         return check_result(np.array([one(qi) for qi in q]), "frame_placement", q=q)
 
     def fkine(self, q) -> np.ndarray:
-        """The tool frame's pose in the base frame: (4, 4) or (N, 4, 4)."""
+        """Pose of the tool frame (``self.tool_frame``: the generated URDF's ``tool`` link, DH frame n, or a
+        URDF arm's tip link) in the base frame: (4, 4) or (N, 4, 4)."""
         return self.frame_placement(q, self.tool_frame)
 
     # -- Coriolis matrix ---------------------------------------------------------
