@@ -25,7 +25,7 @@ It prints, per joint, in N m:
 
 Results are printed and written, atomically, to
 ``benchmarks/results/runs/<UTC time>-panda/results.json`` (ignored by git;
-``--out DIR``).  Takes about 5 minutes on a 2-core machine (65 consistent fits);
+``--out DIR``).  Takes about 30 s on an idle 2-core machine (measured 26 s), much longer under load;
 each stage is said on stderr as it starts (``[k/15] ...``), so a long run shows where it is.
 """
 

@@ -135,7 +135,7 @@ def test_item7_readme_names_every_active_mass_bound(tmp_path, capsys):
     at_mass = sorted({int(k) for k in re.findall(r"^\s+link (\d+) mass at its (?:upper|lower) bound", text, re.M)})
     at_com = sorted({int(k) for k in re.findall(r"^\s+link (\d+) centre of mass \w+ = .* at its bound", text, re.M)})
     m = re.search(r"(\w+) identified links \(([\d, and]+)\) come out at their mass bounds and\s+(\w+) centres "
-                  r"of mass \(links ([\d, and]+),", README)
+                  r"of mass \(([^)]+)\) at theirs", README)
     assert m, "the README's sentence on the active bounds"
     said = sorted(int(x) for x in re.findall(r"\d+", m.group(2)))
     said_com = sorted(int(x) for x in re.findall(r"\d+", m.group(4)))

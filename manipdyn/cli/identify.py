@@ -75,11 +75,13 @@ def register(subparsers) -> None:
                         "(separate + and - Coulomb levels), offset (constant torque per joint), stribeck, "
                         "sigmoid (Gaz et al.'s; the nonlinear shapes of these two are fitted by variable "
                         "projection, manipdyn.identification.varpro)")
-    p.add_argument("--friction-side", choices=("joint", "motor"), default="joint",
-                   help="with --friction-terms: the law acts on the joint or the motor velocities")
+    p.add_argument("--friction-side", choices=("joint", "motor"), default=None,
+                   help="with --friction(-terms): the law acts on the joint or the motor velocities (default: "
+                        "motor when the torques were logged at the motors and the [transmission] couples "
+                        "joints, else joint; manipdyn.identification.choices)")
     p.add_argument("--smoothing", type=float, default=None, metavar="V",
-                   help="with --friction-terms: Coulomb sign smoothed as tanh(v / V) (default 0.01 rad/s; "
-                        "0 = sharp sign)")
+                   help="with --friction-terms: Coulomb sign smoothed as tanh(v / V) (default: the velocity's "
+                        "noise level measured on the log, said in the notes; 0 = sharp sign)")
     p.add_argument("--stribeck-velocity", type=float, default=None, metavar="V",
                    help="with --friction-terms ...,stribeck: the Stribeck velocity the search starts from, "
                         "rad/s on the law's side (default 0.1 rad/s at the joint: 0.1 |R_kk| at motor k)")
@@ -154,8 +156,12 @@ def _friction(args, arm):
     shape_opts = [o for o, v in (("--stribeck-velocity", args.stribeck_velocity),
                                  ("--sigmoid-alpha", args.sigmoid_alpha)) if v is not None]
     if args.friction_terms is None:
-        if args.smoothing is not None or args.friction_side != "joint" or shape_opts:
-            raise ModelError(f"{(shape_opts or ['--smoothing/--friction-side'])[0]}: only with --friction-terms")
+        if args.smoothing is not None or shape_opts:
+            raise ModelError(f"{(shape_opts or ['--smoothing'])[0]}: only with --friction-terms")
+        if args.friction_side is not None and not args.friction:
+            raise ModelError("--friction-side: only with --friction or --friction-terms")
+        if args.friction and args.friction_side == "motor":     # viscous + sharp Coulomb at the motors
+            return FrictionTerms(("viscous", "coulomb"), side="motor", smoothing=0.0)
         return bool(args.friction)
     if args.friction:
         raise ModelError("--friction-terms: give either --friction (viscous + sharp Coulomb) or --friction-terms")
@@ -174,7 +180,8 @@ def _friction(args, arm):
     for opt, term in (("--stribeck-velocity", "stribeck"), ("--sigmoid-alpha", "sigmoid")):
         if opt in shape_opts and term not in shaped:
             raise ModelError(f"{opt}: only with a {term} term in --friction-terms")
-    linear = FrictionTerms(tuple(t for t in terms if t not in SHAPED), side=args.friction_side, smoothing=v)
+    linear = FrictionTerms(tuple(t for t in terms if t not in SHAPED), side=args.friction_side or "joint",
+                           smoothing=v)
     if not shaped:
         return linear
     for opt, x in (("--stribeck-velocity", args.stribeck_velocity), ("--sigmoid-alpha", args.sigmoid_alpha)):
@@ -277,6 +284,13 @@ def run(args) -> int:
         data = read_log(args.data, arm.n, transmission=arm.transmission,
                         **log_options_from_args(args, model_joint_names(arm)))
         _check_limits(data, arm, args.deg)
+        law_notes = []
+        if args.friction or args.friction_terms is not None:   # the side and smoothing not given: from the log
+            from ..identification.choices import choose_friction_options
+
+            args.friction_side, args.smoothing, law_notes = choose_friction_options(
+                arm.transmission, data, args.friction_side, args.smoothing, smoothed=args.friction_terms is not None)
+            friction = _friction(args, arm)
         shapes = None
         if isinstance(friction, Friction) and set(friction.terms) & set(SHAPED):
             # the shapes first (a wls search, varpro's module docstring), then every fit holds them
@@ -319,6 +333,7 @@ def run(args) -> int:
     except ModelError as exc:
         return usage_error("identify", str(exc))
     rep = dict(result.report)
+    rep["fit_notes"] = law_notes + list(rep.get("fit_notes", []))
     if args.friction_side == "motor" and np.array_equal(np.asarray(arm.transmission.R), np.eye(arm.n)):
         rep["fit_notes"] = list(rep.get("fit_notes", [])) + [
             "--friction-side motor: the model has no transmission (R = I, no gear ratios), so the motor "

@@ -164,6 +164,46 @@ def _reduce(A, y):
     return Ra[:r, :r], Ra[:r, r], rho0
 
 
+def joint_factors(Yb, y) -> np.ndarray:
+    """Each joint's triangular factor of ``[Yb[:, j, :] | y[:, j]]``, (n, r + 1, r + 1).
+
+    ``||Yb[:, j] b - y[:, j]||^2 = ||F_j [b; -1]||^2`` for every b, so every least-squares
+    problem :func:`fit` solves (each joint's own, the stacked one, the weighted one) is a small
+    problem on these factors: one QR per joint over the samples, none over all joints' rows
+    stacked.  Factors of consecutive blocks of samples stack (``joint_factors`` of the stacked
+    blocks' factors), which is how :mod:`.selection` builds each fold's data.
+    """
+    Yb, y = np.asarray(Yb, dtype=np.float64), np.asarray(y, dtype=np.float64)
+    N, n, r = Yb.shape
+    out = np.zeros((n, r + 1, r + 1))
+    for j in range(n):
+        Ra = np.linalg.qr(np.column_stack([Yb[:, j, :], y[:, j]]), mode="r")
+        out[j, :Ra.shape[0]] = Ra
+    return out
+
+
+def _stacked(F, w=None):
+    """``(R, c, rho0)`` of :func:`_reduce` for the rows of every joint stacked (each weighted by ``w_j``),
+    from the joints' factors ``F`` (n, r + 1, r + 1)."""
+    r = F.shape[-1] - 1
+    w = np.ones(F.shape[0]) if w is None else np.asarray(w, dtype=np.float64)
+    Ra = np.linalg.qr((F * w[:, None, None]).reshape(-1, r + 1), mode="r")
+    return Ra[:r, :r], Ra[:r, r], abs(float(Ra[r, r]))
+
+
+def _noise_from_factors(F, N: int) -> np.ndarray:
+    """:func:`joint_noise` from the joints' factors ``F`` (:func:`joint_factors`) of ``N`` samples."""
+    n, r = F.shape[0], F.shape[-1] - 1
+    sigma = np.empty(n)
+    for j in range(n):
+        A, b = F[j, :, :r], F[j, :, r]
+        norms = np.linalg.norm(A, axis=0)                   # Q is orthogonal: the columns' norms
+        A = A[:, norms > 1e-12 * max(norms.max(), 1e-300)]
+        sol, _, rank, _ = np.linalg.lstsq(A, b, rcond=None)
+        sigma[j] = np.sqrt(np.sum((A @ sol - b) ** 2) / max(1, N - rank))
+    return sigma
+
+
 def joint_noise(Yb, y) -> np.ndarray:
     """Per-joint noise level ``sigma_j`` (n,) from each joint's own OLS fit (module docstring):
     ``Yb`` (N, n, p) the regressor, ``y`` (N, n) the torques it should explain."""
@@ -204,7 +244,8 @@ def _check(q, qd, qdd, tau, n):
 
 def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armature: bool = False,
         bounds: Bounds | str | None = "plausible", base: BaseParameters | None = None,
-        name: str | None = None, prior_weight: float = 0.0, metadata=None) -> FitResult:
+        name: str | None = None, prior_weight: float = 0.0, metadata=None, regressor=None,
+        factors=None) -> FitResult:
     """Identify ``arm``'s parameters from samples (module docstring).
 
     Parameters
@@ -248,6 +289,13 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         flags (checked on the numbers: :func:`.base.check_base`; another arm's is refused).
     name : str, optional
         Name of the identified arm.
+    regressor : (N, n, p) array, optional
+        ``arm.lagrange.regressor(q, qd, qdd, armature=armature, friction=friction)`` when the
+        caller already has it (cross-validation slices one regressor into folds:
+        :mod:`.selection`); its shape is checked, its numbers are trusted.
+    factors : (n, r + 1, r + 1) array, optional
+        :func:`joint_factors` of these samples' base regressor and torques (less the known
+        torques), when the caller has them (cross-validation stacks them from blocks).
     """
     if method not in METHODS:
         raise ModelError(f"method: expected one of {', '.join(METHODS)}, got {method!r}")
@@ -280,9 +328,18 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     check_fit_size(N, n, len(base.names))
     if N * n < r:
         raise ModelError(f"data: {N} samples give {N * n} equations for {r} base parameters")
-    Yb = base.regressor(arm.lagrange.regressor(q, qd, qdd, armature=armature, friction=friction))
+    if regressor is None:
+        regressor = arm.lagrange.regressor(q, qd, qdd, armature=armature, friction=friction)
+    elif np.shape(regressor) != (N, n, len(base.names)):
+        raise ModelError(f"regressor: expected shape ({N}, {n}, {len(base.names)}) (the samples' full "
+                         f"regressor), got {np.shape(regressor)}")
+    Yb = base.regressor(regressor)
     y = tau - known_torque(arm, qd, qdd, armature, friction)
-    R0, c0, _ = _reduce(Yb.reshape(-1, r), y.reshape(-1))
+    if factors is None:
+        factors = joint_factors(Yb, y)
+    elif np.shape(factors) != (n, r + 1, r + 1):
+        raise ModelError(f"factors: expected shape ({n}, {r + 1}, {r + 1}), got {np.shape(factors)}")
+    R0, c0, _ = _stacked(factors)
     s = np.linalg.svd(R0, compute_uv=False)              # the singular values of the stacked Y_b
     cond = float(s[0] / s[-1]) if s[-1] > 0 else float("inf")
     limit = MAX_CONDITION_CONSISTENT if method == "consistent" else MAX_CONDITION
@@ -291,7 +348,7 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
                          f"threshold {limit:.0e}: the motion does not excite every base parameter (is q "
                          f"constant, or a column scaled wrongly?); use an excitation trajectory "
                          f"(manipdyn excite)")
-    sigma = joint_noise(Yb, y)
+    sigma = _noise_from_factors(factors, N)
     # noise below 1e-6 of the largest joint's RMS torque is rounding, not noise:
     # flooring it keeps the weights (and the semidefinite program) well scaled
     # on exact data, where every sigma_j would otherwise be ~1e-12 and arbitrary
@@ -310,7 +367,7 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         solver = "lstsq"
     else:
         w = 1.0 / sigma
-        R, c, rho_w = _reduce((Yb * w[None, :, None]).reshape(-1, r), (y * w).reshape(-1))
+        R, c, rho_w = _stacked(factors, w)
         cov = base_covariance(R)     # rows have unit variance after weighting (.uncertainty)
         if method == "wls":
             beta = np.linalg.lstsq(R, c, rcond=None)[0]
