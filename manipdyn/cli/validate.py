@@ -15,6 +15,8 @@ Exit codes: 0 scored; 2 usage, model or data error (one line on stderr).
 
 from __future__ import annotations
 
+import os
+
 import json
 
 from .._support.errors import ModelError
@@ -56,7 +58,8 @@ def load_model(spec: str, tip=None):
             raise ModelError(f"--tip: a base model ({spec}) carries its own chain (the identification's "
                              "prior); --tip is for a tree URDF given as MODEL")
         m = load_base_model(spec)
-        return m, f"{m.name} (base model)"
+        # the file first: "panda (base model)" read as the bundled arm
+        return m, f"{os.path.basename(spec)} (base parameters identified from {m.name})"
     arm, _ = load_arm(spec, tip)
     return arm, arm.name
 
