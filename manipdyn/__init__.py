@@ -56,6 +56,10 @@ def __getattr__(name):
         from .control.simulate import simulate
 
         return simulate
+    if name in ("identify", "validate"):   # the identification pipelines need the identify extra
+        from . import identification
+
+        return getattr(identification, name)
     raise AttributeError(f"module 'manipdyn' has no attribute {name!r}")
 
 
@@ -65,7 +69,7 @@ __all__ = ["Transmission", "Friction", "FrictionTerms",
     "Arm", "ChainJoint", "Convention", "CompareReport", "CrosscheckReport", "DHLink", "DynamicsEngine",
     "LinkInertia", "Manipulator", "ModelError", "ModelNoteWarning", "PhysicalConsistencyWarning", "SingularMassMatrixError",
     "StateError", "SuspiciousValueWarning", "URDFArm", "compare", "crosscheck", "linearize", "load", "load_with_notes", "models", "save",
-    "simulate", "to_toml", "to_urdf", "transform_inverse", "write_urdf",
+    "simulate", "identify", "validate", "to_toml", "to_urdf", "transform_inverse", "write_urdf",
 ]
 
 

@@ -242,7 +242,7 @@ def pinocchio_text(root_el, text: str) -> str:
 
 
 def load_urdf(source, tip=None, *, name=None, gravity=(0.0, 0.0, -9.81), strict=False, transmission=None,
-              friction=None) -> URDFArm:
+              friction=None, motor_inertia=None) -> URDFArm:
     """Read a serial arm from a URDF file or text.
 
     Parameters
@@ -263,6 +263,8 @@ def load_urdf(source, tip=None, *, name=None, gravity=(0.0, 0.0, -9.81), strict=
         The drive (:mod:`manipdyn.drive`), which URDF cannot state: identity
         transmission by default; a ``friction`` law replaces ``<dynamics>``.
         (A URDF arm sent to Dask workers travels as its URDF text, without them.)
+    motor_inertia : (n,), optional
+        Rotor inertia ``Jm`` at each motor, kg m^2 (URDF has none; default zeros).
 
     Raises
     ------
@@ -284,4 +286,5 @@ def load_urdf(source, tip=None, *, name=None, gravity=(0.0, 0.0, -9.81), strict=
         name=tree.robot_name if name is None else name, gravity=gravity, source=label,
         urdf_text=text, pin_text=pin_text, root=tree.root, tip=tip, joints=joints, tool=tool,
         locked=locked, members=members, path=path, transmission=transmission, friction=friction,
+        motor_inertia=motor_inertia,
     )

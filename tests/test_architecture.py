@@ -37,7 +37,7 @@ LAYERS = {
     3: ("manipdyn.links", "manipdyn.arm", "manipdyn.parameters", "manipdyn.drive", "manipdyn.friction",
         "manipdyn.friction_jacobian"),
     4: ("manipdyn.urdf_xml", "manipdyn.urdf_tree", "manipdyn.urdf_in", "manipdyn.urdf_out",
-        "manipdyn.modelfile", "manipdyn.modelfile_drive", "manipdyn.loading", "manipdyn.io", "manipdyn.erd", "manipdyn.models",
+        "manipdyn.modelfile", "manipdyn.modelfile_drive", "manipdyn.modelfile_urdf", "manipdyn.loading", "manipdyn.io", "manipdyn.erd", "manipdyn.models",
         "manipdyn.scale"),
     5: ("manipdyn.engine", "manipdyn.lagrange", "manipdyn.trace_drive", "manipdyn.lagrange_derivatives",
         "manipdyn.pinocchio_engine", "manipdyn.pinocchio_fast", "manipdyn.pinocchio_derivatives",

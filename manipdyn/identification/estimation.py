@@ -202,7 +202,7 @@ def _check(q, qd, qdd, tau, n):
 
 def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armature: bool = False,
         bounds: Bounds | str | None = "plausible", base: BaseParameters | None = None,
-        name: str | None = None, prior_weight: float = 0.0, metadata=None) -> FitResult:
+        name: str | None = None, prior_weight: float = 0.0, metadata=None, *, segments=None) -> FitResult:
     """Identify ``arm``'s parameters from samples (module docstring).
 
     Parameters
@@ -246,6 +246,10 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         flags (checked on the numbers: :func:`.base.check_base`; another arm's is refused).
     name : str, optional
         Name of the identified arm.
+    segments : sequence of int, optional
+        The sample counts of the runs stacked in the data, in order (:func:`.runs.stack`):
+        ``wls`` and ``consistent`` then weigh each joint by its noise level in each run
+        (``report["noise_sigma_per_run"]``); ``sigma`` is their RMS over the samples.
     """
     if method not in METHODS:
         raise ModelError(f"method: expected one of {', '.join(METHODS)}, got {method!r}")
@@ -286,12 +290,16 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
                          f"threshold {limit:.0e}: the motion does not excite every base parameter (is q "
                          f"constant, or a column scaled wrongly?); use an excitation trajectory "
                          f"(manipdyn excite)")
-    sigma = joint_noise(Yb, y)
+    bounds_at = _segment_edges(segments, N)
+    sigmas = np.array([joint_noise(Yb[a:b], y[a:b]) for a, b in zip(bounds_at[:-1], bounds_at[1:])])
     # noise below 1e-6 of the largest joint's RMS torque is rounding, not noise:
     # flooring it keeps the weights (and the semidefinite program) well scaled
     # on exact data, where every sigma_j would otherwise be ~1e-12 and arbitrary
     floor = 1e-6 * max(float(np.sqrt(np.mean(y**2, axis=0)).max()), 1e-300)
-    sigma = np.maximum(sigma, floor)
+    sigmas = np.maximum(sigmas, floor)
+    counts = np.diff(bounds_at)
+    sigma = sigmas[0] if len(sigmas) == 1 else np.sqrt(counts @ sigmas**2 / N)
+    w_rows = np.repeat(1.0 / sigmas, counts, axis=0)       # (N, n): each run's joints by their noise
     try:
         prior = arm_parameters(arm, armature, friction)
     except ModelError:   # the prior's friction law is not of the asked-for kind: start from none
@@ -304,8 +312,8 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         pi = base.full_closest_to(beta, prior)
         solver = "lstsq"
     else:
-        w = 1.0 / sigma
-        R, c, rho_w = _reduce((Yb * w[None, :, None]).reshape(-1, r), (y * w).reshape(-1))
+        w = w_rows
+        R, c, rho_w = _reduce((Yb * w[:, :, None]).reshape(-1, r), (y * w).reshape(-1))
         cov = base_covariance(R)     # rows have unit variance after weighting (.uncertainty)
         if method == "wls":
             beta = np.linalg.lstsq(R, c, rcond=None)[0]
@@ -346,10 +354,25 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     result.report = build_report(result, solver=solver, samples=N, cov=cov, min_eigenvalues=eig)
     result.report["active_bounds"] = bounds.active(pi, n) if bounds is not None else []
     result.report["prior_weight"] = float(prior_weight)
+    if len(sigmas) > 1:
+        result.report["noise_sigma_per_run"] = sigmas.tolist()
     if method == "consistent":
         result.report.update(_shortfall(R, c, rho_w, y * w, residuals * w, pi, n, base, bounds, solver,
                                         result.report["active_bounds"]))
     return result
+
+
+def _segment_edges(segments, N: int) -> np.ndarray:
+    """``[0, N_1, N_1 + N_2, ..., N]`` from the runs' sample counts (None: one run)."""
+    if segments is None:
+        return np.array([0, N])
+    try:
+        counts = np.array([int(k) for k in segments])
+    except (TypeError, ValueError):
+        raise ModelError(f"segments: expected the runs' sample counts, got {segments!r:.80}") from None
+    if counts.size == 0 or np.any(counts < 1) or counts.sum() != N:
+        raise ModelError(f"segments: expected sample counts >= 1 adding up to the {N} samples, got {counts.tolist()}")
+    return np.concatenate([[0], np.cumsum(counts)])
 
 
 def _scale_hint(R, c, K, prior, bounds) -> str:

@@ -1,0 +1,136 @@
+"""Score models on logs: :func:`validate`, what ``manipdyn validate`` runs.
+
+Layer: application (identification).
+
+``md.validate(models, logs, **options)`` reads every log on its own (as
+:func:`manipdyn.identify` reads them: :mod:`.runs`, a RUNS.toml included), stacks them,
+and scores each model on the stacked samples with
+:func:`.validation.validate` (per joint: RMS error, relative RMS, R^2, mean error; a
+band where the model carries one).  A run with a known payload is scored on its measured
+torque minus the payload's (the models describe the arm without it).  The options read the
+logs, under the names and with the defaults of ``manipdyn validate``.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .._threads import blas_threads as _blas
+from ..errors import ModelError
+
+__all__ = ["validate", "Validation", "load_scored_model"]
+
+
+def load_scored_model(spec, tip=None):
+    """``(model, label)``: an arm, a base model JSON (:mod:`.basemodel`) or what
+    :func:`manipdyn.load` takes; an object with ``inverse_dynamics`` and ``n`` as it is."""
+    if not isinstance(spec, (str, os.PathLike)):
+        if not hasattr(spec, "inverse_dynamics") or not hasattr(spec, "n"):
+            raise ModelError(f"models: expected arms, model files or base models, got {type(spec).__name__}")
+        label = getattr(spec, "name", None) or "model"
+        return spec, (f"{label} (base model)" if getattr(spec, "arm", None) is None and hasattr(spec, "fit")
+                      else label)
+    s = os.fspath(spec)
+    if s.lower().endswith(".json"):
+        from .basemodel import load_base_model
+
+        if tip is not None:
+            raise ModelError(f"tip: a base model ({s}) carries its own chain (the identification's prior); "
+                             "tip is for a tree URDF given as a model")
+        m = load_base_model(s)
+        return m, f"{m.name} (base model)"
+    from ..loading import load_with_notes
+
+    arm, _ = load_with_notes(s, tip=tip)
+    return arm, arm.name
+
+
+@dataclass
+class Validation:
+    """What :func:`validate` returns: ``results`` (one :class:`.validation.ValidationResult`
+    per model, in order), ``data`` (the stacked samples) and ``notes`` (the data notes)."""
+
+    results: list
+    data: object
+    notes: list = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        """JSON-ready: one model's figures, or ``{"models": [...], "best": [...]}`` for several."""
+        if len(self.results) == 1:
+            out = self.results[0].to_dict()
+        else:
+            out = {"models": [r.to_dict() for r in self.results], "best": self.best()}
+        out.update({"runs": [{"log": os.path.basename(str(s)), "samples": int(k)}
+                             for s, k in zip(self.data.sources, self.data.segments)], "data_notes": list(self.notes)})
+        return out
+
+    def best(self) -> list:
+        """Per joint, the label of the model with the least RMS error."""
+        rms = np.array([r.rms for r in self.results])
+        return [self.results[int(i)].model for i in np.argmin(rms, axis=0)]
+
+    def format(self) -> str:
+        """The text ``manipdyn validate`` prints: each model's table; several, side by side."""
+        if len(self.results) == 1:
+            return self.results[0].format()
+        best = self.best()
+        head = "joint   " + "   ".join(f"{r.model[:24]:>24}" for r in self.results) + "   (RMS error; * best)"
+        lines = [f"{len(self.results)} models on {len(self.data.t)} samples", head]
+        for j in range(len(best)):
+            cells = [f"{r.rms[j]:>23.4g}" + ("*" if r.model == best[j] else " ") for r in self.results]
+            lines.append(f"{j + 1:>5}   " + "   ".join(cells))
+        return "\n".join(lines + [""] + [r.format() for r in self.results])
+
+    def plot(self, path, units=None) -> None:
+        """Measured and predicted torque per joint, every model (:func:`.validation.plot_validation`)."""
+        from .validation import plot_validation
+
+        plot_validation(self.results, path, units=units)
+
+
+def validate(models, logs, *, tip=None, columns=None, deg: bool = False, rate=None, time_scale: float = 1.0,
+             resample=None, cutoff=None, no_decimate: bool = False, t_range=None, topic=None, joint_names=None,
+             extra_joints: bool = False, blas_threads=1) -> Validation:
+    """Score ``models`` on ``logs`` (module docstring); ``manipdyn validate``.
+
+    Parameters
+    ----------
+    models : model or sequence of models
+        Arms, base models, :class:`.result.IdentifyResult`, or what :func:`load_scored_model`
+        loads (names, .toml, .urdf, base model .json; ``tip`` for a tree URDF).
+    logs : path, RUNS.toml, LogSpec, Measurements, or a sequence of these
+        Read with the first model's transmission and joint names.
+    columns, deg, rate, time_scale, resample, cutoff, no_decimate, t_range, topic, joint_names, extra_joints
+        How to read the logs, as :func:`manipdyn.identify` takes them.
+    blas_threads : int or None
+        BLAS threads while scoring (None: the library's own choice).
+    """
+    from .runs import read_runs, stack
+    from .validation import validate as score
+
+    with _blas(blas_threads):
+        if isinstance(models, (str, os.PathLike)) or hasattr(models, "inverse_dynamics"):
+            models = [models]
+        loaded = [load_scored_model(m, tip) for m in models]
+        if not loaded:
+            raise ModelError("models: no model given")
+        first = loaded[0][0]
+        arm = getattr(first, "prior", None) or getattr(first, "arm", None) or first
+        if any(m.n != first.n for m, _ in loaded):
+            raise ModelError(f"models: they differ in their number of joints ({[m.n for m, _ in loaded]})")
+        names = joint_names if joint_names is not None else (list(getattr(arm, "joint_names", None) or []) or None)
+        runs = read_runs(logs, arm, transmission=getattr(arm, "transmission", None), joint_names=names,
+                         columns=columns, deg=deg, rate=rate, time_scale=time_scale, resample=resample,
+                         cutoff=cutoff, decimate=False if no_decimate else None, topic=topic, t_range=t_range,
+                         extra_joints=extra_joints)
+        for data, payload in runs:
+            if payload is not None:
+                data.tau = data.tau - payload.torque(arm, data.q, data.qd, data.qdd)
+                data.notes.append(f"payload: the known payload's torque ({payload.mass:g} kg at the tool frame) "
+                                  "subtracted from the measured torques")
+        data = stack([d for d, _ in runs])
+        results = [score(m, data, name=label) for m, label in loaded]
+    return Validation(results=results, data=data, notes=list(data.notes))
