@@ -1,11 +1,10 @@
-"""``manipdyn validate MODEL|BASE.json DATA [--json] [--plot FIG.png]``: score a model on data.
+"""``manipdyn validate MODEL [MODEL ...] LOG [LOG ...] [--logs RUNS.toml] [--json] [--plot FIG.png]``.
 
-Layer: CLI.
-
-MODEL is anything ``manipdyn`` loads (a bundled name, a .toml model file, a URDF) or a
-base model JSON written by ``manipdyn identify``.  DATA is read as ``identify`` reads it.
-Per joint: RMS error, RMS relative to the measured RMS, R^2 and the mean error
-(:mod:`manipdyn.identification.validation`).
+Layer: CLI.  Parses, calls :func:`manipdyn.identification.validate` (same options, same
+defaults), prints.  MODEL is anything ``manipdyn`` loads or a base model JSON from
+``identify``; a LOG is a .csv, .mcap or .bag file or a bag directory (without any, the last
+argument is the log).  Several logs are read each on its own and scored together; several
+models side by side, the best per joint marked.
 
 Exit codes: 0 scored; 2 usage, model or data error (one line on stderr).
 """
@@ -13,24 +12,29 @@ Exit codes: 0 scored; 2 usage, model or data error (one line on stderr).
 from __future__ import annotations
 
 import json
+import os
 
 from ..errors import ModelError
-from .logopts import DATA_HELP, log_options_from_args, register_log_options
-from .common import EXIT_OK, TIP_HELP, check_plot_target, load_arm, usage_error
+from .common import EXIT_OK, TIP_HELP, check_plot_target, cli_message, usage_error
+from .identify import library_options
+from .logopts import DATA_HELP, register_log_options
 
-__all__ = ["register", "run"]
+__all__ = ["register", "run", "split_inputs"]
+
+#: what a log file's name ends with (a directory is a ROS 2 bag)
+LOG_SUFFIXES = (".csv", ".mcap", ".bag", ".db3", ".txt", ".tsv")
 
 
 def register(subparsers) -> None:
     """Add ``manipdyn validate`` to the command line."""
     p = subparsers.add_parser(
         "validate", help="score a model's torque predictions on (held-out) joint data",
-        description="Predict the joint torques of DATA with MODEL (a model, or a base model JSON "
-                    "from identify) and report per joint the RMS error, the RMS relative to the "
-                    "measured RMS, R^2 and the mean error. Exit codes: 0 scored, 2 usage, model or "
-                    "data error.")
-    p.add_argument("model", metavar="MODEL|BASE.json", help="model name, .toml, .urdf, or a base model JSON")
-    p.add_argument("data", metavar="DATA", help=DATA_HELP)
+        description="Predict the joint torques of the logs with each MODEL (a model, or a base model JSON from "
+                    "identify) and report per joint the RMS error, the RMS relative to the measured RMS, R^2 and "
+                    "the mean error. Exit codes: 0 scored, 2 usage, model or data error.")
+    p.add_argument("inputs", metavar="MODEL... LOG...", nargs="+",
+                   help="models (name, .toml, .urdf, base model .json), then logs. " + DATA_HELP)
+    p.add_argument("--logs", metavar="RUNS.toml", default=None, help="[[log]] tables, as identify --logs reads them")
     p.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
     p.add_argument("--json", action="store_true", help="print a JSON object instead of text")
     p.add_argument("--plot", metavar="FIG.png", default=None,
@@ -39,41 +43,35 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
-def load_model(spec: str, tip=None):
-    """An arm or a base model: ``(model, label)``."""
-    if spec.lower().endswith(".json"):
-        from ..identification.basemodel import load_base_model
-
-        if tip is not None:
-            raise ModelError(f"--tip: a base model ({spec}) carries its own chain (the identification's "
-                             "prior); --tip is for a tree URDF given as MODEL")
-        m = load_base_model(spec)
-        return m, f"{m.name} (base model)"
-    arm, _ = load_arm(spec, tip)
-    return arm, arm.name
+def split_inputs(inputs, runs_file=None):
+    """``(models, logs)`` of the positional arguments: logs by their file kind (or a directory);
+    without any and without ``runs_file``, the last argument is the log."""
+    logs = [x for x in inputs if x.lower().endswith(LOG_SUFFIXES) or os.path.isdir(x)]
+    models = [x for x in inputs if x not in logs]
+    if not logs and runs_file is None and len(inputs) > 1:
+        models, logs = list(inputs[:-1]), [inputs[-1]]
+    if not models:
+        raise ModelError("MODEL: give at least one model before the logs")
+    if not logs and runs_file is None:
+        raise ModelError("LOG: give at least one log, or --logs RUNS.toml")
+    return models, logs + ([runs_file] if runs_file else [])
 
 
 def run(args) -> int:
-    from ..identification import read_log
-    from ..identification.validation import plot_validation, validate
+    from ..identification import validate
 
     try:
         if args.plot:
             check_plot_target(args.plot)
-        model, label = load_model(args.model, args.tip)
-        arm = getattr(model, "arm", model)
-        data = read_log(args.data, model.n, transmission=getattr(arm, "transmission", None),
-                        **log_options_from_args(args, list(getattr(arm, "joint_names", None) or []) or None))
-        res = validate(model, data, name=label)
+        models, logs = split_inputs(args.inputs, args.logs)
+        res = validate(models, logs, **library_options(args, validate))
         if args.plot:
-            units = ["N" if t == "prismatic" else "N m"
-                     for t in getattr(getattr(model, "arm", model), "joint_types", ["revolute"] * model.n)]
-            plot_validation(res, args.plot, units=units)
+            res.plot(args.plot)
     except ModelError as exc:
-        return usage_error("validate", str(exc))
+        return usage_error("validate", cli_message(exc))
     if args.json:
         out = res.to_dict()
-        out.update({"data": args.data, "plot": args.plot})
+        out.update({"data": ", ".join(logs), "plot": args.plot})
         print(json.dumps(out, indent=2, allow_nan=False))
     else:
         print(res.format())

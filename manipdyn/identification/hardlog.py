@@ -71,7 +71,7 @@ from ..io import save
 from ..loading import load
 from .trajectory import fourier_trajectory
 
-__all__ = ["HardLog", "hard_log", "hard_arms", "recovered", "GEAR_RATIOS", "WRIST_COUPLING", "SMOOTHING"]
+__all__ = ["HardLog", "hard_log", "hard_log_set", "SET_PAYLOAD", "hard_arms", "recovered", "GEAR_RATIOS", "WRIST_COUPLING", "SMOOTHING"]
 
 #: gear ratios of motors 1..6 (joint 3's motor turns the other way)
 GEAR_RATIOS = (101.0, 101.0, -101.0, 81.0, 81.0, 81.0)
@@ -323,3 +323,41 @@ def recovered(result, truth) -> dict:
             out[f"motor{k + 1}.stribeck_velocity"] = {"true": tv, "identified": iv, "error": iv / tv - 1.0,
                                                       "identifiable": True}
     return out
+
+
+#: the known payload of :func:`hard_log_set`'s second run: 2.8 kg, its centre of mass off
+#: the tool axis (so that it loads the last wrist motor too), inertia about the COM
+SET_PAYLOAD = {"mass": 2.8, "com": [0.06, 0.03, 0.05], "inertia": [0.006, 0.006, 0.004, 0.0, 0.0, 0.0]}
+
+
+def hard_log_set(seed: int, directory, *, duration: float = 30.0, payload=None) -> dict:
+    """Two runs of :func:`hard_log`'s arm ``seed`` written to ``directory``, for torque constants:
+    ``run1.csv`` (motion ``seed``) and ``run2.csv`` (another motion, carrying ``payload``,
+    default :data:`SET_PAYLOAD`), each ``duration`` s of currents; ``RUNS.toml`` lists them (the
+    second with its payload); ``prior.toml`` is the prior WITHOUT torque constants and
+    ``prior_kt.toml`` the prior with them.  Returns ``{"runs", "prior", "prior_kt", "truth",
+    "torque_constant"}`` (paths, the truth arm and its k_t (6,))."""
+    from ..io import to_toml
+    from .runs import Payload
+
+    spec = dict(SET_PAYLOAD if payload is None else payload)
+    load_ = Payload(float(spec["mass"]), tuple(spec["com"]), tuple(spec.get("inertia", [0.0] * 6)))
+    directory = os.fspath(directory)
+    h1 = hard_log(seed, directory, duration=duration, held_out=duration / 4, log_name="run1.csv")
+    hard_log(seed, directory, duration=duration, held_out=duration / 4, motion_seed=10_000 + int(seed),
+             payload=load_, log_name="run2.csv")
+    tr = h1.prior.transmission
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PhysicalConsistencyWarning)
+        no_kt = Manipulator(h1.prior.links, convention=h1.prior.convention, gravity=h1.prior.gravity,
+                            name=h1.prior.name, source=h1.prior.source, description=h1.prior.description,
+                            transmission=Transmission(tr.R, tr.motor_offset))
+    paths = {k: os.path.join(directory, f) for k, f in (("runs", "RUNS.toml"), ("prior", "prior.toml"),
+                                                        ("prior_kt", "prior_kt.toml"))}
+    os.replace(h1.prior_file, paths["prior_kt"])
+    atomic_write_text(paths["prior"], to_toml(no_kt))
+    vec = lambda xs: "[" + ", ".join(repr(float(x)) for x in xs) + "]"   # noqa: E731
+    atomic_write_text(paths["runs"], (
+        '[[log]]\npath = "run1.csv"\n\n[[log]]\npath = "run2.csv"\n'
+        f"payload = {{ mass = {load_.mass!r}, com = {vec(load_.com)}, inertia = {vec(load_.inertia)} }}\n"))
+    return {**paths, "truth": h1.truth, "torque_constant": np.array(tr.torque_constant)}

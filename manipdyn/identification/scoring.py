@@ -38,8 +38,10 @@ def load_scored_model(spec, tip=None):
         from .basemodel import load_base_model
 
         if tip is not None:
-            raise ModelError(f"tip: a base model ({s}) carries its own chain (the identification's prior); "
-                             "tip is for a tree URDF given as a model")
+            from .options import OptionError, brace_safe
+
+            raise OptionError("{}: a base model (" + brace_safe(s) + ") carries its own chain (the identification's "
+                              "prior); {} is for a tree URDF given as a model", "tip", "tip")
         m = load_base_model(s)
         return m, f"{m.name} (base model)"
     from ..loading import load_with_notes
@@ -56,6 +58,7 @@ class Validation:
     results: list
     data: object
     notes: list = field(default_factory=list)
+    units: list | None = None
 
     def to_dict(self) -> dict:
         """JSON-ready: one model's figures, or ``{"models": [...], "best": [...]}`` for several."""
@@ -85,10 +88,11 @@ class Validation:
         return "\n".join(lines + [""] + [r.format() for r in self.results])
 
     def plot(self, path, units=None) -> None:
-        """Measured and predicted torque per joint, every model (:func:`.validation.plot_validation`)."""
+        """Measured and predicted torque per joint, every model (:func:`.validation.plot_validation`);
+        ``units`` per joint (default: N m, N for a prismatic joint of the first model)."""
         from .validation import plot_validation
 
-        plot_validation(self.results, path, units=units)
+        plot_validation(self.results, path, units=units or self.units)
 
 
 def validate(models, logs, *, tip=None, columns=None, deg: bool = False, rate=None, time_scale: float = 1.0,
@@ -133,4 +137,5 @@ def validate(models, logs, *, tip=None, columns=None, deg: bool = False, rate=No
                                   "subtracted from the measured torques")
         data = stack([d for d, _ in runs])
         results = [score(m, data, name=label) for m, label in loaded]
-    return Validation(results=results, data=data, notes=list(data.notes))
+    units = ["N" if t == "prismatic" else "N m" for t in getattr(arm, "joint_types", ())] or None
+    return Validation(results=results, data=data, notes=list(data.notes), units=units)

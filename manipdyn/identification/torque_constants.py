@@ -54,7 +54,9 @@ class TorqueConstants:
     notes: list = field(default_factory=list)
 
     def as_dict(self) -> dict:
-        return {"values": self.values.tolist(), "std": self.std.tolist(), "scale": self.scale,
+        """JSON-ready (an undetermined motor's infinite standard deviation as None)."""
+        return {"values": self.values.tolist(), "std": [float(x) if np.isfinite(x) else None for x in self.std],
+                "scale": self.scale,
                 "reference": list(self.reference), "notes": list(self.notes)}
 
 
@@ -131,6 +133,24 @@ def _covariance(Rs, a, beta, free):
     return np.linalg.pinv(J.T @ J)
 
 
+#: relative step of the profile test of :func:`_undetermined`
+PROFILE_STEP = 0.1
+
+
+def _undetermined(Rs, a, free, s2) -> list:
+    """The free motors whose ``k_t`` the runs do not determine: scaling its ``a`` by
+    ``1 + PROFILE_STEP``, the other parameters refitted, raises the residual's sum of squares by
+    less than one residual variance ``s2`` (a profile likelihood: under one standard deviation)."""
+    cost = float(np.sum(_beta(Rs, a)[1] ** 2))
+    out = []
+    for m in free:
+        b = a.copy()
+        b[m] *= 1.0 + PROFILE_STEP
+        if float(np.sum(_beta(Rs, b)[1] ** 2)) - cost < s2:
+            out.append(m)
+    return out
+
+
 def _linear_gains(blocks, D):
     """``k_t`` from the equations linear in ``(beta, k_t)`` with the payload's torque on the right
     (least squares): a start only, pulled towards 0 by the currents' noise."""
@@ -200,6 +220,16 @@ def identify_torque_constants(arm, runs, *, armature: bool = False, friction=Fal
     var_a = np.zeros(n)
     var_a[free] = np.diag(cov)[len(beta):]
     k, std = 1.0 / a, np.sqrt(np.clip(var_a, 0.0, None)) / a**2
+    lost = _undetermined(Rs, a, free, s2)
+    if lost:
+        std[lost] = np.inf
+        keep = "the model's k_t kept" if kt_model is not None else "the value is arbitrary"
+        notes.append(f"motor(s) {[m + 1 for m in lost]}: k_t not determined by these runs (a {100 * PROFILE_STEP:g} % "
+                     f"change, with the other parameters refitted, moves the residual by less than one standard "
+                     f"deviation: that motor's torque is its own friction and rotor inertia, which scale with "
+                     f"k_t); {keep}; a run with a known payload that loads it determines it")
+        if kt_model is not None:
+            k[lost] = kt_model[lost] * (k[ref[0] - 1] / kt_model[ref[0] - 1] if ref else 1.0)
     if not has_payload:            # the scale: sum over the reference motors of k / k_model = |reference|
         c = len(ref) / float(sum(k[j - 1] / kt_model[j - 1] for j in ref))
         k, std = k * c, std * c
