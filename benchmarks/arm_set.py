@@ -20,7 +20,7 @@ import warnings
 import numpy as np
 
 import manipdyn as md
-from manipdyn.random_arms import random_arm
+from manipdyn.model.random_arms import random_arm
 
 #: bundled arms timed when present, in this order
 BENCH_ARMS = ("puma560", "stanford", "ur5", "ur10")

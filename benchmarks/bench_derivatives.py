@@ -31,8 +31,8 @@ import warnings
 import numpy as np
 
 import manipdyn as md
-from manipdyn.check import TOLERANCE
-from manipdyn.random_arms import random_state
+from manipdyn.check.crosscheck import TOLERANCE
+from manipdyn.model.random_arms import random_state
 
 from .timing import blas_config, interleaved, paired_ratio
 

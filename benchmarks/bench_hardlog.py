@@ -40,7 +40,7 @@ import numpy as np
 import manipdyn as md
 from benchmarks.bench_identification import environment
 from benchmarks.timing import publish
-from manipdyn.friction import Friction
+from manipdyn.model.friction import Friction
 from manipdyn.identification import read_log
 from manipdyn.identification.hardlog import SMOOTHING, hard_log, recovered
 from manipdyn.identification.varpro import fit_friction_shapes

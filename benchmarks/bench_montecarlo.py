@@ -20,7 +20,7 @@ Four parts, in one run:
    ``study.setup``: exactly the study's work, in one process) and as a study on
    a local Dask cluster of 2 workers (started beforehand; its start-up is
    reported apart).  The study steps the runs of a chunk together
-   (manipdyn/montecarlo/lockstep.py), each run's numbers bit for bit those of
+   (manipdyn/control/montecarlo/lockstep.py), each run's numbers bit for bit those of
    ``md.simulate`` alone: both answers must agree exactly.
 4. **Scaling with local workers** (1, 2): study throughput (simulations per second).
 
@@ -51,8 +51,8 @@ from manipdyn import montecarlo as mc
 
 from .timing import blas_config
 
-from manipdyn._files import atomic_write_text
-from manipdyn.scale import local_cores
+from manipdyn._support.files import atomic_write_text
+from manipdyn.check.scale import local_cores
 
 from .timing import interleaved, paired_ratio
 
@@ -182,7 +182,7 @@ def against(rev: str, duration: float, runs: int, repeat: int) -> dict:
 def plain_loop(study) -> tuple[float, list]:
     """The study's runs one after another in this process: ``run_one`` is
     ``md.simulate(**study.setup(run, key).simulate_kwargs())`` plus the run's figures."""
-    from manipdyn.montecarlo.study import run_one
+    from manipdyn.control.montecarlo.study import run_one
 
     cache = {k: study.controller(k) for k in study.controllers}
     study.plant(0)                                          # warm-up: arm, path

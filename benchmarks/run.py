@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 import manipdyn as md
-from manipdyn._files import atomic_write, atomic_write_text
+from manipdyn._support.files import atomic_write, atomic_write_text
 
 from . import arm_set as bench_arms_mod
 from . import report, rtb_adapter

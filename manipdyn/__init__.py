@@ -19,29 +19,31 @@ model and its loaders, the two engines, the cross-check, the applications.
 Importing it imports both engines, which register themselves with the model.
 """
 
-from .errors import (ModelError, ModelNoteWarning, PhysicalConsistencyWarning, SingularMassMatrixError,
+from ._support.errors import (ModelError, ModelNoteWarning, PhysicalConsistencyWarning, SingularMassMatrixError,
                      StateError, SuspiciousValueWarning)
-from .inertia import LinkInertia
-from .kinematics import transform_inverse
-from .links import ChainJoint, DHLink
-from .drive import Transmission
-from .friction import Friction, FrictionTerms
-from .arm import Arm, Convention, Manipulator, URDFArm
-from .loading import load, load_with_notes, models
-from .io import save, to_toml, to_urdf, write_urdf
-from .engine import DynamicsEngine
-from .arm import register_engine
-from .lagrange import trace_form_engine
-from .check import CrosscheckReport, crosscheck
-from .linearize import linearize  # also arm.linearize (registered as a service)
-# ``compare`` is the function; the package of the same name is manipdyn/compare/
+from .model.inertia import LinkInertia
+from .model.kinematics import transform_inverse
+from .model.links import ChainJoint, DHLink
+from .model.drive import Transmission
+from .model.friction import Friction, FrictionTerms
+from .model.arm import Arm, Convention, Manipulator, URDFArm
+from .formats.loading import load, load_with_notes, models
+from .formats.save import save, to_toml, to_urdf, write_urdf
+from .engines.protocol import DynamicsEngine
+from .model.arm import register_engine
+from .engines.lagrange.engine import trace_form_engine
+from .check.crosscheck import CrosscheckReport, crosscheck
+from .engines.linearize import linearize  # also arm.linearize (registered as a service)
+# ``compare`` is the function; the package of the same name is manipdyn/check/compare/
 # (binding the name here, after the import, makes md.compare the function)
-from .compare import CompareReport, compare
+from .check.compare import CompareReport, compare
+# the caps a trusted user may raise (README, "Limits"): ``md.limits.MAX_...``
+from ._support import limits
 
 
 def _pinocchio_engine(arm):
     # Pinocchio is imported on first use only: the trace-form path runs without it.
-    from .pinocchio_engine import pinocchio_engine
+    from .engines.pinocchio.engine import pinocchio_engine
 
     return pinocchio_engine(arm)
 
@@ -60,6 +62,10 @@ def __getattr__(name):
         from . import identification
 
         return getattr(identification, name)
+    if name == "montecarlo":  # ``from manipdyn import montecarlo as mc`` (README); imported on first use
+        from .control import montecarlo
+
+        return montecarlo
     raise AttributeError(f"module 'manipdyn' has no attribute {name!r}")
 
 

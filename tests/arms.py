@@ -1,4 +1,4 @@
-"""Arm builders for the tests: the random arms of :mod:`manipdyn.random_arms`, and Corke's Puma.
+"""Arm builders for the tests: the random arms of :mod:`manipdyn.model.random_arms`, and Corke's Puma.
 
 * :func:`random_rotation`, :func:`random_physical_inertia`: a rigid body that
   exists (principal moments positive and obeying the triangle inequalities,
@@ -19,7 +19,7 @@ import math
 
 
 import manipdyn as md
-from manipdyn.random_arms import (COM, LENGTH, MASS, MOMENT, as_generator, random_arm,  # noqa: F401 (re-exported)
+from manipdyn.model.random_arms import (COM, LENGTH, MASS, MOMENT, as_generator, random_arm,  # noqa: F401 (re-exported)
                                   random_dh_link, random_physical_inertia, random_principal_moments,
                                   random_rotation, random_state)
 

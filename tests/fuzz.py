@@ -8,7 +8,7 @@ Run from the repository root::
 The command line's option sets (excite, montecarlo) have their own generator and contract
 in tests/fuzz_cli.py, run by the same pool (:func:`run_pool`).
 
-Each case is one bundled file (``urdf/*.urdf`` or ``manipdyn/models/*.toml``)
+Each case is one bundled file (``urdf/*.urdf`` or ``manipdyn/formats/models/*.toml``)
 mutated by a few seeded operators: hostile numbers (non-ASCII digits, nan,
 1e400, 400-digit integers, trailing tabs, underflowing literals...), broken
 vectors, removed, duplicated or re-pointed elements, changed joint types,
@@ -52,7 +52,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 URDFS = sorted((ROOT / "urdf").glob("*.urdf"))
-MODELS = sorted((ROOT / "manipdyn" / "models").glob("*.toml"))
+MODELS = sorted((ROOT / "manipdyn" / "formats" / "models").glob("*.toml"))
 
 #: the outcomes that satisfy the contract
 PASS = ("refused at load", "refused by the engine", "agree", "agree (qdd not compared: D singular, indefinite or ill-conditioned)")

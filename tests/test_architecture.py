@@ -27,38 +27,9 @@ import manipdyn as md
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGES = ("manipdyn", "benchmarks")
 
-#: ARCHITECTURE.md's layers, bottom up.  A module imports only modules of its
-#: own layer or below.  Packages (``manipdyn.cli`` ...) give the layer of every
-#: module inside them.
-LAYERS = {
-    0: ("manipdyn.errors", "manipdyn._files", "manipdyn._state", "manipdyn.limits", "manipdyn._threads"),
-    1: ("manipdyn.kinematics",),
-    2: ("manipdyn.inertia",),
-    3: ("manipdyn.links", "manipdyn.arm", "manipdyn.parameters", "manipdyn.drive", "manipdyn.friction",
-        "manipdyn.friction_jacobian"),
-    4: ("manipdyn.urdf_xml", "manipdyn.urdf_tree", "manipdyn.urdf_in", "manipdyn.urdf_out",
-        "manipdyn.modelfile", "manipdyn.modelfile_drive", "manipdyn.modelfile_urdf", "manipdyn.loading", "manipdyn.io", "manipdyn.erd", "manipdyn.models",
-        "manipdyn.scale"),
-    5: ("manipdyn.engine", "manipdyn.lagrange", "manipdyn.trace_drive", "manipdyn.lagrange_derivatives",
-        "manipdyn.pinocchio_engine", "manipdyn.pinocchio_fast", "manipdyn.pinocchio_derivatives",
-        "manipdyn.pinocchio_agree"),
-    6: ("manipdyn.check",),
-    7: ("manipdyn.comparison", "manipdyn.compare", "manipdyn.control", "manipdyn.identification",
-        "manipdyn.montecarlo", "manipdyn.random_arms", "manipdyn.linearize"),
-    8: ("manipdyn.cli", "manipdyn.__main__", "manipdyn"),
-    9: ("benchmarks",),
-}
-
-
-def layer_of(module: str) -> int:
-    best, best_len = None, -1
-    for layer, names in LAYERS.items():
-        for name in names:
-            if (module == name or module.startswith(name + ".")) and len(name) > best_len:
-                best, best_len = layer, len(name)
-    if best is None:
-        raise AssertionError(f"module {module} has no layer: add it to LAYERS and to ARCHITECTURE.md")
-    return best
+#: ARCHITECTURE.md's layers, bottom up, as the import-linter contract in pyproject.toml states them.
+LAYERS = ("manipdyn._support", "manipdyn.model", "manipdyn.formats", "manipdyn.engines", "manipdyn.check",
+          "manipdyn.identification", "manipdyn.control", "manipdyn.cli", "benchmarks")
 
 
 def _module_name(path: Path) -> str:
@@ -166,17 +137,58 @@ def test_no_import_circles():
     assert _cycles(modules, edges) == []
 
 
+def _contracts():
+    import tomllib
+
+    cfg = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["tool"]["importlinter"]
+    return {c["id"]: c for c in cfg["contracts"]}
+
+
 def test_imports_point_down_the_layers():
-    modules, edges, _ = _graph()
-    upward = []
-    for src, dsts in edges.items():
-        for dst, line in dsts:
-            # a package's __init__ may import its own submodules
-            if dst.startswith(src + "."):
-                continue
-            if layer_of(dst) > layer_of(src):
-                upward.append(f"{src}:{line} (layer {layer_of(src)}) imports {dst} (layer {layer_of(dst)})")
-    assert upward == []
+    """import-linter's contracts (pyproject.toml) hold: layers, independent engines, benchmarks apart."""
+    pytest.importorskip("importlinter", reason="import-linter is in the test extra: pip install -e '.[test]'")
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-c", "import sys; from importlinter.cli import lint_imports_command; "
+                           "sys.exit(lint_imports_command())", "--no-cache"],
+                          cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-2000:]
+    assert "BROKEN" not in proc.stdout and "Contracts: 3 kept, 0 broken." in proc.stdout, proc.stdout[-2000:]
+
+
+def test_the_contract_the_tree_and_architecture_say_the_same():
+    """Every package of manipdyn/ is a layer of the contract, in ARCHITECTURE.md's order, and at most 10 entries."""
+    layers = _contracts()["layers"]["layers"]
+    assert tuple(reversed(layers)) == LAYERS
+    top = sorted(p.name for p in (ROOT / "manipdyn").iterdir() if p.name != "__pycache__" and not p.name.endswith(".egg-info"))
+    assert len(top) <= 10, top
+    packages = {f"manipdyn.{p.name}" for p in (ROOT / "manipdyn").iterdir() if (p / "__init__.py").exists()}
+    assert packages == set(LAYERS) - {"benchmarks"}, packages ^ set(LAYERS)
+    arch = (ROOT / "ARCHITECTURE.md").read_text(encoding="utf-8")
+    positions = [arch.index(f"`{name.split('.')[-1]}/`") for name in LAYERS if name != "benchmarks"]
+    assert positions == sorted(positions), "ARCHITECTURE.md's table lists the layers bottom up"
+    for pkg in packages:
+        doc = ast.get_docstring(ast.parse((ROOT / pkg.replace(".", "/") / "__init__.py").read_text(encoding="utf-8")))
+        assert doc and "May import" in doc, f"{pkg}: its docstring says what it may import"
+
+
+def test_the_contract_can_fail(tmp_path):
+    """A planted upward import breaks import-linter's layers contract (the check is not vacuous)."""
+    pytest.importorskip("importlinter", reason="import-linter is in the test extra: pip install -e '.[test]'")
+    import shutil
+    import subprocess
+    import sys
+
+    shutil.copytree(ROOT / "manipdyn", tmp_path / "manipdyn", ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copytree(ROOT / "benchmarks", tmp_path / "benchmarks", ignore=shutil.ignore_patterns("__pycache__", "results"))
+    shutil.copy(ROOT / "pyproject.toml", tmp_path / "pyproject.toml")
+    with open(tmp_path / "manipdyn" / "model" / "kinematics.py", "a", encoding="utf-8") as fh:
+        fh.write("\n\ndef _planted():\n    from ..control import simulate  # noqa: F401  (upward, lazy)\n")
+    proc = subprocess.run([sys.executable, "-c", "import sys; sys.path.insert(0, '.'); "
+                           "from importlinter.cli import lint_imports_command; sys.exit(lint_imports_command())",
+                           "--no-cache"], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert proc.returncode != 0 and "manipdyn.model.kinematics -> manipdyn.control" in proc.stdout, proc.stdout[-2000:]
 
 
 def test_no_private_names_cross_modules():
@@ -200,9 +212,9 @@ def test_the_graph_walker_sees_lazy_and_relative_imports(tmp_path):
     """The checks above could fail: a planted circle through a lazy import is found."""
     edges = {"a": {("b", 1)}, "b": {("a", 7)}}
     assert _cycles({"a", "b"}, edges) == [["a", "b"]]
-    path = ROOT / "manipdyn" / "arm.py"
+    path = ROOT / "manipdyn" / "model" / "arm.py"
     targets = {t for t, _, _ in _imports(path)}
-    assert "manipdyn.errors" in targets and "manipdyn.links" in targets  # relative imports resolved
+    assert "manipdyn._support.errors" in targets and "manipdyn.model.links" in targets  # relative imports resolved
 
 
 #: modules whose split is under way (each must still exist and be long: remove it when split)

@@ -138,7 +138,7 @@ def test_without_toolbox_rows_are_skipped_with_a_reason(tmp_path, monkeypatch):
 
 def test_a_wrong_answer_aborts_its_row_and_fails_the_run(tmp_path, monkeypatch, capsys):
     """A fast path that answers wrong is caught by the referee before it is timed."""
-    from manipdyn.arm import Arm
+    from manipdyn.model.arm import Arm
 
     right = Arm.gravity_torque
     monkeypatch.setattr(Arm, "gravity_torque", lambda self, q: right(self, q) + 1.0)
@@ -156,7 +156,7 @@ def test_a_wrong_answer_aborts_its_row_and_fails_the_run(tmp_path, monkeypatch, 
 
 def test_item12_a_wrong_scaling_answer_names_the_wrong_side(tmp_path, monkeypatch, capsys):
     """Issue 20, item 12: the bench says which peer answered wrong, not a bare WRONG ANSWER."""
-    from manipdyn.lagrange import TraceFormEngine
+    from manipdyn.engines.lagrange.engine import TraceFormEngine
 
     right = TraceFormEngine.mass_matrix
     monkeypatch.setattr(TraceFormEngine, "mass_matrix", lambda self, q: right(self, q) * 1.5)

@@ -51,7 +51,7 @@ def test_bad_option_is_exit_2():
 
 
 def test_disagreement_is_exit_1(monkeypatch, capsys):
-    import manipdyn.check as check
+    import manipdyn.check.crosscheck as check
 
     real = check._compare  # nothing can pass a negative tolerance
     monkeypatch.setattr(check, "_compare", lambda *a, **k: real(*a, tol=-1.0))

@@ -24,10 +24,10 @@ import pytest
 import arms
 import manipdyn as md
 from manipdyn import cli
-from manipdyn.compare import KIN_TOLERANCE, CompareReport, compare
-from manipdyn.compare.canonical import canonical_chain
-from manipdyn.erd import robots_dir
-from manipdyn.kinematics import matrix_to_rpy, rot_x, rot_y, rot_z, trans
+from manipdyn.check.compare import KIN_TOLERANCE, CompareReport, compare
+from manipdyn.check.compare.canonical import canonical_chain
+from manipdyn.formats.erd import robots_dir
+from manipdyn.model.kinematics import matrix_to_rpy, rot_x, rot_y, rot_z, trans
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -13,8 +13,8 @@ import pytest
 
 import manipdyn as md
 from manipdyn import cli
-from manipdyn.compare import DYN_TOLERANCE, KIN_REMAPPED, KIN_SAME, compare
-from manipdyn.erd import urdf_path
+from manipdyn.check.compare import DYN_TOLERANCE, KIN_REMAPPED, KIN_SAME, compare
+from manipdyn.formats.erd import urdf_path
 from test_compare import BASE, TOOL, redescribe
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -290,7 +290,7 @@ TWO_LINK_URDF = """<?xml version="1.0"?>
 
 def test_urdf_effort_limits_are_honoured():
     """A URDF arm's <limit effort> are the controllers' default tau_max."""
-    from manipdyn.urdf_in import load_urdf
+    from manipdyn.formats.urdf.reader import load_urdf
 
     arm = load_urdf(TWO_LINK_URDF)
     np.testing.assert_array_equal(model_torque_limits(arm), [5.0, 2.0])

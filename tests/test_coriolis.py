@@ -3,7 +3,7 @@
 ``C`` is the Christoffel-form Coriolis matrix: ``C qd = h`` (eq. 2.39) and
 ``dD/dt - 2C`` is skew-symmetric.  The trace-form engine builds it from the
 chapter's ``D_ijk`` (``C_ij = sum_k D_ijk qd_k``, derivation in
-:meth:`manipdyn.lagrange.TraceFormEngine.coriolis_matrix`); Pinocchio's comes
+:meth:`manipdyn.engines.lagrange.engine.TraceFormEngine.coriolis_matrix`); Pinocchio's comes
 from ``pin.computeCoriolisMatrix``.
 
 Claim tested here rather than asserted: the chapter's ``D_ijk`` are the
@@ -17,7 +17,7 @@ Tolerances:
 * ROUNDING = 1e-12 relative to ``max(1, |x|)``, for two floating-point paths to
   the same exact quantity (as in tests/test_identities.py): O(n^3) products of
   O(1..100) numbers, accumulated rounding ~1e-14 of the scale.
-* ENGINES = 1e-9 relative, the cross-check's tolerance (manipdyn/check.py), for
+* ENGINES = 1e-9 relative, the cross-check's tolerance (manipdyn/check/crosscheck.py), for
   the trace form against Pinocchio.
 * Finite differences, central, step e = 1e-5 (rad or m).  S_D = sum over links
   of (m rho^2 + tr I) + armature bounds every |D_ij| (rho >= 1 m, the longest

@@ -9,7 +9,7 @@ Tolerances (each test says which it uses):
 
 * ROUNDING = 1e-12 relative to ``max(1, |x|)``: two computations of the same
   exact quantity in float64 (as in ``tests/test_identities.py``).
-* AGREE = 1e-9: the cross-check's own tolerance (``manipdyn.check.TOLERANCE``).
+* AGREE = 1e-9: the cross-check's own tolerance (``manipdyn.check.crosscheck.TOLERANCE``).
 * The finite-difference referee, FD_TOL: a central difference with step ``h``
   has truncation error ``h^2/6 |f'''|`` and rounding error about ``k eps |f| / h``
   (k ~ 100 operations behind f).  With ``h = 1e-5`` (rad or m; the arms'

@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 import manipdyn as md
-from manipdyn.check import draw_states
-from manipdyn.drive import DEFAULT_SMOOTHING, Friction, FrictionTerms, Transmission
-from manipdyn.random_arms import random_arm
+from manipdyn.check.crosscheck import draw_states
+from manipdyn.model.drive import DEFAULT_SMOOTHING, Friction, FrictionTerms, Transmission
+from manipdyn.model.random_arms import random_arm
 
 # float64 sums of a few products of O(1..100) numbers: rounding stays near 1e-13
 # relative; 1e-10 is far below any modelling error (1e-3 and up)
@@ -144,7 +144,7 @@ def test_regressor_with_armature_and_the_friction_law_gives_tau(law):
     q, qd, qdd = draw_states(arm, 30, 2)
     f = arm.friction_model
     pi = arm.parameters(armature=True, friction=f)
-    assert len(pi) == len(md.parameters.parameter_names(arm.n, True, f)) == 10 * arm.n + arm.n + len(f.parameter_names())
+    assert len(pi) == len(md.model.parameters.parameter_names(arm.n, True, f)) == 10 * arm.n + arm.n + len(f.parameter_names())
     for eng in (arm.lagrange, arm.pinocchio):
         Y = eng.regressor(q, qd, qdd, armature=True, friction=f)
         tau = eng.inverse_dynamics(q, qd, qdd)
@@ -195,9 +195,9 @@ def test_booleans_keep_their_meaning():
     assert Y.shape[-1] == 10 * 3 + 3 + 6
     np.testing.assert_array_equal(Y[..., 30:33], qdd[:, :, None] * np.eye(3))
     np.testing.assert_array_equal(Y[..., 36:39], np.sign(qd)[:, :, None] * np.eye(3))
-    assert md.parameters.parameter_names(3, True, True)[-1] == "joint3.fc"
-    assert md.parameters.parameter_names(3, False, "offset")[-1] == "joint3.offset"
-    assert md.parameters.parameter_count(3, False, FrictionTerms(("asymmetric",))) == 36
+    assert md.model.parameters.parameter_names(3, True, True)[-1] == "joint3.fc"
+    assert md.model.parameters.parameter_names(3, False, "offset")[-1] == "joint3.offset"
+    assert md.model.parameters.parameter_count(3, False, FrictionTerms(("asymmetric",))) == 36
 
 
 def test_friction_true_on_a_motor_side_arm_is_refused():
@@ -323,8 +323,8 @@ def test_urdf_arm_identity_transmission_and_friction_override():
     R = np.diag([10.0, 20.0, 30.0])
     R[2, 1] = 4.0
     law = Friction(viscous=[1e-3] * 3, coulomb=[1e-2] * 3, side="motor")
-    arm = md.urdf_in.load_urdf(text, transmission=Transmission(R), friction=law)
+    arm = md.formats.urdf.reader.load_urdf(text, transmission=Transmission(R), friction=law)
     assert arm.friction_model is law and arm.custom_drive
     assert md.crosscheck(arm, samples=50).ok
     with pytest.raises(md.ModelError, match="cannot send URDF arm"):
-        md.scale.model_text(arm)
+        md.check.scale.model_text(arm)

@@ -139,7 +139,7 @@ def test_a_forked_child_runs_a_large_batch_after_its_parent_did():
     child must answer, with the parent's numbers; it is killed (by its pid) after 60 s."""
     import multiprocessing as mp
 
-    from manipdyn.pinocchio_engine import PARALLEL_MIN_STATES
+    from manipdyn.engines.pinocchio.engine import PARALLEL_MIN_STATES
 
     arm = md.load("ur5")
     arm.pinocchio.num_threads = 2

@@ -1,6 +1,6 @@
 """The single-call shortcuts take only what Pinocchio reads right; the unchecked view matches them.
 
-The shortcuts in manipdyn/pinocchio_engine.py pass arrays straight to
+The shortcuts in manipdyn/engines/pinocchio/engine.py pass arrays straight to
 Pinocchio and read finiteness off the answer.  These tests hold them to that:
 every other dtype (big-endian float64 first: eigenpy reads its bytes as
 little-endian, a silently wrong answer) goes down the general path and gives

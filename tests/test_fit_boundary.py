@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import manipdyn as md
-from manipdyn.errors import ModelError
+from manipdyn._support.errors import ModelError
 
 pytest.importorskip("cvxpy", reason="identification needs the identify extra (cvxpy)")
 from manipdyn.identification import Bounds, base_parameters, excitation, fit  # noqa: E402

@@ -24,13 +24,13 @@ import numpy as np
 import pytest
 
 import manipdyn as md
-from manipdyn import limits
-from manipdyn._files import atomic_write_text, sweep_stale_temporaries
+from manipdyn._support import limits
+from manipdyn._support.files import atomic_write_text, sweep_stale_temporaries
 from manipdyn.cli import main as cli_main
 
 ROOT = Path(__file__).resolve().parents[1]
 UR5 = (ROOT / "urdf" / "ur5.urdf").read_text(encoding="utf-8")
-PUMA_TOML = (ROOT / "manipdyn" / "models" / "puma560.toml").read_text(encoding="utf-8")
+PUMA_TOML = (ROOT / "manipdyn" / "formats" / "models" / "puma560.toml").read_text(encoding="utf-8")
 
 
 def first_attr(text: str, attr: str) -> re.Match:
@@ -259,7 +259,7 @@ def _serial_urdf(n: int) -> str:
 
 
 def test_twenty_thousand_fixed_joints_are_refused_not_a_segfault():
-    with pytest.raises(md.ModelError, match=r"20002, over the limit of 1000 \(manipdyn.limits.MAX_LINKS\); "
+    with pytest.raises(md.ModelError, match=r"20002, over the limit of 1000 \(manipdyn._support.limits.MAX_LINKS\); "
                                             r"if the model is trusted, raise it"):
         md.load(_fixed_run_urdf(20000))
 
@@ -276,7 +276,7 @@ def test_three_thousand_joint_chain_is_refused_with_the_cap_and_how_to_raise_it(
     with pytest.raises(md.ModelError, match=r"MAX_LINKS"):
         md.load(_serial_urdf(3000))
     with pytest.raises(md.ModelError, match=r"movable joints .* is 150, over the limit of 100 "
-                                            r"\(manipdyn.limits.MAX_JOINTS\)"):
+                                            r"\(manipdyn._support.limits.MAX_JOINTS\)"):
         md.load(_serial_urdf(150))
     monkeypatch.setattr(limits, "MAX_JOINTS", 200)
     assert md.load(_serial_urdf(150)).n == 150
@@ -347,9 +347,9 @@ def test_non_utf8_urdf_names_the_file_and_byte_offset(tmp_path):
 
 @pytest.mark.parametrize("key,value,pattern", [
     ("mass", "1e300", r"magnitude 1e\+300 is over 1e\+60"),
-    ("mass", "1e12", r"field 'mass' has the mass 1e\+12 kg, over 1e\+09 kg \(manipdyn.limits.MAX_MASS\)"),
+    ("mass", "1e12", r"field 'mass' has the mass 1e\+12 kg, over 1e\+09 kg \(manipdyn._support.limits.MAX_MASS\)"),
     ("d", "1e155", r"magnitude 1e\+155"),
-    ("a", "1e5", r"field 'a' has the length 100000 m, over 10000 m \(manipdyn.limits.MAX_LENGTH\)"),
+    ("a", "1e5", r"field 'a' has the length 100000 m, over 10000 m \(manipdyn._support.limits.MAX_LENGTH\)"),
 ])
 def test_model_file_values_that_would_overflow_or_swamp_are_refused(tmp_path, key, value, pattern):
     # issue: model values of 1e300 loaded fine and gave NaN dynamics
@@ -478,7 +478,7 @@ def test_keyboard_interrupt_during_a_write_leaves_no_temporary(tmp_path):
         fh.write("partial")
         raise KeyboardInterrupt
 
-    from manipdyn._files import atomic_write
+    from manipdyn._support.files import atomic_write
     with pytest.raises(KeyboardInterrupt):
         atomic_write(p, write)
     assert os.listdir(tmp_path) == []
@@ -487,7 +487,7 @@ def test_keyboard_interrupt_during_a_write_leaves_no_temporary(tmp_path):
 def test_sigterm_during_a_write_leaves_no_temporary(tmp_path):
     script = textwrap.dedent(f"""
         import sys, time
-        from manipdyn._files import atomic_write
+        from manipdyn._support.files import atomic_write
         def write(fh):
             fh.write("partial")
             fh.flush()
@@ -511,7 +511,7 @@ def test_sigterm_during_a_write_leaves_no_temporary(tmp_path):
 def test_kill_9_leftovers_are_swept_on_the_next_write(tmp_path):
     script = textwrap.dedent(f"""
         import time
-        from manipdyn._files import atomic_write
+        from manipdyn._support.files import atomic_write
         def write(fh):
             fh.write("partial"); fh.flush(); print("writing", flush=True); time.sleep(30)
         atomic_write({str(tmp_path / 'x.txt')!r}, write)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import manipdyn as md
-from manipdyn.friction import Friction
+from manipdyn.model.friction import Friction
 from manipdyn.identification import read_log
 from manipdyn.identification.hardlog import SMOOTHING, hard_log, recovered
 from manipdyn.identification.trajectory import fourier_trajectory

@@ -17,12 +17,12 @@ import numpy as np
 import pytest
 
 import manipdyn as md
-from manipdyn.errors import ModelError
-from manipdyn import random_arms as arms
+from manipdyn._support.errors import ModelError
+from manipdyn.model import random_arms as arms
 from manipdyn.identification import (Bounds, MissingExtraError, base_parameters, excitation, fit,
                                      read_measurements, write_measurements_csv)
 from manipdyn.identification.base import stacked_regressor
-from manipdyn.identification.data import derivatives
+from manipdyn.formats.logs.data import derivatives
 from manipdyn.identification.demo import measure, true_arm
 from manipdyn.identification.estimation import link_min_eigenvalues
 from manipdyn.identification.trajectory import Excitation, fourier_trajectory
@@ -247,7 +247,7 @@ def test_fit_argument_errors():
 def test_missing_extra_gives_the_install_command(monkeypatch):
     import importlib
 
-    from manipdyn.identification import _deps
+    from manipdyn._support import deps as _deps
 
     real = importlib.import_module
 
@@ -345,7 +345,7 @@ def test_cli_without_the_extra_names_the_install_command(monkeypatch, tmp_path, 
     import importlib
 
     from manipdyn.cli import main
-    from manipdyn.identification import _deps
+    from manipdyn._support import deps as _deps
 
     real = importlib.import_module
 

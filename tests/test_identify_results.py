@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import manipdyn as md
-from manipdyn.errors import ModelError
+from manipdyn._support.errors import ModelError
 
 pytest.importorskip("cvxpy", reason="identification needs the identify extra (cvxpy)")
 from manipdyn.identification import Bounds, excitation, fit, write_measurements_csv  # noqa: E402
@@ -57,7 +57,7 @@ def test_asymmetric_coulomb_viscous_and_offsets_are_recovered(ur5_motion):
     np.testing.assert_allclose(pred, r.predict(ex.q, ex.qd, ex.qdd), atol=1e-9)
     # the model file carries the law: save, load, same torques
     text = md.to_toml(r.arm)
-    from manipdyn.modelfile import parse_model
+    from manipdyn.formats.modelfile import parse_model
 
     np.testing.assert_allclose(parse_model(text).inverse_dynamics(ex.q[:5], ex.qd[:5], ex.qdd[:5]),
                                pred[:5], atol=1e-9)

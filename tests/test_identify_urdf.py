@@ -12,7 +12,7 @@ import pytest
 from lxml import etree
 
 import manipdyn as md
-from manipdyn.arm import URDFArm
+from manipdyn.model.arm import URDFArm
 from manipdyn.cli import main
 
 pytest.importorskip("cvxpy", reason="identification needs the identify extra (cvxpy)")
@@ -112,7 +112,7 @@ def test_a_change_the_chain_link_cannot_hold_moves_the_lumped_inertials():
     0.3 kg lighter cannot be written as a change of wrist_3's own 0.19 kg: wrist_3 then carries
     the whole identified body and the tool's inertial is removed (a comment says where it went)."""
     from manipdyn.identification.model import arm_with_parameters
-    from manipdyn.parameters import arm_parameters
+    from manipdyn.model.parameters import arm_parameters
 
     root = etree.fromstring(UR5.read_bytes())
     tool = next(el for el in root.iterchildren("link") if el.get("name") == "tool")

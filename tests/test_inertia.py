@@ -283,7 +283,7 @@ def test_broken_triangle_inequality_in_rotated_axes_warns():
 
 
 def test_broken_triangle_inequality_of_a_small_body_warns():
-    """BUG (manipdyn/inertia.py, LinkInertia.consistency_problems): a small body
+    """BUG (manipdyn/model/inertia.py, LinkInertia.consistency_problems): a small body
     (inertias ~1e-9 kg m^2, a gram-sized part) with a broken triangle inequality
     in rotated axes passes unflagged.
 
@@ -552,7 +552,7 @@ def test_state_error_is_a_value_error_and_lists_are_accepted(arm3):
 
 
 def test_complex_state_is_refused(arm3):
-    """BUG (manipdyn/_state.py, as_state): a complex state is cast to float64 with
+    """BUG (manipdyn/_support/state.py, as_state): a complex state is cast to float64 with
     numpy's ComplexWarning only, silently dropping the imaginary part (a
     complex-step derivative would come out as 0).  The boundary must refuse it
     like any other non-real input.  Fix: in ``as_state``, before converting,

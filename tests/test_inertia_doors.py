@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from manipdyn import inertia as mi
-from manipdyn.random_arms import random_physical_inertia
+from manipdyn.model import inertia as mi
+from manipdyn.model.random_arms import random_physical_inertia
 
 M, L = 2.0, 0.6
 COM = np.array([L / 2, 0.0, 0.0])

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import manipdyn as md
-from manipdyn.kinematics import DHKinematics, dh_modified, dh_standard, rot_x, rot_z, trans
+from manipdyn.model.kinematics import DHKinematics, dh_modified, dh_standard, rot_x, rot_z, trans
 
 
 @pytest.mark.parametrize("convention", ["standard", "modified"])

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import manipdyn as md
-from manipdyn.linearize import zero_order_hold
+from manipdyn.engines.linearize import zero_order_hold
 
 import arms
 from test_derivatives import FD_TOL, ROUNDING, _central, _friction_arm, _rel

@@ -1,4 +1,4 @@
-"""Measurement logs as they come: read_log (manipdyn.identification.logs and its parts).
+"""Measurement logs as they come: read_log (manipdyn.formats.logs.read and its parts).
 
 A known motion goes through every path (uneven, repeated and dropped time
 stamps; no t; measured qd; other column names; degrees; the motor side) and
@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 
 import manipdyn as md
-from manipdyn import limits
+from manipdyn._support import limits
 from manipdyn.identification import read_log, read_measurements
-from manipdyn.identification.filtering import choose_cutoff
+from manipdyn.formats.logs.filtering import choose_cutoff
 
 pytest.importorskip("scipy")
 
@@ -340,7 +340,7 @@ def test_fifo_and_devices_are_refused_without_hanging(tmp_path):
 
 def test_large_file_streams(tmp_path):
     """Rows are parsed chunk by chunk: a file over several chunks reads whole and in order."""
-    from manipdyn.identification.table import CHUNK_BYTES, read_table
+    from manipdyn.formats.logs.table import CHUNK_BYTES, read_table
 
     t = np.arange(0, 60, 1 / 1000)
     q, qd, _ = motion(t)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import manipdyn as md
-from manipdyn.modelfile import model_to_toml, parse_model
+from manipdyn.formats.modelfile import model_to_toml, parse_model
 
 GOOD = """
 format = "manipdyn-model/1"
@@ -144,7 +144,7 @@ def test_save_refuses_nothing_half_written(tmp_path):
     arm = parse_model(GOOD, "good.toml")
     target = tmp_path / "out.toml"
     target.write_text("previous")
-    import manipdyn.modelfile as mf
+    import manipdyn.formats.modelfile as mf
 
     def boom(_arm):
         raise md.ModelError("cannot serialise")

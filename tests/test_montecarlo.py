@@ -237,8 +237,8 @@ def test_plot_is_written(small_report, tmp_path):
 # -- cross-check in parts ------------------------------------------------------------------
 def test_state_slices_are_rows_of_the_full_draw():
     arm = arms.random_arm(5)
-    full = md.check.draw_states(arm, 1000, 7)
-    part = md.check.draw_states(arm, 1000, 7, 250, 600)
+    full = md.check.crosscheck.draw_states(arm, 1000, 7)
+    part = md.check.crosscheck.draw_states(arm, 1000, 7, 250, 600)
     for a, b in zip(full, part):
         np.testing.assert_array_equal(a[250:600], b)
 
@@ -302,7 +302,7 @@ def test_a_worker_killed_mid_study_loses_no_run_and_counts_none_twice(puma):
 def test_study_takes_a_model_name_and_names_a_wrong_arm():
     """``study("puma560", ...)`` loads the bundled arm as the command line does; something that is
     not an arm is a ModelError naming the argument, not an AttributeError."""
-    from manipdyn.montecarlo import study
+    from manipdyn.control.montecarlo import study
 
     st = study("puma560", runs=2, seed=0, controllers=("pd",))
     assert st.arm.name == "puma560" and st.arm == md.load("puma560")

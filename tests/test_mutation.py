@@ -14,7 +14,7 @@ import numpy as np
 from lxml import etree
 
 import manipdyn as md
-from manipdyn.pinocchio_engine import PinocchioEngine, model_from_urdf
+from manipdyn.engines.pinocchio.engine import PinocchioEngine, model_from_urdf
 
 SAMPLES = 50
 
@@ -126,7 +126,7 @@ def test_nan_from_an_engine_is_a_disagreement():
 def test_trace_form_regressor_in_dh_frames_is_caught():
     """The trace-form regressor with its parameters about DH frame i instead of
     the URDF link frame (the offsets S_i forgotten): tau, D, g still agree."""
-    from manipdyn.lagrange import TraceFormEngine
+    from manipdyn.engines.lagrange.engine import TraceFormEngine
 
     arm = _arm()
     kin, J, armature, friction = arm.trace_form_data()
@@ -163,7 +163,7 @@ def test_pinocchio_regressor_with_swapped_products_of_inertia_is_caught():
 # -- drives: a planted bug in the coupled rotor inertia or the motor-side friction -----
 
 def _coupled_arm():
-    from manipdyn.drive import Friction, Transmission
+    from manipdyn.model.drive import Friction, Transmission
 
     base = _arm()
     links = [dataclasses.replace(l, motor_inertia=1e-4 * (i + 1), gear_ratio=(-1) ** i * (20.0 + 10 * i))
@@ -174,7 +174,7 @@ def _coupled_arm():
 
 
 def _with_pinocchio(arm, **kw):
-    from manipdyn.pinocchio_engine import model_for_arm
+    from manipdyn.engines.pinocchio.engine import model_for_arm
 
     args = dict(friction=arm.friction_model, transmission=arm.transmission, tool_frame="tool",
                 rotor_coupling=arm.rotor_inertia - np.diag(np.diag(arm.rotor_inertia)))
@@ -207,7 +207,7 @@ def test_rotor_inertia_as_r_jm_rt_is_caught():
 
 def test_motor_side_friction_mapped_by_r_instead_of_rt_is_caught():
     """The law evaluated at R^T qd and mapped back by R: friction torques wrong, inertia right."""
-    from manipdyn.drive import Transmission
+    from manipdyn.model.drive import Transmission
 
     arm = _coupled_arm()
     report = md.crosscheck(_with_pinocchio(arm, transmission=Transmission(arm.transmission.R.T)), samples=SAMPLES)
@@ -235,7 +235,7 @@ def test_clean_derivatives_pass():
 
 def test_trace_form_jacobian_transposed_is_caught():
     """dtau/dq returned as [m, i] instead of [i, m] (the classic Jacobian-layout slip)."""
-    from manipdyn.lagrange import TraceFormEngine
+    from manipdyn.engines.lagrange.engine import TraceFormEngine
 
     class Transposed(TraceFormEngine):
         def _rigid_jacobians(self, *args):
@@ -253,7 +253,7 @@ def test_trace_form_jacobian_transposed_is_caught():
 
 def test_trace_form_gravity_hessian_half_is_caught():
     """dg/dq with only its upper triangle (the symmetric half forgotten)."""
-    from manipdyn.lagrange import TraceFormEngine
+    from manipdyn.engines.lagrange.engine import TraceFormEngine
 
     class Half(TraceFormEngine):
         def _gravity_jacobian(self, Delta, cbar):
@@ -269,7 +269,7 @@ def test_trace_form_gravity_hessian_half_is_caught():
 
 
 def test_trace_form_friction_forgotten_is_caught():
-    from manipdyn.lagrange import TraceFormEngine
+    from manipdyn.engines.lagrange.engine import TraceFormEngine
 
     class NoFriction(TraceFormEngine):
         def _friction_jacobian(self, qd):

@@ -84,8 +84,8 @@ def test_item15_caps_say_how_to_raise_them(argv, limit, tmp_path, capsys):
 
 
 def test_item15_caps_can_be_raised(monkeypatch):
-    import manipdyn.limits as limits
-    from manipdyn.montecarlo import check_study_size
+    import manipdyn._support.limits as limits
+    from manipdyn.control.montecarlo import check_study_size
 
     with pytest.raises(ValueError, match="MAX_STUDY_STEPS"):
         check_study_size(10**6, 4, 2.0, 1e-3, 10.0)
@@ -95,7 +95,7 @@ def test_item15_caps_can_be_raised(monkeypatch):
 
 def test_item15_scheduler_without_workers_times_out(monkeypatch, capsys):
     distributed = pytest.importorskip("distributed", reason="the scale extra is not installed")
-    import manipdyn.scale as scale
+    import manipdyn.check.scale as scale
 
     monkeypatch.setattr(scale, "WORKER_WAIT_S", 1.0)
     with distributed.LocalCluster(n_workers=0, processes=False, dashboard_address=None) as cluster:
@@ -136,7 +136,7 @@ def _arm_like(arm, **kw):
 
 def test_item3_save_refuses_what_load_would_refuse(tmp_path):
     import manipdyn as md
-    from manipdyn.errors import ModelError
+    from manipdyn._support.errors import ModelError
 
     arm = _arm_like(md.load("ur5"), description="x" * (2 * 1024 * 1024))
     with pytest.raises(ModelError, match="MAX_MODEL_FILE_BYTES"):
@@ -150,7 +150,7 @@ def test_item3_extreme_valid_models_round_trip(tmp_path):
     import numpy as np
 
     import manipdyn as md
-    import manipdyn.limits as limits
+    import manipdyn._support.limits as limits
 
     ur5 = md.load("ur5")
     # 100 joints (MAX_JOINTS), names at MAX_NAME_LENGTH, non-ASCII text, the heaviest
@@ -195,7 +195,7 @@ def test_item18_toml_writer_escapes_every_control_character(field, ch, tmp_path)
 ])
 def test_item18_save_names_the_bad_field(kw, culprit, tmp_path):
     import manipdyn as md
-    from manipdyn.errors import ModelError
+    from manipdyn._support.errors import ModelError
 
     try:
         arm = _arm_like(md.load("ur5"), **kw)
@@ -252,7 +252,7 @@ def test_item11_erd_names_work_in_every_subcommand(argv, tmp_path, capsys):
 
 
 def test_item11_models_erd_lists_names(capsys):
-    from manipdyn.erd import urdf_names
+    from manipdyn.formats.erd import urdf_names
 
     assert main(["models", "--erd"]) == 0
     lines = capsys.readouterr().out.splitlines()
@@ -313,7 +313,7 @@ def _ur5_text(inertia_factor: float, units: str = "") -> str:
 ])
 def test_item1_implausible_inertia_units_are_flagged(factor, units, direction, tmp_path, capsys):
     import manipdyn as md
-    from manipdyn.errors import ModelError
+    from manipdyn._support.errors import ModelError
 
     path = tmp_path / "ur5_units.toml"
     text = _ur5_text(factor, units)
@@ -355,7 +355,7 @@ def _blas_threads_now():
 
 
 def test_item7_blas_threads_limits_and_restores():
-    from manipdyn._threads import blas_threads
+    from manipdyn._support.threads import blas_threads
 
     before = _blas_threads_now()
     with blas_threads(1) as lim:
@@ -364,7 +364,7 @@ def test_item7_blas_threads_limits_and_restores():
 
 
 def test_item7_without_threadpoolctl_nothing_breaks(monkeypatch):
-    from manipdyn._threads import blas_threads
+    from manipdyn._support.threads import blas_threads
 
     monkeypatch.setitem(sys.modules, "threadpoolctl", None)
     with blas_threads(1) as lim:
@@ -433,7 +433,7 @@ def test_item5_synthesize_is_exact_without_noise_and_names_bad_rows(tmp_path):
     import numpy as np
 
     import manipdyn as md
-    from manipdyn.errors import ModelError
+    from manipdyn._support.errors import ModelError
     from manipdyn.identification import read_trajectory, synthesize
 
     arm = md.load("ur5")
@@ -558,7 +558,7 @@ def _legend_overlaps(fig):
 def test_item14_montecarlo_legend_off_the_data(tmp_path, monkeypatch):
     pytest.importorskip("matplotlib", reason="the plot extra is not installed")
     import manipdyn as md
-    import manipdyn.montecarlo.plot as mcplot
+    import manipdyn.control.montecarlo.plot as mcplot
     from manipdyn import montecarlo as mc
 
     figs = []
@@ -619,8 +619,8 @@ def test_item8_example_robot_data_missing_is_a_clear_message(monkeypatch):
     import tomllib
     from pathlib import Path
 
-    import manipdyn.erd as erd
-    from manipdyn.errors import ModelError
+    import manipdyn.formats.erd as erd
+    from manipdyn._support.errors import ModelError
 
     project = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml").read_text())["project"]
     assert any(d.startswith("example-robot-data") for d in project["dependencies"])

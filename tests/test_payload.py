@@ -19,8 +19,8 @@ import pytest
 import manipdyn as md
 from manipdyn.control import with_payload
 from manipdyn.identification import PayloadResult, excitation, identify_payload
-from manipdyn.inertia import LinkInertia, pseudo_inertia_from_tensor, transform_pseudo_inertia
-from manipdyn.kinematics import rot_x, rot_z, trans, transform_inverse
+from manipdyn.model.inertia import LinkInertia, pseudo_inertia_from_tensor, transform_pseudo_inertia
+from manipdyn.model.kinematics import rot_x, rot_z, trans, transform_inverse
 
 MASS = 2.5                                          # kg
 COM = np.array([0.02, -0.03, 0.08])                 # m, payload frame

@@ -4,7 +4,6 @@ URDF priors written as full models, and the same defaults as the command line.""
 
 from __future__ import annotations
 
-import inspect
 import json
 from pathlib import Path
 
@@ -12,7 +11,7 @@ import numpy as np
 import pytest
 
 import manipdyn as md
-from manipdyn.cli import build_parser, main
+from manipdyn.cli import main
 
 pytest.importorskip("cvxpy", reason="identification needs the identify extra (cvxpy)")
 from manipdyn.identification import excitation, write_measurements_csv  # noqa: E402
@@ -20,31 +19,6 @@ from manipdyn.identification.runs import Payload, read_runs_file  # noqa: E402
 
 UR5 = Path(__file__).resolve().parent.parent / "urdf" / "ur5.urdf"
 PAYLOAD = Payload(1.5, (0.03, -0.02, 0.06), (0.004, 0.005, 0.003, 0.0, 0.0, 0.0))
-
-
-def _subparser(name):
-    parser = build_parser()
-    sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")
-    return parser, sub.choices[name]
-
-
-@pytest.mark.parametrize("command", ["identify", "validate"])
-def test_the_library_and_the_command_line_have_the_same_defaults(command):
-    """Every option both take has one default: ``identification.fit`` defaulted to wls while
-    ``manipdyn identify`` defaulted to consistent (issue 25)."""
-    import manipdyn.identification as ident
-
-    parser, p = _subparser(command)
-    params = inspect.signature(getattr(ident, command)).parameters
-    shared = [a for a in p._actions if a.dest in params and a.option_strings
-              and params[a.dest].default is not inspect.Parameter.empty]
-    assert len(shared) >= (20 if command == "identify" else 10)
-    for action in shared:
-        assert action.default == params[action.dest].default, action.dest
-    blas = next(a for a in parser._actions if a.dest == "blas_threads")
-    assert blas.default == params["blas_threads"].default == 1
-    if command == "identify":
-        assert params["method"].default == "consistent"
 
 
 def _logs(folder, arm, seeds, noise, payload_on=(), truth=None):
@@ -143,9 +117,9 @@ def test_cli_identify_and_validate_take_several_logs_and_models(tmp_path, capsys
 def test_urdf_prior_with_friction_armature_and_gears_is_written_as_a_full_model(tmp_path):
     """A URDF prior with motor-side friction, rotor inertias and gears: the written model file
     (the URDF embedded, the drive beside it) predicts what the fit predicted (issue 24, item 5)."""
-    from manipdyn.drive import Transmission
-    from manipdyn.friction import Friction
-    from manipdyn.urdf_in import load_urdf
+    from manipdyn.model.drive import Transmission
+    from manipdyn.model.friction import Friction
+    from manipdyn.formats.urdf.reader import load_urdf
 
     n = 6
     tr = Transmission.from_gear_ratios([50.0, 50.0, -50.0, 30.0, 30.0, 30.0], coupling=[[6, 5, 12.0]])

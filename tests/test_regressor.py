@@ -21,9 +21,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import manipdyn as md
-from manipdyn import random_arms as arms
+from manipdyn.model import random_arms as arms
 from manipdyn.identification.model import arm_with_parameters
-from manipdyn.parameters import arm_parameters, parameter_names
+from manipdyn.model.parameters import arm_parameters, parameter_names
 
 TOL = 1e-9
 
@@ -84,7 +84,7 @@ def test_random_arm_regressors_agree(arm):
 
 def test_urdf_arm_regressors_agree():
     """An arm read from a URDF (example-robot-data's UR5): identity link offsets."""
-    from manipdyn import erd
+    from manipdyn.formats import erd
 
     arm = md.load(str(erd.urdf_path("ur5_robot")))
     q, qd, qdd = _states(arm, 10)

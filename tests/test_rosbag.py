@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import manipdyn as md
-from manipdyn.errors import MissingExtraError
+from manipdyn._support.errors import MissingExtraError
 from manipdyn.identification import read_log
 
 pytest.importorskip("scipy")
@@ -106,7 +106,7 @@ def test_bag_errors(tmp_path, monkeypatch):
 
 
 def test_bag_size_is_capped(tmp_path, monkeypatch):
-    from manipdyn import limits
+    from manipdyn._support import limits
 
     bag = tmp_path / "capped"
     write_bag(bag, StoragePlugin.MCAP, duration=13.0)

@@ -13,7 +13,7 @@ from scipy.stats import chi2  # noqa: E402  (scipy comes with the identify extra
 
 from manipdyn.identification import base_parameters, excitation, fit, format_report  # noqa: E402
 from manipdyn.identification.demo import true_arm  # noqa: E402
-from manipdyn.parameters import arm_parameters  # noqa: E402
+from manipdyn.model.parameters import arm_parameters  # noqa: E402
 
 DRAWS = 40          # seeded noise draws of the calibration test
 Z95 = 1.959963984540054

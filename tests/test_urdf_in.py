@@ -1,4 +1,4 @@
-"""URDF input: ``manipdyn.urdf_in.load_urdf`` on vendor files and on bad input.
+"""URDF input: ``manipdyn.formats.urdf.reader.load_urdf`` on vendor files and on bad input.
 
 What is checked, and against what:
 
@@ -41,9 +41,9 @@ import pytest
 
 import manipdyn as md
 from manipdyn import ModelError
-from manipdyn.arm import DEFAULT_QLIM
-from manipdyn.erd import robots_dir
-from manipdyn.urdf_in import URDFArm, load_urdf
+from manipdyn.model.arm import DEFAULT_QLIM
+from manipdyn.formats.erd import robots_dir
+from manipdyn.formats.urdf.reader import URDFArm, load_urdf
 
 import pinocchio as pin  # noqa: E402
 
@@ -523,7 +523,7 @@ def test_trace_form_path_never_imports_pinocchio(tmp_path):
     code = (
         "import sys; sys.modules['pinocchio'] = None\n"
         "import numpy as np\n"
-        "from manipdyn.urdf_in import load_urdf\n"
+        "from manipdyn.formats.urdf.reader import load_urdf\n"
         f"arm = load_urdf({str(p)!r})\n"
         "print(arm.lagrange.mass_matrix(np.zeros(1))[0, 0])\n"
         "try:\n    arm.pinocchio\nexcept ImportError:\n    print('blocked')\n"

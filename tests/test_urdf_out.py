@@ -12,7 +12,7 @@ import pytest
 import yourdfpy
 
 import manipdyn as md
-from manipdyn.urdf_out import DEFAULT_EFFORT, DEFAULT_VELOCITY
+from manipdyn.formats.urdf.writer import DEFAULT_EFFORT, DEFAULT_VELOCITY
 
 
 def _arm(convention):
@@ -91,7 +91,7 @@ def test_write_urdf_is_atomic(tmp_path, monkeypatch):
     arm = _arm("standard")
     path = tmp_path / "arm.urdf"
     path.write_text("old content")
-    import manipdyn._files as files
+    import manipdyn._support.files as files
 
     real_replace = os.replace
 
@@ -110,7 +110,7 @@ def test_write_urdf_is_atomic(tmp_path, monkeypatch):
 
 def test_write_urdf_conversion_failure_leaves_no_file(tmp_path, monkeypatch):
     arm = _arm("standard")
-    import manipdyn.io as uo
+    import manipdyn.formats.save as uo
 
     def fail(_arm):
         raise md.ModelError("conversion failed")

@@ -15,7 +15,7 @@ import pytest
 import manipdyn as md
 from manipdyn.cli import main
 from manipdyn.control import PD, ComputedTorque, Quintic
-from manipdyn.erd import urdf_path
+from manipdyn.formats.erd import urdf_path
 
 PANDA = str(urdf_path("panda"))     # a tree: the arm, the hand and two fingers
 
@@ -99,7 +99,7 @@ def test_tip_with_no_urdf_is_a_usage_error(capsys):
 
 # -- 3. model files accept what Python accepts ------------------------------------------
 def test_three_diagonal_values_in_a_model_file():
-    from manipdyn.modelfile import parse_model
+    from manipdyn.formats.modelfile import parse_model
 
     a = parse_model(model_text(inertia="[0.01, 0.02, 0.02]"))
     b = parse_model(model_text())
@@ -108,7 +108,7 @@ def test_three_diagonal_values_in_a_model_file():
 
 
 def test_format_key_is_required():
-    from manipdyn.modelfile import parse_model
+    from manipdyn.formats.modelfile import parse_model
 
     text = model_text().replace('format = "manipdyn-model/1"\n', "")
     with pytest.raises(md.ModelError, match=r"missing key 'format'.*format = \"manipdyn-model/1\""):
@@ -130,7 +130,7 @@ def test_urdf_validates_every_name_first(capsys, tmp_path):
 
 # -- 5. suspicious units and values ---------------------------------------------------------
 def test_angle_over_two_pi_in_radians_is_flagged():
-    from manipdyn.modelfile import parse_model
+    from manipdyn.formats.modelfile import parse_model
 
     with pytest.warns(md.SuspiciousValueWarning, match=r"key 'alpha' = 90.0 is more than 2 pi .*rad"):
         arm = parse_model(model_text(alpha=90.0), "arm.toml")
@@ -140,7 +140,7 @@ def test_angle_over_two_pi_in_radians_is_flagged():
 
 
 def test_millimetres_in_a_metre_file_and_the_reverse_are_flagged():
-    from manipdyn.modelfile import parse_model
+    from manipdyn.formats.modelfile import parse_model
 
     with pytest.warns(md.SuspiciousValueWarning, match="look like they are in a smaller unit"):
         parse_model(model_text(a1=400.0, a2=300.0), "arm.toml")
@@ -152,7 +152,7 @@ def test_millimetres_in_a_metre_file_and_the_reverse_are_flagged():
 
 
 def test_negative_principal_moment_is_refused_like_a_negative_mass():
-    from manipdyn.modelfile import parse_model
+    from manipdyn.formats.modelfile import parse_model
 
     with pytest.raises(md.ModelError, match=r"links\[0\].*negative principal moment of inertia -0.01"):
         parse_model(model_text(inertia="{ ixx = -0.01, iyy = 0.02, izz = 0.02 }"), "arm.toml")
@@ -225,7 +225,7 @@ def test_unwritable_outdir_is_one_clear_line(capsys):
 
 def test_simulate_blames_the_controller_not_the_trajectory():
     ur5 = md.load("ur5")
-    from manipdyn.links import DHLink
+    from manipdyn.model.links import DHLink
 
     three = md.Manipulator(list(ur5.links[:3]) + [], convention="standard", name="three")
     assert isinstance(three.links[0], DHLink)
@@ -257,7 +257,7 @@ def test_negative_gains_are_refused(kw, name):
 
 
 def test_generated_urdf_says_where_limits_came_from():
-    from manipdyn.links import DHLink
+    from manipdyn.model.links import DHLink
 
     arm = md.Manipulator([DHLink(a=0.5, mass=1.0, com=(0.25, 0, 0), inertia=(0.01, 0.02, 0.02),
                                  qlim=(-1.0, 1.0)),

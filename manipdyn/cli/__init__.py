@@ -1,6 +1,7 @@
 """The ``manipdyn`` command line: every subcommand registered in one place.
 
-Layer: CLI (the top).  Each subcommand is a module of this package with
+Layer 7 (CLI, the top).  May import: every package below; nothing imports it but
+``manipdyn.__main__`` and the console script.  Each subcommand is a module of this package with
 ``register(subparsers)`` (adds its parser, ``set_defaults(func=run)``) and
 ``run(args) -> int``; :data:`COMMANDS` lists them in ``--help`` order.
 
@@ -16,9 +17,9 @@ import argparse
 import os
 import sys
 
-from ..errors import MissingExtraError, ModelError, SingularMassMatrixError, StateError
+from .._support.errors import MissingExtraError, ModelError, SingularMassMatrixError, StateError
 from . import bench, check, compare, excite, identify, models, montecarlo, synthesize, track, urdf, validate
-from .._threads import blas_threads
+from .._support.threads import blas_threads
 from .common import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE
 
 __all__ = ["main", "build_parser", "COMMANDS"]

@@ -1,6 +1,6 @@
 """``manipdyn bench``: the benchmark suite of a source checkout, with a clean BLAS environment.
 
-Layer: CLI.
+Layer 7 (CLI, the top).
 
 The suite (``benchmarks/``) is part of the repository, not of the installed
 package: it compares against other libraries and writes result files that
@@ -21,7 +21,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from ..errors import ModelError
+from .._support.errors import ModelError
 
 __all__ = ["register", "run", "suite_root"]
 

@@ -1,6 +1,6 @@
 """``manipdyn check``: cross-check both engines on arms, and time them.
 
-Layer: CLI.
+Layer 7 (CLI, the top).
 """
 
 from __future__ import annotations
@@ -11,10 +11,10 @@ import time
 
 import numpy as np
 
-from ..check import crosscheck
-from ..errors import ModelError, SingularMassMatrixError
-from ..io import write_urdf
-from ..loading import models
+from ..check.crosscheck import crosscheck
+from .._support.errors import ModelError, SingularMassMatrixError
+from ..formats.save import write_urdf
+from ..formats.loading import models
 from .common import (EXIT_DISAGREE, EXIT_OK, TIP_HELP, Progress, add_progress_options, load_all,
                      output_folder, progress_wanted, urdf_target, usage_error)
 

@@ -1,6 +1,6 @@
 """What every ``manipdyn`` subcommand shares: exit codes, progress bars, output folders.
 
-Layer: CLI.
+Layer 7 (CLI, the top).
 """
 
 from __future__ import annotations
@@ -10,9 +10,9 @@ import re
 import sys
 import time
 
-from ..control.plots import pyplot
-from ..errors import ModelError, TipError
-from ..loading import load_with_notes
+from .._support.figures import pyplot
+from .._support.errors import ModelError, TipError
+from ..formats.loading import load_with_notes
 
 __all__ = ["check_plot_target", "check_output_file", "require_numbers", "add_progress_options", "progress_wanted", "EXIT_OK", "EXIT_DISAGREE", "EXIT_USAGE", "EXIT_INTERNAL", "Progress", "output_folder",
            "urdf_target", "usage_error", "cli_message", "load_arm", "load_all", "is_urdf", "TIP_HELP"]

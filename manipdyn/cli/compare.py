@@ -1,14 +1,14 @@
 """``manipdyn compare A B``: are two descriptions the same arm?
 
-Layer: CLI.
+Layer 7 (CLI, the top).
 """
 
 from __future__ import annotations
 
 import json
 
-from ..compare import DYN_TOLERANCE, KIN_TOLERANCE, compare
-from ..compare.report import display_names
+from ..check.compare import DYN_TOLERANCE, KIN_TOLERANCE, compare
+from ..check.compare.report import display_names
 from .common import EXIT_DISAGREE, EXIT_OK, TIP_HELP, load_arm, usage_error
 
 __all__ = ["register", "run"]

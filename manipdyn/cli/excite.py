@@ -1,6 +1,6 @@
 """``manipdyn excite MODEL -o traj.csv``: an optimised excitation trajectory.
 
-Layer: CLI.
+Layer 7 (CLI, the top).
 
 Writes ``t,q1..qn,qd1..qdn,qdd1..qddn`` (SI units) and reports the condition
 number of the stacked base regressor.  Exit codes: 0 written, 2 usage or
@@ -13,8 +13,8 @@ import json
 import math
 import sys
 
-from .. import limits
-from ..errors import ModelError
+from .._support import limits
+from .._support.errors import ModelError
 from .common import (EXIT_OK, TIP_HELP, Progress, add_progress_options, check_output_file, load_arm,
                      progress_wanted, require_numbers, usage_error)
 

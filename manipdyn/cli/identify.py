@@ -1,6 +1,6 @@
 """``manipdyn identify MODEL LOG [LOG ...] [--logs RUNS.toml] -o OUT.toml|OUT.urdf|OUT.json``.
 
-Layer: CLI.  Parses, calls :func:`manipdyn.identification.identify` (the options are its
+Layer 7 (CLI, the top).  Parses, calls :func:`manipdyn.identification.identify` (the options are its
 keyword arguments, under the same names and defaults), prints.  ``--payload``: identify a
 payload carried by MODEL instead (:mod:`.identify_payload`).
 
@@ -14,7 +14,7 @@ import inspect
 import json
 import sys
 
-from ..errors import ModelError
+from .._support.errors import ModelError
 from .common import EXIT_OK, TIP_HELP, cli_message, usage_error
 from .logopts import DATA_HELP, log_options_from_args, register_log_options
 

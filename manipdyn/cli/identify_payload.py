@@ -1,6 +1,6 @@
 """``manipdyn identify MODEL DATA --payload [--payload-link NAME] [-o OUT.toml|OUT.urdf] [--json]``.
 
-Layer: CLI.
+Layer 7 (CLI, the top).
 
 The payload carried by MODEL (taken as known: links, armature, friction), from
 logged joint data: :func:`manipdyn.identification.identify_payload`.  Text output:
@@ -19,8 +19,8 @@ import json
 
 import numpy as np
 
-from ..errors import ModelError
-from ..io import save, write_urdf
+from .._support.errors import ModelError
+from ..formats.save import save, write_urdf
 from .common import EXIT_OK, load_arm, usage_error
 from .logopts import log_options_from_args, model_joint_names
 

@@ -1,6 +1,6 @@
 """The command-line options that say how to read a measurement log.
 
-Layer: CLI.
+Layer 7 (CLI, the top).
 
 A subcommand that reads logs calls :func:`register_log_options` on its
 parser and passes ``**log_options_from_args(args)`` to
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 
-from ..errors import ModelError
+from .._support.errors import ModelError
 
 __all__ = ["register_log_options", "log_options_from_args", "model_joint_names", "DATA_HELP"]
 

@@ -1,11 +1,11 @@
 """``manipdyn models``: list the bundled arms and their physical-consistency verdicts.
 
-Layer: CLI.
+Layer 7 (CLI, the top).
 """
 
 from __future__ import annotations
 
-from ..loading import load_with_notes, models
+from ..formats.loading import load_with_notes, models
 from .common import EXIT_OK
 
 __all__ = ["register", "run"]
@@ -13,7 +13,7 @@ __all__ = ["register", "run"]
 
 def run(args) -> int:
     if args.erd:
-        from ..erd import robots_dir, urdf_names
+        from ..formats.erd import robots_dir, urdf_names
 
         root = robots_dir()
         for name in urdf_names():

@@ -1,6 +1,6 @@
 """``manipdyn montecarlo``: a seeded robustness study of the tracking controllers.
 
-Layer: CLI.
+Layer 7 (CLI, the top).
 
     manipdyn montecarlo MODEL [--tip LINK] --runs N [--controllers pd,pdg,ct,adaptive,lqr]
                         [--seed S] [--scheduler tcp://HOST:PORT] [--json] [--plot FILE.png]
@@ -17,10 +17,10 @@ import argparse
 import math
 
 from ..control.demo import CONTROLLERS, DEFAULT_BANDWIDTH
-from ..errors import ModelError
-from ..montecarlo import DISTRIBUTIONS_HELP, Distributions, check_study_size, load_identified, run as run_study, study
-from ..scale import check_scheduler
-from ..montecarlo.plot import plot_report
+from .._support.errors import ModelError
+from ..control.montecarlo import DISTRIBUTIONS_HELP, Distributions, check_study_size, load_identified, run as run_study, study
+from ..check.scale import check_scheduler
+from ..control.montecarlo.plot import plot_report
 from .common import (EXIT_OK, TIP_HELP, Progress, add_progress_options, check_plot_target, load_arm,
                      progress_wanted, require_numbers)
 
@@ -117,7 +117,7 @@ def register(subparsers) -> None:
                     "around the model (seeded per run: a run's plant depends only on --seed and its "
                     "index), and report per controller the distribution of tracking error and torque, "
                     "divergences and torque saturations, and the worst runs (replay one with "
-                    "manipdyn.montecarlo's study.replay(run, controller), i.e. manipdyn.simulate). "
+                    "manipdyn.control.montecarlo's study.replay(run, controller), i.e. manipdyn.simulate). "
                     "Runs on every local core by default, or on a Dask cluster with --scheduler; "
                     "the results are bit-identical either way.",
         epilog=DISTRIBUTIONS_HELP + "\n\nExit codes: 0 study completed (divergences are results), "

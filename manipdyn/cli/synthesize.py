@@ -1,6 +1,6 @@
 """``manipdyn synthesize MODEL TRAJ.csv -o DATA.csv``: a measurement log without a robot.
 
-Layer: CLI.
+Layer 7 (CLI, the top).
 
 Reads the trajectory ``manipdyn excite`` wrote, computes the joint torques of
 MODEL along it (``--perturb``: of the demo's "true" arm around MODEL, with
@@ -13,15 +13,15 @@ from __future__ import annotations
 
 import json
 
-from ..errors import ModelError
+from .._support.errors import ModelError
 from .common import EXIT_OK, TIP_HELP, check_output_file, load_arm
 
 __all__ = ["register", "run"]
 
 
 def run(args) -> int:
-    from ..identification.data import write_measurements_csv
-    from ..arm import Manipulator
+    from ..formats.logs.data import write_measurements_csv
+    from ..model.arm import Manipulator
     from ..identification.demo import true_arm
     from ..identification.synthesize import read_trajectory, synthesize
 

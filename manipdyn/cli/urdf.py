@@ -1,15 +1,15 @@
 """``manipdyn urdf``: write the URDF of arms.
 
-Layer: CLI.
+Layer 7 (CLI, the top).
 """
 
 from __future__ import annotations
 
 import os
 
-from ..errors import ModelError
-from ..io import write_urdf
-from ..loading import models
+from .._support.errors import ModelError
+from ..formats.save import write_urdf
+from ..formats.loading import models
 from .common import EXIT_OK, TIP_HELP, is_urdf, load_all, output_folder, urdf_target, usage_error
 
 __all__ = ["register", "run"]

@@ -1,6 +1,6 @@
 """``manipdyn validate MODEL [MODEL ...] LOG [LOG ...] [--logs RUNS.toml] [--json] [--plot FIG.png]``.
 
-Layer: CLI.  Parses, calls :func:`manipdyn.identification.validate` (same options, same
+Layer 7 (CLI, the top).  Parses, calls :func:`manipdyn.identification.validate` (same options, same
 defaults), prints.  MODEL is anything ``manipdyn`` loads or a base model JSON from
 ``identify``; a LOG is a .csv, .mcap or .bag file or a bag directory (without any, the last
 argument is the log).  Several logs are read each on its own and scored together; several
@@ -14,7 +14,7 @@ from __future__ import annotations
 import json
 import os
 
-from ..errors import ModelError
+from .._support.errors import ModelError
 from .common import EXIT_OK, TIP_HELP, check_plot_target, cli_message, usage_error
 from .identify import library_options
 from .logopts import DATA_HELP, register_log_options

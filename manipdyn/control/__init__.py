@@ -1,6 +1,8 @@
 """Path-tracking control on top of manipdyn's dynamics (the thesis' subject).
 
-Layer: application (control).
+Layer 6 (control).  Holds ``montecarlo/`` (robustness studies of these controllers, whose
+plants may come from an identification) and ``track`` (the demo run).  May import: everything below it
+(``identification``, ``check``, ``engines``, ``formats``, ``model``, ``_support``).
 
 * trajectories (:mod:`.trajectory`): :class:`Quintic`, :class:`ViaPoints`,
   :class:`Sampled`, each ``trajectory(t) -> (q_d, qd_d, qdd_d)``;
@@ -24,7 +26,7 @@ Example::
 from .controllers import (PD, ComputedTorque, Controller, PDGravity, SlotineLi,
                           adaptation_gains, model_torque_limits, pd_gains)
 from .lqr import LQR, lqr_weights, solve_dare
-from .plant import with_payload, with_scaled_inertia
+from ..model.variants import with_payload, with_scaled_inertia
 from .regressor import Regressor, parameters_from_pseudo_inertia, pseudo_inertia_from_parameters
 from .simulate import SimulationDiverged, SimulationLog, simulate
 from .trajectory import PiecewisePolynomial, Quintic, Sampled, Trajectory, ViaPoints

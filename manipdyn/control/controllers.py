@@ -1,6 +1,6 @@
 """Joint-space tracking controllers with one interface: ``tau = controller(t, q, qd)``.
 
-Layer: application (control).
+Layer 6 (control).
 
 Each controller follows a reference trajectory (``trajectory(t) -> (q_d,
 qd_d, qdd_d)``, see :mod:`manipdyn.control.trajectory`), bound at
@@ -33,7 +33,7 @@ import math
 
 import numpy as np
 
-from .._state import as_state
+from .._support.state import as_state
 from .regressor import Regressor
 
 __all__ = ["Controller", "PD", "PDGravity", "ComputedTorque", "SlotineLi",

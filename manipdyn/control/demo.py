@@ -1,6 +1,6 @@
 """The standard demo: a path every arm can follow and the five tuned controllers.
 
-Layer: application (control).  Used by ``manipdyn track``, the Monte-Carlo
+Layer 6 (control).  Used by ``manipdyn track``, the Monte-Carlo
 studies and the benchmarks, so that all three run the same thing.
 """
 
@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import ModelError
+from .._support.errors import ModelError
 from .controllers import PD, ComputedTorque, PDGravity, SlotineLi, adaptation_gains, pd_gains
 from .lqr import LQR
 from .trajectory import ViaPoints

@@ -1,6 +1,6 @@
 """Time-varying LQR tracking of a reference path, linearised along it.
 
-Layer: application (control).
+Layer 6 (control).
 
 :class:`LQR` is a :class:`~manipdyn.control.Controller` (``tau =
 controller(t, q, qd)``).  Once, when its reference is bound (at construction
@@ -44,7 +44,7 @@ import math
 
 import numpy as np
 
-from .._state import as_state
+from .._support.state import as_state
 from .controllers import Controller
 
 __all__ = ["LQR", "lqr_weights", "solve_dare"]

@@ -1,6 +1,6 @@
 """Figures of tracking runs (matplotlib, the ``plot`` extra).
 
-Layer: application (control).  Every figure is written atomically.
+Layer 6 (control).  Every figure is written atomically.
 """
 
 from __future__ import annotations
@@ -9,33 +9,10 @@ import os
 
 import numpy as np
 
-from .._files import atomic_write
-from ..errors import ModelError
+from .._support.errors import ModelError
+from .._support.figures import PLOT_INSTALL, pyplot, save_figure
 
 __all__ = ["PLOT_INSTALL", "pyplot", "save_figure", "plot_single", "plot_compare"]
-
-
-#: the install hint for plots, as the README gives it
-PLOT_INSTALL = "pip install 'manipdyn[plot]' (in a source checkout: pip install -e '.[plot]')"
-
-
-# -- figure ------------------------------------------------------------------------
-def pyplot():
-    """matplotlib.pyplot on the Agg backend, or a ModelError with the install command."""
-    try:
-        import matplotlib
-    except ImportError:
-        raise ModelError(f"--plot needs matplotlib: {PLOT_INSTALL}") from None
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
-def save_figure(fig, path: str) -> None:
-    """``fig.savefig`` to ``path`` atomically (no partial figure on failure)."""
-    ext = os.path.splitext(os.fspath(path))[1].lstrip(".").lower() or "png"
-    atomic_write(path, lambda fh: fig.savefig(fh, format=ext, dpi=120), binary=True)
 
 
 def _units(arm):

@@ -1,6 +1,6 @@
 """The dynamics as linear in the inertial parameters: ``tau = Y pi``.
 
-Layer: application (control).
+Layer 6 (control).
 
 Parameters per link (10, Pinocchio's order, ``pin.Inertia.toDynamicParameters``)::
 
@@ -13,8 +13,8 @@ modified-DH arm that frame is DH frame i; for a standard-DH arm it is DH frame
 i moved back by ``S_i = Trans_x(a_i) Rot_x(alpha_i)``.  These are the ten
 independent entries of the link's pseudo-inertia (eq. 2.20, 2.21)
 ``J = [[S, m c], [m c^T, m]]`` in that frame, converted by
-:func:`manipdyn.inertia.parameters_from_pseudo_inertia` and
-:func:`manipdyn.inertia.pseudo_inertia_from_parameters` (re-exported here).
+:func:`manipdyn.model.inertia.parameters_from_pseudo_inertia` and
+:func:`manipdyn.model.inertia.pseudo_inertia_from_parameters` (re-exported here).
 
 After the 10 n link parameters come, when the arm has them, one armature
 (reflected rotor inertia ``G^2 Jm``) per joint, whose regressor column is
@@ -28,9 +28,9 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from .._state import as_state
-from ..inertia import LINK_PARAMETERS, parameters_from_pseudo_inertia, pseudo_inertia_from_parameters
-from ..parameters import arm_parameters, parameter_count, parameter_names
+from .._support.state import as_state
+from ..model.inertia import LINK_PARAMETERS, parameters_from_pseudo_inertia, pseudo_inertia_from_parameters
+from ..model.parameters import arm_parameters, parameter_count, parameter_names
 
 __all__ = ["Regressor", "parameters_from_pseudo_inertia", "pseudo_inertia_from_parameters",
            "LINK_PARAMETERS"]
@@ -89,7 +89,7 @@ class Regressor:
     def parameters(self, arm=None) -> np.ndarray:
         """The parameter vector ``pi`` (p,) of ``arm`` (default: the regressor's own arm).
 
-        :func:`manipdyn.parameters.arm_parameters` (the layout both engines'
+        :func:`manipdyn.model.parameters.arm_parameters` (the layout both engines'
         ``regressor`` methods use), with armature and friction as configured.
         """
         arm = self._arm if arm is None else arm

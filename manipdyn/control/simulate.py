@@ -1,6 +1,6 @@
 """Closed-loop simulation: a controller driving an arm, integrated by fixed-step RK4.
 
-Layer: application (control).
+Layer 6 (control).
 
 ``simulate(arm, controller, trajectory, duration, dt=1e-3, plant=None)``.
 
@@ -44,8 +44,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._state import as_state
-from ..errors import StateError
+from .._support.state import as_state
+from .._support.errors import StateError
 from .controllers import Controller
 
 __all__ = ["simulate", "SimulationLog", "SimulationDiverged",

@@ -1,6 +1,6 @@
 """How many Runge-Kutta steps a plant needs per control period: :func:`rk4_substeps`.
 
-Layer: 7 (applications: control).
+Layer 6 (control) (applications: control).
 
 :func:`manipdyn.simulate` holds the controller's torque over each control period
 ``dt`` (a digital controller's zero-order hold: part of the simulated system) and
@@ -35,7 +35,7 @@ import math
 
 import numpy as np
 
-from ..errors import SingularMassMatrixError, StateError
+from .._support.errors import SingularMassMatrixError, StateError
 
 __all__ = ["rk4_substeps", "reference_samples", "SAFE_STEP", "MAX_SUBSTEPS", "SAMPLES"]
 

@@ -1,6 +1,6 @@
 """Joint-space reference trajectories.
 
-Layer: application (control).
+Layer 6 (control).
 
 Every trajectory is called as ``q_d, qd_d, qdd_d = traj(t)``: for a scalar
 time ``t`` (s) each is an ``(n,)`` array (rad or m, per second, per second

@@ -1,6 +1,7 @@
 """Identification of an arm's inertial parameters from its own joint data.
 
-Layer: application (identification).
+Layer 5 (identification).  May import: ``manipdyn.check``, ``manipdyn.engines``,
+``manipdyn.formats`` (the log readers), ``manipdyn.model``, ``manipdyn._support``; never ``control``.
 
 * :func:`base_parameters`: the identifiable combinations (QR with pivoting);
 * :func:`excitation`: an optimised Fourier-series excitation trajectory;
@@ -25,13 +26,13 @@ Needs the ``identify`` extra (scipy, cvxpy, clarabel, scs):
 ``pip install 'manipdyn[identify]'``.
 """
 
-from ._deps import INSTALL, MissingExtraError
+from .._support.deps import INSTALL, MissingExtraError
 from .base import BaseParameters, base_parameters
 from .bootstrap import BootstrapResult, bootstrap
-from .data import Measurements, read_measurements, write_measurements_csv
+from ..formats.logs.data import Measurements, read_measurements, write_measurements_csv
 from .estimation import METHODS, FitResult, fit
 from .hardlog import HardLog, hard_log
-from .logs import read_log
+from ..formats.logs.read import read_log
 from .payload import PayloadResult, identify_payload
 from .report import format_report
 from .sdp import Bounds

@@ -1,10 +1,10 @@
 """Base parameters: the combinations of the standard parameters that the torques see.
 
-Layer: application (identification).
+Layer 5 (identification).
 
 Many parameter combinations never change the joint torques (link 1's inertia
 about axes other than its joint axis, for one).  The torques depend on the
-full parameter vector ``pi`` (:mod:`manipdyn.parameters`) only through
+full parameter vector ``pi`` (:mod:`manipdyn.model.parameters`) only through
 ``r`` base parameters ``beta = K pi``; :func:`base_parameters` finds them
 numerically, the standard way (Gautier 1990): the regressor ``W`` (N n, p) is
 stacked over random states and factored by QR with column pivoting,
@@ -30,8 +30,8 @@ import numbers
 
 import numpy as np
 
-from ..errors import ModelError
-from ..parameters import parameter_count, parameter_names
+from .._support.errors import ModelError
+from ..model.parameters import parameter_count, parameter_names
 
 __all__ = ["BaseParameters", "base_parameters", "check_base", "stacked_regressor"]
 
@@ -59,7 +59,7 @@ class BaseParameters:
     count : int
         Number r of base parameters.
     names : list of str
-        The p full parameter names (:func:`manipdyn.parameters.parameter_names`).
+        The p full parameter names (:func:`manipdyn.model.parameters.parameter_names`).
     independent : (r,) int
         Full-parameter indices whose regressor columns are the base regressor:
         ``Y_base = Y[..., independent]``.
@@ -70,7 +70,7 @@ class BaseParameters:
     armature : bool
         Whether the parameter vector holds armature entries.
     friction : bool or friction spec
-        The regressor's ``friction=`` (:func:`manipdyn.friction.friction_spec`).
+        The regressor's ``friction=`` (:func:`manipdyn.model.friction.friction_spec`).
     """
 
     count: int
@@ -134,7 +134,7 @@ def base_parameters(arm, armature: bool = False, friction: bool = False, samples
     rtol : float
         Rank tolerance, relative to the largest pivot of R.
     """
-    from ._deps import require
+    from .._support.deps import require
 
     p = parameter_count(arm.n, armature, friction) if friction in (True, False, None) else None
     if isinstance(samples, (bool, np.bool_)) or not isinstance(samples, numbers.Integral) or samples < 1:

@@ -1,6 +1,6 @@
 """The base model: identified base parameters written as JSON when no physical arm has them.
 
-Layer: application (identification).
+Layer 5 (identification).
 
 ``ols`` and ``wls`` identify the base parameters ``beta = K pi`` (:mod:`.base`).
 When no arm with every ``J_i >= 0`` (or with a mass >= 0) reproduces them, no model
@@ -35,9 +35,9 @@ import os
 
 import numpy as np
 
-from .. import limits
-from .._files import atomic_write_text
-from ..errors import ModelError
+from .._support import limits
+from .._support.files import atomic_write_text
+from .._support.errors import ModelError
 from .report import friction_to_json
 
 __all__ = ["BASE_MODEL_FORMAT", "BaseModel", "base_model_dict", "write_base_model", "load_base_model",
@@ -48,8 +48,8 @@ BASE_MODEL_FORMAT = "manipdyn-base-model/1"
 
 def prior_text(arm) -> dict:
     """The prior as self-contained text: ``{"kind": "toml"|"urdf", "text": ..., "tip": ...}``."""
-    from ..arm import Manipulator
-    from ..io import to_toml
+    from ..model.arm import Manipulator
+    from ..formats.save import to_toml
 
     if isinstance(arm, Manipulator):
         return {"kind": "toml", "text": to_toml(arm), "tip": None}
@@ -65,7 +65,7 @@ def friction_from_json(value, n: int):
         return value
     if not isinstance(value, dict) or not isinstance(value.get("terms"), list):
         raise ValueError("key 'friction': expected true, false or {terms: [...], side: ...}")
-    from ..friction import Friction
+    from ..model.friction import Friction
 
     z = np.zeros(n)
     kw = {}
@@ -185,7 +185,7 @@ class BaseModel:
 
 def load_base_model(path) -> BaseModel:
     """Read a base model JSON file (module docstring); errors name the file and the key."""
-    from ..loading import load
+    from ..formats.loading import load
 
     where = os.fspath(path)
     try:
@@ -207,14 +207,14 @@ def load_base_model(path) -> BaseModel:
         raise ModelError(f"{where}: key 'prior': expected {{kind: 'toml'|'urdf', text: ...}}")
     try:
         if prior["kind"] == "toml":
-            from ..modelfile import parse_model
+            from ..formats.modelfile import parse_model
 
             arm = parse_model(prior["text"], origin=f"{where} (prior)")
         else:
             arm = load(prior["text"], tip=prior.get("tip"))
     except ModelError as exc:
         raise ModelError(f"{where}: key 'prior': {exc}") from None
-    from ..parameters import parameter_count
+    from ..model.parameters import parameter_count
 
     try:
         friction = friction_from_json(data["friction"], arm.n)

@@ -1,6 +1,6 @@
 """Block bootstrap of an identification: refits on data resampled in blocks of time.
 
-Layer: application (identification).
+Layer 5 (identification).
 
 The covariance ``(R^T R)^-1`` of :mod:`.uncertainty` assumes white noise.  Real
 logs are not white: q is low-pass filtered before it is differentiated, the
@@ -28,11 +28,11 @@ samples.  Choose it yourself for other logs.
 
 Seeding and where it runs: replicate ``k`` resamples with
 ``numpy.random.default_rng(SeedSequence(seed, spawn_key=(k,)))`` only, and
-every fit runs with one BLAS thread (:mod:`manipdyn._threads`), so the
+every fit runs with one BLAS thread (:mod:`manipdyn._support.threads`), so the
 replicates are bit-identical wherever they run: in this process (the default,
 ``scheduler=None``), on a local Dask cluster (``"local"``), or on a Dask
 scheduler ``"tcp://HOST:PORT"`` (chunks of replicates through
-:func:`manipdyn.scale.map_chunks`, the engine of the Monte-Carlo studies).
+:func:`manipdyn.check.scale.map_chunks`, the engine of the Monte-Carlo studies).
 
 A replicate whose refit fails (its resampled data excite too little: the
 condition number is over the method's threshold) is a row of NaN in
@@ -49,7 +49,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ModelError
+from .._support.errors import ModelError
 
 __all__ = ["bootstrap", "BootstrapResult", "block_indices"]
 
@@ -75,7 +75,7 @@ class BootstrapResult:
     errors : dict
         ``{replicate: message}`` of the failed ones.
     timing : dict
-        Wall time and where it ran (:func:`manipdyn.scale.map_chunks`).
+        Wall time and where it ran (:func:`manipdyn.check.scale.map_chunks`).
     """
 
     beta: np.ndarray
@@ -130,8 +130,8 @@ def _replicates(spec: tuple, part) -> dict:
     """Refit replicates ``part``: ``{k: (beta or None, error or None), "timing": {...}}``.
 
     A pure function of its arguments (runs on any worker, bit-identical)."""
-    from .._threads import blas_threads
-    from ..scale import arm_from_text
+    from .._support.threads import blas_threads
+    from ..check.scale import arm_from_text
     from .estimation import fit
 
     model, arrays, block, seed, method, base, fit_kwargs = spec
@@ -174,12 +174,12 @@ def bootstrap(arm, data, n: int, block: int | None = None, seed: int = 0, schedu
         processes; an address: that Dask scheduler.
     method : "ols" | "wls" | "consistent"
     workers, chunk_size, progress
-        As :func:`manipdyn.montecarlo.run` takes them.
+        As :func:`manipdyn.control.montecarlo.run` takes them.
     **fit_kwargs
         Passed to every :func:`~manipdyn.identification.fit` (``friction``,
         ``armature``, ``bounds``, ``prior_weight``).
     """
-    from ..scale import chunks, check_scheduler, local_cores, map_chunks, model_text
+    from ..check.scale import chunks, check_scheduler, local_cores, map_chunks, model_text
     from .base import base_parameters
     from .estimation import METHODS
 

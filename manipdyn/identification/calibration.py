@@ -1,6 +1,6 @@
 """Are the identification's error bars right?  ``python -m manipdyn.identification.calibration``.
 
-Layer: application (identification).
+Layer 5 (identification).
 
 A seeded synthetic study with a known truth and a known noise: a perturbed arm
 (:func:`.demo.true_arm`), an excitation trajectory, and ``repeats`` noise draws of
@@ -35,9 +35,9 @@ Z95 = 1.959963984540054
 def calibrate(model: str = "ur5", repeats: int = 500, noise: float = 0.01, seed: int = 1,
               duration: float = 6.0, rate: float = 100.0, samples: int = 200) -> dict:
     """Run the study of the module docstring; a JSON-ready dict of its figures."""
-    from .._threads import blas_threads
-    from ..loading import load
-    from ..parameters import arm_parameters
+    from .._support.threads import blas_threads
+    from ..formats.loading import load
+    from ..model.parameters import arm_parameters
     from .base import base_parameters
     from .demo import true_arm
     from .estimation import fit

@@ -1,6 +1,6 @@
 """Identification on data no one tuned to: ``python -m manipdyn.identification.demo``.
 
-Layer: application (identification).
+Layer 5 (identification).
 
 A "true" arm differs from the prior (masses +-20 %, centres of mass moved by
 up to 2 cm, viscous and Coulomb friction added).  Its torques along an
@@ -30,10 +30,10 @@ import warnings
 
 import numpy as np
 
-from .._threads import blas_threads
-from ..arm import Manipulator
-from ..errors import ModelError, PhysicalConsistencyWarning
-from ..loading import load
+from .._support.threads import blas_threads
+from ..model.arm import Manipulator
+from .._support.errors import ModelError, PhysicalConsistencyWarning
+from ..formats.loading import load
 
 __all__ = ["true_arm", "measure", "run_demo"]
 
@@ -63,7 +63,7 @@ def measure(arm, traj, rng, tau_noise: float = 0.01, q_noise: float = 1e-4, peak
     noisy torques at the same samples, and the per-joint peak |tau| that set
     the noise (``tau_noise * peak`` standard deviation).
     """
-    from .data import Measurements, derivatives
+    from ..formats.logs.data import Measurements, derivatives
 
     tau = arm.inverse_dynamics(traj.q, traj.qd, traj.qdd)
     if peak is None:
@@ -163,12 +163,12 @@ def run_demo(name: str = "ur5", seed: int = 0, iterations: int = 15, plot: str |
         print(f"poorly exciting data (condition number {r.condition_number:.3g}), {method}: "
               f"physically consistent: {r.consistent}", file=out)
     if plot:
-        from ._deps import MissingExtraError
+        from .._support.deps import MissingExtraError
         try:
             import matplotlib  # noqa: F401  (the figure itself: validation.plot_validation)
         except ImportError:
             raise MissingExtraError("--plot needs matplotlib: pip install 'manipdyn[plot]'") from None
-        from .measurements import Measurements
+        from ..formats.logs.measurements import Measurements
         from .validation import plot_validation, validate
 
         scored = validate(fits["consistent"], Measurements(held.t, held.q, held.qd, held.qdd, held_tau),
@@ -192,7 +192,7 @@ def main(argv=None) -> int:
     prog.add_argument("--no-progress", dest="progress", action="store_false")
     args = p.parse_args(argv)
     show = args.progress if args.progress is not None else sys.stderr.isatty()
-    with blas_threads(1):          # small matrices: one BLAS thread is faster (manipdyn/_threads.py)
+    with blas_threads(1):          # small matrices: one BLAS thread is faster (manipdyn/_support/threads.py)
         run_demo(args.model, args.seed, args.iterations, args.plot, progress=show)
     return 0
 

@@ -1,9 +1,9 @@
 """Estimation of the inertial parameters from joint data: ``fit``.
 
-Layer: application (identification).
+Layer 5 (identification).
 
 Model: ``tau = Y(q, qd, qdd) pi + e`` with the regressor of
-:meth:`TraceFormEngine.regressor` and the layout of :mod:`manipdyn.parameters`.
+:meth:`TraceFormEngine.regressor` and the layout of :mod:`manipdyn.model.parameters`.
 Only the base parameters ``beta = K pi`` (:mod:`.base`) are identifiable:
 ``tau = Y_b beta + e``.  Methods:
 
@@ -33,10 +33,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._state import state_array
-from ..errors import ModelError, StateError
-from ..inertia import pseudo_inertia_from_parameters
-from ..parameters import arm_parameters, parameter_count
+from .._support.state import state_array
+from .._support.errors import ModelError, StateError
+from ..model.inertia import pseudo_inertia_from_parameters
+from ..model.parameters import arm_parameters, parameter_count
 from .model import arm_with_parameters
 from .base import BaseParameters, base_parameters, check_base
 from .sdp import Bounds, consistent_fit
@@ -73,7 +73,7 @@ class FitResult:
         The identified arm (None when its parameters cannot be written, e.g.
         a negative mass from ``ols``; ``arm_error`` says why).
     parameters : (p,)
-        Full parameter vector (layout of :mod:`manipdyn.parameters`).
+        Full parameter vector (layout of :mod:`manipdyn.model.parameters`).
     base : BaseParameters
     beta : (r,)
         Identified base parameters.
@@ -179,7 +179,7 @@ def joint_noise(Yb, y) -> np.ndarray:
 
 def _check(q, qd, qdd, tau, n):
     """The four data arrays as native float64 (N, n), validated as the dynamics calls do
-    (:func:`manipdyn._state.state_array`: bool, complex, object, string, datetime and masked
+    (:func:`manipdyn._support.state.state_array`: bool, complex, object, string, datetime and masked
     entries refused, other byte orders and integer dtypes converted), or a :class:`ModelError`."""
     arrays = []
     for name, x in (("q", q), ("qd", qd), ("qdd", qdd), ("tau", tau)):
@@ -212,7 +212,7 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         full-parameter choice; their values do not bias beta).
     q, qd, qdd, tau : (N, n)
         Joint positions, velocities, accelerations and torques (SI), validated as the
-        dynamics validate states (:func:`manipdyn._state.state_array`: bool, complex, object,
+        dynamics validate states (:func:`manipdyn._support.state.state_array`: bool, complex, object,
         string, datetime and masked entries are refused, other byte orders and integer
         dtypes converted); a :class:`ModelError` names the argument and, for a NaN or inf,
         its row and column.
@@ -220,7 +220,7 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     friction : bool or friction spec
         ``True``: viscous and Coulomb friction (sharp sign, joint side); or which friction
         terms to identify, as the regressor's ``friction=`` takes them
-        (:func:`manipdyn.friction.friction_spec`): term names such as
+        (:func:`manipdyn.model.friction.friction_spec`): term names such as
         ``("viscous", "coulomb", "offset")``, a :class:`manipdyn.FrictionTerms` (side,
         smoothing ``tanh(v / v_s)``), or a :class:`manipdyn.Friction` whose nonlinear
         shapes (Stribeck, sigmoid) are held fixed.  In ``consistent`` every coefficient is
@@ -337,7 +337,7 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     try:
         import warnings
 
-        from ..errors import PhysicalConsistencyWarning
+        from .._support.errors import PhysicalConsistencyWarning
 
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", PhysicalConsistencyWarning)

@@ -1,6 +1,6 @@
 """Seeded hard logs with known truth: :func:`hard_log`.
 
-Layer: application (identification).
+Layer 5 (identification).
 
 A log the way an industrial 6-axis arm writes it, from a model whose every
 parameter is known, so that identification can be scored against the truth
@@ -62,13 +62,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._files import atomic_write_text
-from ..arm import Manipulator
-from ..drive import Transmission
-from ..errors import ModelError, PhysicalConsistencyWarning
-from ..friction import Friction
-from ..io import save
-from ..loading import load
+from .._support.files import atomic_write_text
+from ..model.arm import Manipulator
+from ..model.drive import Transmission
+from .._support.errors import ModelError, PhysicalConsistencyWarning
+from ..model.friction import Friction
+from ..formats.save import save
+from ..formats.loading import load
 from .trajectory import fourier_trajectory
 
 __all__ = ["HardLog", "hard_log", "hard_log_set", "SET_PAYLOAD", "hard_arms", "recovered", "GEAR_RATIOS", "WRIST_COUPLING", "SMOOTHING"]
@@ -293,7 +293,7 @@ def recovered(result, truth) -> dict:
     ``result``: a :class:`~manipdyn.identification.FitResult` with ``armature=True``
     and friction columns of the truth's law's terms (any shapes); ``truth``: the
     arm that made the log.  Returns ``{name: {"true", "identified", "error",
-    "identifiable"}}`` in regressor units (:mod:`manipdyn.friction`: motor-side
+    "identifiable"}}`` in regressor units (:mod:`manipdyn.model.friction`: motor-side
     values reflected, ``jointk.armature = R_kk^2 Jm_k``), ``error`` relative
     (identified / true - 1), for every armature and friction parameter, and
     ``motork.stribeck_velocity`` (rad/s at the motor) when the law has a
@@ -302,7 +302,7 @@ def recovered(result, truth) -> dict:
     motor 1's rotor inertia, grouped with link 1's ``Izz``); its value is then
     the prior's share of the group and says nothing about the fit.
     """
-    from ..parameters import arm_parameters
+    from ..model.parameters import arm_parameters
 
     base, n = result.base, truth.n
     law = base.friction
@@ -337,7 +337,7 @@ def hard_log_set(seed: int, directory, *, duration: float = 30.0, payload=None) 
     second with its payload); ``prior.toml`` is the prior WITHOUT torque constants and
     ``prior_kt.toml`` the prior with them.  Returns ``{"runs", "prior", "prior_kt", "truth",
     "torque_constant"}`` (paths, the truth arm and its k_t (6,))."""
-    from ..io import to_toml
+    from ..formats.save import to_toml
     from .runs import Payload
 
     spec = dict(SET_PAYLOAD if payload is None else payload)

@@ -1,9 +1,9 @@
 """The identified arm: a DH arm or a URDF arm carrying a parameter vector.
 
-Layer: application (identification).
+Layer 5 (identification).
 
 A DH arm (:class:`manipdyn.Manipulator`) gets new links.  A URDF arm
-(:class:`manipdyn.arm.URDFArm`) gets a new URDF text, the original with only the
+(:class:`manipdyn.model.arm.URDFArm`) gets a new URDF text, the original with only the
 ``<inertial>`` of each chain link changed (:func:`urdf_with_parameters`): same
 kinematics, joints, names, limits, comments.  A chain body is the chain link
 plus every link lumped into it (fixed children, locked subtrees); the identified
@@ -20,11 +20,11 @@ import dataclasses
 
 import numpy as np
 
-from ..arm import Manipulator
-from ..errors import ModelError
-from ..inertia import LinkInertia, pseudo_inertia_from_parameters, transform_pseudo_inertia
-from ..kinematics import transform_inverse
-from ..parameters import parameter_count
+from ..model.arm import Manipulator
+from .._support.errors import ModelError
+from ..model.inertia import LinkInertia, pseudo_inertia_from_parameters, transform_pseudo_inertia
+from ..model.kinematics import transform_inverse
+from ..model.parameters import parameter_count
 
 __all__ = ["arm_with_parameters", "urdf_with_parameters"]
 
@@ -39,7 +39,7 @@ def arm_with_parameters(arm, pi, armature: bool = False, friction: bool = False,
     (``friction=True``): the rotor inertias (``armature=True``) and another friction law
     are carried by the returned arm (``motor_inertia``, ``friction_model``), not by its
     text; :func:`manipdyn.save` writes them to a model file with the URDF
-    (:mod:`manipdyn.modelfile_urdf`).
+    (:mod:`manipdyn.formats.modelfile_urdf`).
 
     Parameters
     ----------
@@ -62,7 +62,7 @@ def arm_with_parameters(arm, pi, armature: bool = False, friction: bool = False,
     that), naming the link.  A link whose identified mass is exactly 0 has no
     centre of mass: its first moments are dropped.
     """
-    from ..arm import URDFArm
+    from ..model.arm import URDFArm
 
     if isinstance(arm, URDFArm):
         return _urdf_arm_with_parameters(arm, pi, armature, friction, name, strict, metadata)
@@ -117,10 +117,10 @@ def arm_with_parameters(arm, pi, armature: bool = False, friction: bool = False,
 def _friction_law(friction, values, n, transmission):
     """The :class:`manipdyn.Friction` whose regressor parameters are ``values``.
 
-    Motor-side parameters are reflected (:mod:`manipdyn.friction`): viscous ``R_kk^2 Fv``,
+    Motor-side parameters are reflected (:mod:`manipdyn.model.friction`): viscous ``R_kk^2 Fv``,
     the other amplitudes ``|R_kk| x``; they are divided back here.
     """
-    from ..friction import Friction, friction_spec
+    from ..model.friction import Friction, friction_spec
 
     spec = friction_spec(friction, n)
     values = np.asarray(values, dtype=np.float64)
@@ -146,7 +146,7 @@ def _friction_law(friction, values, n, transmission):
 
 
 def _urdf_arm_with_parameters(arm, pi, armature, friction, name, strict, metadata):
-    from ..urdf_in import load_urdf
+    from ..formats.urdf.reader import load_urdf
 
     n = arm.n
     pi = np.asarray(pi, dtype=np.float64)
@@ -175,7 +175,7 @@ def _psd(J, rtol=1e-12) -> bool:
 
 def _inertial_element(etree, J, where):
     """An ``<inertial>`` element holding the body of pseudo-inertia ``J`` (link frame)."""
-    from ..inertia import tensor_from_pseudo_inertia
+    from ..model.inertia import tensor_from_pseudo_inertia
 
     J = 0.5 * (J + J.T)
     m, c, I = tensor_from_pseudo_inertia(J, name=where) if J[3, 3] > 0 else (0.0, np.zeros(3), np.zeros((3, 3)))
@@ -209,7 +209,7 @@ def urdf_with_parameters(arm, pi, friction: bool = False, metadata=None) -> str:
     """
     from lxml import etree
 
-    from ..urdf_tree import read_link
+    from ..formats.urdf.tree import read_link
 
     n = arm.n
     pi = np.asarray(pi, dtype=np.float64)

@@ -1,6 +1,6 @@
 """The options of an identification, checked and turned into what :func:`.fit` takes.
 
-Layer: application (identification).
+Layer 5 (identification).
 
 :func:`manipdyn.identification.identify` and ``manipdyn identify`` take the same
 options under the same names (``friction_terms`` is ``--friction-terms``).  This
@@ -19,8 +19,8 @@ import math
 
 import numpy as np
 
-from .. import limits
-from ..errors import ModelError
+from .._support import limits
+from .._support.errors import ModelError
 
 __all__ = ["OptionError", "brace_safe", "friction_option", "bounds_option", "prior_weight_option", "check_limits",
            "START_STRIBECK_VELOCITY", "START_SIGMOID_ALPHA", "SHAPED"]
@@ -90,13 +90,13 @@ def friction_option(arm, friction: bool = False, friction_terms=None, friction_s
     """What :func:`.fit` takes as ``friction=`` from the options.
 
     ``friction``: viscous and sharp Coulomb (True).  ``friction_terms``: names separated by
-    commas (or a sequence) of :data:`manipdyn.friction.FRICTION_TERMS`, on ``friction_side``
+    commas (or a sequence) of :data:`manipdyn.model.friction.FRICTION_TERMS`, on ``friction_side``
     ("joint" or "motor"), Coulomb smoothed as ``tanh(v / smoothing)`` (rad/s, default
-    :data:`manipdyn.friction.DEFAULT_SMOOTHING`); with a Stribeck or sigmoid term, a
+    :data:`manipdyn.model.friction.DEFAULT_SMOOTHING`); with a Stribeck or sigmoid term, a
     :class:`manipdyn.Friction` holding the shapes' starting values (``stribeck_velocity``
     rad/s, ``sigmoid_alpha`` s/rad, on the law's side).
     """
-    from ..friction import DEFAULT_SMOOTHING, FRICTION_TERMS, FrictionTerms
+    from ..model.friction import DEFAULT_SMOOTHING, FRICTION_TERMS, FrictionTerms
 
     if friction_side not in ("joint", "motor"):
         raise OptionError("{}: expected 'joint' or 'motor', got " + brace_safe(repr(friction_side)), "friction_side")

@@ -1,6 +1,6 @@
 """Payload identification: the ten inertial parameters of a load carried by a known arm.
 
-Layer: application (identification).
+Layer 5 (identification).
 
 The arm (links, armature, friction) is taken as known; a rigid payload fixed
 to link ``k`` (the last link by default, at the tool frame) only adds its
@@ -17,8 +17,8 @@ regressor columns of link k (:meth:`TraceFormEngine.regressor`, URDF link
 frame ``L_k``) and ``G`` (10, 10) the linear map from payload-frame to
 link-frame parameters: column ``j`` is
 ``parameters_from_pseudo_inertia(transform_pseudo_inertia(E_j, X))`` with
-``E_j`` the basis of :data:`manipdyn.parameters.PARAMETER_BASIS` and ``X`` the
-payload frame in ``L_k`` (the conversions of :mod:`manipdyn.inertia`).
+``E_j`` the basis of :data:`manipdyn.model.parameters.PARAMETER_BASIS` and ``X`` the
+payload frame in ``L_k`` (the conversions of :mod:`manipdyn.model.inertia`).
 
 Estimation:
 
@@ -57,11 +57,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import ModelError
-from ..inertia import (LINK_PARAMETERS, parameters_from_pseudo_inertia, tensor_from_pseudo_inertia,
+from .._support.errors import ModelError
+from ..model.inertia import (LINK_PARAMETERS, parameters_from_pseudo_inertia, tensor_from_pseudo_inertia,
                        transform_pseudo_inertia)
-from ..parameters import PARAMETER_BASIS
-from ._deps import require
+from ..model.parameters import PARAMETER_BASIS
+from .._support.deps import require
 from .estimation import joint_noise
 from .sdp import EPS, solve_problem
 
@@ -80,7 +80,7 @@ def payload_parameter_map(X) -> np.ndarray:
 
     ``X`` (4, 4) is the payload frame in the link frame (maps a point's
     payload-frame coordinates to link-frame coordinates).  Linear because
-    ``J_link = X J_payload X^T`` is (:func:`manipdyn.inertia.transform_pseudo_inertia`).
+    ``J_link = X J_payload X^T`` is (:func:`manipdyn.model.inertia.transform_pseudo_inertia`).
     """
     return parameters_from_pseudo_inertia(transform_pseudo_inertia(PARAMETER_BASIS, X)).T
 
@@ -121,7 +121,7 @@ class PayloadResult:
     solver : str
         The semidefinite program's solver ("CLARABEL", "SCS", ...).
     poorly_determined : tuple of str
-        Names (:data:`manipdyn.inertia.LINK_PARAMETERS`) of the parameters
+        Names (:data:`manipdyn.model.inertia.LINK_PARAMETERS`) of the parameters
         whose standard deviation exceeds ``rtol`` of their scale.
     notes : list of str
         Readable remarks (which parameters are poorly determined and why).
@@ -163,9 +163,9 @@ class PayloadResult:
         parameters plus the payload's (:func:`.model.arm_with_parameters`).
         Needs a DH arm (a URDF arm raises :class:`ModelError`).
         """
-        from ..arm import Manipulator
-        from ..kinematics import transform_inverse
-        from ..parameters import arm_parameters
+        from ..model.arm import Manipulator
+        from ..model.kinematics import transform_inverse
+        from ..model.parameters import arm_parameters
 
         arm = self.arm
         if not isinstance(arm, Manipulator):
@@ -174,7 +174,7 @@ class PayloadResult:
         J_link = transform_pseudo_inertia(self.J, self.frame)        # URDF link frame L_k
         name = name if name is not None else f"{arm.name or 'arm'}+payload"
         if self.link == arm.n - 1:
-            from ..control import with_payload
+            from ..model.variants import with_payload
 
             S = arm.urdf_link_offsets()[-1]                            # DH frame n = L_n S_n
             m, c, I = tensor_from_pseudo_inertia(transform_pseudo_inertia(J_link, transform_inverse(S)),

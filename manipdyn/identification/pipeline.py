@@ -1,6 +1,6 @@
 """One identification from prior and logs to a written model: :func:`identify`.
 
-Layer: application (identification).
+Layer 5 (identification).
 
 ``md.identify(prior, logs, **options)`` is what ``manipdyn identify`` runs, with the same
 options under the same names and the same defaults (``method="consistent"``, plausibility
@@ -23,7 +23,7 @@ In order:
    ``<prior>_identified`` until :meth:`IdentifyResult.save` names it after its file.
 
 BLAS runs with ``blas_threads`` threads (default 1: manipdyn's matrices are small, and
-:mod:`manipdyn._threads` measured 2 to 9 times faster fits with one thread than with two).
+:mod:`manipdyn._support.threads` measured 2 to 9 times faster fits with one thread than with two).
 """
 
 from __future__ import annotations
@@ -32,8 +32,8 @@ import os
 
 import numpy as np
 
-from .._threads import blas_threads as _blas
-from ..errors import ModelError
+from .._support.threads import blas_threads as _blas
+from .._support.errors import ModelError
 from .options import OptionError
 from .result import IdentifyResult, write_model_files
 
@@ -49,7 +49,7 @@ OUTPUTS = (".toml", ".urdf", ".json")
 
 
 def _load(prior, tip):
-    from ..loading import load_with_notes
+    from ..formats.loading import load_with_notes
 
     if isinstance(prior, (str, os.PathLike)):
         arm, _ = load_with_notes(os.fspath(prior), tip=tip)
@@ -60,7 +60,7 @@ def _load(prior, tip):
 
 
 def _check_target(arm, output, armature, friction_terms, prior_label):
-    from ..arm import Manipulator, URDFArm
+    from ..model.arm import Manipulator, URDFArm
 
     if output is None:
         return
@@ -87,8 +87,8 @@ def _check_target(arm, output, armature, friction_terms, prior_label):
 
 def _with_transmission(arm, transmission):
     """``arm`` with another :class:`~manipdyn.Transmission` (the identified torque constants)."""
-    from ..arm import Manipulator
-    from ..urdf_in import load_urdf
+    from ..model.arm import Manipulator
+    from ..formats.urdf.reader import load_urdf
 
     law = arm.friction_model if arm.friction is None else None
     if isinstance(arm, Manipulator):
@@ -101,8 +101,8 @@ def _with_transmission(arm, transmission):
 
 def _torque_constants(arm, runs, friction, armature, reference):
     """Step 3: ``(arm with k_t, runs with rescaled torques, TorqueConstants)``."""
-    from ..drive import Transmission
-    from .measurements import Measurements
+    from ..model.drive import Transmission
+    from ..formats.logs.measurements import Measurements
     from .torque_constants import CURRENT_NOTE, identify_torque_constants
 
     for data, _ in runs:
@@ -124,7 +124,7 @@ def _torque_constants(arm, runs, friction, armature, reference):
 
 
 def _read(arm, logs, read_options, deg, unit_gains):
-    from ..drive import Transmission
+    from ..model.drive import Transmission
     from .options import check_limits
     from .runs import read_runs
 
@@ -226,7 +226,7 @@ def _identify(prior, logs, o) -> IdentifyResult:
     payload_logs = [os.path.basename(str(d.source)) for d, p in runs if p is not None]
     data = _known_payloads(arm, runs)
     shapes = None
-    from ..friction import Friction
+    from ..model.friction import Friction
     from .options import SHAPED
 
     if isinstance(law, Friction) and set(law.terms) & set(SHAPED):
@@ -281,7 +281,7 @@ def _identify(prior, logs, o) -> IdentifyResult:
 
 def _reread(runs, tc, arm):
     """The runs' torques back to ``R^T i`` (unit gains), for a second estimate of ``k_t``."""
-    from .measurements import Measurements
+    from ..formats.logs.measurements import Measurements
 
     R = np.asarray(arm.transmission.R, dtype=np.float64)
     undo = np.linalg.inv(R.T @ np.diag(tc.values) @ np.linalg.inv(R).T)

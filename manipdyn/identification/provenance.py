@@ -1,6 +1,6 @@
 """Where an identified model came from: data file and its sha256, method, options, date.
 
-Layer: application (identification).
+Layer 5 (identification).
 
 An identified model replaces the prior's citation with its own story: the prior's
 ``source``, ``sources`` and ``description`` are about the prior's numbers, which the fit
@@ -21,8 +21,8 @@ import datetime as _dt
 import hashlib
 import os
 
-from .. import limits
-from ..errors import ModelError
+from .._support import limits
+from .._support.errors import ModelError
 
 __all__ = ["file_sha256", "provenance", "model_metadata"]
 

@@ -1,6 +1,6 @@
 """Identification report: the figures of ``manipdyn identify --json`` and a text table.
 
-Layer: application (identification).
+Layer 5 (identification).
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ def friction_to_json(friction, n: int):
     deadband and nonlinear shapes (:func:`friction_from_json` reads it back)."""
     if friction is None or friction is False or friction is True:
         return bool(friction)
-    from ..friction import friction_spec
+    from ..model.friction import friction_spec
 
     spec = friction_spec(friction, n)
     out = {"terms": list(spec.terms), "side": spec.side, "smoothing": spec.smoothing,

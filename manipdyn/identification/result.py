@@ -1,6 +1,6 @@
 """What :func:`manipdyn.identify` returns: the fit, its story, and how to write and score it.
 
-Layer: application (identification).
+Layer 5 (identification).
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import ModelError
+from .._support.errors import ModelError
 
 __all__ = ["IdentifyResult", "write_model_files", "EXIT_OK", "EXIT_NO_ARM"]
 
@@ -74,7 +74,7 @@ class IdentifyResult:
             return
         import warnings
 
-        from ..errors import PhysicalConsistencyWarning
+        from .._support.errors import PhysicalConsistencyWarning
 
         with warnings.catch_warnings():      # as fit() builds it: the prior's own notes were given at load
             warnings.simplefilter("ignore", PhysicalConsistencyWarning)
@@ -90,9 +90,9 @@ class IdentifyResult:
 
         Raises :class:`ModelError` when the parameters are no physical arm (write ``.json``).
         """
-        from .._files import atomic_write_text
-        from ..arm import URDFArm
-        from ..io import save, write_urdf
+        from .._support.files import atomic_write_text
+        from ..model.arm import URDFArm
+        from ..formats.save import save, write_urdf
         from .basemodel import prior_text, write_base_model
 
         path = os.fspath(path)

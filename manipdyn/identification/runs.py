@@ -1,6 +1,6 @@
 """Several logs in one identification: RUNS.toml, known payloads, each log read on its own.
 
-Layer: application (identification).
+Layer 5 (identification).
 
 A robot is excited several times (different trajectories, with and without a payload).
 Each run is read, filtered and resampled on its own (:func:`read_runs`: no derivative
@@ -31,8 +31,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ModelError
-from .measurements import Measurements
+from .._support.errors import ModelError
+from ..formats.logs.measurements import Measurements
 
 __all__ = ["Payload", "LogSpec", "read_runs_file", "as_log_specs", "read_runs", "stack", "RUN_KEYS"]
 
@@ -53,7 +53,7 @@ class Payload:
 
     def parameters(self) -> np.ndarray:
         """``[m, m c, I_xx, I_xy, I_yy, I_xz, I_yz, I_zz]`` (10,), tensor about the tool frame's origin."""
-        from ..inertia import parameters_from_pseudo_inertia, pseudo_inertia_from_tensor
+        from ..model.inertia import parameters_from_pseudo_inertia, pseudo_inertia_from_tensor
 
         ixx, iyy, izz, ixy, ixz, iyz = self.inertia
         I = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]], dtype=np.float64)
@@ -116,7 +116,7 @@ def _payload(raw, where) -> Payload:
     p = Payload(mass, com, inertia)
     try:
         J = p.parameters()
-        from ..inertia import pseudo_inertia_from_parameters
+        from ..model.inertia import pseudo_inertia_from_parameters
 
         ev = np.linalg.eigvalsh(pseudo_inertia_from_parameters(J))
     except ModelError as exc:
@@ -203,7 +203,7 @@ def read_runs(logs, arm, *, transmission=None, **read_options) -> list[tuple[Mea
     :func:`~manipdyn.identification.read_log` common to every run (a run's own ``t_range``,
     ``rate`` and ``columns`` replace them).  ``transmission``: default ``arm.transmission``.
     """
-    from .logs import read_log
+    from ..formats.logs.read import read_log
 
     tr = arm.transmission if transmission is None else transmission
     out = []

@@ -1,6 +1,6 @@
 """Score models on logs: :func:`validate`, what ``manipdyn validate`` runs.
 
-Layer: application (identification).
+Layer 5 (identification).
 
 ``md.validate(models, logs, **options)`` reads every log on its own (as
 :func:`manipdyn.identify` reads them: :mod:`.runs`, a RUNS.toml included), stacks them,
@@ -18,8 +18,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._threads import blas_threads as _blas
-from ..errors import ModelError
+from .._support.threads import blas_threads as _blas
+from .._support.errors import ModelError
 
 __all__ = ["validate", "Validation", "load_scored_model"]
 
@@ -44,7 +44,7 @@ def load_scored_model(spec, tip=None):
                               "prior); {} is for a tree URDF given as a model", "tip", "tip")
         m = load_base_model(s)
         return m, f"{m.name} (base model)"
-    from ..loading import load_with_notes
+    from ..formats.loading import load_with_notes
 
     arm, _ = load_with_notes(s, tip=tip)
     return arm, arm.name

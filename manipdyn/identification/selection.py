@@ -1,6 +1,6 @@
 """Choosing the prior weight of the consistent fit from the data alone: blocked cross-validation.
 
-Layer: application (identification).
+Layer 5 (identification).
 
 The entropic pull towards the prior (``fit(..., prior_weight=w)``) trades data against the
 prior.  Which ``w`` predicts best is a question about data the fit has not seen, and the
@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import ModelError
+from .._support.errors import ModelError
 
 __all__ = ["choose_prior_weight", "DEFAULT_WEIGHTS"]
 

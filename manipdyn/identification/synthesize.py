@@ -1,6 +1,6 @@
 """A measurement log synthesised from a model: identification without a robot.
 
-Layer: application (identification).
+Layer 5 (identification).
 
 ``manipdyn excite`` writes a trajectory ``t,q1..qn,qd1..qdn,qdd1..qddn``; a
 robot run along it logs its joint torques.  Without a robot,
@@ -24,8 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import limits
-from ..errors import ModelError
+from .._support import limits
+from .._support.errors import ModelError
 
 __all__ = ["Trajectory", "read_trajectory", "synthesize"]
 
@@ -48,7 +48,7 @@ def _columns(prefix: str, n: int) -> list[str]:
 def read_trajectory(path, n: int) -> Trajectory:
     """Read the CSV ``manipdyn excite`` writes (header ``t,q1..qn,qd1..qdn,qdd1..qddn``).
 
-    A regular file of at most :data:`manipdyn.limits.MAX_TRAJECTORY_BYTES`; a
+    A regular file of at most :data:`manipdyn._support.limits.MAX_TRAJECTORY_BYTES`; a
     ModelError names the file and the row (1-based, the header is row 1) and
     column of the first problem.
     """

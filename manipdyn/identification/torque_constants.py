@@ -1,10 +1,10 @@
 """Torque constants from current logs: ``k_t`` per motor, with the arm's parameters.
 
-Layer: application (identification).
+Layer 5 (identification).
 
 Many arms log motor currents ``i`` (A), not torques, and their torque constants
 ``k_t`` (N m/A at each motor) are not known.  With ``tau = R^T diag(k_t) i``
-(:mod:`manipdyn.drive`) the motor torques are ``R^-T Y(q, qd, qdd) pi``, so each
+(:mod:`manipdyn.model.drive`) the motor torques are ``R^-T Y(q, qd, qdd) pi``, so each
 motor's equation is linear in the base parameters ``beta`` and in ``k_t`` together
 (the global identification of drive gains and dynamic parameters, Gautier and
 Briot)::
@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import ModelError
+from .._support.errors import ModelError
 
 __all__ = ["TorqueConstants", "identify_torque_constants", "CURRENT_NOTE"]
 
@@ -101,7 +101,7 @@ def _beta(Rs, a):
 def _fit_gains(Rs, a0, free):
     """Inverse gains ``a = 1 / k_t`` minimising the current residual (variable projection over
     ``log a`` of the ``free`` motors; the others held)."""
-    from ._deps import require
+    from .._support.deps import require
 
     optimize = require("scipy.optimize", "identify_torque_constants")
     a0 = np.asarray(a0, dtype=np.float64)

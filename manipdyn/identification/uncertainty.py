@@ -1,6 +1,6 @@
 """Uncertainty of the identified base parameters: their covariance, and how it is read.
 
-Layer: application (identification).
+Layer 5 (identification).
 
 ``wls`` (:mod:`.estimation`) divides joint j's rows by its noise level ``sigma_j``
 (estimated from that joint's own OLS residuals), so the weighted equations

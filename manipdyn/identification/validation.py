@@ -1,6 +1,6 @@
 """Scoring a model on held-out data: ``validate`` and its figure.
 
-Layer: application (identification).
+Layer 5 (identification).
 
 A model (any arm, or a :class:`~.basemodel.BaseModel`) predicts the joint torques of
 measured states; the score per joint is
@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ModelError
+from .._support.errors import ModelError
 
 __all__ = ["ValidationResult", "validate", "plot_validation"]
 
@@ -115,7 +115,7 @@ def plot_validation(results, path, title: str | None = None, units=None) -> None
     ``results`` is one :class:`ValidationResult` or a list of them (several models on the
     same data, e.g. identified against published); ``units`` per joint (default N m).
     """
-    from ..control.plots import pyplot, save_figure
+    from .._support.figures import pyplot, save_figure
 
     plt = pyplot()
     results = results if isinstance(results, (list, tuple)) else [results]

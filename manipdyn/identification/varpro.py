@@ -1,8 +1,8 @@
 """Nonlinear friction shapes by variable projection: :func:`fit_friction_shapes`.
 
-Layer: application (identification).
+Layer 5 (identification).
 
-A friction law's Stribeck and sigmoid terms (:mod:`manipdyn.friction`) are
+A friction law's Stribeck and sigmoid terms (:mod:`manipdyn.model.friction`) are
 linear in their amplitudes and nonlinear in their shapes: the Stribeck
 velocity ``vs`` (per actuator), the sigmoid's steepness ``alpha`` and shift
 ``p3`` (per actuator).  With the shapes ``theta`` fixed, the model
@@ -39,8 +39,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import ModelError
-from ..friction import Friction
+from .._support.errors import ModelError
+from ..model.friction import Friction
 from .base import base_parameters
 from .estimation import fit
 
@@ -198,7 +198,7 @@ def fit_shapes(arm, data, friction: Friction, *, armature: bool = False, max_nfe
     shapes (its amplitudes untouched: zeros for a spec); ``info`` is what
     ``report["friction_shapes"]`` holds.  Parameters as for :func:`fit_friction_shapes`.
     """
-    from ._deps import require
+    from .._support.deps import require
 
     optimize = require("scipy.optimize", "fit_friction_shapes")
     if not isinstance(friction, Friction):

@@ -1,0 +1,201 @@
+"""Limits that keep the process alive on hostile or careless input.
+
+Layer 0 (support).  Every limit is a module attribute: raise it
+for an unusual but trusted model, e.g. ``manipdyn._support.limits.MAX_LINKS = 5000``
+before ``md.load``.  A model over a limit is refused with a
+:class:`~manipdyn.ModelError` that names the limit and says how to raise it.
+
+Why these numbers: real arms have under 50 links; Pinocchio's URDF reader
+recurses once per link and crashes the interpreter (a segfault, not an
+exception) on chains of some ten thousand links; the trace-form and
+cross-check memory grow with ``n**2`` per state.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .errors import ModelError
+
+__all__ = ["MAX_FILE_BYTES", "MAX_MODEL_FILE_BYTES", "MAX_LINKS", "MAX_JOINTS", "MAX_FIXED_RUN",
+           "MAX_NAME_LENGTH", "MAX_LENGTH", "MAX_ANGLE", "MAX_GRAVITY", "MAX_MASS", "MAX_INERTIA",
+           "MAX_MAGNITUDE", "MAX_DATA_BYTES", "MAX_DATA_FIELD_BYTES", "MAX_HARMONICS", "MAX_EXCITATION_SAMPLES",
+           "MAX_RUN_STEPS", "MAX_STUDY_STEPS", "MAX_BANDWIDTH", "MAX_DEMO_DURATION", "MAX_TRAJECTORY_BYTES",
+           "CLI_RAISE", "over_limit", "check_count", "check_magnitude", "check_range", "open_regular"]
+
+#: largest URDF or model file read, bytes (16 MiB; real ones are under 1 MiB)
+MAX_FILE_BYTES = 16 * 1024 * 1024
+#: largest model file (.toml) read, bytes (1 MiB; the bundled ones are under 10 kB)
+MAX_MODEL_FILE_BYTES = 1024 * 1024
+#: most ``<link>`` (and so ``<joint>``) elements in a URDF
+MAX_LINKS = 1000
+#: most movable joints in an arm's chain (URDF chain, DH table, model file).
+#: Pinocchio's ``Data`` holds four n x n x n tensors (second-order derivatives):
+#: 32 MB at n = 100, 860 MB at n = 300, and an engine holds up to six of them
+#: (its own, the gravity-free twin's, one per thread of each batch pool)
+MAX_JOINTS = 100
+#: most fixed joints in a row along any root-to-leaf path of a URDF
+MAX_FIXED_RUN = 200
+#: largest length (m): origins, DH a and d, centres of mass, prismatic limits.
+#: float64 holds 16 digits: a 10 km offset beside a 1 mm link leaves the 1e-9 the
+#: cross-check asks for; beyond, the engines' different sums round differently
+MAX_LENGTH = 1e4
+#: largest angle (rad): rpy, DH alpha and theta, revolute limits (q + theta loses
+#: the digits of q when theta is huge)
+MAX_ANGLE = 1e4
+#: largest gravity component (m/s^2): tau - g cancels digits in forward dynamics
+MAX_GRAVITY = 1e4
+#: largest mass (kg) and inertia entry (kg m^2) of one body: a link a billion
+#: times heavier than the next one leaves its neighbours' torques at the mercy of
+#: its rounding (1e-16 * 1e9 * ...), beyond the cross-check's 1e-9
+MAX_MASS = 1e9
+MAX_INERTIA = 1e9
+#: longest name (arm, link, joint) in characters: names go into URDF text and messages
+MAX_NAME_LENGTH = 1000
+#: largest magnitude of any model number (lengths in m, masses in kg, inertias
+#: in kg m^2, gear ratios, rotor inertias, friction): products of three of them
+#: (m r^2 v^2 ...) stay far from float64 overflow (1.8e308)
+MAX_MAGNITUDE = 1e60
+#: largest measurement log read for identification (a CSV file, or all the files of a
+#: ROS bag), bytes (256 MiB: an hour of a 7-joint arm at 1 kHz with q, qd, tau is about
+#: 400 MB in text, so long logs need this raised; the parsed float64 array is about a
+#: third of the text's size)
+MAX_DATA_BYTES = 256 * 1024 * 1024
+#: longest single field (or header line) of a measurement CSV, bytes (128 KiB: a number
+#: has under 30 characters; a longer field is a file that is not the table it claims to be)
+MAX_DATA_FIELD_BYTES = 128 * 1024
+#: most harmonics per joint of an excitation trajectory (``manipdyn excite --harmonics``):
+#: the optimiser has 2 n K variables and estimates each gradient entry with one more
+#: condition-number evaluation, so its time grows with K; Swevers et al. use 5
+MAX_HARMONICS = 50
+#: most samples of an excitation trajectory (``--rate`` x ``--duration``): its final
+#: condition number stacks an n x 10 n regressor per sample (100 000 samples of a
+#: 7-joint arm: 390 MB of float64)
+MAX_EXCITATION_SAMPLES = 100_000
+#: most integration steps of one Monte-Carlo run (``--duration / --dt``, as ``manipdyn
+#: track``): each run draws an n-wide torque-noise row per step
+MAX_RUN_STEPS = 2_000_000
+#: most integration steps of a whole Monte-Carlo study (runs x controllers x steps):
+#: at some 20 microseconds a step, 1e9 steps are about 6 core-hours
+MAX_STUDY_STEPS = 1e9
+#: largest trajectory CSV read by ``manipdyn synthesize`` (64 MiB: 100 000 samples
+#: of a 7-joint arm, 22 columns of full-precision numbers, are about 40 MB)
+MAX_TRAJECTORY_BYTES = 64 * 1024 * 1024
+#: longest demo path of a Monte-Carlo run (s; as ``manipdyn track``): its via-point
+#: spline is solved densely, at a cost that grows with the square of the duration
+MAX_DEMO_DURATION = 300.0
+#: largest controller bandwidth (rad/s): the gains grow with its square, and a loop
+#: this fast is far beyond any real arm's (it diverges at any practical step anyway)
+MAX_BANDWIDTH = 1e6
+
+#: how to raise a limit for one command-line run (appended to the CLI's messages)
+CLI_RAISE = ("from the shell: python -c \"import sys, manipdyn._support.limits as L; from manipdyn.cli import main; "
+             "L.{name} = ...; sys.exit(main())\" ARGS")
+
+
+def over_limit(where: str, what: str, value, name: str) -> ModelError:
+    """The error for ``what`` (= ``value``) beyond the limit ``name`` of this module."""
+    limit = globals()[name]
+    return ModelError(
+        f"{where}: {what} is {value}, over the limit of {limit:g} (manipdyn._support.limits.{name}); "
+        f"if the model is trusted, raise it: manipdyn._support.limits.{name} = ..."
+    )
+
+
+def check_count(value, where: str, what: str, name: str, cli: bool = False) -> None:
+    """Raise the :func:`over_limit` error when ``value`` (a count) exceeds the limit ``name``;
+    ``cli=True`` adds how to raise it for one command-line run (:data:`CLI_RAISE`)."""
+    limit = globals()[name]
+    if value > limit:
+        how = f"manipdyn.limits.{name} = ..." + (f" ({CLI_RAISE.format(name=name)})" if cli else "")
+        try:
+            shown = f"{value:g}"
+        except OverflowError:               # an integer beyond the float range
+            shown = f"an integer of {len(str(value))} digits"
+        raise ModelError(f"{where}: {what} is {shown}, over the limit of {limit:g} "
+                         f"(manipdyn._support.limits.{name}); to go beyond it, raise it: {how}")
+
+
+def check_magnitude(value, where: str, field: str, unit: str = "") -> None:
+    """Raise :class:`ModelError` if any entry of ``value`` exceeds :data:`MAX_MAGNITUDE`."""
+    import numpy as np
+
+    arr = np.abs(np.asarray(value, dtype=np.float64))
+    if arr.size and not float(arr.max()) <= MAX_MAGNITUDE:
+        worst = float(arr.reshape(-1)[int(np.argmax(arr))])
+        raise ModelError(
+            f"{where}: field '{field}' has magnitude {worst:g}{unit}, over {MAX_MAGNITUDE:g} "
+            "(manipdyn._support.limits.MAX_MAGNITUDE): products of such numbers overflow float64; "
+            "check the units, or raise the limit for a trusted model"
+        )
+
+
+_RANGES = {"length": ("MAX_LENGTH", " m"), "angle": ("MAX_ANGLE", " rad"), "acceleration": ("MAX_GRAVITY", " m/s^2"),
+           "mass": ("MAX_MASS", " kg"), "inertia": ("MAX_INERTIA", " kg m^2")}
+
+
+def check_range(value, where: str, field: str, kind: str) -> None:
+    """Raise :class:`ModelError` if a length, angle or acceleration is beyond its limit."""
+    import numpy as np
+
+    name, unit = _RANGES[kind]
+    limit = globals()[name]
+    arr = np.abs(np.asarray(value, dtype=np.float64))
+    if arr.size and not float(arr.max()) <= limit:
+        worst = float(arr.reshape(-1)[int(np.argmax(arr))])
+        raise ModelError(
+            f"{where}: field '{field}' has the {kind} {worst:g}{unit}, over {limit:g}{unit} "
+            f"(manipdyn._support.limits.{name}): float64 cannot hold it beside the arm's other {kind}s to the "
+            "cross-check's 1e-9; check the units, or raise the limit for a trusted model"
+        )
+
+
+def open_regular(path: str, label: str):
+    """Open ``path`` for reading bytes, refusing anything but a regular file.
+
+    A FIFO would block ``open`` forever and a device (``/dev/zero``) never
+    ends; the file is opened non-blocking, checked with ``fstat``, then read.
+    """
+    import os
+    import stat
+
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    except OSError as exc:
+        raise ModelError(f"{label}: {exc.strerror or exc}") from None
+    st = os.fstat(fd)
+    if not stat.S_ISREG(st.st_mode):
+        os.close(fd)
+        kind = "a directory" if stat.S_ISDIR(st.st_mode) else "not a regular file (a device, FIFO or socket)"
+        raise ModelError(f"{label}: {kind}")
+    return os.fdopen(fd, "rb")
+
+
+def read_regular(path: str, label: str, limit_name: str, what: str = "the file",
+                 size_of: str = "the file") -> bytes:
+    """The bytes of the regular file ``path``, at most the limit ``limit_name`` of them.
+
+    A ModelError starting with ``label`` says ``cannot read <what>`` when the
+    file cannot be read or is not a regular file (:func:`open_regular`), and
+    ``<size_of> size`` when it is larger than the limit.
+    """
+    cap = globals()[limit_name]
+    try:
+        with open_regular(path, f"{label}: cannot read {what}") as fh:
+            data = fh.read(cap + 1)
+    except OSError as exc:
+        raise ModelError(f"{label}: cannot read {what}: {exc.strerror or exc}") from None
+    if len(data) > cap:
+        raise over_limit(label, f"{size_of} size", f"over {cap} bytes", limit_name)
+    return data
+
+
+def nonnegative(value, where: str, unit: str = "") -> float:
+    """``value`` as a finite float >= 0, or a ModelError (a ValueError) naming ``where``."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError, OverflowError):
+        raise ModelError(f"{where}: expected a number{' in ' + unit if unit else ''}, got {value!r:.60}") from None
+    if not (math.isfinite(x) and x >= 0):
+        raise ModelError(f"{where}: must be finite and >= 0{' ' + unit if unit else ''}, got {value!r:.60}")
+    return x

@@ -1,0 +1,404 @@
+"""The cross-check: the trace-form engine against the Pinocchio engine.
+
+Layer 4 (checks): talks to the two engines only through :class:`manipdyn.engines.protocol.DynamicsEngine`.
+
+For seeded random states within the joint limits, every quantity is computed
+by both engines and compared: D, h, C (the Coriolis matrix), g, tau, the
+forward dynamics of those torques, the end pose, both energies and the
+inverse-dynamics regressor Y (tau = Y pi, :mod:`manipdyn.model.parameters`).  The error of one state is
+
+    err = max_k |pinocchio_k - lagrange_k| / max(1, max_k |lagrange_k|)
+
+(the trace-form engine is the reference), and a quantity is ``ok`` when the
+largest ``err`` over all states is at most :data:`TOLERANCE` = 1e-9.  Both
+engines work in float64 and agree to about 1e-13 on healthy arms; 1e-9
+leaves room for ill-conditioned mass matrices in forward dynamics (the error
+of ``D^-1 x`` grows with cond(D)) while still catching any modelling error,
+which shows up at 1e-3 or more.
+
+States: q uniform within ``arm.qlim``; qd uniform in +-2 rad/s (+-0.5 m/s
+for prismatic joints); qdd uniform in +-5 rad/s^2 (+-2 m/s^2).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import socket
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..model.arm import register_service
+from ..engines.protocol import DynamicsEngine
+from .._support.errors import SingularMassMatrixError, StateError
+from .scale import arm_from_text, chunks, local_cores, map_chunks, model_text
+
+__all__ = ["crosscheck", "CrosscheckReport", "QuantityError", "TOLERANCE", "draw_states"]
+
+TOLERANCE = 1e-9
+#: largest cond(D) at which forward dynamics is compared: solving with D loses
+#: about log10(cond D) of float64's 16 digits, so 1e7 leaves 1e-9 (observed: the
+#: bundled arms <= 2.4e4, Tiago cut at its arm 4.7e6 with qdd error 1.3e-10)
+MAX_COND = 1e7
+#: most states one cross-check draws (3 arrays of samples x n doubles are held)
+MAX_SAMPLES = 10_000_000
+
+QUANTITIES = {
+    "D": "mass matrix D(q)",
+    "h": "Coriolis/centripetal torque h(q, qd)",
+    "C": "Coriolis matrix C(q, qd) (Christoffel form)",
+    "g": "gravity torque g(q)",
+    "tau": "inverse dynamics tau",
+    "qdd": "forward dynamics qdd",
+    "fk": "end pose (forward kinematics)",
+    "K": "kinetic energy",
+    "P": "potential energy",
+    "Y": "inverse-dynamics regressor Y(q, qd, qdd) (10 parameters per link)",
+    "dtau_dq": "derivative of inverse dynamics by q, dtau/dq",
+    "dtau_dqd": "derivative of inverse dynamics by qd, dtau/dqd (friction included)",
+    "dqdd_dq": "derivative of forward dynamics by q, dqdd/dq",
+    "dqdd_dqd": "derivative of forward dynamics by qd, dqdd/dqd",
+    "dg_dq": "derivative of the gravity torque, dg/dq",
+}
+
+
+@dataclass
+class QuantityError:
+    """Disagreement of one quantity over all sampled states."""
+
+    name: str
+    description: str
+    max_abs: float
+    max_rel: float
+    worst_index: int
+    worst_state: dict
+    tolerance: float = TOLERANCE
+
+    @property
+    def ok(self) -> bool:
+        return bool(self.max_rel <= self.tolerance)
+
+    def to_dict(self) -> dict:
+        return {
+            "quantity": self.name, "description": self.description,
+            "max_abs": self.max_abs, "max_rel": self.max_rel, "ok": self.ok,
+            "tolerance": self.tolerance, "worst_index": self.worst_index,
+            "worst_state": {k: [float(x) for x in v] for k, v in self.worst_state.items()},
+        }
+
+
+@dataclass
+class CrosscheckReport:
+    """Result of :func:`crosscheck`: one :class:`QuantityError` per quantity."""
+
+    arm: str
+    n: int
+    samples: int
+    seed: int
+    quantities: dict = field(default_factory=dict)
+    #: the arm's own notes (arm.notes: physically impossible links, suspicious units),
+    #: then quantities that could not be compared, and why (e.g. a singular D)
+    notes: list = field(default_factory=list)
+    #: quantities that could not be compared -> why (also among the notes); a
+    #: failed condition for ``manipdyn check``, never "all agree"
+    not_compared: dict = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        """True when every quantity agrees within its tolerance."""
+        return all(q.ok for q in self.quantities.values())
+
+    def __getitem__(self, name: str) -> QuantityError:
+        return self.quantities[name]
+
+    def failures(self) -> list[str]:
+        return [k for k, q in self.quantities.items() if not q.ok]
+
+    def to_dict(self) -> dict:
+        return {"arm": self.arm, "n": self.n, "samples": self.samples, "seed": self.seed,
+                "ok": self.ok, "tolerance": TOLERANCE, "notes": self.notes,
+                "not_compared": self.not_compared,
+                "quantities": {k: q.to_dict() for k, q in self.quantities.items()}}
+
+    def to_json(self) -> str:
+        return json.dumps(self.to_dict(), indent=2)
+
+    def table(self) -> str:
+        rows = [f"{'quantity':<8} {'max abs err':>12} {'max rel err':>12}  {'worst':>6}  verdict"]
+        for k, q in self.quantities.items():
+            rows.append(f"{k:<8} {q.max_abs:12.3e} {q.max_rel:12.3e}  {q.worst_index:>6}  "
+                        f"{'ok' if q.ok else 'DISAGREE'}")
+        return "\n".join(rows)
+
+    def _verdict(self) -> str:
+        if not self.ok:
+            return "DISAGREEMENT in " + ", ".join(self.failures())
+        if self.not_compared:
+            return ("the compared quantities agree, but NOT ALL COULD BE COMPARED: "
+                    + ", ".join(self.not_compared) + " (see the notes)")
+        return "all agree"
+
+    def __str__(self) -> str:
+        head = (f"crosscheck {self.arm!r} ({self.n} joints, {self.samples} states, seed {self.seed}): "
+                f"{self._verdict()} "
+                f"(tolerance {TOLERANCE:g} relative)")
+        return head + "\n" + self.table() + "".join(f"\nnote: {n}" for n in self.notes)
+
+
+def draw_states(arm, samples: int, seed: int = 0, start: int = 0, stop: int | None = None):
+    """Seeded random ``(q, qd, qdd)``, each ``(samples, n)``, within the joint limits.
+
+    ``start``/``stop`` give rows ``start:stop`` of the same draw without
+    drawing the others (each value takes one step of the PCG64 stream, which
+    ``advance`` jumps): how the chunks of a distributed cross-check get their states.
+    """
+    stop = samples if stop is None else stop
+    k, n = stop - start, arm.n
+    rng = np.random.default_rng(seed)
+    bits = rng.bit_generator
+    origin = bits.state
+    prismatic = np.array([t == "prismatic" for t in arm.joint_types])
+    vmax = np.where(prismatic, 0.5, 2.0)
+    amax = np.where(prismatic, 2.0, 5.0)
+    out = []
+    for block, draw in enumerate((lambda: arm.random_state(rng, k),
+                                  lambda: vmax * rng.uniform(-1.0, 1.0, (k, n)),
+                                  lambda: amax * rng.uniform(-1.0, 1.0, (k, n)))):
+        bits.state = origin
+        bits.advance((block * samples + start) * n)
+        out.append(draw())
+    return tuple(out)
+
+
+def _errors(ref, other):
+    """Per-state absolute error and scale of one chunk: two (B,) arrays."""
+    ref = np.asarray(ref, dtype=np.float64)
+    other = np.asarray(other, dtype=np.float64)
+    N = ref.shape[0]
+    with np.errstate(invalid="ignore", over="ignore"):
+        diff = np.abs(other - ref).reshape(N, -1)
+        scale = np.maximum(1.0, np.abs(ref).reshape(N, -1).max(axis=1))
+        abs_err = diff.max(axis=1)
+    # a NaN anywhere is a disagreement, never a silent pass
+    abs_err = np.where(np.isfinite(abs_err), abs_err, np.inf)
+    return abs_err, np.where(np.isfinite(scale), scale, 1.0)
+
+
+def _compare(name, abs_err, scale, states, tol=TOLERANCE) -> QuantityError:
+    rel = abs_err / scale
+    i = int(np.argmax(rel))
+    return QuantityError(
+        name=name, description=QUANTITIES.get(name, name),
+        max_abs=float(abs_err.max()), max_rel=float(rel[i]), worst_index=i,
+        worst_state={k: v[i] for k, v in states.items()}, tolerance=tol,
+    )
+
+
+#: doubles of one (states x n x n) array the cross-check holds at a time
+CHUNK_DOUBLES = 2_000_000
+
+
+def qdd_not_comparable(D, dD, dh, dg, qdd) -> str:
+    """Why forward dynamics cannot be compared to :data:`TOLERANCE` at these states, or "".
+
+    ``D`` (B, n, n) is the reference mass matrix; ``dD``, ``dh``, ``dg`` the
+    other engine's differences from the reference (each within TOLERANCE);
+    ``qdd`` (B, n) the accelerations.  Forward dynamics solves ``D qdd = tau
+    - h - g``: to first order the engines' qdd then differ by up to
+    ``(|dD| |qdd| + |dh| + |dg|) / lambda_min(D)`` (max-norms), even with two
+    exact solvers.  When that exceeds TOLERANCE (relative to ``max(1,
+    |qdd|)``), a disagreement in qdd would say nothing about the solvers, so
+    qdd is not compared and the reason is reported:
+
+    * D not positive definite (a physically impossible inertia: no physical
+      forward dynamics, and ABA and a linear solve then differ);
+    * D numerically singular (a joint that moves no mass);
+    * cond(D) over :data:`MAX_COND`, or the first-order bound above over
+      TOLERANCE (float64 cannot give qdd to TOLERANCE at these states).
+    """
+    w = np.linalg.eigvalsh(D)                       # ascending, (B, n)
+    hi = np.maximum(np.abs(w).max(axis=1), 1e-300)
+    lo = w[:, 0]
+    if np.any(lo < -1e-12 * hi):
+        return (f"the mass matrix D(q) is not positive definite (eigenvalue {float(lo.min()):.3g}): some "
+                "link's inertia is physically impossible, and forward dynamics has no physical meaning "
+                "(ABA and a linear solve then differ); see the physical-consistency warnings")
+    singular = lo <= 1e-15 * hi                     # numerically singular (or a zero row)
+    if np.any(singular):
+        return str(SingularMassMatrixError.for_mass_matrix(D[singular]))
+    cond = hi / lo
+    if np.any(~(cond <= MAX_COND)):
+        return (f"the mass matrix D(q) is ill-conditioned (cond(D) = {float(np.max(cond)):.3g} > "
+                f"{MAX_COND:g}): float64 cannot give the forward dynamics to {TOLERANCE:g}; check the "
+                "model's inertias")
+    B = len(D)
+    amax = np.abs(qdd).reshape(B, -1).max(axis=1)
+    spread = (np.abs(dD).reshape(B, -1).max(axis=1) * amax + np.abs(dh).reshape(B, -1).max(axis=1)
+              + np.abs(dg).reshape(B, -1).max(axis=1)) / lo / np.maximum(1.0, amax)
+    if np.any(~(spread <= TOLERANCE)):
+        return (f"the engines' D, h, g agree (within {TOLERANCE:g}) but forward dynamics divides their "
+                f"differences by lambda_min(D) = {float(lo[np.argmax(spread)]):.3g}: the qdd can differ by "
+                f"{float(np.max(spread)):.3g} relative, beyond {TOLERANCE:g}, whatever the solvers (lengths "
+                "or joint ranges far from the arm's scale?)")
+    return ""
+
+
+def crosscheck(arm, samples: int = 1000, seed: int = 0, chunk: int = 500, progress=None,
+               scheduler=None, workers=None) -> CrosscheckReport:
+    """Compare ``arm.lagrange`` and ``arm.pinocchio`` on seeded random states.
+
+    Parameters
+    ----------
+    arm : manipdyn.Arm
+    samples : int
+        Number of random states (>= 1).
+    seed : int
+        Seed of the state generator (``numpy.random.default_rng``).
+    chunk : int
+        States per batch, at most; fewer on long chains so that a batch's
+        (states, n, n) arrays hold at most :data:`CHUNK_DOUBLES` numbers.
+        Only per-state errors are kept between batches: memory grows
+        linearly with ``samples`` and with ``n**2`` per batch.
+    progress : callable, optional
+        Called as ``progress(done, total)`` after each chunk.
+    scheduler : None, "local", "sync" or "tcp://HOST:PORT"
+        None: here, in this process.  Otherwise the states are spread in
+        parts of whole chunks over Dask workers (a local cluster of
+        ``workers`` processes, or the cluster at the address; see
+        :mod:`manipdyn.check.scale`), each part drawing its own states, and the
+        report is the same as a local run's.
+
+    Returns
+    -------
+    CrosscheckReport
+        ``report.ok`` is False if any quantity disagrees; ``report["D"]``
+        etc. give max absolute and relative errors and the worst state.
+    """
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
+        raise StateError(f"samples: expected a positive integer, got {samples!r:.60}")
+    if samples > MAX_SAMPLES:
+        shown = str(samples) if len(str(samples)) < 30 else f"a {len(str(samples))}-digit number"
+        raise StateError(f"samples: {shown} is over {MAX_SAMPLES:g} states (the drawn states alone "
+                         "would not fit in memory); run several cross-checks with different seeds")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise StateError(f"seed: expected a non-negative integer, got {seed!r:.60}")
+    chunk = max(1, min(int(chunk), CHUNK_DOUBLES // (arm.n * arm.n)))
+    if scheduler is not None:
+        return _crosscheck_distributed(arm, int(samples), seed, chunk, progress, scheduler, workers)
+    return _crosscheck_states(arm, int(samples), seed, chunk, progress, 0, int(samples))
+
+
+def _crosscheck_states(arm, samples, seed, chunk, progress, first, stop) -> CrosscheckReport:
+    """The cross-check of rows ``first:stop`` of the states (worst indices global).
+
+    ``chunk`` is the batch size already bounded by :data:`CHUNK_DOUBLES`.
+    """
+    q, qd, qdd = draw_states(arm, samples, seed, first, stop)
+    samples_all, samples = samples, stop - first
+    L: DynamicsEngine = arm.lagrange
+    P: DynamicsEngine = arm.pinocchio
+    parts: dict[str, list] = {}
+    skipped: dict[str, str] = {}
+
+    def add(key, a, b):
+        ea, es = parts.setdefault(key, ([], []))
+        e, sc = _errors(a, b)
+        ea.append(e)
+        es.append(sc)
+
+    for start in range(0, samples, chunk):
+        sl = slice(start, min(samples, start + chunk))
+        qs, qds, qdds = q[sl], qd[sl], qdd[sl]
+        D, h, g = L.dynamics_terms(qs, qds)
+        pD, ph, pg = P.mass_matrix(qs), P.coriolis_torque(qs, qds), P.gravity_torque(qs)
+        add("D", D, pD)
+        add("h", h, ph)
+        add("g", g, pg)
+        tau = L.inverse_dynamics(qs, qds, qdds)
+        add("tau", tau, P.inverse_dynamics(qs, qds, qdds))
+        # forward dynamics of the same torques: both should return qdd
+        if "qdd" not in skipped:
+            why = qdd_not_comparable(D, pD - D, ph - h, pg - g, qdds)
+            if why:
+                skipped["qdd"] = f"qdd not compared: {why}"
+                parts.pop("qdd", None)
+        if "qdd" not in skipped:
+            try:
+                add("qdd", L.forward_dynamics(qs, qds, tau), P.forward_dynamics(qs, qds, tau))
+            except SingularMassMatrixError as exc:
+                skipped["qdd"] = f"qdd not compared: {exc}"
+                parts.pop("qdd", None)
+        add("fk", L.fkine(qs), P.fkine(qs))
+        add("K", L.kinetic_energy(qs, qds)[:, None], np.asarray(P.kinetic_energy(qs, qds))[:, None])
+        add("P", L.potential_energy(qs)[:, None], np.asarray(P.potential_energy(qs))[:, None])
+        add("C", L.coriolis_matrix(qs, qds), P.coriolis_matrix(qs, qds))
+        add("Y", L.regressor(qs, qds, qdds), P.regressor(qs, qds, qdds))
+        for key, a, b in zip(("dtau_dq", "dtau_dqd"), L.inverse_dynamics_derivatives(qs, qds, qdds),
+                             P.inverse_dynamics_derivatives(qs, qds, qdds)):
+            add(key, a, b)
+        add("dg_dq", L.gravity_derivative(qs), P.gravity_derivative(qs))
+        if "qdd" in skipped:      # the same conditioning limits D^-1 dtau (and a singular D has none)
+            for key in ("dqdd_dq", "dqdd_dqd"):
+                skipped.setdefault(key, skipped["qdd"].replace("qdd not compared", "dqdd_dq, dqdd_dqd not "
+                                                               "compared (as qdd)", 1))
+                parts.pop(key, None)
+        else:
+            for key, a, b in zip(("dqdd_dq", "dqdd_dqd"), L.forward_dynamics_derivatives(qs, qds, tau),
+                                 P.forward_dynamics_derivatives(qs, qds, tau)):
+                add(key, a, b)
+        if progress is not None:
+            progress(sl.stop, samples)
+
+    states = {"q": q, "qd": qd, "qdd": qdd}
+    report = CrosscheckReport(arm=arm.name or "arm", n=arm.n, samples=int(samples_all), seed=int(seed),
+                              notes=list(getattr(arm, "notes", ())) + list(dict.fromkeys(skipped.values())),
+                              not_compared=dict(skipped))
+    for key, (ra, rb) in parts.items():
+        report.quantities[key] = _compare(key, np.concatenate(ra), np.concatenate(rb), states)
+        report.quantities[key].worst_index += first
+    return report
+
+
+def _crosscheck_part(model, samples, seed, chunk, size, part) -> dict:
+    """One part of a distributed cross-check: ``{part index: report, "timing": ...}``."""
+    t0 = time.perf_counter()
+    arm = arm_from_text(*model)
+    report = _crosscheck_states(arm, samples, seed, chunk, None, part.start, part.stop)
+    report.notes = report.notes[len(getattr(arm, "notes", ())):]     # the client adds the arm's own
+    return {part.start // size: report, "timing": {"seconds": time.perf_counter() - t0,
+                                           "host": socket.gethostname(), "pid": os.getpid()}}
+
+
+def _crosscheck_distributed(arm, samples, seed, chunk, progress, scheduler, workers) -> CrosscheckReport:
+    """Parts of whole chunks on Dask workers, merged: the report a local run gives."""
+    nparts = 4 * (local_cores() if workers is None else int(workers))
+    size = chunk * max(1, -(-samples // (chunk * nparts)))    # whole chunks: the same batches as a local run
+    parts = chunks(samples, 1, size)
+
+    def on_part(done, total):  # done counts parts; report states
+        if progress is not None:
+            progress(min(samples, done * size), samples)
+
+    col, _ = map_chunks(_crosscheck_part, (model_text(arm), samples, seed, chunk, size), len(parts),
+                        parts, scheduler, workers, on_part)
+    reports = col.ordered()
+    merged = CrosscheckReport(arm=arm.name or "arm", n=arm.n, samples=samples, seed=int(seed),
+                              notes=list(getattr(arm, "notes", ()))
+                              + list(dict.fromkeys(n for r in reports for n in r.notes)))
+    for r in reports:                      # the first part's reason, as a local run gives it
+        for key, why in r.not_compared.items():
+            merged.not_compared.setdefault(key, why)
+    skip = {k for r in reports for k in QUANTITIES if k not in r.quantities}
+    for key in reports[0].quantities:      # the local run's order
+        if key in skip:
+            continue
+        parts_q = [r.quantities[key] for r in reports]
+        worst = max(parts_q, key=lambda e: e.max_rel)   # the first part holding the largest error
+        merged.quantities[key] = dataclasses.replace(worst, max_abs=max(e.max_abs for e in parts_q))
+    return merged
+
+
+register_service("crosscheck", crosscheck)

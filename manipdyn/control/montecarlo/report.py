@@ -1,0 +1,141 @@
+"""The result of a study: per-run records aggregated in run order.
+
+Layer 6 (control: montecarlo).
+
+Everything but the ``"timing"`` entry is a function of the per-run records
+taken in run order (and, within a run, in the study's controller order), so
+the report is bit-identical however the runs were chunked and wherever they
+ran.  Statistics are over the runs that did not diverge (a diverged run has
+no meaningful error distribution); the diverged ones are counted.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+
+from .identified import plant_source
+
+__all__ = ["StudyReport", "METRICS", "PERCENTILES"]
+
+#: per-run figures: name -> (description, unit)
+METRICS = {
+    "rms_error": ("RMS over time of the norm of the error vector (all joints)", "rad"),
+    "max_error": ("largest error of one joint", "rad"),
+    "peak_torque": ("largest torque of one joint", "N m"),
+}
+PERCENTILES = (50, 90, 99)
+#: worst runs listed per controller
+WORST = 3
+
+
+def _stats(values) -> dict:
+    if not values:
+        return {f"p{p}": None for p in PERCENTILES} | {"max": None}
+    v = np.array(values, dtype=np.float64)
+    ps = np.percentile(v, PERCENTILES)
+    return {f"p{p}": float(x) for p, x in zip(PERCENTILES, ps)} | {"max": float(v.max())}
+
+
+class StudyReport:
+    """Per-controller distributions, counts and worst runs; the per-run records.
+
+    Attributes
+    ----------
+    study : Study
+    per_run : list of dict
+        One record per (run, controller), in run order then controller order:
+        ``run, controller, rms_error, max_error, peak_torque, diverged, saturated,
+        substeps`` (errors in rad, or m for prismatic joints; torque in N m or N; the
+        figures of a diverged run cover the samples before it diverged; ``substeps``
+        the Runge-Kutta steps per control period its plant needed,
+        :mod:`manipdyn.control.stiffness`).
+    timing : dict
+        Wall time, workers, chunks and where chunks ran (not reproducible).
+    """
+
+    #: the per-run figures, name -> (description, unit)
+    metrics = METRICS
+
+    def __init__(self, study, per_run: list, timing: dict):
+        self.study = study
+        self.per_run = per_run
+        self.timing = timing
+        self.controllers = {}
+        for key in study.controllers:
+            rec = [r for r in per_run if r["controller"] == key]
+            ok = [r for r in rec if not r["diverged"]]
+            entry = {m: _stats([r[m] for r in ok if r[m] is not None]) for m in METRICS}
+            entry["diverged"] = sum(1 for r in rec if r["diverged"])
+            entry["saturated"] = sum(1 for r in rec if r["saturated"])
+            # worst first: diverged runs (earliest divergence unknown here: by run), then by RMS error
+            order = sorted(rec, key=lambda r: (not r["diverged"], -(r["rms_error"] or 0.0), r["run"]))
+            entry["worst"] = [{"run": r["run"], "seed": [study.seed, r["run"]], "rms_error": r["rms_error"],
+                               "max_error": r["max_error"], "diverged": r["diverged"]}
+                              for r in order[:WORST]]
+            self.controllers[key] = entry
+
+    def worst(self, controller: str) -> list[int]:
+        """Run indices of ``controller``'s worst runs, worst first (replay them with ``study.replay``)."""
+        return [w["run"] for w in self.controllers[controller]["worst"]]
+
+    def to_dict(self) -> dict:
+        s = self.study
+        return {"runs": s.runs, "seed": s.seed, "study": s.to_dict(),
+                "controllers": self.controllers, "per_run": self.per_run, "timing": self.timing}
+
+    def to_json(self, indent: int | None = 2) -> str:
+        """Strict JSON: a non-finite number (a run that blew up) is written ``null``, never
+        ``Infinity`` or ``NaN``, which JSON does not have."""
+        return json.dumps(_finite_or_null(self.to_dict()), indent=indent, allow_nan=False)
+
+    def table(self) -> str:
+        from ..demo import CONTROLLERS
+
+        rows = [f"{'controller':<22} {'':<10} {'p50':>10} {'p90':>10} {'p99':>10} {'max':>10}"]
+        for key, e in self.controllers.items():
+            label = CONTROLLERS.get(key, key)
+            for i, (m, (_, unit)) in enumerate(METRICS.items()):
+                st = e[m]
+                cells = " ".join(f"{st[k]:10.3e}" if st[k] is not None else f"{'-':>10}"
+                                 for k in ("p50", "p90", "p99", "max"))
+                name = m.replace("_", " ")
+                rows.append(f"{label if i == 0 else '':<22} {name:<11}{cells}  {unit}")
+            worst = ", ".join(f"{w['run']}" + (" (diverged)" if w["diverged"] else "") for w in e["worst"])
+            rows.append(f"{'':<22} diverged {e['diverged']}, saturated {e['saturated']}; worst runs: {worst}")
+        return "\n".join(rows)
+
+    def __str__(self) -> str:
+        s = self.study
+        t = self.timing
+        head = (f"montecarlo {s.model[3]!r}: {s.runs} runs x {len(s.controllers)} controllers, seed {s.seed}, "
+                f"demo path {s.duration:g} s at {1 / s.dt:g} Hz\n{plant_source(s)}")
+        foot = (f"{s.runs * len(s.controllers)} simulations in {t.get('wall_s', 0.0):.1f} s on "
+                f"{t.get('workers', 1)} worker(s) ({t.get('scheduler', '')}); replay a run with "
+                f"study.replay(run, controller)")
+        legend = "; ".join(f"{m.replace('_', ' ')}: {d}" for m, (d, _) in METRICS.items())
+        return f"{head}\n{self.table()}\n{legend}\n{self.integration()}{foot}"
+
+    def integration(self) -> str:
+        """One line when some plants needed more than one Runge-Kutta step per period, else ''."""
+        steps = {}
+        for r in self.per_run:
+            steps[r["run"]] = max(steps.get(r["run"], 1), int(r.get("substeps", 1)))
+        stiff = [m for m in steps.values() if m > 1]
+        if not stiff:
+            return ""
+        return (f"integration: {len(stiff)} of {len(steps)} plants are too fast for one RK4 step per "
+                f"{self.study.dt * 1e3:g} ms period and took up to {max(stiff)} (manipdyn.control.stiffness)\n")
+
+
+def _finite_or_null(x):
+    """``x`` with every non-finite float replaced by None (recursively through dicts and lists)."""
+    if isinstance(x, dict):
+        return {k: _finite_or_null(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_finite_or_null(v) for v in x]
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x

@@ -1,0 +1,339 @@
+"""A study: what to simulate, as a small value that travels to any worker.
+
+Layer 6 (control: montecarlo).
+
+A :class:`Study` holds the arm as *model text* (its TOML model file, or its
+URDF text and tip), the controllers, the path, the distributions and the
+seed.  :func:`run_chunk` is a pure function of ``(study, run indices)``: any
+worker that receives the two computes the same numbers, bit for bit, so a
+chunk lost with its worker is simply computed again, and the result does not
+depend on how the runs were chunked or where they ran.
+
+Replaying one run (e.g. the worst of a study) alone, with
+:func:`manipdyn.simulate`::
+
+    setup = study.setup(run=17, controller="ct")
+    log = md.simulate(**setup.simulate_kwargs())      # what the study ran
+    # or simply: log = study.replay(17, "ct")
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..controllers import Controller
+from ...check.scale import arm_from_text, model_text
+from .distributions import Distributions, draw
+from .plant import Plant, make_plant
+
+__all__ = ["Study", "RunSetup", "TorqueNoise", "run_chunk", "CONTROLLER_KEYS", "model_text"]
+
+#: controller keys of a study, in report order (those of ``manipdyn track``)
+CONTROLLER_KEYS = ("pd", "pdg", "ct", "adaptive", "lqr")
+
+
+class TorqueNoise(Controller):
+    """A controller whose torque reaches the joints with additive noise.
+
+    ``tau_applied(t_k) = controller(t_k, q, qd) + noise[k]``, ``k = round(t / dt)``,
+    held over the step like the commanded torque.  A
+    :class:`manipdyn.control.Controller` itself (``step``, ``reset``,
+    ``trajectory``), so :func:`manipdyn.simulate` keeps its fast loop.
+    """
+
+    def __init__(self, controller, noise: np.ndarray, dt: float):  # noqa: D107 (no super: wraps)
+        self.inner = controller
+        self.noise = np.asarray(noise, dtype=np.float64)
+        self.dt = float(dt)
+        self.name = controller.name
+        self.n = controller.n
+        self.arm = controller.arm
+        self.tau_max = controller.tau_max
+
+    @property
+    def trajectory(self):
+        return self.inner.trajectory
+
+    def reset(self, trajectory=None) -> None:
+        self.inner.reset(trajectory)
+
+    def _row(self, t) -> np.ndarray:
+        return self.noise[min(int(round(t / self.dt)), len(self.noise) - 1)]
+
+    def step(self, t, q, qd, q_d, qd_d, qdd_d):
+        return self.inner.step(t, q, qd, q_d, qd_d, qdd_d) + self._row(t)
+
+    def __call__(self, t, q, qd):
+        return self.inner(t, q, qd) + self._row(t)
+
+
+@dataclass(frozen=True)
+class RunSetup:
+    """Everything :func:`manipdyn.simulate` needs to replay one run of a study."""
+
+    arm: object
+    controller: object
+    trajectory: object
+    plant: Plant
+    q0: np.ndarray
+    duration: float
+    dt: float
+    substeps: int = 1
+
+    def simulate_kwargs(self) -> dict:
+        return {"arm": self.arm, "controller": self.controller, "trajectory": self.trajectory,
+                "duration": self.duration, "dt": self.dt, "plant": self.plant, "q0": self.q0,
+                "substeps": self.substeps}
+
+
+@dataclass(frozen=True)
+class Study:
+    """One seeded Monte-Carlo study (build it with :func:`manipdyn.control.montecarlo.study`).
+
+    Attributes
+    ----------
+    model : tuple
+        :func:`model_text` of the nominal arm.
+    runs, seed : int
+    controllers : tuple of str
+        Keys among :data:`CONTROLLER_KEYS`.
+    duration, dt : float
+        s; each run simulates the ``track`` demo path over ``duration`` at ``1/dt`` Hz.
+    distributions : Distributions
+    tau_max : tuple of float or None
+        Torque limits of every controller (N m or N, ``inf`` for none); None:
+        the model's own limits (URDF ``effort``), or none.
+    bandwidth, gamma : float
+        The demo controllers' tuning (``manipdyn track``).
+    plants : IdentifiedPlants or None
+        Draw every run's plant from an identification (:mod:`.identified`) instead of
+        the link scale, payload and friction of :attr:`distributions` (which must then
+        be 0; the start offset and torque noise still apply).  None: the distributions.
+    """
+
+    model: tuple
+    runs: int
+    seed: int = 0
+    controllers: tuple = CONTROLLER_KEYS
+    duration: float = 2.0
+    dt: float = 1e-3
+    distributions: Distributions = field(default_factory=Distributions)
+    tau_max: tuple | None = None
+    bandwidth: float = 10.0
+    gamma: float = 10.0
+    plants: object = None
+
+    def __post_init__(self):
+        if isinstance(self.runs, bool) or not isinstance(self.runs, (int, np.integer)) or self.runs < 1:
+            raise ValueError(f"runs: expected a positive integer, got {self.runs!r}")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
+            raise ValueError(f"seed: expected an integer >= 0, got {self.seed!r}")
+        object.__setattr__(self, "runs", int(self.runs))
+        object.__setattr__(self, "seed", int(self.seed))
+        ctrl = tuple(self.controllers)
+        bad = [c for c in ctrl if c not in CONTROLLER_KEYS]
+        if not ctrl or bad or len(set(ctrl)) != len(ctrl):
+            raise ValueError(f"controllers: expected distinct keys among {', '.join(CONTROLLER_KEYS)}, "
+                             f"got {list(ctrl)}")
+        object.__setattr__(self, "controllers", ctrl)
+        for name in ("duration", "dt", "bandwidth"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ValueError(f"{name}: must be a positive number, got {v!r}")
+        if not (math.isfinite(self.gamma) and self.gamma >= 0):
+            raise ValueError(f"gamma: must be >= 0, got {self.gamma!r}")
+        if self.dt > self.duration:
+            raise ValueError(f"dt: must be at most duration ({self.duration:g} s), got {self.dt:g}")
+        if self.plants is not None:
+            d = self.distributions
+            if d.payload_mass or d.link_scale or d.friction_viscous or d.friction_coulomb:
+                raise ValueError("distributions: with plants from an identification, payload_mass, "
+                                 "link_scale, friction_viscous and friction_coulomb must be 0 (the "
+                                 "identification's distribution replaces them)")
+
+    # -- the arm and the run's pieces (cached per process) ---------------------------
+    @property
+    def arm(self):
+        """The nominal arm, rebuilt from :attr:`model` (once per process)."""
+        return arm_from_text(*self.model)
+
+    @property
+    def steps(self) -> int:
+        """Steps per run, ``round(duration / dt)``, as :func:`manipdyn.simulate` takes them."""
+        return max(1, int(round(self.duration / self.dt)))
+
+    def path(self):
+        """The reference: the ``track`` demo path over :attr:`duration`."""
+        return _path(self.model, self.duration)
+
+    def controller(self, key: str):
+        """A new demo controller ``key`` on the nominal arm (as ``manipdyn track`` builds it).
+
+        The LQR's gains are computed here, from the nominal arm, the path and
+        ``dt`` only (never a plant): the same numbers in every process.
+        """
+        from ..demo import make_controller
+
+        arm = self.arm
+        lim = None if self.tau_max is None else np.array(self.tau_max, dtype=np.float64)
+        return make_controller(key, arm, self.bandwidth, self.gamma, tau_max=lim, path=self.path(),
+                               dt=self.dt)
+
+    def draw(self, run: int):
+        """Run ``run``'s variations (:class:`RunDraw`)."""
+        self._check_run(run)
+        return draw(self.distributions, self.seed, run, self.arm.joint_types, self.steps + 1)
+
+    def plant(self, run: int) -> Plant:
+        """Run ``run``'s plant."""
+        if self.plants is not None:
+            return self.plants.plant(self.arm, self.draw(run), self.seed)
+        return make_plant(self.arm, self.draw(run))
+
+    def setup(self, run: int, controller: str, _cache: dict | None = None) -> RunSetup:
+        """What :func:`manipdyn.simulate` needs to replay run ``run`` of ``controller``."""
+        if controller not in self.controllers:
+            raise ValueError(f"controller: expected one of {', '.join(self.controllers)}, got {controller!r}")
+        plant = self.plant(run)
+        path = self.path()
+        ctrl = _cache[controller] if _cache is not None else self.controller(controller)
+        if self.distributions.torque_noise > 0:
+            ctrl = TorqueNoise(ctrl, plant.draw.torque_noise, self.dt)
+        q0 = path(0.0)[0] + plant.draw.q0_offset
+        key = ("substeps", int(run))              # one run's plant, whichever controller drives it
+        if _cache is None or key not in _cache:
+            m = self.substeps(plant)
+            if _cache is not None:
+                _cache[key] = m
+        else:
+            m = _cache[key]
+        return RunSetup(self.arm, ctrl, path, plant, q0, float(self.duration), float(self.dt), m)
+
+    def substeps(self, plant) -> int:
+        """Runge-Kutta steps per period for ``plant`` along the path, as :func:`manipdyn.simulate`
+        chooses them (:func:`manipdyn.control.stiffness.rk4_substeps`): a run's own plant decides."""
+        from ..stiffness import rk4_substeps
+
+        return rk4_substeps(plant, *_reference_samples(self.model, float(self.duration), float(self.dt)),
+                            self.dt)[0]
+
+    def replay(self, run: int, controller: str):
+        """Simulate run ``run`` of ``controller`` alone: the study's :class:`SimulationLog`.
+
+        Raises :class:`manipdyn.control.SimulationDiverged` if that run diverged.
+        """
+        from ..simulate import simulate
+
+        return simulate(**self.setup(run, controller).simulate_kwargs())
+
+    def _check_run(self, run) -> None:
+        if isinstance(run, bool) or not isinstance(run, (int, np.integer)) or not 0 <= run < self.runs:
+            raise ValueError(f"run: expected an integer in [0, {self.runs}), got {run!r}")
+
+    def to_dict(self) -> dict:
+        """The study's definition, for reports (the model by name, not its text)."""
+        return {"model": self.model[3], "runs": self.runs, "seed": self.seed,
+                "controllers": list(self.controllers), "duration": self.duration, "dt": self.dt,
+                "distributions": self.distributions.to_dict(),
+                "tau_max": None if self.tau_max is None else list(self.tau_max),
+                "bandwidth": self.bandwidth, "gamma": self.gamma,
+                **({} if self.plants is None else {"plants": self.plants.to_dict(self.seed, self.runs)})}
+
+
+@functools.lru_cache(maxsize=8)
+def _path(model: tuple, duration: float):
+    from ..demo import demo_path
+
+    return demo_path(arm_from_text(*model), duration)
+
+
+@functools.lru_cache(maxsize=8)
+def _reference_samples(model: tuple, duration: float, dt: float):
+    """``(q_d, qd_d, qdd_d)`` at the samples :func:`~manipdyn.control.stiffness.rk4_substeps`
+    reads, taken from the reference as :func:`manipdyn.simulate` evaluates it (all N + 1 times)."""
+    from ..stiffness import reference_samples
+
+    N = max(1, int(round(duration / dt)))
+    i = reference_samples(N)
+    ref = _path(model, duration)(np.arange(N + 1) * dt)
+    out = tuple(np.asarray(r, dtype=np.float64)[i] for r in ref)
+    for a in out:
+        a.setflags(write=False)
+    return out
+
+
+# -- one run, and a chunk of runs ------------------------------------------------------
+def _metrics(log, lim, noise) -> dict:
+    """RMS over time of |e| (rad), max |e_i| (rad), max |tau_i| (N m), saturated."""
+    if len(log.t) == 0:
+        return {"rms_error": None, "max_error": None, "peak_torque": None, "saturated": False}
+    e = log.e
+    rms = float(np.sqrt(np.mean(np.einsum("ij,ij->i", e, e))))
+    out = {"rms_error": rms, "max_error": float(np.max(np.abs(e))),
+           "peak_torque": float(np.max(np.abs(log.tau)))}
+    sat = False
+    if lim is not None:
+        commanded = log.tau
+        if noise is not None:
+            commanded = commanded - noise[:len(commanded)]
+        # a saturated torque equals the limit; the noise was added and removed
+        # again, which moves it by at most a few ulps of the torque
+        sat = bool(np.any(np.abs(commanded) >= lim * (1.0 - 1e-9)))
+    out["saturated"] = sat
+    return out
+
+
+def run_one(study: Study, run: int, key: str, cache: dict) -> dict:
+    """Simulate run ``run`` of controller ``key``: one ``per_run`` record."""
+    from ..simulate import SimulationDiverged, simulate
+
+    setup = study.setup(run, key, cache)
+    ctrl = setup.controller
+    lim = ctrl.tau_max
+    try:
+        log = simulate(**setup.simulate_kwargs())
+        diverged = False
+    except SimulationDiverged as exc:
+        log, diverged = exc.log, True
+    m = _metrics(log, lim, ctrl.noise if isinstance(ctrl, TorqueNoise) else None)
+    return {"run": int(run), "controller": key, "rms_error": m["rms_error"],
+            "max_error": m["max_error"], "peak_torque": m["peak_torque"],
+            "diverged": diverged, "saturated": m["saturated"], "substeps": int(log.substeps)}
+
+
+def run_many(study: Study, runs, key: str, cache: dict) -> list:
+    """Runs ``runs`` of controller ``key`` stepped together (:func:`simulate_lockstep`): records."""
+    from .lockstep import simulate_lockstep
+
+    setups = [study.setup(int(r), key, cache) for r in runs]
+    out = []
+    for setup, (log, diverged) in zip(setups, simulate_lockstep(setups)):
+        ctrl = setup.controller
+        m = _metrics(log, ctrl.tau_max, ctrl.noise if isinstance(ctrl, TorqueNoise) else None)
+        out.append({"run": int(setup.plant.draw.run), "controller": key, "rms_error": m["rms_error"],
+                    "max_error": m["max_error"], "peak_torque": m["peak_torque"],
+                    "diverged": diverged, "saturated": m["saturated"], "substeps": int(log.substeps)})
+    return out
+
+
+def run_chunk(study: Study, runs) -> dict:
+    """Simulate runs ``runs`` (indices) of every controller: ``{run: [record per controller]}``.
+
+    A pure function of its arguments (module docstring).  Also returns, under
+    the key ``"timing"``, the seconds spent and the process that spent them.
+    """
+    import os
+    import socket
+    import time
+
+    t0 = time.perf_counter()
+    cache = {key: study.controller(key) for key in study.controllers}
+    runs = [int(r) for r in runs]
+    by_key = {key: run_many(study, runs, key, cache) for key in study.controllers}
+    out = {r: [by_key[key][j] for key in study.controllers] for j, r in enumerate(runs)}
+    out["timing"] = {"seconds": time.perf_counter() - t0, "host": socket.gethostname(), "pid": os.getpid()}
+    return out

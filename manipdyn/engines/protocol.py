@@ -1,0 +1,113 @@
+"""The one interface both dynamics engines answer: :class:`DynamicsEngine`.
+
+Layer 3 (engines).  ``arm.lagrange`` (:mod:`manipdyn.engines.lagrange.engine`, the trace
+form of chapter II) and ``arm.pinocchio`` (:mod:`manipdyn.engines.pinocchio.engine`)
+share no code; they share this protocol, so the cross-check, the tests and
+the benchmarks treat them alike.  A new engine implements these methods,
+registers a factory with :func:`manipdyn.model.arm.register_engine`, and is then
+``arm.engine("name")``.
+
+Shapes: every method takes one state ``(n,)`` or a batch ``(N, n)`` (each
+argument the same) and returns arrays with the same leading shape.  Units SI:
+rad or m, N m or N, kg m^2, J; frames: the arm's base frame.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+__all__ = ["DynamicsEngine", "ENGINE_METHODS"]
+
+#: the methods of :class:`DynamicsEngine`, in one place for tests and tools
+ENGINE_METHODS = ("mass_matrix", "coriolis_torque", "gravity_torque", "friction_torque",
+                  "dynamics_terms", "inverse_dynamics", "forward_dynamics", "kinetic_energy",
+                  "potential_energy", "coriolis_matrix", "fkine", "regressor",
+                  "inverse_dynamics_derivatives", "forward_dynamics_derivatives", "gravity_derivative",
+                  "friction_derivative")
+
+
+@runtime_checkable
+class DynamicsEngine(Protocol):
+    """Dynamics of one arm: ``tau = D(q) qdd + h(q, qd) + g(q) + friction(qd)``."""
+
+    #: engine name, ``"lagrange"`` or ``"pinocchio"``
+    name: str
+    #: number of joints
+    n: int
+
+    def mass_matrix(self, q) -> np.ndarray:
+        """D(q): (n, n) or (N, n, n), kg m^2, symmetric positive definite (rotors ``R^T diag(Jm) R`` included)."""
+        ...
+
+    def coriolis_torque(self, q, qd) -> np.ndarray:
+        """h(q, qd) = C(q, qd) qd: (n,) or (N, n), N m (Coriolis and centripetal)."""
+        ...
+
+    def gravity_torque(self, q) -> np.ndarray:
+        """g(q): (n,) or (N, n), N m, the torque that holds the arm still."""
+        ...
+
+    def friction_torque(self, qd) -> np.ndarray:
+        """The friction law at the joints (``Fv qd + Fc sign(qd)`` for the links' kind;
+        :class:`manipdyn.model.drive.Friction`, motor side mapped by ``R^T``): (n,) or (N, n), N m."""
+        ...
+
+    def dynamics_terms(self, q, qd) -> tuple:
+        """``(D, h, g)`` at once (shapes as above)."""
+        ...
+
+    def inverse_dynamics(self, q, qd, qdd) -> np.ndarray:
+        """tau = D qdd + h + g + friction: (n,) or (N, n), N m."""
+        ...
+
+    def forward_dynamics(self, q, qd, tau) -> np.ndarray:
+        """qdd solving D qdd = tau - h - g - friction: (n,) or (N, n), rad/s^2 or m/s^2."""
+        ...
+
+    def kinetic_energy(self, q, qd):
+        """K = qd^T D qd / 2: float or (N,), J."""
+        ...
+
+    def potential_energy(self, q):
+        """P = -sum m_i g^T c_i (zero at the base origin height): float or (N,), J."""
+        ...
+
+    def coriolis_matrix(self, q, qd) -> np.ndarray:
+        """C(q, qd) with C qd = h and dD/dt - 2C skew-symmetric: (n, n) or (N, n, n)."""
+        ...
+
+    def fkine(self, q) -> np.ndarray:
+        """The tool (end) frame's pose in the base frame: (4, 4) or (N, 4, 4), metres."""
+        ...
+
+    def regressor(self, q, qd, qdd, armature: bool = False, friction: bool = False) -> np.ndarray:
+        """Y with ``Y @ arm.parameters(armature, friction) = tau``: (n, p) or (N, n, p).
+
+        10 columns per link (Pinocchio's order, about the URDF link frame's
+        origin), then n armature and 2n friction columns when asked for
+        (:mod:`manipdyn.model.parameters`).
+        """
+        ...
+
+    # -- derivatives (index [..., i, m] = d out_i / d in_m) ----------------------------
+    def inverse_dynamics_derivatives(self, q, qd, qdd) -> tuple:
+        """``(dtau_dq, dtau_dqd)``: each (n, n) or (N, n, n); friction included.
+
+        ``dtau/dqdd`` is :meth:`mass_matrix`.
+        """
+        ...
+
+    def forward_dynamics_derivatives(self, q, qd, tau) -> tuple:
+        """``(dqdd_dq, dqdd_dqd, dqdd_dtau)``: each (n, n) or (N, n, n); ``dqdd_dtau = D^-1``."""
+        ...
+
+    def gravity_derivative(self, q) -> np.ndarray:
+        """``dg/dq``: (n, n) or (N, n, n), N m/rad, symmetric."""
+        ...
+
+    def friction_derivative(self, qd) -> np.ndarray:
+        """``dF/dqd`` of the friction law: (n, n) or (N, n, n); what a non-smooth law returns
+        where it has no derivative is the engine's to document."""
+        ...

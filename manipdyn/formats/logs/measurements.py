@@ -1,0 +1,47 @@
+"""The samples of one experiment, ready for identification, and what was done to them.
+
+Layer 2 (formats: logs).
+"""
+
+from __future__ import annotations
+
+__all__ = ["Measurements"]
+
+
+class Measurements:
+    """Samples of one experiment: ``t`` (N,) s, ``q``, ``qd``, ``qdd``, ``tau`` (N, n), joint side, SI.
+
+    ``derived`` is True when qdd (and qd, unless measured: ``measured_qd``)
+    came from the zero-phase filter (filtered q, trimmed ends).  What
+    :func:`~manipdyn.identification.read_log` also records:
+
+    * ``notes``: one line per thing done to the data (duplicates dropped, gaps,
+      resampling, the cut-off and why, decimation, the time window);
+    * ``rate``: the sample rate of ``t``, Hz; ``cutoff``: the low-pass cut-off
+      in Hz, or None when nothing was filtered;
+    * ``decimation``: the factor D applied after filtering (1: none);
+    * ``qd_motor`` (N, n): motor velocities ``R qd``, rad/s at the motor, when a
+      transmission was given, else None;
+    * ``source`` (the file name) and ``source_sha256`` (of its bytes; of a bag's
+      files, name and bytes in name order).
+    """
+
+    def __init__(self, t, q, qd, qdd, tau, derived=False, *, notes=(), rate=None, cutoff=None,
+                 decimation=1, qd_motor=None, measured_qd=False, source=None, source_sha256=None):
+        self.t, self.q, self.qd, self.qdd, self.tau = t, q, qd, qdd, tau
+        self.derived = bool(derived)
+        self.notes = list(notes)
+        self.rate, self.cutoff, self.decimation = rate, cutoff, int(decimation)
+        self.qd_motor, self.measured_qd = qd_motor, bool(measured_qd)
+        self.source, self.source_sha256 = source, source_sha256
+
+    @property
+    def n(self) -> int:
+        return self.q.shape[1]
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    def __repr__(self) -> str:
+        rate = "" if self.rate is None else f", {self.rate:.6g} Hz"
+        return f"<Measurements {len(self)} samples of {self.n} joints{rate}>"

@@ -1,0 +1,46 @@
+"""Writing arms to files: model files (TOML) and URDF, always atomically.
+
+Layer 2 (formats) loaders and writers.  The free functions here replace the
+methods ``arm.save`` and ``arm.write_urdf`` (kept one release as deprecated
+aliases), so that the model layer knows nothing of files.
+"""
+
+from __future__ import annotations
+
+from .._support.files import atomic_write_text
+from .modelfile import model_to_toml, save_model
+from .urdf.writer import arm_to_urdf
+from ..model.arm import register_service
+
+__all__ = ["save", "write_urdf", "to_urdf", "to_toml"]
+
+
+def save(arm, path) -> None:
+    """Write ``arm`` (a :class:`~manipdyn.Manipulator`, or a URDF arm with its drive:
+    :mod:`manipdyn.formats.modelfile_urdf`) as a model file that
+    :func:`manipdyn.load` reads back unchanged.  Atomic: no partial file."""
+    save_model(arm, path)
+
+
+def to_toml(arm) -> str:
+    """The model-file (TOML) text of a :class:`~manipdyn.Manipulator`."""
+    return model_to_toml(arm)
+
+
+def to_urdf(arm) -> str:
+    """The arm as URDF text (built through yourdfpy's objects).
+
+    For an arm read from a URDF this is the regenerated chain (fixed joints
+    lumped), not the original file.
+    """
+    return arm_to_urdf(arm)
+
+
+def write_urdf(arm, path) -> None:
+    """Write :func:`to_urdf` to ``path`` atomically (no partial file on failure)."""
+    atomic_write_text(path, arm_to_urdf(arm))
+
+
+register_service("save", save)
+register_service("write_urdf", write_urdf)
+register_service("to_urdf", to_urdf)
