@@ -1,8 +1,8 @@
 """``manipdyn identify MODEL LOG [LOG ...] [--logs RUNS.toml] -o OUT.toml|OUT.urdf|OUT.json``.
 
-Layer 7 (CLI, the top).  Parses, calls :func:`manipdyn.identification.identify` (the options are its
-keyword arguments, under the same names and defaults), prints.  ``--payload``: identify a
-payload carried by MODEL instead (:mod:`.identify_payload`).
+Layer 7 (CLI, the top).  Parses, calls :func:`manipdyn.identification.identify` (the options
+are its keyword arguments, under the same names and defaults), prints.  ``--payload``:
+identify a payload carried by MODEL instead (:mod:`.identify_payload`).
 
 Exit codes: 0 a model written; 1 only the base model could be written (the parameters are
 no physical arm); 2 usage, model or data error (one line on stderr).
@@ -10,79 +10,62 @@ no physical arm); 2 usage, model or data error (one line on stderr).
 
 from __future__ import annotations
 
-import inspect
 import json
 import sys
 
 from .._support.errors import ModelError
 from .common import EXIT_OK, TIP_HELP, cli_message, usage_error
-from .logopts import DATA_HELP, log_options_from_args, register_log_options
+from .logopts import DATA_HELP, library_options, register_log_options
 
 __all__ = ["register", "run"]
 
-_H = {"--method": "ols, wls (weighted by per-joint noise), consistent (J_i >= 0; default)",
-      "--friction": "identify viscous and Coulomb friction",
-      "--friction-terms": "identify these friction terms instead: some of viscous, coulomb, asymmetric, offset, "
-                          "stribeck, sigmoid (the shapes of the last two by variable projection)",
-      "--friction-side": "with --friction-terms: the law acts on the joint or the motor velocities",
-      "--smoothing": "with --friction-terms: Coulomb sign as tanh(v / V) (default 0.01 rad/s; 0 = sharp)",
-      "--stribeck-velocity": "with ...,stribeck: the search's start, rad/s on the law's side (default 0.1 |R_kk|)",
-      "--sigmoid-alpha": "with ...,sigmoid: the search's start, s/rad on the law's side (default 10 / |R_kk|)",
-      "--armature": "identify armature (reflected rotor inertia)",
-      "--mass-bound": "consistent: each link's mass within +-F (fraction) of the prior's (default 0.5)",
-      "--com-bound": "consistent: each COM within +-M metres of the prior's, per axis (default 0.1)",
-      "--total-mass-bound": "consistent: total mass within +-F (fraction) of the prior's (default 0.25)",
-      "--no-bounds": "consistent: no plausibility bounds, only J_i >= 0",
-      "--prior-weight": "consistent: entropic pull towards the prior (0: the data alone; auto: by 5-fold "
-                        "blocked cross-validation)",
-      "--bootstrap": "also refit on N block-resampled copies and report each base parameter's spread",
-      "--scheduler": "--bootstrap on Dask: 'local' or tcp://HOST:PORT (default: in this process)",
-      "--identify-torque-constants": "k_t per motor from current logs (i1..in): the scale from a run with a "
-                                     "payload (--logs) or from the model's torque_constant; written to [transmission]",
-      "--torque-constant-reference": "motors (1-based, e.g. 1,2) whose model k_t fixes the scale (default all)",
-      "--base-json": "also write the base model (base parameters, standard deviations) here"}
+#: (flag, default, type or action, metavar, help): the options of the library's identify
+OPTIONS = (
+    ("--method", "consistent", None, None, "ols, wls (each joint by its noise), consistent (J_i >= 0; default)"),
+    ("--friction", False, "store_true", None, "identify viscous and Coulomb friction"),
+    ("--friction-terms", None, str, "T1,T2", "some of viscous, coulomb, asymmetric, offset, stribeck, sigmoid"),
+    ("--friction-side", "joint", None, None, "with --friction-terms: the law acts on the joint or motor velocities"),
+    ("--smoothing", None, float, "V", "with --friction-terms: Coulomb as tanh(v / V) (default 0.01 rad/s; 0 sharp)"),
+    ("--stribeck-velocity", None, float, "V", "start of the Stribeck search, rad/s on the law's side"),
+    ("--sigmoid-alpha", None, float, "A", "start of the sigmoid search, s/rad on the law's side"),
+    ("--armature", False, "store_true", None, "identify armature (reflected rotor inertia)"),
+    ("--mass-bound", None, float, "F", "consistent: each link's mass within +-F of the prior's (default 0.5)"),
+    ("--com-bound", None, float, "M", "consistent: each COM within +-M m of the prior's, per axis (default 0.1)"),
+    ("--total-mass-bound", None, float, "F", "consistent: total mass within +-F of the prior's (default 0.25)"),
+    ("--no-bounds", False, "store_true", None, "consistent: no plausibility bounds, only J_i >= 0"),
+    ("--prior-weight", 0.0, None, "W|auto", "consistent: pull towards the prior (auto: blocked cross-validation)"),
+    ("--bootstrap", 0, int, "N", "also refit on N block-resampled copies; each base parameter's spread"),
+    ("--scheduler", None, str, "ADDR", "--bootstrap on Dask: 'local' or tcp://HOST:PORT"),
+    ("--identify-torque-constants", False, "store_true", None, "k_t per motor from currents (i1..in), written "
+     "to [transmission]; the scale from a payload run (--logs) or the model's torque_constant"),
+    ("--torque-constant-reference", None, str, "K1,K2", "motors whose model k_t sets the scale (default all)"),
+    ("--base-json", None, str, "FILE.json", "also write the base model (base parameters, std) here"))
 
 
 def register(subparsers) -> None:
     """Add ``manipdyn identify`` to the command line."""
-    from ..identification import METHODS
-
     p = subparsers.add_parser("identify", help="identify inertial parameters from joint data", description=(
-        "Identify the arm's base parameters from logged joint positions and torques (several logs: each read on "
-        "its own) and write the model closest to the prior. Exit codes: 0 model written, 1 only a base model "
-        "(JSON) written, 2 usage, model or data error."))
+        "Identify the arm's base parameters from logged joint positions and torques (several logs: each read "
+        "on its own) and write the model closest to the prior. Exit codes: 0 model written, 1 only a base "
+        "model (JSON) written, 2 usage, model or data error."))
     p.add_argument("model", metavar="MODEL", help="prior: bundled name, .toml model file or URDF")
     p.add_argument("data", metavar="LOG", nargs="*", help=DATA_HELP)
-    p.add_argument("--logs", metavar="RUNS.toml", default=None, help="[[log]] tables: path, t_range, rate, columns, "
-                   "payload = {mass, com, inertia} (README: several logs)")
+    p.add_argument("--logs", metavar="RUNS.toml", default=None, help="[[log]] tables: path, t_range, rate, "
+                   "columns, payload = {mass, com, inertia}")
     p.add_argument("-o", "--output", default=None, metavar="OUT.toml|OUT.urdf|OUT.json",
                    help="model file to write (.json: the base model only); required unless --payload")
-    p.add_argument("--method", choices=METHODS, default="consistent", help=_H["--method"])
     p.add_argument("--payload", action="store_true", help="identify only a rigid payload carried by MODEL")
     p.add_argument("--payload-link", metavar="NAME", default=None, help="with --payload: the link carrying it")
     p.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
-    for flag in ("--friction", "--armature", "--no-bounds", "--identify-torque-constants"):
-        p.add_argument(flag, action="store_true", help=_H[flag])
-    for flag, kind, meta in (("--friction-terms", str, "T1,T2"), ("--smoothing", float, "V"),
-                             ("--stribeck-velocity", float, "V"), ("--sigmoid-alpha", float, "A"),
-                             ("--mass-bound", float, "F"), ("--com-bound", float, "M"),
-                             ("--total-mass-bound", float, "F"), ("--scheduler", str, "ADDR"),
-                             ("--torque-constant-reference", str, "K1,K2"), ("--base-json", str, "FILE.json")):
-        p.add_argument(flag, type=kind, default=None, metavar=meta, help=_H[flag])
-    p.add_argument("--friction-side", choices=("joint", "motor"), default="joint", help=_H["--friction-side"])
-    p.add_argument("--prior-weight", default=0.0, metavar="W|auto", help=_H["--prior-weight"])
-    p.add_argument("--bootstrap", type=int, default=0, metavar="N", help=_H["--bootstrap"])
     p.add_argument("--json", action="store_true", help="print a JSON object instead of text")
+    from ..identification import METHODS
+
+    choices = {"--method": METHODS, "--friction-side": ("joint", "motor")}
+    for flag, default, kind, meta, text in OPTIONS:
+        kw = {"action": kind} if kind == "store_true" else {"type": kind, "metavar": meta, "choices": choices.get(flag)}
+        p.add_argument(flag, default=default, help=text, **{k: v for k, v in kw.items() if v is not None})
     register_log_options(p)
     p.set_defaults(func=run)
-
-
-def library_options(args, function) -> dict:
-    """The keyword arguments of ``function`` that ``args`` holds (the log options read and checked)."""
-    names = inspect.signature(function).parameters
-    out = {k: v for k, v in vars(args).items() if k in names and k not in ("prior", "logs", "models")}
-    out["t_range"] = log_options_from_args(args)["t_range"]
-    return out
 
 
 def run(args) -> int:
@@ -97,8 +80,6 @@ def run(args) -> int:
             raise ModelError("--payload-link: only with --payload")
         if args.output is None:
             raise ModelError("-o/--output: required (the model file to write), unless --payload")
-        if not args.output.lower().endswith((".toml", ".urdf", ".json")):
-            raise ModelError(f"-o: expected a file name ending in .toml, .urdf or .json, got {args.output!r}")
         logs = list(args.data) + ([args.logs] if args.logs else [])
         if not logs:
             raise ModelError("LOG: give at least one log, or --logs RUNS.toml")
@@ -107,7 +88,7 @@ def run(args) -> int:
             try:
                 opts["torque_constant_reference"] = [int(k) for k in args.torque_constant_reference.split(",")]
             except ValueError:
-                raise ModelError(f"--torque-constant-reference: expected motor numbers like 1,2, got "
+                raise ModelError("--torque-constant-reference: expected motor numbers like 1,2, got "
                                  f"{args.torque_constant_reference!r}") from None
         result = identify(args.model, logs, **opts)
     except ModelError as exc:

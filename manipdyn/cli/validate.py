@@ -16,8 +16,7 @@ import os
 
 from .._support.errors import ModelError
 from .common import EXIT_OK, TIP_HELP, check_plot_target, cli_message, usage_error
-from .identify import library_options
-from .logopts import DATA_HELP, register_log_options
+from .logopts import DATA_HELP, library_options, register_log_options
 
 __all__ = ["register", "run", "split_inputs"]
 
