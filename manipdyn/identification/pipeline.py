@@ -220,7 +220,7 @@ def _identify(prior, logs, o) -> IdentifyResult:
                         resample=o["resample"], cutoff=o["cutoff"], decimate=False if o["no_decimate"] else None,
                         topic=o["topic"], t_range=o["t_range"], extra_joints=o["extra_joints"])
     runs = _read(arm, logs, read_options, o["deg"], o["identify_torque_constants"])
-    tc = None
+    tc, as_read = None, arm
     if o["identify_torque_constants"]:
         arm, runs, tc = _torque_constants(arm, runs, law, o["armature"], o["torque_constant_reference"])
     payload_logs = [os.path.basename(str(d.source)) for d, p in runs if p is not None]
@@ -234,8 +234,8 @@ def _identify(prior, logs, o) -> IdentifyResult:
 
         law, shapes = fit_shapes(arm, data, law, armature=o["armature"])
         if tc is not None:         # the gains again, with the fitted shapes
-            arm, runs, tc = _torque_constants(_with_transmission(arm, arm.transmission), _reread(runs, tc, arm),
-                                              law, o["armature"], o["torque_constant_reference"])
+            arm, runs, tc = _torque_constants(as_read, _reread(runs, tc, arm), law, o["armature"],
+                                              o["torque_constant_reference"])   # the scale: the prior's k_t again
             data = _known_payloads(arm, runs)
     selection = None
     if weight == "auto":
