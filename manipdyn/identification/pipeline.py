@@ -265,7 +265,7 @@ def _identify(prior, logs, o) -> IdentifyResult:
     out = IdentifyResult(fit=result, prior=arm, prior_label=prior_label, data=data, friction=law,
                          armature=o["armature"], provenance=prov, metadata=model_metadata(prov), name=name,
                          named=given_name is not None, report_dict=rep, selection=selection, shapes=shapes,
-                         torque_constants=tc, payload_logs=payload_logs)
+                         torque_constants=tc, payload_logs=payload_logs, logs_label=_label(logs))
     out.rename(name)
     if boot:
         from .bootstrap import bootstrap
@@ -296,6 +296,13 @@ def _reread(runs, tc, arm):
                                  qd_motor=data.qd_motor, measured_qd=data.measured_qd, source=data.source,
                                  source_sha256=data.source_sha256), payload))
     return out
+
+
+def _label(logs) -> str:
+    """The logs as the caller named them (paths as given), for the report."""
+    items = [logs] if isinstance(logs, (str, os.PathLike)) or not hasattr(logs, "__iter__") else list(logs)
+    return ", ".join(os.fspath(x) if isinstance(x, (str, os.PathLike))
+                     else str(getattr(x, "path", None) or getattr(x, "source", None) or "log") for x in items)
 
 
 def _name_from(output):

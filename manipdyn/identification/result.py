@@ -63,6 +63,7 @@ class IdentifyResult:
     output: str | None = None
     base_model: str | None = None
     exit_code: int = EXIT_OK
+    logs_label: str = ""
 
     def rename(self, name: str) -> None:
         """Name the identified arm ``name`` (its citation stays the fit's provenance)."""
@@ -130,7 +131,7 @@ class IdentifyResult:
             rep["friction_shapes"] = self.shapes
         if self.torque_constants is not None:
             rep["torque_constants"] = self.torque_constants.as_dict()
-        rep.update({"model": self.prior_label, "data": self.provenance["data"], "name": self.name,
+        rep.update({"model": self.prior_label, "data": self.logs_label or self.provenance["data"], "name": self.name,
                     "output": self.output, "base_model": self.base_model,
                     "derived_derivatives": self.data.derived, "provenance": self.provenance,
                     "runs": [{"log": os.path.basename(str(s)), "samples": int(k)}
