@@ -161,3 +161,21 @@ def test_torque_constants_within_two_percent_on_the_hard_log_set(tmp_path):
     assert np.allclose(md.load(str(out)).transmission.torque_constant, r.torque_constants.values)
     with pytest.raises(md.ModelError, match="scale is unknown.*payload.*torque_constant"):
         md.identify(s["prior"], tmp_path / "run1.csv", **OPTIONS)
+
+
+def test_validate_reads_runs_toml_and_scores_a_payload_run_without_its_payload(tmp_path, capsys):
+    """``validate --logs RUNS.toml``: a run's known payload is taken off the measured torque, so
+    the arm's own model scores the noise on it; the same log without the declaration does not."""
+    arm = md.load("ur5")
+    (p1,), _ = _logs(tmp_path, arm, seeds=(9,), noise=(0.05,), payload_on=(0,))
+    runs = tmp_path / "RUNS.toml"
+    runs.write_text('[[log]]\npath = "run1.csv"\n'
+                    "payload = { mass = 1.5, com = [0.03, -0.02, 0.06], inertia = [0.004, 0.005, 0.003, 0.0, 0.0, 0.0] }\n")
+    assert main(["validate", "ur5", "--logs", str(runs), "--json"]) == 0
+    declared = json.loads(capsys.readouterr().out)
+    assert main(["validate", "ur5", str(p1), "--json"]) == 0
+    plain = json.loads(capsys.readouterr().out)
+    # 0.05 N m of white noise, trimmed edges and decimation aside: the RMS is the noise within 20 %;
+    # the 1.5 kg load at up to 0.5 m from the shoulder is several N m
+    assert max(declared["rms"]) < 0.06 and max(plain["rms"]) > 1.0
+    assert any("payload" in note for note in declared["data_notes"])
