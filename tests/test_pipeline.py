@@ -179,3 +179,17 @@ def test_validate_reads_runs_toml_and_scores_a_payload_run_without_its_payload(t
     # the 1.5 kg load at up to 0.5 m from the shoulder is several N m
     assert max(declared["rms"]) < 0.06 and max(plain["rms"]) > 1.0
     assert any("payload" in note for note in declared["data_notes"])
+
+
+def test_a_urdf_arm_with_rotor_inertias_round_trips_through_a_model_file(tmp_path):
+    from manipdyn.formats.urdf.reader import load_urdf
+
+    with pytest.raises(md.ModelError, match="motor_inertia: expected 6 finite numbers >= 0"):
+        load_urdf(str(UR5), motor_inertia=[-1e-4] * 6)
+    arm = load_urdf(str(UR5), motor_inertia=np.linspace(1e-4, 6e-4, 6))
+    md.save(arm, tmp_path / "ur5.toml")
+    back = md.load(str(tmp_path / "ur5.toml"))
+    assert np.array_equal(back.armature, arm.armature) and np.any(back.armature)
+    rng = np.random.default_rng(1)
+    q, qd, qdd = (rng.standard_normal((20, 6)) for _ in range(3))
+    assert np.allclose(back.inverse_dynamics(q, qd, qdd), arm.inverse_dynamics(q, qd, qdd), rtol=1e-12, atol=1e-12)
