@@ -192,7 +192,10 @@ def identify_torque_constants(arm, runs, *, armature: bool = False, friction=Fal
                              "explain the torques only up to one factor shared with the inertial parameters. "
                              "Give a run with a known payload (RUNS.toml: payload = {mass, com}) or the model's "
                              "[transmission] torque_constant for at least one motor")
-        ref = tuple(range(1, n + 1)) if reference is None else tuple(int(k) for k in reference)
+        try:
+            ref = tuple(range(1, n + 1)) if reference is None else tuple(int(k) for k in reference)
+        except (TypeError, ValueError):
+            raise ModelError(f"torque_constant_reference: expected motor numbers 1 to {n}, got {reference!r:.60}") from None
         if not ref or any(not 1 <= k <= n for k in ref):
             raise ModelError(f"torque_constant_reference: expected motors 1 to {n}, got {list(ref)}")
     elif reference is not None:
