@@ -48,9 +48,31 @@ def _pinocchio_engine(arm):
     return pinocchio_engine(arm)
 
 
+def _c_engine(arm):
+    # the generated C, compiled on first use (and cached by the model's hash)
+    from .engines.c import compiled_engine
+
+    return compiled_engine(arm)
+
+
+def codegen(arm, dir, prefix=None):
+    """Write ``dir/P.h`` and ``dir/P.c``, the arm's dynamics in C99 (:func:`manipdyn.engines.c.codegen`).
+
+    Returns ``(header path, source path, note)``; needs CasADi (``pip install 'manipdyn[codegen]'``).
+    """
+    from .engines.c import codegen as _codegen
+
+    return _codegen(arm, dir, prefix)
+
+
 # The engines plug into the model here, at the top of the package.
 register_engine("lagrange", trace_form_engine)
 register_engine("pinocchio", _pinocchio_engine)
+register_engine("c", _c_engine)
+# ``arm.compiled``, beside ``arm.lagrange`` and ``arm.pinocchio``: wired here, as the engine is
+Arm.compiled = property(lambda arm: arm.engine("c"),
+                        doc="The generated-C engine (``arm.engine('c')``): the arm's C, compiled on first use "
+                            "and cached by the model's hash (manipdyn.engines.c).")
 
 
 def __getattr__(name):
@@ -74,7 +96,7 @@ __version__ = "0.1.0"
 __all__ = ["Transmission", "Friction", "FrictionTerms", 
     "Arm", "ChainJoint", "Convention", "CompareReport", "CrosscheckReport", "DHLink", "DynamicsEngine",
     "LinkInertia", "Manipulator", "ModelError", "ModelNoteWarning", "PhysicalConsistencyWarning", "SingularMassMatrixError",
-    "StateError", "SuspiciousValueWarning", "URDFArm", "compare", "crosscheck", "linearize", "load", "load_with_notes", "models", "save",
+    "StateError", "SuspiciousValueWarning", "URDFArm", "codegen", "compare", "crosscheck", "linearize", "load", "load_with_notes", "models", "save",
     "simulate", "identify", "validate", "to_toml", "to_urdf", "transform_inverse", "write_urdf",
 ]
 

@@ -1,4 +1,4 @@
-"""The cross-check: the trace-form engine against the Pinocchio engine.
+"""The cross-check: the trace-form engine against the Pinocchio engine (and any other engine named).
 
 Layer 4 (checks): talks to the two engines only through :class:`manipdyn.engines.protocol.DynamicsEngine`.
 
@@ -33,12 +33,15 @@ import numpy as np
 
 from ..model.arm import register_service
 from ..engines.protocol import DynamicsEngine
-from .._support.errors import SingularMassMatrixError, StateError
+from .._support.errors import ModelError, SingularMassMatrixError, StateError
 from .scale import arm_from_text, chunks, local_cores, map_chunks, model_text
 
-__all__ = ["crosscheck", "CrosscheckReport", "QuantityError", "TOLERANCE", "draw_states"]
+__all__ = ["crosscheck", "CrosscheckReport", "QuantityError", "TOLERANCE", "draw_states", "DEFAULT_ENGINES",
+           "as_engines"]
 
 TOLERANCE = 1e-9
+#: the engines compared by default: the referee (the trace form) and Pinocchio
+DEFAULT_ENGINES = ("lagrange", "pinocchio")
 #: largest cond(D) at which forward dynamics is compared: solving with D loses
 #: about log10(cond D) of float64's 16 digits, so 1e7 leaves 1e-9 (observed: the
 #: bundled arms <= 2.4e4, Tiago cut at its arm 4.7e6 with qdd error 1.3e-10)
@@ -105,6 +108,8 @@ class CrosscheckReport:
     #: quantities that could not be compared -> why (also among the notes); a
     #: failed condition for ``manipdyn check``, never "all agree"
     not_compared: dict = field(default_factory=dict)
+    #: the engines compared, the referee first (:func:`crosscheck`'s ``engines``)
+    engines: tuple = DEFAULT_ENGINES
 
     @property
     def ok(self) -> bool:
@@ -118,7 +123,8 @@ class CrosscheckReport:
         return [k for k, q in self.quantities.items() if not q.ok]
 
     def to_dict(self) -> dict:
-        return {"arm": self.arm, "n": self.n, "samples": self.samples, "seed": self.seed,
+        extra = {} if tuple(self.engines) == DEFAULT_ENGINES else {"engines": list(self.engines)}
+        return {"arm": self.arm, "n": self.n, "samples": self.samples, "seed": self.seed, **extra,
                 "ok": self.ok, "tolerance": TOLERANCE, "notes": self.notes,
                 "not_compared": self.not_compared,
                 "quantities": {k: q.to_dict() for k, q in self.quantities.items()}}
@@ -127,9 +133,10 @@ class CrosscheckReport:
         return json.dumps(self.to_dict(), indent=2)
 
     def table(self) -> str:
-        rows = [f"{'quantity':<8} {'max abs err':>12} {'max rel err':>12}  {'worst':>6}  verdict"]
+        w = max([8] + [len(k) for k in self.quantities])
+        rows = [f"{'quantity':<{w}} {'max abs err':>12} {'max rel err':>12}  {'worst':>6}  verdict"]
         for k, q in self.quantities.items():
-            rows.append(f"{k:<8} {q.max_abs:12.3e} {q.max_rel:12.3e}  {q.worst_index:>6}  "
+            rows.append(f"{k:<{w}} {q.max_abs:12.3e} {q.max_rel:12.3e}  {q.worst_index:>6}  "
                         f"{'ok' if q.ok else 'DISAGREE'}")
         return "\n".join(rows)
 
@@ -142,7 +149,8 @@ class CrosscheckReport:
         return "all agree"
 
     def __str__(self) -> str:
-        head = (f"crosscheck {self.arm!r} ({self.n} joints, {self.samples} states, seed {self.seed}): "
+        which = "" if tuple(self.engines) == DEFAULT_ENGINES else f", engines {', '.join(self.engines)}"
+        head = (f"crosscheck {self.arm!r} ({self.n} joints, {self.samples} states, seed {self.seed}{which}): "
                 f"{self._verdict()} "
                 f"(tolerance {TOLERANCE:g} relative)")
         return head + "\n" + self.table() + "".join(f"\nnote: {n}" for n in self.notes)
@@ -190,8 +198,10 @@ def _errors(ref, other):
 def _compare(name, abs_err, scale, states, tol=TOLERANCE) -> QuantityError:
     rel = abs_err / scale
     i = int(np.argmax(rel))
+    base, _, pair = name.partition("[")
+    desc = QUANTITIES.get(base, base) + (f" ({pair.rstrip(']')})" if pair else "")
     return QuantityError(
-        name=name, description=QUANTITIES.get(name, name),
+        name=name, description=desc,
         max_abs=float(abs_err.max()), max_rel=float(rel[i]), worst_index=i,
         worst_state={k: v[i] for k, v in states.items()}, tolerance=tol,
     )
@@ -246,9 +256,27 @@ def qdd_not_comparable(D, dD, dh, dg, qdd) -> str:
     return ""
 
 
+def as_engines(engines) -> tuple:
+    """``engines`` (names, or one comma-separated string) as a tuple of at least two distinct
+    names, or a :class:`ModelError` naming the argument (unknown names fail when built)."""
+    if engines is None:
+        return DEFAULT_ENGINES
+    if isinstance(engines, str):
+        engines = [e.strip() for e in engines.split(",")]
+    try:
+        names = tuple(engines)
+    except TypeError:
+        raise ModelError(f"engines: expected engine names such as ('lagrange', 'pinocchio', 'c'), "
+                         f"got {engines!r:.80}") from None
+    if not all(isinstance(e, str) and e for e in names) or len(names) < 2 or len(set(names)) != len(names):
+        raise ModelError(f"engines: expected at least two distinct engine names (the first is the referee), "
+                         f"e.g. 'lagrange,pinocchio,c'; got {engines!r:.80}")
+    return names
+
+
 def crosscheck(arm, samples: int = 1000, seed: int = 0, chunk: int = 500, progress=None,
-               scheduler=None, workers=None) -> CrosscheckReport:
-    """Compare ``arm.lagrange`` and ``arm.pinocchio`` on seeded random states.
+               scheduler=None, workers=None, engines=None) -> CrosscheckReport:
+    """Compare ``arm.lagrange`` and ``arm.pinocchio`` (or the ``engines`` named) on seeded random states.
 
     Parameters
     ----------
@@ -270,6 +298,13 @@ def crosscheck(arm, samples: int = 1000, seed: int = 0, chunk: int = 500, progre
         ``workers`` processes, or the cluster at the address; see
         :mod:`manipdyn.check.scale`), each part drawing its own states, and the
         report is the same as a local run's.
+    engines : sequence of str or str, optional
+        The engines to compare (``arm.engine(name)``), the referee first;
+        default ``("lagrange", "pinocchio")``, whose quantities keep their
+        plain names ("D", "tau", ...).  With more, every engine is compared
+        with the referee and each later pair with each other, and the
+        quantities are named for the pair: ``"D[c vs lagrange]"``,
+        ``"D[c vs pinocchio]"``.
 
     Returns
     -------
@@ -285,21 +320,48 @@ def crosscheck(arm, samples: int = 1000, seed: int = 0, chunk: int = 500, progre
                          "would not fit in memory); run several cross-checks with different seeds")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise StateError(f"seed: expected a non-negative integer, got {seed!r:.60}")
+    engines = as_engines(engines)
     chunk = max(1, min(int(chunk), CHUNK_DOUBLES // (arm.n * arm.n)))
     if scheduler is not None:
-        return _crosscheck_distributed(arm, int(samples), seed, chunk, progress, scheduler, workers)
-    return _crosscheck_states(arm, int(samples), seed, chunk, progress, 0, int(samples))
+        return _crosscheck_distributed(arm, int(samples), seed, chunk, progress, scheduler, workers, engines)
+    return _crosscheck_states(arm, int(samples), seed, chunk, progress, 0, int(samples), engines)
 
 
-def _crosscheck_states(arm, samples, seed, chunk, progress, first, stop) -> CrosscheckReport:
+def _pairs(engines) -> list:
+    """``(reference, other, key suffix)`` of each compared pair: every engine against the first
+    (the referee), then each later pair; the two default engines keep the plain keys."""
+    if len(engines) == 2:
+        return [(engines[0], engines[1], "")]
+    out = [(engines[0], e, f"[{e} vs {engines[0]}]") for e in engines[1:]]
+    out += [(a, b, f"[{b} vs {a}]") for i, a in enumerate(engines[1:], 1) for b in engines[i + 1:]]
+    return out
+
+
+def _engine_results(E: DynamicsEngine, qs, qds, qdds, referee: bool) -> dict:
+    """Everything the cross-check compares but forward dynamics, by one engine on one chunk
+    (D, h, g in one call for the referee, by their own methods for the others)."""
+    if referee:
+        D, h, g = E.dynamics_terms(qs, qds)
+    else:
+        D, h, g = E.mass_matrix(qs), E.coriolis_torque(qs, qds), E.gravity_torque(qs)
+    r = {"D": D, "h": h, "g": g, "tau": E.inverse_dynamics(qs, qds, qdds), "fk": E.fkine(qs),
+         "K": E.kinetic_energy(qs, qds)[:, None], "P": np.asarray(E.potential_energy(qs))[:, None],
+         "C": E.coriolis_matrix(qs, qds), "Y": E.regressor(qs, qds, qdds)}
+    r["dtau_dq"], r["dtau_dqd"] = E.inverse_dynamics_derivatives(qs, qds, qdds)
+    r["dg_dq"] = E.gravity_derivative(qs)
+    return r
+
+
+def _crosscheck_states(arm, samples, seed, chunk, progress, first, stop,
+                       engines=DEFAULT_ENGINES) -> CrosscheckReport:
     """The cross-check of rows ``first:stop`` of the states (worst indices global).
 
     ``chunk`` is the batch size already bounded by :data:`CHUNK_DOUBLES`.
     """
     q, qd, qdd = draw_states(arm, samples, seed, first, stop)
     samples_all, samples = samples, stop - first
-    L: DynamicsEngine = arm.lagrange
-    P: DynamicsEngine = arm.pinocchio
+    eng = {name: arm.engine(name) for name in engines}
+    pairs = _pairs(engines)
     parts: dict[str, list] = {}
     skipped: dict[str, str] = {}
 
@@ -312,67 +374,72 @@ def _crosscheck_states(arm, samples, seed, chunk, progress, first, stop) -> Cros
     for start in range(0, samples, chunk):
         sl = slice(start, min(samples, start + chunk))
         qs, qds, qdds = q[sl], qd[sl], qdd[sl]
-        D, h, g = L.dynamics_terms(qs, qds)
-        pD, ph, pg = P.mass_matrix(qs), P.coriolis_torque(qs, qds), P.gravity_torque(qs)
-        add("D", D, pD)
-        add("h", h, ph)
-        add("g", g, pg)
-        tau = L.inverse_dynamics(qs, qds, qdds)
-        add("tau", tau, P.inverse_dynamics(qs, qds, qdds))
-        # forward dynamics of the same torques: both should return qdd
-        if "qdd" not in skipped:
-            why = qdd_not_comparable(D, pD - D, ph - h, pg - g, qdds)
-            if why:
-                skipped["qdd"] = f"qdd not compared: {why}"
-                parts.pop("qdd", None)
-        if "qdd" not in skipped:
-            try:
-                add("qdd", L.forward_dynamics(qs, qds, tau), P.forward_dynamics(qs, qds, tau))
-            except SingularMassMatrixError as exc:
-                skipped["qdd"] = f"qdd not compared: {exc}"
-                parts.pop("qdd", None)
-        add("fk", L.fkine(qs), P.fkine(qs))
-        add("K", L.kinetic_energy(qs, qds)[:, None], np.asarray(P.kinetic_energy(qs, qds))[:, None])
-        add("P", L.potential_energy(qs)[:, None], np.asarray(P.potential_energy(qs))[:, None])
-        add("C", L.coriolis_matrix(qs, qds), P.coriolis_matrix(qs, qds))
-        add("Y", L.regressor(qs, qds, qdds), P.regressor(qs, qds, qdds))
-        for key, a, b in zip(("dtau_dq", "dtau_dqd"), L.inverse_dynamics_derivatives(qs, qds, qdds),
-                             P.inverse_dynamics_derivatives(qs, qds, qdds)):
-            add(key, a, b)
-        add("dg_dq", L.gravity_derivative(qs), P.gravity_derivative(qs))
-        if "qdd" in skipped:      # the same conditioning limits D^-1 dtau (and a singular D has none)
-            for key in ("dqdd_dq", "dqdd_dqd"):
-                skipped.setdefault(key, skipped["qdd"].replace("qdd not compared", "dqdd_dq, dqdd_dqd not "
-                                                               "compared (as qdd)", 1))
-                parts.pop(key, None)
-        else:
-            for key, a, b in zip(("dqdd_dq", "dqdd_dqd"), L.forward_dynamics_derivatives(qs, qds, tau),
-                                 P.forward_dynamics_derivatives(qs, qds, tau)):
-                add(key, a, b)
+        res = {name: _engine_results(E, qs, qds, qdds, name == engines[0]) for name, E in eng.items()}
+        tau = res[engines[0]]["tau"]
+        fd, fdd = {}, {}
+
+        def forward(name):             # forward dynamics of the referee's torques (once per engine)
+            if name not in fd:
+                fd[name] = eng[name].forward_dynamics(qs, qds, tau)
+            return fd[name]
+
+        def forward_derivatives(name):
+            if name not in fdd:
+                fdd[name] = eng[name].forward_dynamics_derivatives(qs, qds, tau)
+            return fdd[name]
+
+        for a, b, sfx in pairs:
+            A, B = res[a], res[b]
+            for key in ("D", "h", "g", "tau"):
+                add(key + sfx, A[key], B[key])
+            # forward dynamics of the same torques: both should return qdd
+            kq = "qdd" + sfx
+            if kq not in skipped:
+                why = qdd_not_comparable(A["D"], B["D"] - A["D"], B["h"] - A["h"], B["g"] - A["g"], qdds)
+                if why:
+                    skipped[kq] = f"{kq} not compared: {why}"
+                    parts.pop(kq, None)
+            if kq not in skipped:
+                try:
+                    add(kq, forward(a), forward(b))
+                except SingularMassMatrixError as exc:
+                    skipped[kq] = f"{kq} not compared: {exc}"
+                    parts.pop(kq, None)
+            for key in ("fk", "K", "P", "C", "Y", "dtau_dq", "dtau_dqd", "dg_dq"):
+                add(key + sfx, A[key], B[key])
+            if kq in skipped:      # the same conditioning limits D^-1 dtau (and a singular D has none)
+                for key in ("dqdd_dq" + sfx, "dqdd_dqd" + sfx):
+                    skipped.setdefault(key, skipped[kq].replace(
+                        f"{kq} not compared", f"dqdd_dq{sfx}, dqdd_dqd{sfx} not compared (as qdd)", 1))
+                    parts.pop(key, None)
+            else:
+                for key, x, y in zip(("dqdd_dq", "dqdd_dqd"), forward_derivatives(a), forward_derivatives(b)):
+                    add(key + sfx, x, y)
         if progress is not None:
             progress(sl.stop, samples)
 
     states = {"q": q, "qd": qd, "qdd": qdd}
     report = CrosscheckReport(arm=arm.name or "arm", n=arm.n, samples=int(samples_all), seed=int(seed),
                               notes=list(getattr(arm, "notes", ())) + list(dict.fromkeys(skipped.values())),
-                              not_compared=dict(skipped))
+                              not_compared=dict(skipped), engines=tuple(engines))
     for key, (ra, rb) in parts.items():
         report.quantities[key] = _compare(key, np.concatenate(ra), np.concatenate(rb), states)
         report.quantities[key].worst_index += first
     return report
 
 
-def _crosscheck_part(model, samples, seed, chunk, size, part) -> dict:
+def _crosscheck_part(model, samples, seed, chunk, size, engines, part) -> dict:
     """One part of a distributed cross-check: ``{part index: report, "timing": ...}``."""
     t0 = time.perf_counter()
     arm = arm_from_text(*model)
-    report = _crosscheck_states(arm, samples, seed, chunk, None, part.start, part.stop)
+    report = _crosscheck_states(arm, samples, seed, chunk, None, part.start, part.stop, engines)
     report.notes = report.notes[len(getattr(arm, "notes", ())):]     # the client adds the arm's own
     return {part.start // size: report, "timing": {"seconds": time.perf_counter() - t0,
                                            "host": socket.gethostname(), "pid": os.getpid()}}
 
 
-def _crosscheck_distributed(arm, samples, seed, chunk, progress, scheduler, workers) -> CrosscheckReport:
+def _crosscheck_distributed(arm, samples, seed, chunk, progress, scheduler, workers,
+                            engines=None) -> CrosscheckReport:
     """Parts of whole chunks on Dask workers, merged: the report a local run gives."""
     nparts = 4 * (local_cores() if workers is None else int(workers))
     size = chunk * max(1, -(-samples // (chunk * nparts)))    # whole chunks: the same batches as a local run
@@ -382,16 +449,18 @@ def _crosscheck_distributed(arm, samples, seed, chunk, progress, scheduler, work
         if progress is not None:
             progress(min(samples, done * size), samples)
 
-    col, _ = map_chunks(_crosscheck_part, (model_text(arm), samples, seed, chunk, size), len(parts),
+    engines = DEFAULT_ENGINES if engines is None else engines
+    col, _ = map_chunks(_crosscheck_part, (model_text(arm), samples, seed, chunk, size, engines), len(parts),
                         parts, scheduler, workers, on_part)
     reports = col.ordered()
-    merged = CrosscheckReport(arm=arm.name or "arm", n=arm.n, samples=samples, seed=int(seed),
+    merged = CrosscheckReport(arm=arm.name or "arm", n=arm.n, samples=samples, seed=int(seed), engines=tuple(engines),
                               notes=list(getattr(arm, "notes", ()))
                               + list(dict.fromkeys(n for r in reports for n in r.notes)))
     for r in reports:                      # the first part's reason, as a local run gives it
         for key, why in r.not_compared.items():
             merged.not_compared.setdefault(key, why)
-    skip = {k for r in reports for k in QUANTITIES if k not in r.quantities}
+    keys = {k for r in reports for k in r.quantities}
+    skip = {k for r in reports for k in keys if k not in r.quantities}
     for key in reports[0].quantities:      # the local run's order
         if key in skip:
             continue

@@ -18,14 +18,14 @@ import os
 import sys
 
 from .._support.errors import MissingExtraError, ModelError, SingularMassMatrixError, StateError
-from . import bench, check, compare, excite, identify, models, montecarlo, synthesize, track, urdf, validate
+from . import bench, check, codegen, compare, excite, identify, models, montecarlo, synthesize, track, urdf, validate
 from .._support.threads import blas_threads
 from .common import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
 #: the subcommands, in the order ``manipdyn --help`` lists them
-COMMANDS = (check, urdf, models, compare, track, montecarlo, excite, synthesize, identify, validate, bench)
+COMMANDS = (check, urdf, models, compare, track, montecarlo, excite, synthesize, identify, validate, bench, codegen)
 
 
 def _version() -> str:

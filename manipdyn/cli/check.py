@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 
-from ..check.crosscheck import crosscheck
+from ..check.crosscheck import as_engines, crosscheck
 from .._support.errors import ModelError, SingularMassMatrixError
 from ..formats.save import write_urdf
 from ..formats.loading import models
@@ -57,7 +57,7 @@ def _crosscheck(arm, args, progress):
     if args.workers is not None and args.workers < 1:
         raise ModelError(f"--workers: must be >= 1, got {args.workers}")
     return crosscheck(arm, samples=args.samples, seed=args.seed, progress=progress,
-                      scheduler=scheduler, workers=args.workers)
+                      scheduler=scheduler, workers=args.workers, engines=args.engines)
 
 
 def _print_result(report, timing, urdf_path, strict_failed: bool) -> None:
@@ -89,6 +89,11 @@ def run(args) -> int:
         return usage_error("check", f"--timing-calls must be >= 0 (0 skips the timing), got {args.timing_calls}")
     if args.urdf_out:
         output_folder(args.urdf_out, "--urdf-out")
+    if args.engines is not None:
+        try:
+            args.engines = as_engines(args.engines)
+        except ModelError as exc:
+            return usage_error("check", str(exc).replace("engines:", "--engines:", 1))
     loaded = load_all(specs, args.tip)         # every name checked before any arm runs
     seen: dict = {}
     show_progress = progress_wanted(args)
@@ -150,6 +155,10 @@ def register(sub) -> None:
                         "machine's cores); the report is the same as a local run's")
     c.add_argument("--workers", type=int, default=None,
                    help="with --scheduler local (implied): worker processes (default one per core)")
+    c.add_argument("--engines", default=None, metavar="E1,E2[,...]",
+                   help="the engines to compare, the referee first, e.g. lagrange,pinocchio,c (the "
+                        "generated C: needs a C compiler, and CasADi on the first build of an arm); "
+                        "default lagrange,pinocchio")
     c.add_argument("--timing-calls", type=int, default=200,
                    help="calls per engine for the per-call timing (0 to skip; default 200)")
     add_progress_options(c)

@@ -149,7 +149,9 @@ def register(subparsers) -> None:
     p.add_argument("--plants-from", metavar="IDENTIFIED.json", default=None,
                    help="draw every run's plant from this identification's uncertainty (a base model of "
                         "'manipdyn identify --base-json', method wls or consistent): Gaussian base "
-                        "parameters, mapped to full parameters and projected to J_i >= 0, friction >= 0; "
+                        "parameters (the block bootstrap's covariance when the file has enough refits), mapped to "
+                        "full parameters; a draw that is no physical arm becomes the nearest one (J_i >= 0, "
+                        "friction >= 0) in the metric of the covariance; "
                         "the payload, link and friction options then do not apply (default: the "
                         "hand-chosen distributions below)")
     p.add_argument("--json", action="store_true", help="print one JSON document instead of tables")

@@ -27,6 +27,14 @@ A sharp Coulomb sign has no derivative off ``v = 0`` and adds nothing (it
 chatters at rest, boundedly); a smoothed sign ``tanh(v / v_s)`` is stiff near
 ``v = 0`` (``Fc / (v_s J)``) and is counted.  Plants without analytical
 derivatives (a user's callable) keep ``m = 1`` unless ``substeps`` is given.
+
+What more steps cannot fix: the *loop*.  The torque is held over the whole period
+whatever ``m``, so a controller whose damping ``K_d`` moves the plant at a rate
+``|eig(D_plant^-1 K_d)| > 2 / dt`` diverges at any ``m``; only a shorter period (or
+a softer controller, or a heavier plant) holds it.  :func:`sampled_loop_rate`
+measures that rate for a plant and a controller along the reference; the
+Monte-Carlo studies record it per run and name it as the cause of a divergence
+(:mod:`manipdyn.montecarlo.diverged`).
 """
 
 from __future__ import annotations
@@ -37,7 +45,8 @@ import numpy as np
 
 from .._support.errors import SingularMassMatrixError, StateError
 
-__all__ = ["rk4_substeps", "reference_samples", "SAFE_STEP", "MAX_SUBSTEPS", "SAMPLES"]
+__all__ = ["rk4_substeps", "reference_samples", "sampled_loop_rate", "SAFE_STEP", "MAX_SUBSTEPS", "SAMPLES",
+           "SAMPLED_LIMIT"]
 
 #: the largest h |lambda| allowed (RK4 is stable to 2.785 on the negative real axis)
 SAFE_STEP = 2.0
@@ -93,3 +102,53 @@ def rk4_substeps(plant, q, qd, qdd, dt: float):
 def reference_samples(N: int) -> np.ndarray:
     """Indices of the :data:`SAMPLES` reference samples (of N + 1) :func:`rk4_substeps` reads."""
     return np.unique(np.linspace(0, N, SAMPLES).round().astype(int))
+
+
+#: ``dt |lambda|`` beyond which a damping loop closed through a zero-order hold is unstable:
+#: ``v_{k+1} = (1 - dt a) v_k`` grows once ``dt a > 2``
+SAMPLED_LIMIT = 2.0
+
+
+def sampled_loop_rate(plant, controller, t, q, qd, qdd) -> float:
+    """The largest ``|lambda|`` (1/s) of ``D_plant(q)^-1 K_d`` over reference states, where
+    ``K_d = -d tau / d qd`` is the controller's damping gain there (N m s/rad, by central
+    differences): the rate at which the controller's damping moves the plant.
+
+    A digital controller holds its torque over the period ``dt``; its damping loop is then
+    unstable once ``dt * rate > SAMPLED_LIMIT`` (2), however many Runge-Kutta steps integrate
+    the plant (:func:`rk4_substeps` cannot help: only a shorter period, a softer controller or
+    a heavier plant can).  A controller tuned to a nominal arm meets this on a plant that is
+    much lighter in some direction (e.g. a link's inertia about an axis that two aligned
+    joints share).
+
+    ``t`` (S,), ``q, qd, qdd`` (S, n): reference samples; the controller is evaluated at
+    ``q = q_d``, ``qd = qd_d`` on a reset shallow copy of itself (the original keeps its
+    state; a wrapper's ``inner`` controller is used: additive noise has no gain).  Returns
+    0.0 when the controller or the plant's mass matrix cannot be evaluated.
+    """
+    import copy
+
+    base = getattr(controller, "inner", controller)
+    D = _call(plant, "mass_matrix")
+    if not callable(getattr(base, "step", None)) or D is None:
+        return 0.0
+    q, qd, qdd = (np.atleast_2d(np.asarray(x, dtype=np.float64)) for x in (q, qd, qdd))
+    n = q.shape[1]
+    rate = 0.0
+    for ti, qi, vi, ai in zip(np.atleast_1d(np.asarray(t, dtype=np.float64)), q, qd, qdd):
+        c = copy.copy(base)
+        try:
+            c.reset()
+            K = np.empty((n, n))
+            for j in range(n):
+                h = 1e-6 * max(1.0, abs(vi[j]))
+                up, down = vi.copy(), vi.copy()
+                up[j] += h
+                down[j] -= h
+                K[:, j] = -(c.step(float(ti), qi, up, qi, vi, ai) - c.step(float(ti), qi, down, qi, vi, ai)) / (2 * h)
+            lam = np.linalg.eigvals(np.linalg.solve(np.asarray(D(qi), dtype=np.float64), K))
+        except (SingularMassMatrixError, StateError, ValueError, np.linalg.LinAlgError):
+            continue
+        if np.all(np.isfinite(lam)):
+            rate = max(rate, float(np.max(np.abs(lam))))
+    return rate

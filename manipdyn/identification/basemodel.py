@@ -21,7 +21,11 @@ keeps exactly that, self-contained:
   from it);
 * ``parameters``: the full vector closest to the prior with ``K pi = beta`` (no sign or
   PSD constraint), used to predict: ``Y pi = Y_b beta`` for every state;
-* ``provenance``: data file, its sha256, method, options, date.
+* ``provenance``: data file, its sha256, method, options, date;
+* ``bootstrap`` (with ``identify --bootstrap N``): replicates, block, seed, failed
+  replicates, and the block bootstrap's ``std`` and ``covariance`` of the base parameters
+  (:func:`~manipdyn.identification.bootstrap.bootstrap_summary`), which ``--plants-from``
+  draws from in place of ``covariance``: it keeps the residuals' correlation over time.
 
 :func:`load_base_model` reads it back; :meth:`BaseModel.inverse_dynamics` predicts.
 Both are what ``manipdyn validate BASE.json DATA`` uses.
@@ -93,8 +97,9 @@ def _covariance_rows(cov):
     return [[float(x) for x in row] for row in np.asarray(cov)]
 
 
-def base_model_dict(result, prior: dict, provenance: dict) -> dict:
-    """The JSON-ready base model of a :class:`FitResult` (module docstring)."""
+def base_model_dict(result, prior: dict, provenance: dict, bootstrap: dict | None = None) -> dict:
+    """The JSON-ready base model of a :class:`FitResult` (module docstring); ``bootstrap``: the
+    :func:`~manipdyn.identification.bootstrap.bootstrap_summary` of the same fit, if any."""
     rep = result.report
     rows = []
     for row in rep["base_parameters"]:
@@ -115,12 +120,13 @@ def base_model_dict(result, prior: dict, provenance: dict) -> dict:
         "parameters": [float(x) for x in result.parameters],
         "why_no_model": result.arm_error,
         "provenance": provenance,
+        **({} if bootstrap is None else {"bootstrap": bootstrap}),
     }
 
 
-def write_base_model(path, result, prior: dict, provenance: dict) -> None:
+def write_base_model(path, result, prior: dict, provenance: dict, bootstrap: dict | None = None) -> None:
     """Write :func:`base_model_dict` as strict JSON, atomically."""
-    atomic_write_text(path, json.dumps(base_model_dict(result, prior, provenance), indent=2,
+    atomic_write_text(path, json.dumps(base_model_dict(result, prior, provenance, bootstrap), indent=2,
                                        allow_nan=False) + "\n")
 
 

@@ -51,7 +51,7 @@ import numpy as np
 
 from .._support.errors import ModelError
 
-__all__ = ["bootstrap", "BootstrapResult", "block_indices"]
+__all__ = ["bootstrap", "BootstrapResult", "block_indices", "bootstrap_summary", "format_bootstrap"]
 
 
 @dataclass(frozen=True)
@@ -219,3 +219,32 @@ def bootstrap(arm, data, n: int, block: int | None = None, seed: int = 0, schedu
     return BootstrapResult(beta=beta, covariance=cov, std=np.sqrt(np.diag(cov)), base=base,
                            failed=sorted(errors), block=block, seed=seed, method=method, errors=errors,
                            timing=timing)
+
+
+def bootstrap_summary(result: BootstrapResult) -> dict:
+    """The JSON-ready summary ``identify`` reports and a base model carries (``--base-json``):
+    ``{"replicates", "block", "seed", "failed", "std", "covariance"}`` (``std`` (r,) and
+    ``covariance`` (r, r) as lists, None for a non-finite entry's row)."""
+    def num(x):
+        return float(x) if np.isfinite(x) else None
+
+    cov = None
+    if np.all(np.isfinite(result.covariance)):
+        cov = [[float(x) for x in row] for row in result.covariance]
+    return {"replicates": int(len(result.beta)), "block": int(result.block), "seed": int(result.seed),
+            "failed": [int(k) for k in result.failed], "std": [num(x) for x in result.std],
+            "covariance": cov}
+
+
+def format_bootstrap(summary: dict, base_parameters: list) -> str:
+    """The text ``identify --bootstrap N`` prints: one line per base parameter, its value, the
+    bootstrap's standard deviation and the fit's (``base_parameters``: the report's rows)."""
+    lines = [f"bootstrap: {summary['replicates']} replicates in blocks of {summary['block']} samples, "
+             f"{len(summary['failed'])} failed; standard deviation of each base parameter, block "
+             f"bootstrap (the fit's, which assumes white noise):"]
+    for row, s in zip(base_parameters, summary["std"]):
+        fit = row.get("std")
+        boot = "-" if s is None else f"{s:.3g}"
+        lines.append(f"  {row['value']:+.6g} +- {boot}" + (f" ({fit:.3g})" if fit is not None else "")
+                     + f" = {row['expression']}")
+    return "\n".join(lines)

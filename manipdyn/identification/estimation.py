@@ -145,7 +145,7 @@ def known_torque(prior, qd, qdd, armature, friction):
     return out
 
 
-def _nonnegative(names, n: int):
+def nonnegative_extras(names, n: int):
     """Which extra parameters (after the 10 n link ones) are constrained >= 0: all but offsets."""
     return np.array([not nm.endswith(".offset") for nm in names[10 * n:]], dtype=bool)
 
@@ -322,7 +322,7 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         else:
             try:
                 pi, solver = consistent_fit(R, c, base.K, n, prior, extra=len(base.names) > 10 * n,
-                                            bounds=bounds, nonnegative=_nonnegative(base.names, n),
+                                            bounds=bounds, nonnegative=nonnegative_extras(base.names, n),
                                             prior_weight=float(prior_weight), rows=N * n)
                 if bounds is not None and not bounds.satisfied(pi, n, rtol=1e-6):
                     raise ModelError("consistent fit: the answer does not satisfy the bounds (the solver "
@@ -411,7 +411,7 @@ def _shortfall(R, c, rho0, yw, ew, pi, n, base, bounds, solver, active_bounds) -
     J = pseudo_inertia_from_parameters(np.asarray(pi)[:10 * n].reshape(n, 10))
     ev = np.linalg.eigvalsh(J)
     at_psd = [i + 1 for i in range(n) if ev[i, 0] <= 1e-6 * max(float(ev[i, -1]), 1e-300)]
-    extra = np.asarray(pi)[10 * n:][_nonnegative(base.names, n)] if len(pi) > 10 * n else np.zeros(0)
+    extra = np.asarray(pi)[10 * n:][nonnegative_extras(base.names, n)] if len(pi) > 10 * n else np.zeros(0)
     at_zero = int(np.sum(extra <= 1e-9 * max(float(np.abs(pi).max()), 1e-300)))
     reasons = ([f"J_i >= 0 of link(s) {', '.join(map(str, at_psd))}"] if at_psd else []) \
         + ([f"{at_zero} armature/friction coefficient(s) at 0"] if at_zero else []) + list(active_bounds)

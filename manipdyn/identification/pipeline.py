@@ -272,10 +272,11 @@ def _identify(prior, logs, o) -> IdentifyResult:
     if boot:
         from .bootstrap import bootstrap
 
+        from .bootstrap import bootstrap_summary
+
         bs = bootstrap(arm, data, boot, scheduler=o["scheduler"], method=o["method"], friction=law,
                        armature=o["armature"], bounds=bounds, prior_weight=weight)
-        out.bootstrap = {"replicates": int(boot), "block": int(bs.block), "failed": list(map(int, bs.failed)),
-                         "std": [float(x) if np.isfinite(x) else None for x in bs.std]}
+        out.bootstrap = bootstrap_summary(bs)     # its std and covariance go to the base model too
     if o["output"] is not None or o["base_json"] is not None:
         write_model_files(out, o["output"], o["base_json"])
     return out

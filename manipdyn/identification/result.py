@@ -105,7 +105,7 @@ class IdentifyResult:
                 self.rename(stem)
         if low.endswith(".json"):
             self.fit.report["name"] = self.name
-            write_base_model(path, self.fit, prior_text(self.prior), self.provenance)
+            write_base_model(path, self.fit, prior_text(self.prior), self.provenance, bootstrap=self.bootstrap)
             return path
         if self.arm is None:
             raise ModelError(f"{path}: the {self.fit.method} parameters are not a physical arm "
@@ -126,7 +126,7 @@ class IdentifyResult:
         if self.selection is not None:
             rep["prior_weight_selection"] = self.selection
         if self.bootstrap is not None:
-            rep["bootstrap"] = self.bootstrap
+            rep["bootstrap"] = {k: v for k, v in self.bootstrap.items() if k != "covariance"}   # in the base model
         if self.shapes is not None:
             rep["friction_shapes"] = self.shapes
         if self.torque_constants is not None:
@@ -172,9 +172,9 @@ class IdentifyResult:
                 f"k{j + 1} {v:.5g} +- {s:.2g}" for j, (v, s) in enumerate(zip(tc.values, tc.std))))
             lines += [f"  {note}" for note in tc.notes]
         if self.bootstrap is not None:
-            b = self.bootstrap
-            lines.append(f"bootstrap: {b['replicates']} replicates in blocks of {b['block']} samples, "
-                         f"{len(b['failed'])} failed; std of each base parameter in --json")
+            from .bootstrap import format_bootstrap
+
+            lines.append(format_bootstrap(self.bootstrap, rep["base_parameters"]))
         if self.output:
             lines.append(f"wrote {self.output}")
         if self.base_model:
@@ -222,5 +222,6 @@ def _save_base(result, path):
     from .basemodel import prior_text, write_base_model
 
     result.fit.report["name"] = result.name
-    write_base_model(os.fspath(path), result.fit, prior_text(result.prior), result.provenance)
+    write_base_model(os.fspath(path), result.fit, prior_text(result.prior), result.provenance,
+                     bootstrap=result.bootstrap)
     return os.fspath(path)

@@ -22,7 +22,7 @@ Example::
 
 The distributions are :class:`Distributions` (defaults documented there and
 in ``manipdyn montecarlo --help``), or the plants are drawn from an
-identification's uncertainty: ``study(arm, runs, plants=load_identified("F.json"))``
+identification's uncertainty: ``study(arm, runs, plants="F.json")``
 (:mod:`.identified`).
 """
 
@@ -99,8 +99,10 @@ def study(arm, runs: int, seed: int = 0, controllers=CONTROLLER_KEYS, duration: 
         Torque limits of every controller, N m (N); default the model's own.
     bandwidth, gamma : float
         Controller bandwidth (rad/s) and adaptation gain.
-    plants : IdentifiedPlants, optional
-        Draw the plants from an identification (:func:`load_identified`, module
+    plants : str, os.PathLike or IdentifiedPlants, optional
+        Draw the plants from an identification: a base model JSON file (``manipdyn identify
+        --base-json``, as ``manipdyn montecarlo --plants-from`` takes it) or what
+        :func:`load_identified` read from one (module
         :mod:`.identified`); the payload, link scale and added friction of
         ``distributions`` are then set to 0 (the start offset and torque noise stay).
     """
@@ -128,8 +130,11 @@ def study(arm, runs: int, seed: int = 0, controllers=CONTROLLER_KEYS, duration: 
 
         from ..._support.errors import ModelError
 
+        if isinstance(plants, (str, os.PathLike)):
+            plants = load_identified(plants)     # a base model file, as --plants-from takes it
         if not isinstance(plants, IdentifiedPlants):
-            raise ModelError(f"plants: expected IdentifiedPlants (load_identified), got {type(plants).__name__}")
+            raise ModelError(f"plants: expected a base model JSON file name or IdentifiedPlants "
+                             f"(load_identified), got {type(plants).__name__}")
         prior = arm_from_text(*plants.prior)
         if prior.n != arm.n or tuple(prior.joint_types) != tuple(arm.joint_types):
             raise ModelError(f"plants: the identification's prior {prior.name!r} has joints "

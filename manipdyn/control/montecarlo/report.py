@@ -16,6 +16,8 @@ import math
 
 import numpy as np
 
+from ..stiffness import SAMPLED_LIMIT
+from .diverged import CAUSES
 from .identified import plant_source
 
 __all__ = ["StudyReport", "METRICS", "PERCENTILES"]
@@ -48,10 +50,12 @@ class StudyReport:
     per_run : list of dict
         One record per (run, controller), in run order then controller order:
         ``run, controller, rms_error, max_error, peak_torque, diverged, saturated,
-        substeps`` (errors in rad, or m for prismatic joints; torque in N m or N; the
+        substeps, sampled_loop, cause`` (errors in rad, or m for prismatic joints; torque in N m or N; the
         figures of a diverged run cover the samples before it diverged; ``substeps``
         the Runge-Kutta steps per control period its plant needed,
-        :mod:`manipdyn.control.stiffness`).
+        :mod:`manipdyn.control.stiffness`; ``sampled_loop`` its controller's
+        ``dt |eig(D_plant^-1 K_d)|``; ``cause`` why a diverged run diverged, a key of
+        :data:`.diverged.CAUSES`, None for the others).
     timing : dict
         Wall time, workers, chunks and where chunks ran (not reproducible).
     """
@@ -69,6 +73,8 @@ class StudyReport:
             ok = [r for r in rec if not r["diverged"]]
             entry = {m: _stats([r[m] for r in ok if r[m] is not None]) for m in METRICS}
             entry["diverged"] = sum(1 for r in rec if r["diverged"])
+            causes = [r.get("cause") for r in rec if r["diverged"] and r.get("cause")]
+            entry["diverged_because"] = {c: causes.count(c) for c in CAUSES if c in causes}
             entry["saturated"] = sum(1 for r in rec if r["saturated"])
             # worst first: diverged runs (earliest divergence unknown here: by run), then by RMS error
             order = sorted(rec, key=lambda r: (not r["diverged"], -(r["rms_error"] or 0.0), r["run"]))
@@ -104,7 +110,9 @@ class StudyReport:
                 name = m.replace("_", " ")
                 rows.append(f"{label if i == 0 else '':<22} {name:<11}{cells}  {unit}")
             worst = ", ".join(f"{w['run']}" + (" (diverged)" if w["diverged"] else "") for w in e["worst"])
-            rows.append(f"{'':<22} diverged {e['diverged']}, saturated {e['saturated']}; worst runs: {worst}")
+            why = ", ".join(f"{k} {v}" for k, v in e.get("diverged_because", {}).items())
+            rows.append(f"{'':<22} diverged {e['diverged']}" + (f" ({why})" if why else "")
+                        + f", saturated {e['saturated']}; worst runs: {worst}")
         return "\n".join(rows)
 
     def __str__(self) -> str:
@@ -116,7 +124,24 @@ class StudyReport:
                 f"{t.get('workers', 1)} worker(s) ({t.get('scheduler', '')}); replay a run with "
                 f"study.replay(run, controller)")
         legend = "; ".join(f"{m.replace('_', ' ')}: {d}" for m, (d, _) in METRICS.items())
-        return f"{head}\n{self.table()}\n{legend}\n{self.integration()}{foot}"
+        return f"{head}\n{self.table()}\n{legend}\n{self.integration()}{self.divergences()}{foot}"
+
+    def divergences(self) -> str:
+        """Lines on the sampled loop and the causes of the diverged runs (:mod:`.diverged`), else ''."""
+        fast = [r for r in self.per_run if (r.get("sampled_loop") or 0.0) > SAMPLED_LIMIT]
+        out = ""
+        if fast:
+            worst = max(r["sampled_loop"] for r in fast)
+            out = (f"sampled loop: {len(fast)} of {len(self.per_run)} runs have dt |eig(D_plant^-1 K_d)| > "
+                   f"{SAMPLED_LIMIT:g} at the reference (up to {worst:.3g}; {sum(r['diverged'] for r in fast)} of "
+                   f"them diverged): the controllers' damping, tuned to the nominal arm, is too fast for the "
+                   f"period on these plants; --dt {self.study.dt * SAMPLED_LIMIT / worst:.2g} or less would "
+                   f"hold them, more RK4 steps would not\n")
+        total = {}
+        for e in self.controllers.values():
+            for c, k in e.get("diverged_because", {}).items():
+                total[c] = total.get(c, 0) + k
+        return out + "".join(f"diverged ({c}): {k} run(s): {CAUSES[c]}\n" for c, k in total.items())
 
     def integration(self) -> str:
         """One line when some plants needed more than one Runge-Kutta step per period, else ''."""

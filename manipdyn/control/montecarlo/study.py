@@ -28,6 +28,7 @@ import numpy as np
 from ..controllers import Controller
 from ...check.scale import arm_from_text, model_text
 from .distributions import Distributions, draw
+from .diverged import cause
 from .plant import Plant, make_plant
 
 __all__ = ["Study", "RunSetup", "TorqueNoise", "run_chunk", "CONTROLLER_KEYS", "model_text"]
@@ -221,6 +222,16 @@ class Study:
         return rk4_substeps(plant, *_reference_samples(self.model, float(self.duration), float(self.dt)),
                             self.dt)[0]
 
+    def sampled_loop(self, setup: RunSetup) -> float:
+        """``dt |eig(D_plant^-1 K_d)|``, largest over the reference samples the stiffness check
+        reads, for ``setup``'s plant and controller (:func:`manipdyn.control.stiffness.sampled_loop_rate`):
+        over 2, the controller's damping is too fast for the period on this plant (:mod:`.diverged`)."""
+        from ..stiffness import reference_samples, sampled_loop_rate
+
+        q, qd, qdd = _reference_samples(self.model, float(self.duration), float(self.dt))
+        t = reference_samples(self.steps) * float(self.dt)
+        return float(self.dt) * sampled_loop_rate(setup.plant, setup.controller, t, q, qd, qdd)
+
     def replay(self, run: int, controller: str):
         """Simulate run ``run`` of ``controller`` alone: the study's :class:`SimulationLog`.
 
@@ -302,7 +313,17 @@ def run_one(study: Study, run: int, key: str, cache: dict) -> dict:
     m = _metrics(log, lim, ctrl.noise if isinstance(ctrl, TorqueNoise) else None)
     return {"run": int(run), "controller": key, "rms_error": m["rms_error"],
             "max_error": m["max_error"], "peak_torque": m["peak_torque"],
-            "diverged": diverged, "saturated": m["saturated"], "substeps": int(log.substeps)}
+            "diverged": diverged, "saturated": m["saturated"], "substeps": int(log.substeps),
+            **_loop(study, setup, diverged)}
+
+
+
+
+
+def _loop(study: Study, setup: RunSetup, diverged: bool) -> dict:
+    """``{"sampled_loop": dt |lambda|, "cause": ...}`` of one run (:mod:`.diverged`)."""
+    loop = study.sampled_loop(setup)
+    return {"sampled_loop": loop, "cause": cause(loop, diverged)}
 
 
 def run_many(study: Study, runs, key: str, cache: dict) -> list:
@@ -316,7 +337,8 @@ def run_many(study: Study, runs, key: str, cache: dict) -> list:
         m = _metrics(log, ctrl.tau_max, ctrl.noise if isinstance(ctrl, TorqueNoise) else None)
         out.append({"run": int(setup.plant.draw.run), "controller": key, "rms_error": m["rms_error"],
                     "max_error": m["max_error"], "peak_torque": m["peak_torque"],
-                    "diverged": diverged, "saturated": m["saturated"], "substeps": int(log.substeps)})
+                    "diverged": diverged, "saturated": m["saturated"], "substeps": int(log.substeps),
+                    **_loop(study, setup, diverged)})
     return out
 
 

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 import os
+import time
 
 import numpy as np
 import pinocchio as pin
@@ -37,6 +38,7 @@ from .derivatives import PinocchioDerivatives
 from ...formats.urdf.writer import TOOL_LINK, arm_to_urdf
 
 _isfinite = math.isfinite
+_clock = time.perf_counter
 _crba, _rnea, _aba, _gravity = pin.crba, pin.rnea, pin.aba, pin.computeGeneralizedGravity
 
 #: below this many states a batch runs on one thread (thread start-up costs
@@ -53,6 +55,64 @@ PARALLEL_MIN_STATES = 2048
 _POOL_PID = [None]
 
 
+
+
+class ThreadChoice:
+    """One thread or all of them for the next batch, by measurement (issue 27, item 26).
+
+    A batch on Pinocchio's thread pool waits for its slowest thread, so on a machine
+    shared with other processes it can be slower than one thread (measured on a 2-core
+    machine under one other busy process, 20,000 UR5 states: 0.93 us per state on 2
+    threads, 0.72 on one), and under a heavier load faster again (a process with more
+    threads gets more of the machine): neither the core count nor the load average
+    predicts which.  So each engine times its batches: the first parallel-sized batch
+    runs on all threads, the second on one, and from then on each runs on the one with
+    the lower cost per state (an average over its recent batches, weight :data:`WEIGHT`
+    for the newest), except for a look at the other one after :data:`EXPLORE` batches,
+    then after twice as many each time the look confirms the choice (at most
+    :data:`MAX_INTERVAL`), so that a change of load is seen while a slow option costs
+    little: 3 % of the batches at most once settled.  The answers do not depend on the
+    threads (bit for bit).  ``benchmarks/bench_batch_threads.py`` times it against one
+    thread and all of them.
+    """
+
+    #: batches before the first look at the currently slower option
+    EXPLORE = 8
+    #: the longest interval between looks, in batches
+    MAX_INTERVAL = 64
+    #: weight of the newest batch in the running cost per state
+    WEIGHT = 0.5
+
+    def __init__(self):
+        self.cost, self.calls, self.interval, self.next_look = {}, 0, self.EXPLORE, self.EXPLORE
+
+    def _best(self, threads: int) -> int:
+        return 1 if self.cost[1] <= self.cost[threads] else threads
+
+    def pick(self, threads: int) -> int:
+        """Threads for the next batch: 1 or ``threads``."""
+        self.calls += 1
+        if threads not in self.cost:
+            return threads
+        if 1 not in self.cost:
+            return 1
+        best = self._best(threads)
+        if self.calls >= self.next_look:
+            self.next_look = self.calls + self.interval
+            self.interval = min(2 * self.interval, self.MAX_INTERVAL)
+            return threads if best == 1 else 1
+        return best
+
+    def record(self, threads: int, seconds_per_state: float) -> None:
+        """The cost per state of a batch that ran on ``threads`` (1 or the engine's count)."""
+        many = max(self.cost.keys() | {threads})
+        before = self._best(many) if len(self.cost) == 2 else None
+        old = self.cost.get(threads)
+        x = float(seconds_per_state)
+        self.cost[threads] = x if old is None else old + self.WEIGHT * (x - old)
+        if before is not None and self._best(many) != before:     # the load changed: look more often
+            self.interval = self.EXPLORE
+            self.next_look = self.calls + self.EXPLORE
 
 
 def model_from_urdf(urdf_text: str, gravity, armature=None) -> "pin.Model":
@@ -118,7 +178,9 @@ class PinocchioEngine(PinocchioDerivatives):  # derivatives: manipdyn.engines.pi
         Viscous and Coulomb coefficients (joint side, sharp sign), or a friction
         law (:class:`manipdyn.model.drive.Friction`), applied outside the Lagrangian.
     num_threads : int or None
-        Threads for batch calls (default: the CPUs available, at most 8).
+        Threads for batch calls (default: the CPUs available, at most 8, used only while
+        they measure faster than one thread, :class:`ThreadChoice`; a number given here, or
+        set later, is used as given).
     tool_frame : str or None
         The URDF frame whose pose :meth:`fkine` gives (default: the last frame of the model).
     transmission : Transmission or None
@@ -127,6 +189,12 @@ class PinocchioEngine(PinocchioDerivatives):  # derivatives: manipdyn.engines.pi
     rotor_coupling : (n, n) or None
         The off-diagonal part of the rotor inertia ``R^T diag(Jm) R`` (zero
         diagonal), which ``model.armature`` cannot hold (module docstring).
+
+    Attributes
+    ----------
+    thread_choice : ThreadChoice
+        The measured cost per state of this engine's batches on one thread and on
+        :attr:`num_threads` (when the count was not given).
     """
 
     name = "pinocchio"
@@ -163,6 +231,8 @@ class PinocchioEngine(PinocchioDerivatives):  # derivatives: manipdyn.engines.pi
             O.setflags(write=False)
             self._O = O
         self._num_threads = num_threads or _threads()
+        self._explicit_threads = bool(num_threads)
+        self.thread_choice = ThreadChoice()
         self._pool = self._pool0 = None
         self.unchecked = UncheckedView(self)
         install_fast_path(self)
@@ -184,6 +254,7 @@ class PinocchioEngine(PinocchioDerivatives):  # derivatives: manipdyn.engines.pi
         if value != self._num_threads:
             self._num_threads = value
             self._pool = self._pool0 = None  # a pool holds one Data per thread: rebuild
+        self._explicit_threads = True
 
     def _get_pool(self):
         if self._pool is None:
@@ -197,9 +268,12 @@ class PinocchioEngine(PinocchioDerivatives):  # derivatives: manipdyn.engines.pi
         return self._pool0
 
     def _rnea_batch(self, pool, q, qd, qdd) -> np.ndarray:
-        return pin.rneaInParallel(self._batch_threads(len(q)), pool, q.T, qd.T, qdd.T).T.reshape(q.shape)
+        return self._parallel(pin.rneaInParallel, len(q), pool, q.T, qd.T, qdd.T).T.reshape(q.shape)
 
     def _batch_threads(self, N: int) -> int:
+        """Threads for a batch of ``N`` states: 1 below :data:`PARALLEL_MIN_STATES` or in a forked
+        child (``_POOL_PID``); :attr:`num_threads` when it was given; else, by default, the faster
+        of one thread and :attr:`num_threads` as this engine measured them (:attr:`thread_choice`)."""
         if N < PARALLEL_MIN_STATES or self._num_threads == 1:
             return 1
         pid = os.getpid()
@@ -207,7 +281,17 @@ class PinocchioEngine(PinocchioDerivatives):  # derivatives: manipdyn.engines.pi
             _POOL_PID[0] = pid
         elif _POOL_PID[0] != pid:      # forked from the process that started the pool (see _POOL_PID)
             return 1
-        return self._num_threads
+        return self._num_threads if self._explicit_threads else self.thread_choice.pick(self._num_threads)
+
+    def _parallel(self, call, N: int, *args) -> np.ndarray:
+        """``call(threads, *args)`` with the threads of :meth:`_batch_threads`, timed for the choice."""
+        threads = self._batch_threads(N)
+        if N < PARALLEL_MIN_STATES or self._explicit_threads:
+            return call(threads, *args)
+        t0 = _clock()
+        out = call(threads, *args)
+        self.thread_choice.record(threads, (_clock() - t0) / N)
+        return out
 
     def _friction(self, qd):
         if self._law is not None:
@@ -303,8 +387,7 @@ class PinocchioEngine(PinocchioDerivatives):  # derivatives: manipdyn.engines.pi
             qdd = _aba(self.model, self.data, q, qd, tau)
         else:
             same_batch((q, "q"), (qd, "qd"), (tau, "tau"))
-            qdd = pin.abaInParallel(self._batch_threads(len(q)), self._get_pool(),
-                                    q.T, qd.T, tau.T).T.reshape(q.shape)
+            qdd = self._parallel(pin.abaInParallel, len(q), self._get_pool(), q.T, qd.T, tau.T).T.reshape(q.shape)
         if not _isfinite(np.add.reduce(qdd.reshape(-1))):
             # finite inputs, non-finite accelerations: either ABA divided by a
             # zero articulated inertia (D(q) singular: say so), or the inputs

@@ -1,0 +1,39 @@
+"""The optional ``codegen`` extra (CasADi) of the generated-C engine.
+
+Layer: engines.  :func:`casadi` imports CasADi or raises
+:class:`~manipdyn.errors.MissingExtraError` with the install command, never a
+bare ``ImportError`` traceback.  Only writing C needs CasADi: a build already
+in the cache (:mod:`manipdyn.engines.c.build`) loads without it.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+from ..._support.errors import MissingExtraError
+
+__all__ = ["casadi", "INSTALL", "manipdyn_version"]
+
+#: the command that installs what code generation needs
+INSTALL = "pip install 'manipdyn[codegen]'"
+
+
+def casadi():
+    """The ``casadi`` module, or :class:`MissingExtraError` naming the extra to install."""
+    try:
+        return importlib.import_module("casadi")
+    except ImportError as exc:
+        raise MissingExtraError(
+            f"generating C (md.codegen, the 'c' engine) needs the Python package 'casadi', which is not "
+            f"installed ({exc}); install the code-generation extra: {INSTALL}") from None
+
+
+def manipdyn_version() -> str:
+    """The installed manipdyn's version (read from the package metadata: this layer does not
+    import the package top), or "unknown" when it runs from a source tree that is not installed."""
+    from importlib import metadata
+
+    try:
+        return metadata.version("manipdyn")
+    except metadata.PackageNotFoundError:
+        return "unknown"

@@ -1,0 +1,297 @@
+"""The third engine: the generated C, compiled and called through ctypes (``arm.compiled``).
+
+Layer: engines (the generated-C engine).  :func:`compiled_engine` (the factory
+behind ``arm.engine("c")``) looks the arm's build up in the cache
+(:mod:`manipdyn.engines.c.build`), and on a miss generates the C
+(:mod:`manipdyn.engines.c.source`, CasADi needed) and compiles it.
+:class:`CompiledEngine` answers :class:`manipdyn.DynamicsEngine`.
+
+What the C computes: D, h (Coriolis alone), g, the friction law, tau, forward
+dynamics (LDL^T of D), the tool pose, the potential energy, the regressor,
+dtau/dq and dtau/dqd, dg/dq, dF/dqd and the Christoffel Coriolis matrix.  What
+is derived here in Python from those (said in each docstring): the kinetic
+energy ``qd^T D qd / 2``, the forward-dynamics derivatives ``-D^-1 dtau`` and
+``D^-1``, and regressor friction columns other than the arm's own law's.
+
+Batches of states (N, n) run in one C loop (the ``*_batch`` functions), and
+ctypes releases the GIL during each call: two threads may call one engine at
+once (the C keeps no state).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import threading
+
+import numpy as np
+
+from ..._support.files import atomic_write_text
+from ..._support.state import as_state, check_result, same_batch
+from ..._support.errors import ModelError, SingularMassMatrixError
+from ...model.friction import Friction, friction_spec
+from . import build
+
+__all__ = ["CompiledEngine", "compiled_engine", "library_for", "ENGINE_PREFIX"]
+
+#: CasADi's graphs are not thread-safe: one generation at a time per process (compiles run in parallel)
+_GENERATE = threading.Lock()
+
+#: the prefix of the engine's own build (the files ``md.codegen`` writes use the arm's name)
+ENGINE_PREFIX = "md"
+
+_FUNCS = {
+    # name: (inputs, output sizes as multiples of (n, n*n, n*p, 16, 1))
+    "inverse_dynamics": (3, ("n",)), "mass_matrix": (1, ("nn",)), "gravity": (1, ("n",)),
+    "nonlinear_effects": (2, ("n",)), "forward_dynamics": (3, ("n",)),
+    "inverse_dynamics_derivatives": (3, ("nn", "nn")), "regressor": (3, ("np",)), "coriolis": (2, ("n",)),
+    "friction": (1, ("n",)), "tool_pose": (1, ("16",)), "potential_energy": (1, ("1",)),
+    "gravity_derivative": (1, ("nn",)), "friction_derivative": (1, ("nn",)), "coriolis_matrix": (2, ("nn",)),
+}
+
+
+def _version() -> str:
+    from .deps import manipdyn_version
+
+    return manipdyn_version()
+
+
+def _generator_digest() -> str:
+    """sha256 of the generator's own source (graph, emit, source): a changed generator never
+    serves a build of the old one from the cache."""
+    import hashlib
+
+    h = hashlib.sha256()
+    for name in ("graph.py", "emit.py", "source.py"):
+        with open(os.path.join(os.path.dirname(os.path.abspath(__file__)), name), "rb") as f:
+            h.update(f.read())
+    return h.hexdigest()[:16]
+
+
+def library_for(arm, cc: str | None = None, opt: str = "-O2") -> str:
+    """Path of the compiled library of ``arm``: from the cache, or generated and built into it.
+
+    Thread-safe: threads building several arms generate one at a time and compile in parallel.
+
+    ``opt``: the optimisation flag (``-O0`` to ``-O3``).  The results do not depend on it
+    (``-std=c99`` keeps GCC from contracting ``a * b + c`` into fused multiply-adds);
+    only the build time and the speed do, so tests that build hundreds of arms use ``-O0``.
+    """
+    if opt not in ("-O0", "-O1", "-O2", "-O3", "-Os"):
+        raise ModelError(f"opt: expected one of -O0, -O1, -O2, -O3, -Os, got {opt!r:.40}")
+    from .source import GENERATOR_VERSION, generate, model_sha256
+
+    cc = cc or build.require_compiler("the 'c' engine")
+    key = build.build_key(model_sha256(arm), _version(), GENERATOR_VERSION + opt + _generator_digest(), cc)
+    folder = os.path.join(build.cache_dir(), "c", key)
+    so = os.path.join(folder, f"lib{ENGINE_PREFIX}.so")
+    if os.path.isfile(so):
+        return so
+    with _GENERATE:
+        gen = generate(arm, ENGINE_PREFIX)
+    os.makedirs(folder, exist_ok=True)
+    atomic_write_text(os.path.join(folder, f"{ENGINE_PREFIX}.h"), gen.header)
+    cpath = os.path.join(folder, f"{ENGINE_PREFIX}.c")
+    atomic_write_text(cpath, gen.source)
+    build.compile_shared(cc, cpath, so, extra=(opt,))
+    return so
+
+
+def compiled_engine(arm, opt: str = "-O2") -> "CompiledEngine":
+    """The generated-C engine of ``arm`` (the factory behind ``arm.engine("c")``), built with ``opt``."""
+    law = arm.friction_model
+    p = len(arm.parameters(armature=True, friction=law if law is not None else False))
+    return CompiledEngine(library_for(arm, opt=opt), arm.n, p, transmission=arm.transmission, friction_model=law)
+
+
+class CompiledEngine:
+    """The generated C of one arm behind the :class:`manipdyn.DynamicsEngine` methods.
+
+    Parameters
+    ----------
+    library : str
+        Path of the shared library built from the generated source with the
+        prefix :data:`ENGINE_PREFIX` (:func:`library_for`).
+    n, p : int
+        Joints, and columns of the C regressor (``arm.parameters(armature=True,
+        friction=arm.friction_model)``).
+    transmission, friction_model :
+        The arm's, for the regressor's friction columns of another law than
+        the arm's own (computed by the law's Python code, :meth:`regressor`).
+    """
+
+    name = "c"
+
+    def __init__(self, library: str, n: int, p: int, prefix: str = ENGINE_PREFIX, transmission=None,
+                 friction_model=None):
+        self.library = library
+        self.n, self.p = int(n), int(p)
+        self.transmission, self.friction_model = transmission, friction_model
+        try:
+            lib = ctypes.CDLL(os.path.abspath(library))
+        except OSError as exc:
+            raise ModelError(f"the 'c' engine: cannot load {library!r}: {exc}") from None
+        self._lib = lib
+        self._fn = {}
+        for name, (nin, _) in _FUNCS.items():
+            try:
+                f = getattr(lib, f"{prefix}_{name}_batch")
+            except AttributeError:
+                raise ModelError(f"the 'c' engine: {library!r} has no function {prefix}_{name}_batch "
+                                 "(built by another generator?)") from None
+            f.restype = None
+            f.argtypes = [ctypes.c_long] + [ctypes.c_void_p] * (nin + len(_FUNCS[name][1]))
+            self._fn[name] = f
+        self._sizes = {"n": self.n, "nn": self.n * self.n, "np": self.n * self.p, "16": 16, "1": 1}
+
+    # -- calling the C -----------------------------------------------------------------
+    def _call(self, name, *inputs):
+        """Run ``name`` on validated inputs (each (n,) or (N, n), same shape): its outputs, each
+        (N, size) or (size,)."""
+        single = inputs[0].ndim == 1
+        xs = [np.ascontiguousarray(x, dtype=np.float64).reshape(-1, self.n) for x in inputs]
+        N = xs[0].shape[0]
+        outs = [np.empty((N, self._sizes[s])) for s in _FUNCS[name][1]]
+        if N:
+            self._fn[name](N, *[x.ctypes.data for x in xs], *[o.ctypes.data for o in outs])
+        return [o[0] if single else o for o in outs]
+
+    def _states(self, *named):
+        arrs = [as_state(x, nm, self.n) for x, nm in named]
+        if len(arrs) > 1 and any(a.shape != arrs[0].shape for a in arrs):
+            same_batch(*zip(arrs, (nm for _, nm in named)))
+        return arrs
+
+    def _square(self, a):
+        return a.reshape(a.shape[:-1] + (self.n, self.n))
+
+    # -- the DynamicsEngine methods ------------------------------------------------------
+    def mass_matrix(self, q) -> np.ndarray:
+        """D(q) (rotors ``R^T diag(Jm) R`` included): (n, n) or (N, n, n), kg m^2 (C: composite inertias)."""
+        (q,) = self._states((q, "q"))
+        return check_result(self._square(self._call("mass_matrix", q)[0]), "mass_matrix", q=q)
+
+    def coriolis_torque(self, q, qd) -> np.ndarray:
+        """h(q, qd), Coriolis and centripetal alone: (n,) or (N, n), N m (C: RNEA without gravity)."""
+        q, qd = self._states((q, "q"), (qd, "qd"))
+        return check_result(self._call("coriolis", q, qd)[0], "coriolis_torque", q=q, qd=qd)
+
+    def gravity_torque(self, q) -> np.ndarray:
+        """g(q), the torque that holds the arm still: (n,) or (N, n), N m."""
+        (q,) = self._states((q, "q"))
+        return check_result(self._call("gravity", q)[0], "gravity_torque", q=q)
+
+    def friction_torque(self, qd) -> np.ndarray:
+        """The arm's friction law at the joints, offsets included: (n,) or (N, n), N m."""
+        (qd,) = self._states((qd, "qd"))
+        return check_result(self._call("friction", qd)[0], "friction_torque", qd=qd)
+
+    def dynamics_terms(self, q, qd) -> tuple:
+        """``(D, h, g)`` (shapes as above)."""
+        return self.mass_matrix(q), self.coriolis_torque(q, qd), self.gravity_torque(q)
+
+    def inverse_dynamics(self, q, qd, qdd) -> np.ndarray:
+        """tau = D qdd + h + g + friction: (n,) or (N, n), N m (C: RNEA)."""
+        q, qd, qdd = self._states((q, "q"), (qd, "qd"), (qdd, "qdd"))
+        return check_result(self._call("inverse_dynamics", q, qd, qdd)[0], "inverse_dynamics", q=q, qd=qd, qdd=qdd)
+
+    def nonlinear_effects(self, q, qd) -> np.ndarray:
+        """``tau(q, qd, 0) = h + g + friction``: (n,) or (N, n), N m."""
+        q, qd = self._states((q, "q"), (qd, "qd"))
+        return check_result(self._call("nonlinear_effects", q, qd)[0], "nonlinear_effects", q=q, qd=qd)
+
+    def forward_dynamics(self, q, qd, tau) -> np.ndarray:
+        """qdd solving ``D qdd = tau - h - g - friction``: (n,) or (N, n) (C: unrolled LDL^T of D).
+
+        A singular D raises :class:`SingularMassMatrixError`."""
+        q, qd, tau = self._states((q, "q"), (qd, "qd"), (tau, "tau"))
+        qdd = self._call("forward_dynamics", q, qd, tau)[0]
+        if not np.isfinite(np.add.reduce(qdd.reshape(-1))):
+            D = self.mass_matrix(q if q.ndim == 2 else q[None])
+            w = np.linalg.eigvalsh(D)
+            if np.any(w[:, 0] <= 1e-12 * np.maximum(1.0, np.abs(w[:, -1]))):
+                raise SingularMassMatrixError.for_mass_matrix(D)
+        return check_result(qdd, "forward_dynamics", q=q, qd=qd, tau=tau)
+
+    def kinetic_energy(self, q, qd):
+        """K = qd^T D qd / 2 (J), rotors included; float or (N,).  Derived here from the C's D."""
+        q, qd = self._states((q, "q"), (qd, "qd"))
+        D = self.mass_matrix(q)
+        K = 0.5 * np.einsum("...i,...ij,...j->...", qd, D, qd)
+        return float(K) if q.ndim == 1 else K
+
+    def potential_energy(self, q):
+        """P = -sum m_i g^T c_i (J), zero at the base origin's height; float or (N,)."""
+        (q,) = self._states((q, "q"))
+        P = check_result(self._call("potential_energy", q)[0], "potential_energy", q=q)
+        return float(P[0]) if q.ndim == 1 else P[:, 0]
+
+    def coriolis_matrix(self, q, qd) -> np.ndarray:
+        """C(q, qd), Christoffel form (C qd = h, dD/dt - 2C skew): (n, n) or (N, n, n)."""
+        q, qd = self._states((q, "q"), (qd, "qd"))
+        return check_result(self._square(self._call("coriolis_matrix", q, qd)[0]), "coriolis_matrix", q=q, qd=qd)
+
+    def fkine(self, q) -> np.ndarray:
+        """The tool frame's pose in the base frame: (4, 4) or (N, 4, 4), metres."""
+        (q,) = self._states((q, "q"))
+        T = self._call("tool_pose", q)[0]
+        return check_result(T.reshape(T.shape[:-1] + (4, 4)), "fkine", q=q)
+
+    def regressor(self, q, qd, qdd, armature: bool = False, friction=False) -> np.ndarray:
+        """Y with ``Y @ arm.parameters(armature, friction) = tau``: (n, p) or (N, n, p).
+
+        The link and armature columns, and the friction columns of the arm's
+        own law (``friction=arm.friction_model``), are the C's (``d tau / d
+        pi`` of the generated RNEA); friction columns of any other law or
+        terms (``friction=True``, term names) are computed here by that law's
+        Python code (:meth:`manipdyn.Friction.columns`).
+        """
+        q, qd, qdd = self._states((q, "q"), (qd, "qd"), (qdd, "qdd"))
+        Y = self._call("regressor", q, qd, qdd)[0]
+        Y = Y.reshape(Y.shape[:-1] + (self.n, self.p))
+        n = self.n
+        blocks = [Y[..., :10 * n]]
+        if armature:
+            blocks.append(Y[..., 10 * n:11 * n])
+        if friction is not False and friction is not None:
+            law = self.friction_model
+            if isinstance(friction, Friction) and law is not None and (friction is law or friction == law):
+                blocks.append(Y[..., 11 * n:])
+            else:
+                blocks.append(friction_spec(friction, n).columns(qd, self.transmission))
+        out = np.concatenate(blocks, axis=-1) if len(blocks) > 1 else np.ascontiguousarray(blocks[0])
+        return check_result(out, "regressor", q=q, qd=qd, qdd=qdd)
+
+    # -- derivatives ---------------------------------------------------------------
+    def inverse_dynamics_derivatives(self, q, qd, qdd) -> tuple:
+        """``(dtau_dq, dtau_dqd)``, each (n, n) or (N, n, n), friction included (C: the
+        Jacobians of the generated RNEA, ``[i, m] = d tau_i / d x_m``)."""
+        q, qd, qdd = self._states((q, "q"), (qd, "qd"), (qdd, "qdd"))
+        a, b = self._call("inverse_dynamics_derivatives", q, qd, qdd)
+        return (check_result(self._square(a), "inverse_dynamics_derivatives", q=q, qd=qd, qdd=qdd),
+                check_result(self._square(b), "inverse_dynamics_derivatives", q=q, qd=qd, qdd=qdd))
+
+    def forward_dynamics_derivatives(self, q, qd, tau) -> tuple:
+        """``(dqdd_dq, dqdd_dqd, dqdd_dtau)``, each (n, n) or (N, n, n).  Derived here from the
+        C's forward dynamics, D and dtau: ``-D^-1 dtau/dq``, ``-D^-1 dtau/dqd``, ``D^-1``."""
+        q, qd, tau = self._states((q, "q"), (qd, "qd"), (tau, "tau"))
+        qdd = self.forward_dynamics(q, qd, tau)
+        dq, dqd = self.inverse_dynamics_derivatives(q, qd, qdd)
+        D = self.mass_matrix(q)
+        try:
+            Dinv = np.linalg.inv(D)
+        except np.linalg.LinAlgError:
+            raise SingularMassMatrixError.for_mass_matrix(D if D.ndim == 3 else D[None]) from None
+        return -Dinv @ dq, -Dinv @ dqd, Dinv
+
+    def gravity_derivative(self, q) -> np.ndarray:
+        """``dg/dq``: (n, n) or (N, n, n), N m/rad (C: the Jacobian of the generated g)."""
+        (q,) = self._states((q, "q"))
+        return check_result(self._square(self._call("gravity_derivative", q)[0]), "gravity_derivative", q=q)
+
+    def friction_derivative(self, qd) -> np.ndarray:
+        """``dF/dqd`` of the friction law: (n, n) or (N, n, n).  At a kink: the sharp sign's
+        derivative is 0, the deadband's 0 inside it, an asymmetric law's at v = 0 the mean of
+        its sides (CasADi's derivative of fmax/fmin there is 1/2)."""
+        (qd,) = self._states((qd, "qd"))
+        return check_result(self._square(self._call("friction_derivative", qd)[0]), "friction_derivative", qd=qd)
