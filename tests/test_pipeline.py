@@ -90,6 +90,9 @@ def test_runs_toml_form_payload_and_refusals(tmp_path):
         runs.write_text(text)
         with pytest.raises(md.ModelError, match=match):
             read_runs_file(runs)
+    if Path("/dev/zero").exists():      # a device is refused, not read without end
+        with pytest.raises(md.ModelError, match="not a regular file"):
+            read_runs_file("/dev/zero")
 
 
 def test_cli_identify_and_validate_take_several_logs_and_models(tmp_path, capsys):

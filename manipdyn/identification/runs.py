@@ -158,14 +158,16 @@ def read_runs_file(path) -> list[LogSpec]:
     :class:`~manipdyn.ModelError` naming the key and the ``[[log]]`` index (from 1)."""
     import tomllib
 
+    from .._support import limits
+
     where = os.fspath(path)
-    try:
-        with open(where, "rb") as fh:
-            data = tomllib.load(fh)
-    except OSError as exc:
-        raise ModelError(f"{where}: cannot read the runs file: {exc.strerror or exc}") from None
+    raw = limits.read_regular(where, where, "MAX_MODEL_FILE_BYTES", "the runs file", "the runs file")
+    try:                       # a regular file of bounded size: not a FIFO, not /dev/zero
+        data = tomllib.loads(raw.decode("utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise ModelError(f"{where}: not a TOML file: {exc}") from None
+    except RecursionError:
+        raise ModelError(f"{where}: not a runs file: arrays or tables nested too deeply") from None
     extra = sorted(set(data) - {"log"})
     if extra:
         raise ModelError(f"{where}: key '{extra[0]}': unknown; a runs file holds [[log]] tables only")
