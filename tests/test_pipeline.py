@@ -109,6 +109,11 @@ def test_cli_identify_and_validate_take_several_logs_and_models(tmp_path, capsys
     assert [m["model"] for m in val["models"]] == ["ur5", "ur5_id"] and len(val["best"]) == 6
     api = md.validate(["ur5", ident], [p1, p2])
     assert np.allclose([r.rms for r in api.results], [m["rms"] for m in val["models"]])
+    # per log too: the pooled RMS is the samples' mean of the logs' squares
+    runs = val["runs"]
+    assert [r["log"] for r in runs] == ["run1.csv", "run2.csv"]
+    pooled = np.sqrt(sum(r["samples"] * np.square(r["rms"]["ur5_id"]) for r in runs) / sum(r["samples"] for r in runs))
+    assert np.allclose(pooled, val["models"][1]["rms"])
     # the API's identified arm is named as the CLI names it: after the file it is saved to
     r = md.identify(arm, [p1])
     assert r.arm.name == "ur5_identified"

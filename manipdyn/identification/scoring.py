@@ -66,9 +66,18 @@ class Validation:
             out = self.results[0].to_dict()
         else:
             out = {"models": [r.to_dict() for r in self.results], "best": self.best()}
-        out.update({"runs": [{"log": os.path.basename(str(s)), "samples": int(k)}
-                             for s, k in zip(self.data.sources, self.data.segments)], "data_notes": list(self.notes)})
+        out.update({"runs": self.per_run(), "data_notes": list(self.notes)})
         return out
+
+    def per_run(self) -> list:
+        """Per log: ``{"log", "samples", "rms": {model: per-joint RMS error}}`` (N m, N)."""
+        rows, start = [], 0
+        for src, k in zip(self.data.sources, self.data.segments):
+            rms = {r.model: np.sqrt(np.mean((r.measured[start:start + k] - r.predicted[start:start + k]) ** 2,
+                                            axis=0)).tolist() for r in self.results}
+            rows.append({"log": os.path.basename(str(src)), "samples": int(k), "rms": rms})
+            start += k
+        return rows
 
     def best(self) -> list:
         """Per joint, the label of the model with the least RMS error."""
@@ -78,14 +87,21 @@ class Validation:
     def format(self) -> str:
         """The text ``manipdyn validate`` prints: each model's table; several, side by side."""
         if len(self.results) == 1:
-            return self.results[0].format()
+            return "\n".join([self.results[0].format()] + self._runs_text())
         best = self.best()
         head = "joint   " + "   ".join(f"{r.model[:24]:>24}" for r in self.results) + "   (RMS error; * best)"
         lines = [f"{len(self.results)} models on {len(self.data.t)} samples", head]
         for j in range(len(best)):
             cells = [f"{r.rms[j]:>23.4g}" + ("*" if r.model == best[j] else " ") for r in self.results]
             lines.append(f"{j + 1:>5}   " + "   ".join(cells))
-        return "\n".join(lines + [""] + [r.format() for r in self.results])
+        return "\n".join(lines + [""] + [r.format() for r in self.results] + self._runs_text())
+
+    def _runs_text(self) -> list:
+        if len(self.data.segments) < 2:
+            return []
+        return ["per log, RMS error per joint:"] + [
+            f"  {row['log']} ({row['samples']} samples) {model}: " + " ".join(f"{x:.4g}" for x in rms)
+            for row in self.per_run() for model, rms in row["rms"].items()]
 
     def plot(self, path, units=None) -> None:
         """Measured and predicted torque per joint, every model (:func:`.validation.plot_validation`);
