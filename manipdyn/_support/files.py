@@ -42,7 +42,7 @@ import time
 
 from .errors import ModelError
 
-__all__ = ["atomic_write", "atomic_write_text", "sweep_stale_temporaries", "STALE_SECONDS"]
+__all__ = ["atomic_write", "atomic_write_text", "sweep_stale_temporaries", "overwrites", "STALE_SECONDS"]
 
 #: a temporary file is swept only when its process is gone AND it is this old
 STALE_SECONDS = 60.0
@@ -107,6 +107,23 @@ def _target(path: str) -> tuple[str, os.stat_result | None]:
                 else "not a regular file")
         raise OSError(errno.EINVAL, f"refusing to replace {kind}; manipdyn writes regular files only", path)
     return real, st
+
+
+def overwrites(output, source) -> bool:
+    """True when writing ``output`` would replace ``source`` or a file inside it (``source`` a
+    folder, a ROS bag's): the same path once symbolic links are resolved, or the same file
+    by another name (a hard link).  What :func:`atomic_write` replaces is the link's target,
+    so an output that is a link to an input destroys the input."""
+    out = os.path.realpath(os.fspath(output))
+    src = os.path.realpath(os.fspath(source))
+    if out == src:
+        return True
+    if os.path.isdir(src):
+        return os.path.commonpath([out, src]) == src
+    try:
+        return os.path.samefile(out, src)
+    except (OSError, ValueError):
+        return False
 
 
 def atomic_write(path, write, binary: bool = False, encoding: str = "utf-8") -> None:

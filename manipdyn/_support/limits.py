@@ -21,7 +21,8 @@ __all__ = ["MAX_FILE_BYTES", "MAX_MODEL_FILE_BYTES", "MAX_LINKS", "MAX_JOINTS", 
            "MAX_NAME_LENGTH", "MAX_LENGTH", "MAX_ANGLE", "MAX_GRAVITY", "MAX_MASS", "MAX_INERTIA",
            "MAX_MAGNITUDE", "MAX_DATA_BYTES", "MAX_DATA_FIELD_BYTES", "MAX_HARMONICS", "MAX_EXCITATION_SAMPLES",
            "MAX_RUN_STEPS", "MAX_STUDY_STEPS", "MAX_BANDWIDTH", "MAX_DEMO_DURATION", "MAX_TRAJECTORY_BYTES",
-           "CLI_RAISE", "over_limit", "check_count", "check_magnitude", "check_range", "open_regular"]
+           "MAX_GRID_VALUES", "MAX_FIT_ENTRIES", "MAX_BOOTSTRAP", "MAX_PRIOR_WEIGHT", 
+           "MAX_JSON_DEPTH", "MAX_SIGNAL", "MIN_TORQUE_PEAK", "MAX_SCHEDULER_WAIT_S", "CLI_RAISE", "over_limit", "check_fit_size", "check_signals", "check_count", "check_magnitude", "check_range", "open_regular"]
 
 #: largest URDF or model file read, bytes (16 MiB; real ones are under 1 MiB)
 MAX_FILE_BYTES = 16 * 1024 * 1024
@@ -87,6 +88,38 @@ MAX_DEMO_DURATION = 300.0
 #: largest controller bandwidth (rad/s): the gains grow with its square, and a loop
 #: this fast is far beyond any real arm's (it diverges at any practical step anyway)
 MAX_BANDWIDTH = 1e6
+#: most values (samples x columns) of a log's uniform time grid, checked before it is
+#: allocated: one bad time stamp (a last row at t = 1e6 s) or a --resample far above the
+#: log's rate would otherwise decide the grid (8.9 GiB for t = 1e6).  50 million float64
+#: are 400 MB, about five times what the largest readable log (MAX_DATA_BYTES of text)
+#: parses to
+MAX_GRID_VALUES = 50_000_000
+#: most entries (samples x joints x parameters) of the full regressor a fit stacks: the
+#: fit holds it and a few copies (base columns, weights), so its memory is some 2 to 3
+#: times 8 bytes per entry; 1e8 entries (800 MB each copy) is 2 minutes of a 7-joint arm
+#: at 1 kHz with every friction term, far more than a fit needs (decimate, --resample a
+#: lower rate or --t-range to cut a longer log)
+MAX_FIT_ENTRIES = 1e8
+#: most bootstrap replicates (``identify --bootstrap``): each is a whole refit; 200 give
+#: the standard deviations to some 5 %, 10 000 to 0.7 %
+MAX_BOOTSTRAP = 10_000
+#: largest prior weight of a consistent fit (``--prior-weight``): the entropic pull is
+#: added to the data's residual; beyond 1e6 the data no longer count beside it and the
+#: solver's scaling breaks down (1e308 overflows)
+MAX_PRIOR_WEIGHT = 1e6
+#: largest magnitude of a logged signal (q in rad or m, qd, qdd, tau in N m or N): a real
+#: arm's are under 1e5; squares of 1e9 summed over a long log stay far from overflow, while
+#: a cell of 1e300 overflows the fit's sums
+MAX_SIGNAL = 1e9
+#: smallest peak torque of a log (N m or N): below it the torques are not in N m (or the
+#: column is empty), and the fit's squares underflow
+MIN_TORQUE_PEAK = 1e-20
+#: deepest nesting of lists and objects in a base-model JSON (a real one nests 3 deep;
+#: Python's parser recurses once per level and a deep file raises RecursionError)
+MAX_JSON_DEPTH = 32
+#: seconds to wait for a Dask scheduler to answer (a port that listens but is not Dask's
+#: never answers the handshake)
+MAX_SCHEDULER_WAIT_S = 10.0
 
 #: how to raise a limit for one command-line run (appended to the CLI's messages)
 CLI_RAISE = ("from the shell: python -c \"import sys, manipdyn._support.limits as L; from manipdyn.cli import main; "
@@ -114,6 +147,41 @@ def check_count(value, where: str, what: str, name: str, cli: bool = False) -> N
             shown = f"an integer of {len(str(value))} digits"
         raise ModelError(f"{where}: {what} is {shown}, over the limit of {limit:g} "
                          f"(manipdyn._support.limits.{name}); to go beyond it, raise it: {how}")
+
+
+def check_fit_size(samples: int, joints: int, parameters: int, where: str = "data") -> None:
+    """Refuse a fit whose full regressor (``samples`` x ``joints`` x ``parameters`` entries)
+    exceeds :data:`MAX_FIT_ENTRIES`, before it is built; the message says how many samples fit."""
+    entries = float(samples) * joints * parameters
+    if entries > MAX_FIT_ENTRIES:
+        most = int(MAX_FIT_ENTRIES // max(1, joints * parameters))
+        raise ModelError(
+            f"{where}: {samples} samples x {joints} joints x {parameters} parameters make a regressor of "
+            f"{entries:.3g} entries ({8 * entries / 2**20:.4g} MiB per copy), over the limit of "
+            f"{MAX_FIT_ENTRIES:g} (manipdyn.limits.MAX_FIT_ENTRIES): fit at most {most} samples (decimate, "
+            f"resample at a lower rate or cut a window: --resample, --t-range), or raise the limit")
+
+
+def check_signals(where: str, rows=None, **signals) -> None:
+    """Refuse a signal beyond :data:`manipdyn.limits.MAX_SIGNAL` in magnitude (a cell of 1e300), and
+    torques whose peak is below :data:`manipdyn.limits.MIN_TORQUE_PEAK` (scaled by 1e-300): the
+    fit's sums overflow or underflow.  The message names the column and the row."""
+    import numpy as np
+
+    for name, a in signals.items():
+        if a is None or not np.size(a):
+            continue
+        a = np.abs(np.asarray(a, dtype=np.float64))
+        k = int(np.argmax(a))
+        if not a.flat[k] <= MAX_SIGNAL:
+            i, j = np.unravel_index(k, a.shape) if a.ndim == 2 else (k, 0)
+            row = f"row {rows[i]}" if rows is not None else f"sample {i}"
+            raise ModelError(f"{where}: column {name}{j + 1}, {row}: magnitude {float(a.flat[k]):.6g}, over "
+                             f"{MAX_SIGNAL:g} (manipdyn.limits.MAX_SIGNAL); not a joint signal in SI units")
+        if name == "tau" and np.any(a) and a.flat[k] < MIN_TORQUE_PEAK:
+            raise ModelError(f"{where}: the torques peak at {float(a.flat[k]):.6g}, below "
+                             f"{MIN_TORQUE_PEAK:g} (manipdyn.limits.MIN_TORQUE_PEAK); not in N m "
+                             "(or N)? Scale the torque columns")
 
 
 def check_magnitude(value, where: str, field: str, unit: str = "") -> None:

@@ -20,6 +20,7 @@ import functools
 import logging
 import math
 import os
+import re
 import time
 import warnings
 
@@ -33,12 +34,14 @@ MAX_CHUNK = 25
 #: seconds to wait for a first worker at a scheduler that has none, before giving up
 WORKER_WAIT_S = 60.0
 #: address schemes of dask.distributed's communications
-_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx", "inproc")
+_SCHEMES = ("tcp",)
 
 
 def check_scheduler(scheduler, option: str = "scheduler") -> None:
     """Refuse a scheduler that is not None, ``"sync"``, ``"local"`` or a Dask address
-    ``SCHEME://HOST:PORT`` (SCHEME among tcp, tls, ws, wss, ucx, inproc), in one line."""
+    ``tcp://HOST:PORT``, in one line.  Dask's other schemes are refused by name: ``tls``
+    and ``wss`` need a security configuration manipdyn does not take, ``ucx`` an extra
+    library, ``inproc`` a scheduler inside this process, ``ws`` is unused in practice."""
     if scheduler is None or scheduler in ("sync", "local"):
         return
     expected = ("expected 'sync', 'local' or a Dask scheduler address such as tcp://HOST:8786")
@@ -47,10 +50,12 @@ def check_scheduler(scheduler, option: str = "scheduler") -> None:
     scheme, sep, rest = scheduler.partition("://")
     if not sep or scheme not in _SCHEMES or not rest:
         raise ModelError(f"{option}: {expected} (schemes: {', '.join(_SCHEMES)}), got {scheduler!r:.200}")
-    if scheme != "inproc":
-        host, colon, port = rest.rstrip("/").rpartition(":")
-        if not colon or not host or not port.isdigit() or not 0 < int(port) < 65536:
-            raise ModelError(f"{option}: {scheduler!r:.200} has no port; {expected}")
+    host, colon, port = rest.rstrip("/").rpartition(":")
+    if not colon or not host or not port.isdigit() or not 0 < int(port) < 65536:
+        raise ModelError(f"{option}: {scheduler!r:.200} has no port; {expected}")
+    if not re.fullmatch(r"[A-Za-z0-9.-]{1,253}|\[[0-9A-Fa-f:.]{2,45}\]", host):
+        raise ModelError(f"{option}: {scheduler!r:.200}: {host!r:.100} is not a host name or an IP address; "
+                         f"{expected}")
 
 
 def require_distributed():
@@ -140,6 +145,7 @@ def map_chunks(fn, args, total: int, parts: list, scheduler=None, workers=None, 
                 where = "local Dask cluster"
             else:
                 where = str(scheduler)
+                _probe_scheduler(scheduler)
             try:
                 client = distributed.Client(cluster if cluster is not None else scheduler, timeout="10s")
             except OSError as exc:
@@ -231,6 +237,37 @@ def _local_cluster(distributed, nworkers: int):
         os.dup2(saved, 2)
         os.close(saved)
         log.close()                  # unnamed: nothing is left behind, whatever happens
+
+
+def _probe_scheduler(scheduler: str) -> None:
+    """Ask ``scheduler`` for its identity within :data:`manipdyn.limits.MAX_SCHEDULER_WAIT_S`, or raise
+    ConnectionError: a port that listens but is not a Dask scheduler's (a web server) never
+    answers, and ``distributed.Client`` would wait for it forever."""
+    import asyncio
+
+    from distributed.comm import connect
+
+    from .._support import limits
+
+    wait = float(limits.MAX_SCHEDULER_WAIT_S)
+
+    async def ask():
+        comm = await connect(scheduler, timeout=wait)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            reply = await comm.read()
+        finally:
+            comm.abort()
+        if not (isinstance(reply, dict) and reply.get("type") == "Scheduler"):
+            raise OSError(f"it answered {str(reply)[:80]!r}, not as a Dask scheduler")
+
+    try:
+        asyncio.run(asyncio.wait_for(ask(), wait))
+    except (asyncio.TimeoutError, TimeoutError):
+        raise ConnectionError(f"scheduler {scheduler}: no Dask scheduler answered in {wait:g} s (is it the "
+                              "port of a Dask scheduler? manipdyn.limits.MAX_SCHEDULER_WAIT_S sets the wait)") from None
+    except (OSError, ValueError, TypeError, EOFError) as exc:
+        raise ConnectionError(f"scheduler {scheduler}: cannot connect: {exc}") from None
 
 
 def _wait_for_workers(client, scheduler) -> None:

@@ -15,7 +15,9 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import sys
+import warnings
 
 from .._support.errors import MissingExtraError, ModelError, SingularMassMatrixError, StateError
 from . import bench, check, codegen, compare, excite, identify, models, montecarlo, synthesize, track, urdf, validate
@@ -55,7 +57,45 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _joined_negative_values(argv):
+    """``--t-range -5:-1`` as ``--t-range=-5:-1``: argparse takes a value that starts with '-'
+    (and is not a plain negative number) for an option and says "expected one argument"."""
+    out, k = [], 0
+    while k < len(argv):
+        a = argv[k]
+        if a in _NEGATIVE_OK and k + 1 < len(argv) and re.fullmatch(r"-[0-9.eE+-]*:[0-9.eE+-]*", argv[k + 1]):
+            out.append(f"{a}={argv[k + 1]}")
+            k += 2
+        else:
+            out.append(a)
+            k += 1
+    return out
+
+
+#: options whose value may start with '-' (a window before t = 0)
+_NEGATIVE_OK = ("--t-range",)
+
+
 def main(argv=None) -> int:
+    """Run one ``manipdyn`` command; returns its exit code (module docstring).
+
+    Warnings raised while it runs (a model's notes, numpy's overflow warnings) are shown
+    after it, one line each, and not at all when it exits 2: an error is one line.
+    """
+    argv = _joined_negative_values([str(a) for a in (sys.argv[1:] if argv is None else argv)])
+    with warnings.catch_warnings(record=True) as caught:
+        code = _main(argv)
+    if code not in (EXIT_USAGE, 130):
+        shown = set()
+        for w in caught:
+            line = " ".join(str(w.message).split())
+            if line not in shown:
+                shown.add(line)
+                print(f"manipdyn: warning: {w.category.__name__}: {line}", file=sys.stderr)
+    return code
+
+
+def _main(argv) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):

@@ -6,47 +6,16 @@ Layer 7 (CLI, the top).
 from __future__ import annotations
 
 import json
-import statistics
-import time
-
-import numpy as np
 
 from ..check.crosscheck import as_engines, crosscheck
-from .._support.errors import ModelError, SingularMassMatrixError
+from ..check.timing import engine_timings
+from .._support.errors import ModelError
 from ..formats.save import write_urdf
 from ..formats.loading import models
 from .common import (EXIT_DISAGREE, EXIT_OK, TIP_HELP, Progress, add_progress_options, load_all,
                      output_folder, progress_wanted, urdf_target, usage_error)
 
 __all__ = ["register", "run"]
-
-
-def _median_us(fn, calls: int) -> float:
-    fn()  # warm-up (builds pools, caches)
-    times = []
-    for _ in range(calls):
-        t = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t)
-    return statistics.median(times) * 1e6
-
-
-def _timings(arm, calls: int = 200) -> dict:
-    rng = np.random.default_rng(1)
-    q = arm.random_state(rng)
-    qd = rng.uniform(-1, 1, arm.n)
-    qdd = rng.uniform(-1, 1, arm.n)
-    out = {}
-    for eng in (arm.pinocchio, arm.lagrange):
-        out[eng.name] = {
-            "inverse_dynamics_us": _median_us(lambda: eng.inverse_dynamics(q, qd, qdd), calls),
-            "mass_matrix_us": _median_us(lambda: eng.mass_matrix(q), calls),
-        }
-        try:
-            out[eng.name]["forward_dynamics_us"] = _median_us(lambda: eng.forward_dynamics(q, qd, qdd), calls)
-        except SingularMassMatrixError:
-            out[eng.name]["forward_dynamics_us"] = float("nan")  # D singular: no forward dynamics
-    return out
 
 
 def _crosscheck(arm, args, progress):
@@ -96,15 +65,15 @@ def run(args) -> int:
             return usage_error("check", str(exc).replace("engines:", "--engines:", 1))
     loaded = load_all(specs, args.tip)         # every name checked before any arm runs
     seen: dict = {}
+    targets = [urdf_target(args.urdf_out, arm, seen, "--urdf-out", specs) if args.urdf_out else None
+               for _spec, arm, _notes in loaded]                 # every output checked before any work
     show_progress = progress_wanted(args)
     results, worst = [], EXIT_OK
-    for spec, arm, notes in loaded:
-        urdf_path = None
-        if args.urdf_out:
-            urdf_path = urdf_target(args.urdf_out, arm, seen, "--urdf-out")
+    for (spec, arm, notes), urdf_path in zip(loaded, targets):
+        if urdf_path:
             write_urdf(arm, urdf_path)
         report = _crosscheck(arm, args, Progress(arm.name or spec, show_progress))
-        timing = _timings(arm, calls=args.timing_calls) if args.timing_calls > 0 else {}
+        timing = engine_timings(arm, calls=args.timing_calls) if args.timing_calls > 0 else {}
         strict_failed = bool(args.strict and notes)
         if not report.ok or strict_failed or report.not_compared:
             # a quantity that could not be compared (forward dynamics of a

@@ -14,7 +14,7 @@ from .._support.figures import pyplot
 from .._support.errors import ModelError, TipError
 from ..formats.loading import load_with_notes
 
-__all__ = ["check_plot_target", "check_output_file", "require_numbers", "add_progress_options", "progress_wanted", "EXIT_OK", "EXIT_DISAGREE", "EXIT_USAGE", "EXIT_INTERNAL", "Progress", "output_folder",
+__all__ = ["check_outputs", "check_plot_target", "check_output_file", "require_numbers", "add_progress_options", "progress_wanted", "EXIT_OK", "EXIT_DISAGREE", "EXIT_USAGE", "EXIT_INTERNAL", "Progress", "output_folder",
            "urdf_target", "usage_error", "cli_message", "load_arm", "load_all", "is_urdf", "TIP_HELP"]
 
 #: help of every ``--tip`` option
@@ -63,16 +63,19 @@ class Progress:
         sys.stderr.flush()
 
 
-def urdf_target(outdir: str, arm, seen: dict, option: str) -> str:
+def urdf_target(outdir: str, arm, seen: dict, option: str, inputs=()) -> str:
     """``outdir/<name>.urdf`` for an arm, with the name made a safe file name.
 
-    Refuses two arms that would write the same file.
+    Refuses two arms that would write the same file, and a file that is one of
+    ``inputs`` (the model files read: :func:`check_outputs`).
     """
     stem = re.sub(r"[^A-Za-z0-9_.-]+", "_", arm.name or "arm").strip("._") or "arm"
     if stem in seen:
         raise ModelError(f"{option}: {seen[stem]!r} and {arm.name!r} would both be written to {stem}.urdf")
     seen[stem] = arm.name
-    return os.path.join(outdir, f"{stem}.urdf")
+    path = os.path.join(outdir, f"{stem}.urdf")
+    check_outputs([(option, path)], [("MODEL_OR_FILE", s) for s in inputs])
+    return path
 
 
 def output_folder(path: str, option: str) -> str:
@@ -158,9 +161,47 @@ def check_output_file(path: str, option: str) -> None:
         raise ModelError(f"{option} {path}: exists and is not a regular file (a device, FIFO or socket)")
 
 
-def check_plot_target(path: str) -> None:
-    """Before a long run: ``--plot`` must be a writable file path and matplotlib importable."""
+def check_plot_target(path: str, option: str = "--plot") -> None:
+    """Before a long run: ``--plot`` must be a writable file path whose extension is an image
+    format matplotlib writes, and matplotlib importable."""
     folder = os.path.dirname(os.path.abspath(path))
     if os.path.isdir(path) or not os.path.isdir(folder) or not os.access(folder, os.W_OK):
-        raise ModelError(f"--plot {path}: expected a writable file path (its folder must exist)")
+        raise ModelError(f"{option} {path}: expected a writable file path (its folder must exist)")
     pyplot()  # matplotlib installed?
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    kinds = FigureCanvasBase.get_supported_filetypes()
+    ext = os.path.splitext(path)[1].lower().lstrip(".")
+    if ext not in kinds:
+        raise ModelError(f"{option} {path}: expected an image file name ending in one of "
+                         f"{', '.join('.' + k for k in sorted(kinds))} (the extension gives the format)")
+
+
+def check_outputs(outputs, inputs=(), plots=()) -> None:
+    """Check every output of a command before its work starts, in one call.
+
+    ``outputs``: ``(option, path)`` pairs (path None: not asked for); ``inputs``: ``(label,
+    path)`` pairs of what the command reads (a bundled model's name, which is no file, is
+    skipped); ``plots``: the options among ``outputs`` that are figures.  Refused, with a
+    ModelError naming the option: a path that is, or resolves to (symbolic links, hard
+    links), an input or a file inside an input folder (a ROS bag); two outputs that are the
+    same file; a path that cannot be written (:func:`check_output_file`, :func:`check_plot_target`).
+    """
+    from .._support.files import overwrites
+
+    outputs = [(o, p) for o, p in outputs if p is not None]
+    for k, (option, path) in enumerate(outputs):
+        if not isinstance(path, str) or not path:
+            raise ModelError(f"{option}: expected a file path, got {path!r}")
+        for label, source in inputs:
+            if source is not None and os.path.exists(source) and overwrites(path, source):
+                raise ModelError(f"{option} {path}: would overwrite {label} {source}; write the output "
+                                 "to another file")
+        for other, opath in outputs[:k]:
+            if overwrites(path, opath) or os.path.realpath(path) == os.path.realpath(opath):
+                raise ModelError(f"{option} {path}: the same file as {other} {opath}; give each output "
+                                 "its own file")
+        if option in plots:
+            check_plot_target(path, option)
+        else:
+            check_output_file(path, option)

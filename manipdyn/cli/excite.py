@@ -15,7 +15,7 @@ import sys
 
 from .._support import limits
 from .._support.errors import ModelError
-from .common import (EXIT_OK, TIP_HELP, Progress, add_progress_options, check_output_file, load_arm,
+from .common import (EXIT_OK, TIP_HELP, Progress, add_progress_options, check_outputs, load_arm,
                      progress_wanted, require_numbers, usage_error)
 
 __all__ = ["register", "run"]
@@ -89,7 +89,7 @@ def check_options(args) -> None:
             if not (math.isfinite(v) and 0 < v <= MAX_RATE_LIMIT):
                 raise ModelError(f"--{name}: expected positive limits of at most {MAX_RATE_LIMIT:g} "
                                  f"(rad/s, m/s, or per s^2), got {v}")
-    check_output_file(args.output, "-o")
+    check_outputs([("-o", args.output)], [("MODEL", args.model)])
 
 
 def run(args) -> int:

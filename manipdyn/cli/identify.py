@@ -70,7 +70,12 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     from ..identification import identify
+    from .preflight import check_identify
 
+    try:
+        check_identify(args)        # outputs and unbounded options, before any work
+    except ModelError as exc:
+        return usage_error("identify", str(exc))
     if args.payload:
         from .identify_payload import run_payload
 

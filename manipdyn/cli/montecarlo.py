@@ -21,7 +21,7 @@ from .._support.errors import ModelError
 from ..control.montecarlo import DISTRIBUTIONS_HELP, Distributions, check_study_size, load_identified, run as run_study, study
 from ..check.scale import check_scheduler
 from ..control.montecarlo.plot import plot_report
-from .common import (EXIT_OK, TIP_HELP, Progress, add_progress_options, check_plot_target, load_arm,
+from .common import (EXIT_OK, TIP_HELP, Progress, add_progress_options, check_outputs, load_arm,
                      progress_wanted, require_numbers)
 
 __all__ = ["register", "run"]
@@ -59,8 +59,16 @@ def run(args) -> int:
         raise ModelError(f"--workers: must be >= 1, got {args.workers}")
     check_scheduler(args.scheduler, "--scheduler")
     check_study_size(args.runs, len(keys), args.duration, args.dt, args.bandwidth, cli=True)
-    if args.plot:  # fail before a long run, not after it
-        check_plot_target(args.plot)
+    # fail before a long run, not after it
+    check_outputs([("--plot", args.plot)], [("MODEL", args.model), ("--plants-from", args.plants_from)],
+                  plots=("--plot",))
+    if args.plants_from is not None:
+        given = [f"--{f.replace('_', '-')}" for f in _REPLACED_BY_PLANTS if f in getattr(args, "given", ())]
+        if given:
+            raise ModelError(f"{', '.join(given)}: not with --plants-from (the identification's distribution "
+                             "replaces the payload, link and friction draws)")
+        for f in _REPLACED_BY_PLANTS:
+            setattr(args, f, 0.0)
     try:
         dist = Distributions(**{field: getattr(args, field) for field, _, _ in _DISTRIBUTION_OPTIONS})
     except ValueError as exc:
@@ -105,6 +113,16 @@ _DISTRIBUTION_OPTIONS = (
     ("q0_offset", "RAD", "standard deviation of the initial position offset"),
     ("torque_noise", "NM", "standard deviation of the applied-torque noise"),
 )
+#: the draws an identification's distribution replaces (``--plants-from``)
+_REPLACED_BY_PLANTS = ("payload_mass", "link_scale", "friction_viscous", "friction_coulomb")
+
+
+class _Given(argparse.Action):
+    """Store the value and remember, in ``args.given``, that the option was on the command line."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        setattr(namespace, self.dest, values)
+        namespace.given = set(getattr(namespace, "given", ())) | {self.dest}
 
 
 def register(subparsers) -> None:
@@ -144,8 +162,10 @@ def register(subparsers) -> None:
                    help="torque limit of every joint for every controller (default: the model's own, if any)")
     for field, metavar, what in _DISTRIBUTION_OPTIONS:
         default = getattr(d, field)
-        p.add_argument("--" + field.replace("_", "-"), type=float, default=default, metavar=metavar,
-                       help=f"{what} (default {default:g})")
+        replaced = field in _REPLACED_BY_PLANTS
+        p.add_argument("--" + field.replace("_", "-"), type=float, metavar=metavar, default=default,
+                       action=_Given if replaced else "store",
+                       help=f"{what} (default {default:g}" + (", not with --plants-from)" if replaced else ")"))
     p.add_argument("--plants-from", metavar="IDENTIFIED.json", default=None,
                    help="draw every run's plant from this identification's uncertainty (a base model of "
                         "'manipdyn identify --base-json', method wls or consistent): Gaussian base "

@@ -14,7 +14,7 @@ from __future__ import annotations
 import json
 
 from .._support.errors import ModelError
-from .common import EXIT_OK, TIP_HELP, check_output_file, load_arm
+from .common import EXIT_OK, TIP_HELP, check_outputs, load_arm
 
 __all__ = ["register", "run"]
 
@@ -29,7 +29,7 @@ def run(args) -> int:
         raise ModelError(f"--noise: expected a finite fraction >= 0 of each joint's peak torque, got {args.noise}")
     if args.seed < 0:
         raise ModelError(f"--seed: expected an integer >= 0, got {args.seed}")
-    check_output_file(args.output, "-o")
+    check_outputs([("-o", args.output)], [("MODEL", args.model), ("TRAJ.csv", args.trajectory)])
     arm, _notes = load_arm(args.model, args.tip)
     if args.perturb and not isinstance(arm, Manipulator):
         raise ModelError(f"--perturb: only for DH models (a bundled name or a .toml file), not {args.model!r}")

@@ -21,7 +21,7 @@ import sys
 from ..control.demo import CONTROLLERS, DEFAULT_BANDWIDTH, DEFAULT_GAMMA
 from ..control.track import check_track_options, track, track_header
 from .._support.figures import PLOT_INSTALL
-from .common import TIP_HELP, Progress, add_progress_options, check_plot_target, load_arm, progress_wanted
+from .common import TIP_HELP, Progress, add_progress_options, check_outputs, load_arm, progress_wanted
 
 __all__ = ["register", "run"]
 
@@ -29,8 +29,8 @@ __all__ = ["register", "run"]
 def run(args) -> int:
     check_track_options(duration=args.duration, dt=args.dt, payload=args.payload, bandwidth=args.bandwidth,
                         gamma=args.gamma, prefix="--")
-    if args.plot:  # fail before a long run, not after it
-        check_plot_target(args.plot)
+    # fail before a long run, not after it
+    check_outputs([("--plot", args.plot)], [("MODEL", args.model)], plots=("--plot",))
     arm, notes = load_arm(args.model, args.tip)
     say = (lambda *a, **k: None) if args.json else print     # --json: one document, nothing else
     show = progress_wanted(args)

@@ -28,8 +28,8 @@ def run(args) -> int:
     output_folder(args.outdir, "OUTDIR")
     loaded = load_all(dict.fromkeys(specs), args.tip)   # each spec once, all loaded before writing
     seen: dict = {}
-    for spec, arm, _notes in loaded:
-        path = urdf_target(args.outdir, arm, seen, "OUTDIR")
+    paths = [urdf_target(args.outdir, arm, seen, "OUTDIR", specs) for _spec, arm, _notes in loaded]
+    for (spec, arm, _notes), path in zip(loaded, paths):
         try:
             write_urdf(arm, path)
         except OSError as exc:

@@ -15,7 +15,7 @@ import json
 import os
 
 from .._support.errors import ModelError
-from .common import EXIT_OK, TIP_HELP, check_plot_target, cli_message, usage_error
+from .common import EXIT_OK, TIP_HELP, check_outputs, cli_message, usage_error
 from .logopts import DATA_HELP, library_options, register_log_options
 
 __all__ = ["register", "run", "split_inputs"]
@@ -60,9 +60,9 @@ def run(args) -> int:
     from ..identification import validate
 
     try:
-        if args.plot:
-            check_plot_target(args.plot)
         models, logs = split_inputs(args.inputs, args.logs)
+        check_outputs([("--plot", args.plot)], [("MODEL", m) for m in models] + [("LOG", x) for x in logs],
+                      plots=("--plot",))
         res = validate(models, logs, **library_options(args, validate))
         if args.plot:
             res.plot(args.plot)

@@ -43,7 +43,7 @@ import math
 
 import numpy as np
 
-from .._support.errors import SingularMassMatrixError, StateError
+from .._support.errors import ModelError, SingularMassMatrixError, StateError
 
 __all__ = ["rk4_substeps", "reference_samples", "sampled_loop_rate", "SAFE_STEP", "MAX_SUBSTEPS", "SAMPLES",
            "SAMPLED_LIMIT"]
@@ -69,7 +69,7 @@ def rk4_substeps(plant, q, qd, qdd, dt: float):
     ``q, qd, qdd`` (S, n): reference states (the torque at each is the plant's inverse
     dynamics, the torque that tracks it); ``rho`` (1/s) the largest ``|lambda|`` found,
     None when the plant has no analytical derivatives (``m`` is then 1).  Raises
-    ``ValueError`` when ``m`` would exceed :data:`MAX_SUBSTEPS`.
+    :class:`~manipdyn.ModelError` (a ValueError) when ``m`` would exceed :data:`MAX_SUBSTEPS`.
     """
     fdd, inv = _call(plant, "forward_dynamics_derivatives"), _call(plant, "inverse_dynamics")
     if fdd is None or inv is None:
@@ -93,9 +93,11 @@ def rk4_substeps(plant, q, qd, qdd, dt: float):
         return 1, None
     m = max(1, math.ceil(dt * rho / SAFE_STEP))
     if m > MAX_SUBSTEPS:
-        raise ValueError(f"plant: its fastest mode (|lambda| = {rho:.4g} 1/s) needs {m} Runge-Kutta steps per "
+        raise ModelError(f"plant: its fastest mode (|lambda| = {rho:.4g} 1/s) needs {m} Runge-Kutta steps per "
                          f"control period dt = {dt:g} s, over {MAX_SUBSTEPS}; is a link's inertia tiny beside its "
-                         "friction (a smoothed Coulomb sign is stiff near v = 0)? Give substeps= to insist")
+                         "friction (a smoothed Coulomb sign is stiff near v = 0)? Lower the friction or the "
+                         "period (montecarlo: --friction-viscous, --friction-coulomb, --dt), or give "
+                         "simulate() substeps= to insist")
     return m, rho
 
 

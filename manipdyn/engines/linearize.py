@@ -46,14 +46,23 @@ def zero_order_hold(A: np.ndarray, B: np.ndarray, dt: float):
 
     ``Ad = exp(A dt)``, ``Bd = int_0^dt exp(A s) ds B``, both read off the
     exponential of the block matrix ``[[A, B], [0, 0]] dt``.  ``A`` (..., m, m),
-    ``B`` (..., m, k); returns ``(Ad, Bd)`` of the same shapes.
+    ``B`` (..., m, k); returns ``(Ad, Bd)`` of the same shapes.  Raises
+    ``StateError`` naming ``dt`` when the exponential overflows float64 (a step so long
+    that an unstable mode grows beyond 1.8e308, or ``A dt`` itself overflows).
     """
     m, k = B.shape[-2:]
     lead = A.shape[:-2]
     M = np.zeros(lead + (m + k, m + k))
-    M[..., :m, :m] = A * dt
-    M[..., :m, m:] = B * dt
-    E = _expm(M)
+    with np.errstate(over="ignore", invalid="ignore"):
+        M[..., :m, :m] = A * dt
+        M[..., :m, m:] = B * dt
+        E = _expm(M) if np.all(np.isfinite(M)) else None
+        ok = E is not None and bool(np.all(np.isfinite(E)))
+    if not ok:
+        rate = float(np.abs(np.linalg.eigvals(A)).max()) if np.all(np.isfinite(A)) and A.size else float("nan")
+        raise StateError(f"dt: {dt:g} s makes exp(A dt) overflow float64 (the fastest mode, |lambda| = "
+                         f"{rate:.4g} 1/s, over {rate * dt:.4g} of its time constants); a sampling period is "
+                         f"far shorter than that")
     return E[..., :m, :m].copy(), E[..., :m, m:].copy()
 
 

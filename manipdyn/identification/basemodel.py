@@ -189,19 +189,104 @@ class BaseModel:
         return Y @ self.parameters + known_torque(self.arm, qd, qdd, self.armature, self.friction)
 
 
+class _HugeInt(str):
+    """An integer literal too long for any field of a base model (kept as its text)."""
+
+
+def _int_or_huge(text):
+    return _HugeInt(text) if len(text.lstrip("-")) > 18 else int(text)
+
+
+def strict_json(text: str, where: str):
+    """``text`` parsed as strict JSON, a ModelError naming ``where`` and the key otherwise: no
+    NaN or Infinity, no integer over 18 digits, nested at most
+    :data:`manipdyn.limits.MAX_JSON_DEPTH` deep."""
+    deep = (f"{where}: nested deeper than the limit of {limits.MAX_JSON_DEPTH} "
+            "(manipdyn.limits.MAX_JSON_DEPTH)")
+    try:
+        data = json.loads(text, parse_int=_int_or_huge)
+    except json.JSONDecodeError as exc:
+        raise ModelError(f"{where}: not JSON (line {exc.lineno}: {exc.msg})") from None
+    except RecursionError:
+        raise ModelError(deep) from None
+    stack = [(data, 0, "")]
+    while stack:
+        x, depth, key = stack.pop()
+        if depth > limits.MAX_JSON_DEPTH:
+            raise ModelError(deep + f" at key {key!r}")
+        if isinstance(x, _HugeInt):
+            raise ModelError(f"{where}: key {key!r}: an integer of {len(x.lstrip('-'))} digits; expected a number "
+                             "float64 holds")
+        if isinstance(x, float) and not math.isfinite(x):
+            raise ModelError(f"{where}: key {key!r}: {x!r} is not strict JSON; expected a finite number")
+        if isinstance(x, dict):
+            stack.extend((v, depth + 1, f"{key}.{k}" if key else str(k)) for k, v in x.items())
+        elif isinstance(x, list):
+            stack.extend((v, depth + 1, f"{key}[{i}]") for i, v in enumerate(x))
+    return data
+
+
+def _numbers(value, where, key, shape=None, nullable=False, nonnegative=False):
+    """``value`` as a float array of finite numbers (None -> NaN when ``nullable``), or a
+    ModelError naming ``key``."""
+    def ok(x):
+        return (x is None and nullable) or (isinstance(x, (int, float)) and not isinstance(x, bool))
+
+    flat = value if isinstance(value, list) else [value]
+    rows = [r for r in flat if isinstance(r, list)] if shape and len(shape) == 2 else None
+    items = [x for r in rows for x in r] if rows is not None and len(rows) == len(flat) else flat
+    if not all(ok(x) for x in items):
+        bad = next(x for x in items if not ok(x))
+        raise ModelError(f"{where}: key {key!r}: expected numbers{' or null' if nullable else ''}, got {bad!r:.60}")
+    arr = np.array([np.nan if x is None else float(x) for x in items], dtype=np.float64)
+    if shape is not None and arr.size != int(np.prod(shape)):
+        raise ModelError(f"{where}: key {key!r}: expected {' x '.join(map(str, shape))} numbers, got {arr.size}")
+    real = arr[~np.isnan(arr)] if nullable else arr
+    if not np.all(np.isfinite(real)):
+        raise ModelError(f"{where}: key {key!r}: expected finite numbers")
+    limits.check_magnitude(real, where, key)
+    if nonnegative and np.any(real < 0):
+        raise ModelError(f"{where}: key {key!r}: a standard deviation (or variance) is negative: "
+                         f"{float(real[real < 0][0]):g}")
+    return arr if shape is None else arr.reshape(shape)
+
+
+def check_numbers(data: dict, where: str, p: int) -> None:
+    """Refuse the hostile numbers of a base model, naming the key: non-finite or null
+    parameters and values, negative standard deviations or variances, base columns out of
+    range, a covariance of the wrong shape (``p`` full parameters)."""
+    _numbers(data["parameters"], where, "parameters", shape=(p,))
+    rows = data["base_parameters"]
+    if not isinstance(rows, list) or not rows or not all(isinstance(r, dict) for r in rows):
+        raise ModelError(f"{where}: key 'base_parameters': expected a list of objects")
+    r = len(rows)
+    _numbers([row.get("value") for row in rows], where, "base_parameters[].value")
+    _numbers([row.get("std") for row in rows], where, "base_parameters[].std", nullable=True, nonnegative=True)
+    cols = data.get("base_columns")
+    if cols is not None:
+        if not (isinstance(cols, list) and len(cols) == r and all(isinstance(c, int) and not isinstance(c, bool)
+                                                                  and 0 <= c < p for c in cols)
+                and len(set(cols)) == r):
+            raise ModelError(f"{where}: key 'base_columns': expected {r} distinct column indices in [0, {p})")
+    for key in ("noise_sigma",):
+        if data.get(key) is not None:
+            _numbers(data[key], where, key, nonnegative=True)
+    if data.get("covariance") is not None:
+        if not isinstance(data["covariance"], list) or len(data["covariance"]) != r:
+            raise ModelError(f"{where}: key 'covariance': expected {r} rows of {r} numbers")
+        cov = _numbers(data["covariance"], where, "covariance", shape=(r, r))
+        if np.any(np.diag(cov) < 0):
+            raise ModelError(f"{where}: key 'covariance': a variance (diagonal entry) is negative")
+
+
 def load_base_model(path) -> BaseModel:
     """Read a base model JSON file (module docstring); errors name the file and the key."""
-    from ..formats.loading import load
-
     where = os.fspath(path)
     try:
         text = limits.read_regular(where, where, "MAX_FILE_BYTES", what="the base model").decode("utf-8")
     except UnicodeDecodeError:
         raise ModelError(f"{where}: not UTF-8 text; expected a base model JSON file") from None
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise ModelError(f"{where}: not JSON (line {exc.lineno}: {exc.msg})") from None
+    data = strict_json(text, where)
     if not isinstance(data, dict) or data.get("format") != BASE_MODEL_FORMAT:
         raise ModelError(f"{where}: key 'format': expected {BASE_MODEL_FORMAT!r}")
     for key in ("prior", "armature", "friction", "base_parameters", "parameters"):
@@ -211,13 +296,22 @@ def load_base_model(path) -> BaseModel:
     if not isinstance(prior, dict) or prior.get("kind") not in ("toml", "urdf") or not isinstance(
             prior.get("text"), str):
         raise ModelError(f"{where}: key 'prior': expected {{kind: 'toml'|'urdf', text: ...}}")
+    if prior["kind"] == "urdf" and not prior["text"].lstrip("\ufeff \t\r\n").startswith("<"):
+        # the text itself, never a name or a path to open: a file received from someone else
+        # must not make manipdyn read a file of this machine
+        raise ModelError(f"{where}: key 'prior.text': expected the prior's URDF text (starting with '<'), "
+                         f"got {prior['text']!r:.60}; a base model carries its prior, it never names a file")
+    if prior.get("tip") is not None and not isinstance(prior["tip"], str):
+        raise ModelError(f"{where}: key 'prior.tip': expected a link name or null, got {prior['tip']!r:.60}")
     try:
         if prior["kind"] == "toml":
             from ..formats.modelfile import parse_model
 
             arm = parse_model(prior["text"], origin=f"{where} (prior)")
         else:
-            arm = load(prior["text"], tip=prior.get("tip"))
+            from ..formats.urdf.reader import load_urdf
+
+            arm = load_urdf(prior["text"], tip=prior.get("tip"))
     except ModelError as exc:
         raise ModelError(f"{where}: key 'prior': {exc}") from None
     from ..model.parameters import parameter_count
@@ -229,6 +323,7 @@ def load_base_model(path) -> BaseModel:
     want = parameter_count(arm.n, bool(data["armature"]), friction)
     if not isinstance(data["parameters"], list) or len(data["parameters"]) != want:
         raise ModelError(f"{where}: key 'parameters': expected {want} numbers for this prior")
+    check_numbers(data, where, want)
     try:
         return BaseModel(data, arm, where)
     except (TypeError, ValueError, KeyError) as exc:

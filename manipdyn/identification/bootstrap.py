@@ -49,6 +49,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._support import limits
 from .._support.errors import ModelError
 
 __all__ = ["bootstrap", "BootstrapResult", "block_indices", "bootstrap_summary", "format_bootstrap"]
@@ -184,6 +185,7 @@ def bootstrap(arm, data, n: int, block: int | None = None, seed: int = 0, schedu
     from .estimation import METHODS
 
     n = _int(n, "n", 2)
+    limits.check_count(n, "bootstrap", "n (the replicates, each a whole refit)", "MAX_BOOTSTRAP")
     seed = _int(seed, "seed", 0)
     if method not in METHODS:
         raise ModelError(f"method: expected one of {', '.join(METHODS)}, got {method!r}")

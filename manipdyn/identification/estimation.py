@@ -35,6 +35,8 @@ import numpy as np
 
 from .._support.state import state_array
 from .._support.errors import ModelError, StateError
+from .._support import limits
+from .._support.limits import check_fit_size
 from ..model.inertia import pseudo_inertia_from_parameters
 from ..model.parameters import arm_parameters, parameter_count
 from .model import arm_with_parameters
@@ -263,12 +265,14 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         raise ModelError("bounds: only the 'consistent' method takes bounds")
     if bounds is not None:
         bounds.check(arm.n)
-    if not (0.0 <= float(prior_weight) < float("inf")):
-        raise ModelError(f"prior_weight: expected a finite number >= 0, got {prior_weight}")
+    if not (0.0 <= float(prior_weight) <= limits.MAX_PRIOR_WEIGHT):
+        raise ModelError(f"prior_weight: expected a number in [0, {limits.MAX_PRIOR_WEIGHT:g}] "
+                         f"(manipdyn.limits.MAX_PRIOR_WEIGHT), got {prior_weight}")
     if prior_weight and method != "consistent":
         raise ModelError("prior_weight: only the 'consistent' method takes a prior weight")
     n = arm.n
     q, qd, qdd, tau = _check(q, qd, qdd, tau, n)
+    limits.check_signals("data", q=q, qd=qd, qdd=qdd, tau=tau)
     if not np.any(tau):
         raise ModelError("tau: every torque of every joint is 0; a logged torque is never exactly 0 "
                          "throughout (a missing column, or the wrong one?)")
@@ -277,6 +281,7 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     else:
         check_base(base, arm, armature, friction)
     N, r = len(q), base.count
+    check_fit_size(N, n, len(base.names))
     if N * n < r:
         raise ModelError(f"data: {N} samples give {N * n} equations for {r} base parameters")
     Yb = base.regressor(arm.lagrange.regressor(q, qd, qdd, armature=armature, friction=friction))

@@ -58,6 +58,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._support.errors import ModelError
+from .._support.limits import check_signals
 from ..model.inertia import (LINK_PARAMETERS, parameters_from_pseudo_inertia, tensor_from_pseudo_inertia,
                        transform_pseudo_inertia)
 from ..model.parameters import PARAMETER_BASIS
@@ -238,6 +239,7 @@ def _check(arm, q, qd, qdd, tau):
         if not np.all(np.isfinite(a)):
             raise ModelError(f"{nm}: must be finite (row {int(np.argwhere(~np.isfinite(a))[0, 0])})")
         arrays.append(a)
+    check_signals("data", q=arrays[0], qd=arrays[1], qdd=arrays[2], tau=arrays[3])
     counts = [a.shape[0] for a in arrays]
     if len(set(counts)) != 1:
         raise ModelError(f"q, qd, qdd, tau: expected the same number of samples, got {counts}")
@@ -255,7 +257,9 @@ def _consistent(A, b, x_wls, length):
     x = cp.Variable(10)
     J = sum(x[k] * PARAMETER_BASIS[k] for k in range(10))
     psd = [J - EPS * np.eye(4) >> 0]
-    scale = max(float(np.linalg.norm(c)), 1e-300)
+    # the misfit in units of the data (weighted: one noise sigma per equation); a payload whose
+    # whole signal is below one sigma (no payload: bare-arm torques) is measured against that
+    scale = max(float(np.linalg.norm(c)), 1.0)
     tref = max(abs(float(x_wls[0])), 1e-3) * length**2       # kg m^2, the size of a second moment
     trace_S = cp.trace(J[:3, :3]) / tref
     fit = cp.norm(R @ x - c) / scale

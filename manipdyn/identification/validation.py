@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._support.errors import ModelError
+from .._support.limits import check_fit_size
 
 __all__ = ["ValidationResult", "validate", "plot_validation"]
 
@@ -90,6 +91,8 @@ def validate(model, data, name: str | None = None) -> ValidationResult:
                          f"{getattr(model, 'name', '')!r} has {n}")
     if len(data.t) < 2:
         raise ModelError(f"data: {len(data.t)} samples; validation needs at least 2")
+    if hasattr(model, "parameters") and hasattr(model, "prediction_std"):    # a base model: a regressor
+        check_fit_size(len(data.t), n, len(model.parameters))
     pred = np.asarray(model.inverse_dynamics(data.q, data.qd, data.qdd), dtype=np.float64)
     err = data.tau - pred
     rms = np.sqrt(np.mean(err**2, axis=0))

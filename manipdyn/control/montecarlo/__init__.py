@@ -148,7 +148,11 @@ def study(arm, runs: int, seed: int = 0, controllers=CONTROLLER_KEYS, duration: 
             raise ModelError(f"plants: the identification's prior {prior.name!r} has other kinematics "
                              f"than the study's arm {arm.name!r} (tool poses differ); give the "
                              f"identified arm's model as MODEL")
-        dist = dataclasses.replace(dist, payload_mass=0.0, link_scale=0.0, friction_viscous=0.0,
-                                   friction_coulomb=0.0)
+        replaced = ("payload_mass", "link_scale", "friction_viscous", "friction_coulomb")
+        given = [f for f in replaced if distributions is not None and getattr(distributions, f)]
+        if given:
+            raise ModelError(f"distributions: {', '.join(given)} must be 0 with plants= (the "
+                             "identification's distribution replaces them)")
+        dist = dataclasses.replace(dist, **{f: 0.0 for f in replaced})
     return Study(model_text(arm), runs, seed, tuple(controllers), float(duration), float(dt),
                  dist, lim, float(bandwidth), float(gamma), plants)

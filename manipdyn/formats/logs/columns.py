@@ -71,6 +71,14 @@ class ColumnMap:
                 index[s] = [pos[x] for x in names]
             elif found:
                 partial.append((s, [x for x in names if x not in pos]))
+        twice = {}
+        for s, ks in index.items():
+            for k in ks:
+                twice.setdefault(k, []).append(s)
+        clash = next(((k, sigs) for k, sigs in twice.items() if len(sigs) > 1), None)
+        if clash:
+            raise ModelError(f"{where}: column {header[clash[0]]!r} is mapped to {' and '.join(clash[1])}; "
+                             "each column is one signal (check columns=, --columns)")
         if partial:
             required = [x for s, names in partial if s in _POSITIONS + _TORQUES for x in names]
             optional = [x for s, names in partial if s not in _POSITIONS + _TORQUES for x in names]

@@ -31,6 +31,7 @@ import os
 import numpy as np
 
 from ..._support.errors import ModelError
+from ..._support.limits import check_signals
 from .columns import column_map
 from .filtering import choose_cutoff, decimation_factor, zero_phase
 from .measurements import Measurements
@@ -63,10 +64,19 @@ def _from_csv(path, n, where, columns, deg, time_scale, drive_args, rate, extra_
     get = {s: d[:, ks] for s, ks in index.items() if s != "t"}
     t = None
     if "t" in index and rate is None:
-        t = d[:, index["t"][0]] * float(time_scale)
+        with np.errstate(over="ignore"):
+            t = d[:, index["t"][0]] * float(time_scale)
+        if not np.all(np.isfinite(t)):
+            k = int(np.flatnonzero(~np.isfinite(t))[0])
+            raise ModelError(f"{where}: row {table.rows[k]}: t = {float(d[k, index['t'][0]])!r} times time_scale "
+                             f"(--time-scale) {float(time_scale):g} overflows float64; expected seconds per unit of t")
         if time_scale != 1:
             notes.append(f"time: column {cmap.patterns['t']!r} scaled by {time_scale:g} to s")
     scale = _deg_factors(deg, n, where)
+    pos = get.get("q", get.get("qm"))
+    if np.any(scale != 1) and pos is not None and pos.size and np.abs(pos[:, scale != 1]).max() <= 2 * math.pi:
+        notes.append("units: every position read in degrees lies within +-6.3 degrees (2 pi): radians read as "
+                     "degrees (drop deg= / --deg)?")
     if np.any(scale != 1):
         for s in ("q", "qd", "qdd", "qm", "qdm"):
             if s in get:
@@ -88,6 +98,9 @@ def _from_csv(path, n, where, columns, deg, time_scale, drive_args, rate, extra_
             get["qd"] = drive.rates(get.pop("qdm"))
         if "taum" in get or "i" in get:
             get["tau"] = drive.torques(get.pop("taum", None), get.pop("i", None))
+        if np.array_equal(drive.R, np.eye(n)) and not np.any(drive.offset):
+            notes.append("drive: R = I and no offsets (the model has no [transmission]): the motor-side columns "
+                         "are read as the joints' own; give the model a [transmission] if there are gears")
         notes.append(f"drive: motor-side {', '.join(motor)} converted to the joints (q = R^-1 (q_m - offset), "
                      "qd = R^-1 qd_m, tau = R^T tau_m" + (", tau_m = k_t i" if "i" in motor else "") + ")")
     return t, get["q"], get.get("qd"), get.get("qdd"), get["tau"], table.rows, drive, notes, table.sha256
@@ -147,9 +160,9 @@ def read_log(path, n: int, *, joint_names=None, columns=None, deg=False, rate=No
     if not (isinstance(time_scale, (int, float)) and math.isfinite(time_scale) and time_scale > 0):
         raise ModelError(f"{where}: time_scale: expected seconds per unit of t > 0, got {time_scale!r}")
     if is_bag(path):
-        if columns is not None or (deg is not False and deg is not None):
-            raise ModelError(f"{where}: columns= and deg= are for CSV logs; a JointState bag is mapped by joint "
-                             "name and is in SI units")
+        if columns is not None or (deg is not False and deg is not None) or time_scale != 1:
+            raise ModelError(f"{where}: columns=, deg= and time_scale= (--columns, --deg, --time-scale) are for "
+                             "CSV logs; a JointState bag is mapped by joint name, is in SI units and stamped in ns")
         t, q, qd, tau, notes, sha = read_joint_states(path, joint_names, topic)
         qdd, rows, drive = None, np.arange(1, len(t) + 1), as_drive(n, **drive_args)
     else:
@@ -157,6 +170,7 @@ def read_log(path, n: int, *, joint_names=None, columns=None, deg=False, rate=No
             raise ModelError(f"{where}: topic= is for ROS bags; this is read as a CSV file")
         t, q, qd, qdd, tau, rows, drive, notes, sha = _from_csv(path, n, where, columns, deg, time_scale,
                                                                  drive_args, rate, bool(extra_joints))
+    check_signals(where, rows, q=q, qd=qd, qdd=qdd, tau=tau)
     parts = [q] + [a for a in (qd, qdd) if a is not None] + [tau]
     t, values, fs, tnotes = uniform_samples(t, np.hstack(parts), rows, where, rate=rate, resample=resample)
     notes += tnotes

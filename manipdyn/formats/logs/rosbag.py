@@ -84,6 +84,27 @@ def _sha256(files) -> str:
     return h.hexdigest()
 
 
+def _one_line(exc) -> str:
+    """An exception's text on one line, at most 300 characters (a YAML error spans several)."""
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    return text if len(text) <= 300 else text[:297] + "..."
+
+
+def _messages(reader, conns, where):
+    """``reader.messages(connections=conns)``, a damaged bag (a corrupt MCAP chunk, a truncated
+    sqlite page) raising a ModelError naming the file instead of the reader's own error."""
+    it = reader.messages(connections=conns)
+    while True:
+        try:
+            item = next(it)
+        except StopIteration:
+            return
+        except Exception as exc:        # rosbags and its storage plugins raise their own classes
+            raise ModelError(f"{where}: the bag is damaged (while reading its messages: "
+                             f"{type(exc).__name__}: {_one_line(exc)})") from None
+        yield item
+
+
 def read_joint_states(path, joint_names, topic: str | None = None):
     """Joint samples of the bag ``path`` (module docstring).
 
@@ -105,6 +126,10 @@ def read_joint_states(path, joint_names, topic: str | None = None):
         raise ModelError(f"{where}: a ROS bag maps joints by name: give joint_names (the model's joints in "
                          "order; --joint-names on the command line)")
     names = [str(x) for x in joint_names]
+    twice = sorted({nm for nm in names if names.count(nm) > 1})
+    if twice:
+        raise ModelError(f"{where}: joint_names (--joint-names): {', '.join(twice)} given twice; each of the "
+                         "model's joints needs its own name")
     root = Path(path)
     files = _files(root, where)
     digest = _sha256(files)
@@ -112,7 +137,7 @@ def read_joint_states(path, joint_names, topic: str | None = None):
         reader = AnyReader([root], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
         reader.open()
     except Exception as exc:            # rosbags raises its own classes per format
-        raise ModelError(f"{where}: not a readable ROS bag: {exc}") from None
+        raise ModelError(f"{where}: not a readable ROS bag: {_one_line(exc)}") from None
     try:
         states = [c for c in reader.connections if c.msgtype == JOINT_STATE]
         if not states:
@@ -129,12 +154,12 @@ def read_joint_states(path, joint_names, topic: str | None = None):
         conns = [c for c in states if c.topic == topic]
         stamps, logged, qs, vs, es = [], [], [], [], []
         skipped, seen = 0, set()
-        for conn, t_log, raw in reader.messages(connections=conns):
+        for conn, t_log, raw in _messages(reader, conns, where):
             try:
                 msg = reader.deserialize(raw, conn.msgtype)
             except Exception as exc:
                 raise ModelError(f"{where}: topic {topic}: message at log time {t_log} ns cannot be decoded: "
-                                 f"{exc}") from None
+                                 f"{_one_line(exc)}") from None
             seen.update(msg.name)
             pos = {nm: k for k, nm in enumerate(msg.name)}
             idx = [pos.get(nm) for nm in names]

@@ -111,7 +111,10 @@ class _Parser:
 
     def _set_header(self, s: str, number: int) -> None:
         self.delim = "," if "," in s else ";" if ";" in s else "\t" if "\t" in s else ","
-        names = [h.strip() for h in next(csv.reader([s], delimiter=self.delim))]
+        try:
+            names = [h.strip() for h in next(csv.reader([s], delimiter=self.delim))]
+        except csv.Error as exc:
+            raise ModelError(f"{self.where}: row {number} (the header): {exc}") from None
         seen = set()
         for c, h in enumerate(names):
             if not h:
@@ -124,6 +127,12 @@ class _Parser:
 
     def _parse(self, lines, nums) -> np.ndarray:
         m = len(self.header)
+        under = next((r for r, ln in enumerate(lines) if "_" in ln), None)
+        if under is not None:     # float() reads '0_5' as 5.0 (Python's digit grouping); no CSV does
+            c = next(c for c, f in enumerate(lines[under].split(self.delim)) if "_" in f)
+            f = lines[under].split(self.delim)[c].strip()
+            raise _field_error(self.where, nums[under], c, self.header, f,
+                               f"{f!r:.40} is not a number (an underscore is no decimal point or digit group)")
         try:
             arr = np.loadtxt(lines, delimiter=self.delim, dtype=np.float64, ndmin=2, comments=None)
             if arr.shape != (len(lines), m):
@@ -177,7 +186,7 @@ def read_table(path, label: str | None = None) -> Table:
     cap, fcap = limits.MAX_DATA_BYTES, limits.MAX_DATA_FIELD_BYTES
     digest = hashlib.sha256()
     parser = _Parser(where)
-    total, pending, first = 0, b"", True
+    total, pending, first, cr_only = 0, b"", True, False
     try:
         with limits.open_regular(os.fspath(path), f"{where}: cannot read data file") as fh:
             while True:
@@ -188,6 +197,10 @@ def read_table(path, label: str | None = None) -> Table:
                 if total > cap:
                     raise limits.over_limit(where, "the data file size", f"over {cap} bytes", "MAX_DATA_BYTES")
                 digest.update(chunk)
+                if first and b"\r" in chunk and b"\n" not in chunk:
+                    cr_only = True      # classic Mac line endings: read them as lines
+                if cr_only:
+                    chunk = chunk.replace(b"\r", b"\n")
                 buf = pending + chunk
                 if first and buf.lstrip(b"\xef\xbb\xbf \t\r\n")[:1] in (b"{", b"["):
                     raise ModelError(f"{where}: starts with {buf.lstrip()[:1].decode()!r}: a JSON file (a base "

@@ -45,6 +45,8 @@ was resampled.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..._support.errors import ModelError
@@ -65,6 +67,40 @@ def interpolate(t, values, grid) -> np.ndarray:
     k = np.clip(np.searchsorted(t, grid, side="right") - 1, 0, len(t) - 2)
     w = ((grid - t[k]) / (t[k + 1] - t[k]))[:, None]
     return values[k] * (1.0 - w) + values[k + 1] * w
+
+
+def _grid_size(t, rate: float, m: int, where: str, option=None, rows=None) -> int:
+    """Samples of the uniform grid at ``rate`` Hz over ``t`` (m values each), refused over
+    :data:`manipdyn.limits.MAX_GRID_VALUES` before anything is allocated; the message names
+    the rate when ``option`` (the argument) set it, else the largest gap (a bad time stamp)."""
+    from ..._support import limits
+
+    span = float(t[-1]) - float(t[0])
+    count = math.floor(span * rate + 1e-9) + 1 if math.isfinite(span * rate) else math.inf
+    if count < 2:
+        raise ModelError(f"{where}: {option or 'the rate'}={rate:g} Hz over the log's {span:.6g} s gives "
+                         f"{int(count)} sample; a log needs at least 2 (a rate in Hz, not a step in s?)")
+    if count * m <= limits.MAX_GRID_VALUES:
+        return int(count)
+    shown = f"{count:.3g}" if math.isfinite(count) else "infinitely many"
+    if option is not None:
+        why = (f"{option}={rate:g} Hz over the log's {span:.6g} s gives {shown} samples of {m} values"
+               f"; resample at a lower rate")
+    else:
+        step = np.diff(np.asarray(t, dtype=np.float64))
+        k = int(np.argmax(step))
+        row = f"row {rows[k + 1]}" if rows is not None else f"sample {k + 1}"
+        why = (f"the time stamps span {span:.6g} s, {shown} samples of {m} values at {rate:.6g} Hz; the "
+               f"largest gap is {float(step[k]):.6g} s before {row} (t = {float(t[k + 1])!r}): a bad time "
+               f"stamp? cut it off with t_range (--t-range)")
+    raise ModelError(f"{where}: the uniform time grid would be too large: {why} "
+                     f"(limit {limits.MAX_GRID_VALUES:g} values, manipdyn.limits.MAX_GRID_VALUES)")
+
+
+def _check_given_rate(rate, where, name, what):
+    if not (MIN_RATE <= rate <= MAX_RATE):
+        raise ModelError(f"{where}: {name}= (--{name}) {rate:.6g} Hz as {what} is implausible for a joint log "
+                         f"(expected {MIN_RATE:g} Hz to {MAX_RATE:g} Hz; a rate in Hz, not a step in s?)")
 
 
 def _check_rate(rate, where, what):
@@ -95,10 +131,13 @@ def uniform_samples(t, values, rows, where: str, *, rate=None, resample=None):
         raise ModelError(f"{where}: {len(values)} data row(s); a log needs at least 2 samples")
     if resample is not None and not (np.isfinite(resample) and resample > 0):
         raise ModelError(f"{where}: resample: expected a rate in Hz > 0, got {resample!r}")
+    if resample is not None:
+        _check_given_rate(float(resample), where, "resample", "the uniform grid's rate")
     if rate is not None:
         if not (np.isfinite(rate) and rate > 0):
             raise ModelError(f"{where}: rate: expected a sample rate in Hz > 0, got {rate!r}")
         rate = float(rate)
+        _check_given_rate(rate, where, "rate", "the log's sample rate")
         why = "the log has no 't' column" if t is None else "given rate= replaces the 't' column"
         t = np.arange(len(values)) / rate
         notes.append(f"time: {why}; {len(values)} rows taken as uniform samples at {rate:g} Hz")
@@ -109,7 +148,7 @@ def uniform_samples(t, values, rows, where: str, *, rate=None, resample=None):
                          "the time axis is stretched: log t)")
         if resample is None or abs(resample - rate) <= 1e-9 * rate:
             return t, values, rate, notes
-        grid = np.arange(int(np.floor((t[-1] - t[0]) * resample + 1e-9)) + 1) / float(resample)
+        grid = np.arange(_grid_size(t, resample, values.shape[1], where, "resample")) / float(resample)
         notes.append(f"time: resampled from {rate:g} Hz to {resample:g} Hz by linear interpolation "
                      f"({len(t)} -> {len(grid)} samples)")
         return grid, interpolate(t, values, grid), float(resample), notes
@@ -158,7 +197,8 @@ def uniform_samples(t, values, rows, where: str, *, rate=None, resample=None):
         return t, values, native, notes
     target = native if resample is None else float(resample)
     why = "the median rate" if resample is None else "as asked"
-    grid = t[0] + np.arange(int(np.floor((t[-1] - t[0]) * target + 1e-9)) + 1) / target
+    grid = t[0] + np.arange(_grid_size(t, target, values.shape[1], where, "resample" if resample else None,
+                                       rows)) / target
     if not uniform:
         notes.append(f"time: steps not uniform ({step.min() * 1e3:.4g} to {step.max() * 1e3:.4g} ms, median "
                      f"{h * 1e3:.4g} ms)")
