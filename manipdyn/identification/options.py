@@ -157,6 +157,9 @@ def prior_weight_option(value, method: str):
     if value != "auto":
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value < math.inf:
             raise OptionError("{}: expected a finite number >= 0, got " + f"{value}", "prior_weight")
+        if value > limits.MAX_PRIOR_WEIGHT:
+            raise OptionError("{}: expected a number in [0, " + f"{limits.MAX_PRIOR_WEIGHT:g}] "
+                              "(manipdyn.limits.MAX_PRIOR_WEIGHT) or 'auto', got " + f"{value:g}", "prior_weight")
         value = float(value)
     if value and method != "consistent":
         raise OptionError("{}: only with {} consistent", "prior_weight", "method")

@@ -35,6 +35,7 @@ import os
 import numpy as np
 
 from .._support.threads import blas_threads as _blas
+from .._support import limits
 from .._support.errors import ModelError
 from .options import OptionError
 from .result import IdentifyResult, write_model_files
@@ -212,6 +213,7 @@ def _identify(prior, logs, o) -> IdentifyResult:
     boot = o["bootstrap"]
     if isinstance(boot, bool) or not isinstance(boot, int) or boot < 0 or boot == 1:
         raise OptionError("{}: expected at least 2 replicates (0: none), got " + brace_safe(repr(boot)), "bootstrap")
+    limits.check_count(boot, "bootstrap", "the number of replicates (each a whole refit)", "MAX_BOOTSTRAP")
     if o["scheduler"] is not None and not boot:
         raise OptionError("{}: only with {} N", "scheduler", "bootstrap")
     if o["torque_constant_reference"] is not None and not o["identify_torque_constants"]:
