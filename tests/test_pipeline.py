@@ -201,3 +201,24 @@ def test_a_urdf_arm_with_rotor_inertias_round_trips_through_a_model_file(tmp_pat
     rng = np.random.default_rng(1)
     q, qd, qdd = (rng.standard_normal((20, 6)) for _ in range(3))
     assert np.allclose(back.inverse_dynamics(q, qd, qdd), arm.inverse_dynamics(q, qd, qdd), rtol=1e-12, atol=1e-12)
+
+
+def test_the_library_names_its_keywords_and_the_command_line_its_flags(tmp_path):
+    """One check of each option, before any log is read: the API's message names the keyword,
+    the CLI's the flag (OptionError.cli_message)."""
+    from manipdyn.identification.options import OptionError
+
+    log = tmp_path / "never_read.csv"
+    for kw, api, cli in (({"method": "wls", "mass_bound": 0.2}, "mass_bound: only with method consistent",
+                          "--mass-bound: only with --method consistent"),
+                         ({"prior_weight": 1e9}, "prior_weight: expected a number in [0, 1e+06]",
+                          "--prior-weight: expected a number in [0, 1e+06]"),
+                         ({"stribeck_velocity": 1.0}, "stribeck_velocity: only with friction_terms",
+                          "--stribeck-velocity: only with --friction-terms"),
+                         ({"friction_terms": "viscous,bogus"}, "friction_terms: unknown term(s) ['bogus']",
+                          "--friction-terms: unknown term(s) ['bogus']")):
+        with pytest.raises(OptionError) as info:
+            md.identify("ur5", log, **kw)
+        assert str(info.value).startswith(api) and info.value.cli_message().startswith(cli)
+    with pytest.raises(md.ModelError, match="bootstrap: the number of replicates .* over the limit"):
+        md.identify("ur5", log, bootstrap=10**6)
