@@ -31,8 +31,9 @@ def register(subparsers) -> None:
         description="Predict the joint torques of the logs with each MODEL (a model, or a base model JSON from "
                     "identify) and report per joint the RMS error, the RMS relative to the measured RMS, R^2 and "
                     "the mean error. Exit codes: 0 scored, 2 usage, model or data error.")
-    p.add_argument("inputs", metavar="MODEL... LOG...", nargs="+",
-                   help="models (name, .toml, .urdf, base model .json), then logs. " + DATA_HELP)
+    p.add_argument("inputs", metavar="MODEL|LOG", nargs="+",
+                   help="the models (name, .toml, .urdf, base model .json), then the logs (.csv, .mcap, .bag, a bag "
+                        "folder; without any, the last argument is the log). A log: " + DATA_HELP)
     p.add_argument("--logs", metavar="RUNS.toml", default=None, help="[[log]] tables, as identify --logs reads them")
     p.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
     p.add_argument("--json", action="store_true", help="print a JSON object instead of text")
