@@ -77,10 +77,11 @@ def test_uneven_repeated_and_dropped_time_stamps_are_recovered(tmp_path):
     assert np.allclose(np.diff(m.t), 1 / m.rate, rtol=1e-9)
     q_ref, qd_ref, qdd_ref = motion(m.t)
     # budget (relative to each signal's peak): the filter at >= 2 Hz passes 0.5 Hz with
-    # 1 / (1 + (0.25)^8) ~ 1.5e-5 error; the edge transient at 3 / cutoff is ~2e-4
-    # (data.py); linear interpolation errs h^2 |q''| / 8 ~ 5e-6 rad between samples and
+    # 1 / (1 + (0.25)^8) ~ 1.5e-5 error; the edge transient at 0.75 / cutoff is under 3e-3
+    # of qdd's RMS for motions up to cutoff / 3 (filtering.py, "Edges"), far less at 0.5 Hz;
+    # linear interpolation errs h^2 |q''| / 8 ~ 5e-6 rad between samples and
     # ~5e-4 rad across the 20 ms gap, which the filter spreads to ~3e-4 of qdd; the
-    # jitter is honest (stamps are the true times). Sum ~7e-4; measured 1.8e-4 (qdd of joint 1).
+    # jitter is honest (stamps are the true times). Measured 5.3e-4 (qdd of joint 2).
     for got, ref in ((m.q, q_ref), (m.qd, qd_ref), (m.qdd, qdd_ref)):
         assert np.all(np.abs(got - ref).max(axis=0) < 2e-3 * np.abs(ref).max(axis=0))
     # the torques are not filtered: linear interpolation of the sampled tau
@@ -358,7 +359,9 @@ def test_t_range_clips_with_a_note_and_refuses_empty(tmp_path):
     p = tmp_path / "w.csv"
     write_csv(p, ["t", "q1", "q2", "tau1", "tau2"], [t, q, torque(q, qd)])
     m = read_log(p, 2, t_range=(0.0, 5.0))
-    assert m.t[0] >= 3 / m.cutoff - 1e-9 and m.t[-1] < 5.0
+    from manipdyn.formats.logs.filtering import EDGE_TRIM
+
+    assert m.t[0] >= EDGE_TRIM / m.cutoff - 1e-9 and m.t[-1] < 5.0       # after the filter's trimmed start
     assert any("reaches past the data" in x for x in m.notes)
     with pytest.raises(md.ModelError, match=r"t_range \(30.0, 40.0\) holds 0 samples; the data spans"):
         read_log(p, 2, t_range=(30.0, 40.0))

@@ -24,8 +24,10 @@ OPTIONS = (
     ("--method", "consistent", None, None, "ols, wls (each joint by its noise), consistent (J_i >= 0; default)"),
     ("--friction", False, "store_true", None, "identify viscous and Coulomb friction"),
     ("--friction-terms", None, str, "T1,T2", "some of viscous, coulomb, asymmetric, offset, stribeck, sigmoid"),
-    ("--friction-side", "joint", None, None, "with --friction-terms: the law acts on the joint or motor velocities"),
-    ("--smoothing", None, float, "V", "with --friction-terms: Coulomb as tanh(v / V) (default 0.01 rad/s; 0 sharp)"),
+    ("--friction-side", None, None, None, "with --friction(-terms): the law acts on the joint or motor velocities "
+     "(default: motor when the torques were logged at the motors and the [transmission] couples joints, else joint)"),
+    ("--smoothing", None, float, "V", "with --friction-terms: Coulomb as tanh(v / V) (default: the velocity's noise "
+     "level measured on the log, said in the notes; 0 sharp)"),
     ("--stribeck-velocity", None, float, "V", "start of the Stribeck search, rad/s on the law's side"),
     ("--sigmoid-alpha", None, float, "A", "start of the sigmoid search, s/rad on the law's side"),
     ("--armature", False, "store_true", None, "identify armature (reflected rotor inertia)"),

@@ -42,6 +42,7 @@ from ..model.parameters import arm_parameters, parameter_count
 from .model import arm_with_parameters
 from .base import BaseParameters, base_parameters, check_base
 from .sdp import Bounds, consistent_fit
+from .runs import segment_edges
 from .uncertainty import base_covariance
 
 __all__ = ["fit", "FitResult", "METHODS", "link_min_eigenvalues", "known_torque", "joint_noise"]
@@ -164,6 +165,55 @@ def _reduce(A, y):
     return Ra[:r, :r], Ra[:r, r], rho0
 
 
+def joint_factors(Yb, y) -> np.ndarray:
+    """Each joint's triangular factor of ``[Yb[:, j, :] | y[:, j]]``, (n, r + 1, r + 1).
+
+    ``||Yb[:, j] b - y[:, j]||^2 = ||F_j [b; -1]||^2`` for every b, so every least-squares
+    problem :func:`fit` solves (each joint's own, the stacked one, the weighted one) is a small
+    problem on these factors: one QR per joint over the samples, none over all joints' rows
+    stacked.  Factors of consecutive blocks of samples stack (``joint_factors`` of the stacked
+    blocks' factors), which is how :mod:`.selection` builds each fold's data.
+    """
+    Yb, y = np.asarray(Yb, dtype=np.float64), np.asarray(y, dtype=np.float64)
+    N, n, r = Yb.shape
+    out = np.zeros((n, r + 1, r + 1))
+    for j in range(n):
+        Ra = np.linalg.qr(np.column_stack([Yb[:, j, :], y[:, j]]), mode="r")
+        out[j, :Ra.shape[0]] = Ra
+    return out
+
+
+def _stack_factors(blocks) -> np.ndarray:
+    """One factor per joint (n, r + 1, r + 1) of several blocks' factors stacked (one small QR each)."""
+    rest, F = np.concatenate(blocks, axis=1), np.zeros_like(blocks[0])
+    for j in range(F.shape[0]):
+        Rj = np.linalg.qr(rest[j], mode="r")
+        F[j, :Rj.shape[0]] = Rj
+    return F
+
+
+def _stacked(F, w=None):
+    """``(R, c, rho0)`` of :func:`_reduce` for the rows of every joint stacked (each weighted by ``w_j``),
+    from the joints' factors ``F`` (n, r + 1, r + 1)."""
+    r = F.shape[-1] - 1
+    w = np.ones(F.shape[0]) if w is None else np.asarray(w, dtype=np.float64)
+    Ra = np.linalg.qr((F * w[:, None, None]).reshape(-1, r + 1), mode="r")
+    return Ra[:r, :r], Ra[:r, r], abs(float(Ra[r, r]))
+
+
+def _noise_from_factors(F, N: int) -> np.ndarray:
+    """:func:`joint_noise` from the joints' factors ``F`` (:func:`joint_factors`) of ``N`` samples."""
+    n, r = F.shape[0], F.shape[-1] - 1
+    sigma = np.empty(n)
+    for j in range(n):
+        A, b = F[j, :, :r], F[j, :, r]
+        norms = np.linalg.norm(A, axis=0)                   # Q is orthogonal: the columns' norms
+        A = A[:, norms > 1e-12 * max(norms.max(), 1e-300)]
+        sol, _, rank, _ = np.linalg.lstsq(A, b, rcond=None)
+        sigma[j] = np.sqrt(np.sum((A @ sol - b) ** 2) / max(1, N - rank))
+    return sigma
+
+
 def joint_noise(Yb, y) -> np.ndarray:
     """Per-joint noise level ``sigma_j`` (n,) from each joint's own OLS fit (module docstring):
     ``Yb`` (N, n, p) the regressor, ``y`` (N, n) the torques it should explain."""
@@ -204,7 +254,8 @@ def _check(q, qd, qdd, tau, n):
 
 def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armature: bool = False,
         bounds: Bounds | str | None = "plausible", base: BaseParameters | None = None,
-        name: str | None = None, prior_weight: float = 0.0, metadata=None, *, segments=None) -> FitResult:
+        name: str | None = None, prior_weight: float = 0.0, metadata=None, regressor=None,
+        factors=None, *, segments=None) -> FitResult:
     """Identify ``arm``'s parameters from samples (module docstring).
 
     Parameters
@@ -248,10 +299,16 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         flags (checked on the numbers: :func:`.base.check_base`; another arm's is refused).
     name : str, optional
         Name of the identified arm.
+    regressor : (N, n, p) array, optional
+        ``arm.lagrange.regressor(q, qd, qdd, armature=armature, friction=friction)`` when the
+        caller already has it (cross-validation slices one regressor into folds:
+        :mod:`.selection`); its shape is checked, its numbers are trusted.
+    factors : (n, r + 1, r + 1) array, optional
+        :func:`joint_factors` of these samples' base regressor and torques (less the known
+        torques), when the caller has them (cross-validation stacks them from blocks).
     segments : sequence of int, optional
-        The sample counts of the runs stacked in the data, in order (:func:`.runs.stack`):
-        ``wls`` and ``consistent`` then weigh each joint by its noise level in each run
-        (``report["noise_sigma_per_run"]``); ``sigma`` is their RMS over the samples.
+        The runs' sample counts (:func:`.runs.stack`): each run's joints weighed by their noise in
+        it (``report["noise_sigma_per_run"]``; ``sigma`` their RMS); not with ``factors``.
     """
     if method not in METHODS:
         raise ModelError(f"method: expected one of {', '.join(METHODS)}, got {method!r}")
@@ -284,9 +341,24 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     check_fit_size(N, n, len(base.names))
     if N * n < r:
         raise ModelError(f"data: {N} samples give {N * n} equations for {r} base parameters")
-    Yb = base.regressor(arm.lagrange.regressor(q, qd, qdd, armature=armature, friction=friction))
+    if regressor is None:
+        regressor = arm.lagrange.regressor(q, qd, qdd, armature=armature, friction=friction)
+    elif np.shape(regressor) != (N, n, len(base.names)):
+        raise ModelError(f"regressor: expected shape ({N}, {n}, {len(base.names)}) (the samples' full "
+                         f"regressor), got {np.shape(regressor)}")
+    Yb = base.regressor(regressor)
     y = tau - known_torque(arm, qd, qdd, armature, friction)
-    R0, c0, _ = _reduce(Yb.reshape(-1, r), y.reshape(-1))
+    edges = segment_edges(segments, N)
+    if segments is not None and factors is not None:
+        raise ModelError("factors, segments: give one (factors hold no run boundaries)")
+    runs = [joint_factors(Yb[a:b], y[a:b]) for a, b in zip(edges[:-1], edges[1:])] if len(edges) > 2 else None
+    if runs is not None:         # each run's factors: its own noise levels, then its weights
+        factors = _stack_factors(runs)
+    elif factors is None:
+        factors = joint_factors(Yb, y)
+    elif np.shape(factors) != (n, r + 1, r + 1):
+        raise ModelError(f"factors: expected shape ({n}, {r + 1}, {r + 1}), got {np.shape(factors)}")
+    R0, c0, _ = _stacked(factors)
     s = np.linalg.svd(R0, compute_uv=False)              # the singular values of the stacked Y_b
     cond = float(s[0] / s[-1]) if s[-1] > 0 else float("inf")
     limit = MAX_CONDITION_CONSISTENT if method == "consistent" else MAX_CONDITION
@@ -295,16 +367,15 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
                          f"threshold {limit:.0e}: the motion does not excite every base parameter (is q "
                          f"constant, or a column scaled wrongly?); use an excitation trajectory "
                          f"(manipdyn excite)")
-    bounds_at = _segment_edges(segments, N)
-    sigmas = np.array([joint_noise(Yb[a:b], y[a:b]) for a, b in zip(bounds_at[:-1], bounds_at[1:])])
+    counts = np.diff(edges)
+    sigmas = (np.array([_noise_from_factors(F, int(k)) for F, k in zip(runs, counts)]) if runs is not None
+              else _noise_from_factors(factors, N)[None, :])
     # noise below 1e-6 of the largest joint's RMS torque is rounding, not noise:
     # flooring it keeps the weights (and the semidefinite program) well scaled
     # on exact data, where every sigma_j would otherwise be ~1e-12 and arbitrary
     floor = 1e-6 * max(float(np.sqrt(np.mean(y**2, axis=0)).max()), 1e-300)
     sigmas = np.maximum(sigmas, floor)
-    counts = np.diff(bounds_at)
-    sigma = sigmas[0] if len(sigmas) == 1 else np.sqrt(counts @ sigmas**2 / N)
-    w_rows = np.repeat(1.0 / sigmas, counts, axis=0)       # (N, n): each run's joints by their noise
+    sigma = sigmas[0] if runs is None else np.sqrt(counts @ sigmas**2 / N)
     try:
         prior = arm_parameters(arm, armature, friction)
     except ModelError:   # the prior's friction law is not of the asked-for kind: start from none
@@ -317,8 +388,12 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         pi = base.full_closest_to(beta, prior)
         solver = "lstsq"
     else:
-        w = w_rows
-        R, c, rho_w = _reduce((Yb * w[:, :, None]).reshape(-1, r), (y * w).reshape(-1))
+        w = 1.0 / sigma
+        if runs is None:
+            R, c, rho_w = _stacked(factors, w)
+        else:                    # each run's joints by their noise in that run
+            w = np.repeat(1.0 / sigmas, counts, axis=0)                       # (N, n)
+            R, c, rho_w = _stacked(_stack_factors([F * (1.0 / s)[:, None, None] for F, s in zip(runs, sigmas)]))
         cov = base_covariance(R)     # rows have unit variance after weighting (.uncertainty)
         if method == "wls":
             beta = np.linalg.lstsq(R, c, rcond=None)[0]
@@ -359,25 +434,11 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     result.report = build_report(result, solver=solver, samples=N, cov=cov, min_eigenvalues=eig)
     result.report["active_bounds"] = bounds.active(pi, n) if bounds is not None else []
     result.report["prior_weight"] = float(prior_weight)
-    if len(sigmas) > 1:
-        result.report["noise_sigma_per_run"] = sigmas.tolist()
+    result.report.update({"noise_sigma_per_run": sigmas.tolist()} if runs is not None else {})
     if method == "consistent":
         result.report.update(_shortfall(R, c, rho_w, y * w, residuals * w, pi, n, base, bounds, solver,
                                         result.report["active_bounds"]))
     return result
-
-
-def _segment_edges(segments, N: int) -> np.ndarray:
-    """``[0, N_1, N_1 + N_2, ..., N]`` from the runs' sample counts (None: one run)."""
-    if segments is None:
-        return np.array([0, N])
-    try:
-        counts = np.array([int(k) for k in segments])
-    except (TypeError, ValueError):
-        raise ModelError(f"segments: expected the runs' sample counts, got {segments!r:.80}") from None
-    if counts.size == 0 or np.any(counts < 1) or counts.sum() != N:
-        raise ModelError(f"segments: expected sample counts >= 1 adding up to the {N} samples, got {counts.tolist()}")
-    return np.concatenate([[0], np.cumsum(counts)])
 
 
 def _scale_hint(R, c, K, prior, bounds) -> str:

@@ -85,27 +85,30 @@ def bounds_option(arm, method: str, mass_bound=None, com_bound=None, total_mass_
         total=PLAUSIBLE_TOTAL if total_mass_bound is None else total_mass_bound)
 
 
-def friction_option(arm, friction: bool = False, friction_terms=None, friction_side: str = "joint",
+def friction_option(arm, friction: bool = False, friction_terms=None, friction_side=None,
                     smoothing=None, stribeck_velocity=None, sigmoid_alpha=None):
     """What :func:`.fit` takes as ``friction=`` from the options.
 
-    ``friction``: viscous and sharp Coulomb (True).  ``friction_terms``: names separated by
-    commas (or a sequence) of :data:`manipdyn.model.friction.FRICTION_TERMS`, on ``friction_side``
-    ("joint" or "motor"), Coulomb smoothed as ``tanh(v / smoothing)`` (rad/s, default
+    ``friction``: viscous and sharp Coulomb (True; on the motors with ``friction_side="motor"``).
+    ``friction_terms``: names separated by commas (or a sequence) of
+    :data:`manipdyn.model.friction.FRICTION_TERMS`, on ``friction_side`` ("joint" or "motor"; None:
+    the joint side here, :mod:`.choices` chooses it from the log first), Coulomb smoothed as ``tanh(v / smoothing)`` (rad/s, default
     :data:`manipdyn.model.friction.DEFAULT_SMOOTHING`); with a Stribeck or sigmoid term, a
     :class:`manipdyn.Friction` holding the shapes' starting values (``stribeck_velocity``
     rad/s, ``sigmoid_alpha`` s/rad, on the law's side).
     """
     from ..model.friction import DEFAULT_SMOOTHING, FRICTION_TERMS, FrictionTerms
 
-    if friction_side not in ("joint", "motor"):
+    if friction_side not in (None, "joint", "motor"):
         raise OptionError("{}: expected 'joint' or 'motor', got " + brace_safe(repr(friction_side)), "friction_side")
     shape_opts = _given((("stribeck_velocity", stribeck_velocity), ("sigmoid_alpha", sigmoid_alpha)))
     if friction_terms is None:
-        if smoothing is not None or friction_side != "joint" or shape_opts:
-            if shape_opts:
-                raise OptionError("{}: only with {}", shape_opts[0], "friction_terms")
-            raise OptionError("{}/{}: only with {}", "smoothing", "friction_side", "friction_terms")
+        if smoothing is not None or shape_opts:
+            raise OptionError("{}: only with {}", (shape_opts or ["smoothing"])[0], "friction_terms")
+        if friction_side is not None and not friction:
+            raise OptionError("{}: only with {} or {}", "friction_side", "friction", "friction_terms")
+        if friction and friction_side == "motor":     # viscous + sharp Coulomb at the motors
+            return FrictionTerms(("viscous", "coulomb"), side="motor", smoothing=0.0)
         return bool(friction)
     if friction:
         raise OptionError("{}: give either {} (viscous + sharp Coulomb) or {}", "friction_terms", "friction",
@@ -128,6 +131,7 @@ def friction_option(arm, friction: bool = False, friction_terms=None, friction_s
     for opt, term in (("stribeck_velocity", "stribeck"), ("sigmoid_alpha", "sigmoid")):
         if opt in shape_opts and term not in shaped:
             raise OptionError("{}: only with a " + term + " term in {}", opt, "friction_terms")
+    friction_side = friction_side or "joint"
     linear = FrictionTerms(tuple(t for t in terms if t not in SHAPED), side=friction_side, smoothing=v)
     if not shaped:
         return linear

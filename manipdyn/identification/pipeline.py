@@ -105,7 +105,6 @@ def _with_transmission(arm, transmission):
 def _torque_constants(arm, runs, friction, armature, reference):
     """Step 3: ``(arm with k_t, runs with rescaled torques, TorqueConstants)``."""
     from ..model.drive import Transmission
-    from ..formats.logs.measurements import Measurements
     from .torque_constants import CURRENT_NOTE, identify_torque_constants
 
     for data, _ in runs:
@@ -118,10 +117,7 @@ def _torque_constants(arm, runs, friction, armature, reference):
     gain = R.T @ np.diag(tc.values) @ np.linalg.inv(R).T        # tau = R^T diag(k) i, i = R^-T tau_read
     scaled = []
     for data, payload in runs:
-        m = Measurements(data.t, data.q, data.qd, data.qdd, data.tau @ gain.T, data.derived, notes=data.notes,
-                         rate=data.rate, cutoff=data.cutoff, decimation=data.decimation, qd_motor=data.qd_motor,
-                         measured_qd=data.measured_qd, source=data.source, source_sha256=data.source_sha256)
-        scaled.append((m, payload))
+        scaled.append((_with_tau(data, data.tau @ gain.T, data.notes), payload))
     arm = _with_transmission(arm, Transmission(R, tr.motor_offset, tc.values))
     return arm, scaled, tc
 
@@ -155,7 +151,7 @@ def _known_payloads(arm, runs):
 
 
 def identify(prior, logs, *, method: str = "consistent", tip=None, friction: bool = False, friction_terms=None,
-             friction_side: str = "joint", smoothing=None, stribeck_velocity=None, sigmoid_alpha=None,
+             friction_side=None, smoothing=None, stribeck_velocity=None, sigmoid_alpha=None,
              armature: bool = False, mass_bound=None, com_bound=None, total_mass_bound=None, no_bounds: bool = False,
              prior_weight=0.0, bootstrap: int = 0, scheduler=None, identify_torque_constants: bool = False,
              torque_constant_reference=None, output=None, base_json=None, name=None, columns=None,
@@ -224,6 +220,15 @@ def _identify(prior, logs, o) -> IdentifyResult:
                         resample=o["resample"], cutoff=o["cutoff"], decimate=False if o["no_decimate"] else None,
                         topic=o["topic"], t_range=o["t_range"], extra_joints=o["extra_joints"])
     runs = _read(arm, logs, read_options, o["deg"], o["identify_torque_constants"])
+    side, smoothing, law_notes = o["friction_side"], o["smoothing"], []
+    if o["friction"] or o["friction_terms"] is not None:    # the side and smoothing not given: from the log
+        from .choices import choose_friction_options
+        from .runs import stack
+
+        side, smoothing, law_notes = choose_friction_options(arm.transmission, stack([d for d, _ in runs]), side,
+                                                             smoothing, smoothed=o["friction_terms"] is not None)
+        law = friction_option(arm, o["friction"], o["friction_terms"], side, smoothing, o["stribeck_velocity"],
+                              o["sigmoid_alpha"])
     tc, as_read = None, arm
     if o["identify_torque_constants"]:
         arm, runs, tc = _torque_constants(arm, runs, law, o["armature"], o["torque_constant_reference"])
@@ -252,7 +257,8 @@ def _identify(prior, logs, o) -> IdentifyResult:
     result = fit(arm, data.q, data.qd, data.qdd, data.tau, method=o["method"], friction=law,
                  armature=o["armature"], bounds=bounds, name=name, prior_weight=weight,
                  segments=data.segments if len(data.segments) > 1 else None)
-    options = {k: (weight if k == "prior_weight" else o[k]) for k in PROVENANCE_KEYS}
+    chosen = {"prior_weight": weight, "friction_side": side, "smoothing": smoothing}
+    options = {k: chosen.get(k, o[k]) for k in PROVENANCE_KEYS}
     options = {k: v for k, v in options.items() if v is not None and v is not False and not (
         isinstance(v, (int, float)) and not isinstance(v, bool) and v == 0)}
     sources = getattr(data, "sources", [data.source])
@@ -260,9 +266,9 @@ def _identify(prior, logs, o) -> IdentifyResult:
     prov = provenance(", ".join(os.path.basename(str(s)) for s in sources), o["method"], options, prior_label,
                       result.report["rms_residual"], sha256=", ".join(str(s) for s in shas))
     rep = dict(result.report)
+    rep["fit_notes"] = law_notes + list(rep.get("fit_notes", []))
     if isinstance(law, Friction) or not isinstance(law, bool):
-        side = getattr(law, "side", "joint")
-        if side == "motor" and np.array_equal(np.asarray(arm.transmission.R), np.eye(arm.n)):
+        if getattr(law, "side", "joint") == "motor" and np.array_equal(np.asarray(arm.transmission.R), np.eye(arm.n)):
             rep["fit_notes"] = list(rep.get("fit_notes", [])) + [
                 "--friction-side motor: the model has no transmission (R = I, no gear ratios), so the motor "
                 "side is the joint side; give the model a [transmission] for motor-side friction"]
@@ -286,8 +292,6 @@ def _identify(prior, logs, o) -> IdentifyResult:
 
 def _reread(runs, tc, arm):
     """The runs' torques back to ``R^T i`` (unit gains), for a second estimate of ``k_t``."""
-    from ..formats.logs.measurements import Measurements
-
     R = np.asarray(arm.transmission.R, dtype=np.float64)
     undo = np.linalg.inv(R.T @ np.diag(tc.values) @ np.linalg.inv(R).T)
     out = []
@@ -296,10 +300,7 @@ def _reread(runs, tc, arm):
         if payload is not None:      # _known_payloads subtracted it: put it back first
             tau = tau + payload.torque(arm, data.q, data.qd, data.qdd)
         notes = [n for n in data.notes if not n.startswith("payload: ")]
-        out.append((Measurements(data.t, data.q, data.qd, data.qdd, tau @ undo.T, data.derived, notes=notes,
-                                 rate=data.rate, cutoff=data.cutoff, decimation=data.decimation,
-                                 qd_motor=data.qd_motor, measured_qd=data.measured_qd, source=data.source,
-                                 source_sha256=data.source_sha256), payload))
+        out.append((_with_tau(data, tau @ undo.T, notes), payload))
     return out
 
 
@@ -308,6 +309,15 @@ def _label(logs) -> str:
     items = [logs] if isinstance(logs, (str, os.PathLike)) or not hasattr(logs, "__iter__") else list(logs)
     return ", ".join(os.fspath(x) if isinstance(x, (str, os.PathLike))
                      else str(getattr(x, "path", None) or getattr(x, "source", None) or "log") for x in items)
+
+
+def _with_tau(data, tau, notes):
+    """A copy of the Measurements ``data`` with other torques and notes (everything else shared)."""
+    import copy
+
+    out = copy.copy(data)
+    out.tau, out.notes = tau, list(notes)
+    return out
 
 
 def _name_from(output):

@@ -34,7 +34,7 @@ import numpy as np
 from .._support.errors import ModelError
 from ..formats.logs.measurements import Measurements
 
-__all__ = ["Payload", "LogSpec", "read_runs_file", "as_log_specs", "read_runs", "stack", "RUN_KEYS"]
+__all__ = ["Payload", "LogSpec", "read_runs_file", "as_log_specs", "read_runs", "stack", "segment_edges", "RUN_KEYS"]
 
 #: the keys of a ``[[log]]`` table
 RUN_KEYS = ("path", "t_range", "rate", "columns", "payload")
@@ -61,11 +61,13 @@ class Payload:
 
     def regressor(self, arm, q, qd, qdd) -> np.ndarray:
         """``Y_P`` (N, n, 10): the joint torque of a unit of each payload parameter."""
-        from .payload import payload_parameter_map
+        from ..model.inertia import parameters_from_pseudo_inertia, transform_pseudo_inertia
+        from ..model.parameters import PARAMETER_BASIS
 
         _, tool = arm.chain()
         k = arm.n - 1
-        return arm.lagrange.regressor(q, qd, qdd)[..., 10 * k:10 * k + 10] @ payload_parameter_map(tool)
+        G = parameters_from_pseudo_inertia(transform_pseudo_inertia(PARAMETER_BASIS, tool)).T   # .payload's map
+        return arm.lagrange.regressor(q, qd, qdd)[..., 10 * k:10 * k + 10] @ G
 
     def torque(self, arm, q, qd, qdd) -> np.ndarray:
         """The payload's joint torque (N, n), N m: gravity and inertia of the load on ``arm``."""
@@ -221,6 +223,19 @@ def read_runs(logs, arm, *, transmission=None, **read_options) -> list[tuple[Mea
     return out
 
 
+def segment_edges(segments, N: int) -> np.ndarray:
+    """``[0, N_1, N_1 + N_2, ..., N]`` from the runs' sample counts (None: one run)."""
+    if segments is None:
+        return np.array([0, N])
+    try:
+        counts = np.array([int(k) for k in segments])
+    except (TypeError, ValueError):
+        raise ModelError(f"segments: expected the runs' sample counts, got {segments!r:.80}") from None
+    if counts.size == 0 or np.any(counts < 1) or counts.sum() != N:
+        raise ModelError(f"segments: expected sample counts >= 1 adding up to the {N} samples, got {counts.tolist()}")
+    return np.concatenate([[0], np.cumsum(counts)])
+
+
 def stack(parts) -> Measurements:
     """One :class:`Measurements` of several runs in order, with ``segments`` (the runs' sample
     counts), ``sources`` (their files) and each run's notes prefixed with its file name."""
@@ -236,11 +251,17 @@ def stack(parts) -> Measurements:
         label = os.path.basename(m.source) if m.source else "run"
         notes += [f"{label}: {note}" for note in m.notes]
     qd_motor = cat("qd_motor") if all(m.qd_motor is not None for m in parts) else None
+    counts = np.array([len(m) for m in parts], dtype=np.float64)
+    noise = None            # the velocity's noise level, RMS over the runs' samples (choices.coulomb_smoothing)
+    if all(getattr(m, "qd_noise", None) is not None for m in parts):
+        noise = np.sqrt(counts @ np.array([np.square(m.qd_noise) for m in parts]) / counts.sum())
+    signals = tuple(dict.fromkeys(s for m in parts for s in getattr(m, "motor_signals", ())))
     rates = {m.rate for m in parts}
     out = Measurements(cat("t"), cat("q"), cat("qd"), cat("qdd"), cat("tau"), derived=any(m.derived for m in parts),
                        notes=notes, rate=parts[0].rate if len(rates) == 1 else None, cutoff=None,
                        decimation=1, qd_motor=qd_motor, measured_qd=all(m.measured_qd for m in parts),
-                       source=", ".join(str(m.source) for m in parts), source_sha256=None)
+                       source=", ".join(str(m.source) for m in parts), source_sha256=None, qd_noise=noise,
+                       motor_signals=signals)
     out.segments = [len(m) for m in parts]
     out.sources = [m.source for m in parts]
     return out

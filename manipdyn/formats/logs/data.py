@@ -23,11 +23,10 @@ is lower: well above the bandwidth of excitation trajectories, which rarely
 exceeds 1 to 2 Hz, and low enough that the twice-differentiated encoder
 noise stays small), then
 second-order central differences (``numpy.gradient``).  The filter's
-edges are padded by odd extension over ``6 rate / cutoff`` samples, and the
-first and last ``3 / cutoff`` seconds are dropped (the filter's transients
-and the one-sided differences live there: on a sine at 0.2 to 0.35 Hz the
-error of qdd is 4 % of its amplitude at ``1 / cutoff`` from the edge, 0.3 %
-at ``2 / cutoff``, 0.02 % at ``3 / cutoff``).  The torques are NOT
+edges are continued over ``6 / cutoff`` s by an odd reflection corrected
+for curvature, and the first and last ``0.75 / cutoff`` seconds are
+dropped (the filter's transients and the one-sided differences live there;
+measured errors in :mod:`~manipdyn.formats.logs.filtering`, "Edges").  The torques are NOT
 filtered, only trimmed alike: least squares averages their white noise
 anyway, and a low-pass filter on tau alone would smear the Coulomb-friction
 step ``sign(qd)`` that the regressor keeps sharp (filtering tau made the
@@ -97,7 +96,7 @@ def derivatives(t, q, tau=None, cutoff: float | None = None, order: int = 4):
     (trimmed alike, not filtered); ``cutoff`` in Hz (default
     :data:`DEFAULT_CUTOFF`, or a tenth of the rate if lower; :func:`read_log`
     chooses it from the data instead).  The outputs are shorter than the
-    inputs: ``3 / cutoff`` s are dropped at each end; nothing is decimated.
+    inputs: ``0.75 / cutoff`` s are dropped at each end; nothing is decimated.
     """
     rate = 1.0 / float(np.median(np.diff(t)))
     fc = min(DEFAULT_CUTOFF, rate / 10.0) if cutoff is None else float(cutoff)

@@ -23,17 +23,24 @@ class Measurements:
     * ``qd_motor`` (N, n): motor velocities ``R qd``, rad/s at the motor, when a
       transmission was given, else None;
     * ``source`` (the file name) and ``source_sha256`` (of its bytes; of a bag's
-      files, name and bytes in name order).
+      files, name and bytes in name order);
+    * ``qd_noise`` (n,): the velocity's noise level per joint, rad/s, measured on
+      what the filter removed (:func:`~manipdyn.formats.logs.filtering.velocity_noise`),
+      or None when nothing was filtered;
+    * ``motor_signals``: which signals were read at the motors (some of ``"qm"``,
+      ``"qdm"``, ``"taum"``, ``"i"``), empty for a joint-side log.
     """
 
     def __init__(self, t, q, qd, qdd, tau, derived=False, *, notes=(), rate=None, cutoff=None,
-                 decimation=1, qd_motor=None, measured_qd=False, source=None, source_sha256=None):
+                 decimation=1, qd_motor=None, measured_qd=False, source=None, source_sha256=None,
+                 qd_noise=None, motor_signals=()):
         self.t, self.q, self.qd, self.qdd, self.tau = t, q, qd, qdd, tau
         self.derived = bool(derived)
         self.notes = list(notes)
         self.rate, self.cutoff, self.decimation = rate, cutoff, int(decimation)
         self.qd_motor, self.measured_qd = qd_motor, bool(measured_qd)
         self.source, self.source_sha256 = source, source_sha256
+        self.qd_noise, self.motor_signals = qd_noise, tuple(motor_signals)
 
     @property
     def n(self) -> int:

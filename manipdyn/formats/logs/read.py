@@ -33,7 +33,7 @@ import numpy as np
 from ..._support.errors import ModelError
 from ..._support.limits import check_signals
 from .columns import column_map
-from .filtering import choose_cutoff, decimation_factor, zero_phase
+from .filtering import choose_cutoff, decimation_factor, edge_samples, velocity_noise, zero_phase
 from .measurements import Measurements
 from .motor import as_drive
 from .rosbag import is_bag, read_joint_states
@@ -103,7 +103,7 @@ def _from_csv(path, n, where, columns, deg, time_scale, drive_args, rate, extra_
                          "are read as the joints' own; give the model a [transmission] if there are gears")
         notes.append(f"drive: motor-side {', '.join(motor)} converted to the joints (q = R^-1 (q_m - offset), "
                      "qd = R^-1 qd_m, tau = R^T tau_m" + (", tau_m = k_t i" if "i" in motor else "") + ")")
-    return t, get["q"], get.get("qd"), get.get("qdd"), get["tau"], table.rows, drive, notes, table.sha256
+    return t, get["q"], get.get("qd"), get.get("qdd"), get["tau"], table.rows, drive, notes, table.sha256, motor
 
 
 def _window(t, arrays, t_range, where, notes):
@@ -164,12 +164,12 @@ def read_log(path, n: int, *, joint_names=None, columns=None, deg=False, rate=No
             raise ModelError(f"{where}: columns=, deg= and time_scale= (--columns, --deg, --time-scale) are for "
                              "CSV logs; a JointState bag is mapped by joint name, is in SI units and stamped in ns")
         t, q, qd, tau, notes, sha = read_joint_states(path, joint_names, topic)
-        qdd, rows, drive = None, np.arange(1, len(t) + 1), as_drive(n, **drive_args)
+        qdd, rows, drive, motor = None, np.arange(1, len(t) + 1), as_drive(n, **drive_args), []
     else:
         if topic is not None:
             raise ModelError(f"{where}: topic= is for ROS bags; this is read as a CSV file")
-        t, q, qd, qdd, tau, rows, drive, notes, sha = _from_csv(path, n, where, columns, deg, time_scale,
-                                                                 drive_args, rate, bool(extra_joints))
+        t, q, qd, qdd, tau, rows, drive, notes, sha, motor = _from_csv(path, n, where, columns, deg, time_scale,
+                                                                        drive_args, rate, bool(extra_joints))
     check_signals(where, rows, q=q, qd=qd, qdd=qdd, tau=tau)
     parts = [q] + [a for a in (qd, qdd) if a is not None] + [tau]
     t, values, fs, tnotes = uniform_samples(t, np.hstack(parts), rows, where, rate=rate, resample=resample)
@@ -178,7 +178,7 @@ def read_log(path, n: int, *, joint_names=None, columns=None, deg=False, rate=No
     q, tau = split[0], split[-1]
     qd = split[1] if qd is not None else None
     qdd = split[-2] if qdd is not None else None
-    fc, D, derived, measured_qd = None, 1, True, qd is not None
+    fc, D, derived, measured_qd, noise = None, 1, True, qd is not None, None
     if qd is not None and qdd is not None:
         derived = False
         notes.append("derivatives: qd and qdd measured, used as they are (nothing filtered)"
@@ -194,9 +194,11 @@ def read_log(path, n: int, *, joint_names=None, columns=None, deg=False, rate=No
         D = decimation_factor(fs, fc) if decimate is None else max(1, int(decimate or 1))
         measured = "measured qd filtered and differentiated for qdd" if qd is not None else \
             "qd and qdd derived from q"
+        raw_t, raw_q, raw_qd = t, q, qd
         t, q, qd, qdd, (tau,) = zero_phase(t, q, fc, qd=qd, others=(tau,), decimate=D, where=where)
+        noise = velocity_noise(raw_t, raw_q, raw_qd, fc, D, q, qd)
         notes.append(f"filter: zero-phase Butterworth low-pass at {fc:.3g} Hz ({why}); {measured}; "
-                     f"{3 / fc:.3g} s dropped at each end")
+                     f"{edge_samples(fs, fc) / fs:.3g} s dropped at each end (the filter's edges)")
         if D > 1:
             notes.append(f"filter: decimated by {D} after filtering and differentiating: {fs:.6g} -> {fs / D:.6g} Hz "
                          "(torques: every D-th sample, not averaged)")
@@ -204,4 +206,4 @@ def read_log(path, n: int, *, joint_names=None, columns=None, deg=False, rate=No
         t, (q, qd, qdd, tau) = _window(t, [q, qd, qdd, tau], t_range, where, notes)
     return Measurements(t, q, qd, qdd, tau, derived=derived, notes=notes, rate=fs / D, cutoff=fc, decimation=D,
                         qd_motor=None if drive is None else drive.motor_rates(qd), measured_qd=measured_qd,
-                        source=where, source_sha256=sha)
+                        source=where, source_sha256=sha, qd_noise=noise, motor_signals=motor)
