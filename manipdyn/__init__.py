@@ -29,7 +29,7 @@ from .model.friction import Friction, FrictionTerms
 from .model.arm import Arm, Convention, Manipulator, URDFArm
 from .formats.loading import load, load_with_notes, models
 from .formats.save import save, to_toml, to_urdf, write_urdf
-from .engines.protocol import DynamicsEngine
+from .engines.protocol import DynamicsEngine, JacobianEngine
 from .model.arm import register_engine
 from .engines.lagrange.engine import trace_form_engine
 from .check.crosscheck import CrosscheckReport, crosscheck
@@ -94,7 +94,7 @@ def __getattr__(name):
 __version__ = "0.1.0"
 
 __all__ = ["Transmission", "Friction", "FrictionTerms", 
-    "Arm", "ChainJoint", "Convention", "CompareReport", "CrosscheckReport", "DHLink", "DynamicsEngine",
+    "Arm", "ChainJoint", "Convention", "CompareReport", "CrosscheckReport", "DHLink", "DynamicsEngine", "JacobianEngine",
     "LinkInertia", "Manipulator", "ModelError", "ModelNoteWarning", "PhysicalConsistencyWarning", "SingularMassMatrixError",
     "StateError", "SuspiciousValueWarning", "URDFArm", "codegen", "compare", "crosscheck", "linearize", "load", "load_with_notes", "models", "save",
     "simulate", "identify", "validate", "to_toml", "to_urdf", "transform_inverse", "write_urdf",

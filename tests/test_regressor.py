@@ -97,14 +97,24 @@ def test_urdf_arm_regressors_agree():
 @pytest.mark.parametrize("name", ["puma560_akb", "panda", "stanford"])
 @pytest.mark.parametrize("engine", ["lagrange", "pinocchio"])
 def test_Y_times_parameters_is_inverse_dynamics(name, engine):
-    """With armature and friction columns, ``Y @ pi`` is the engine's own tau."""
+    """With armature and friction columns, ``Y @ pi`` is the engine's own tau.
+
+    The columns of the arm's own friction law (``friction=arm.friction_model``): the bundled
+    panda's is Gaz et al.'s sigmoid, which viscous and Coulomb columns (``friction=True``)
+    leave out, as :func:`manipdyn.parameters.arm_parameters` documents.
+    """
     arm = _load(name)
     q, qd, qdd = _states(arm, 20, seed=2)
     eng = getattr(arm, engine)
-    pi = arm.parameters(armature=True, friction=True)
-    Y = eng.regressor(q, qd, qdd, armature=True, friction=True)
-    assert Y.shape == (20, arm.n, 13 * arm.n)
+    law = arm.friction_model if arm.friction_model is not None else True
+    pi = arm.parameters(armature=True, friction=law)
+    Y = eng.regressor(q, qd, qdd, armature=True, friction=law)
+    assert Y.shape == (20, arm.n, pi.size) and pi.size >= 11 * arm.n
     assert _rel(Y @ pi, eng.inverse_dynamics(q, qd, qdd)) <= TOL
+    Y13 = eng.regressor(q, qd, qdd, armature=True, friction=True)
+    assert Y13.shape == (20, arm.n, 13 * arm.n)
+    left_out = eng.friction_torque(qd) - Y13[..., 11 * arm.n:] @ arm.parameters(friction=True)[10 * arm.n:]
+    assert _rel(Y13 @ arm.parameters(armature=True, friction=True), eng.inverse_dynamics(q, qd, qdd) - left_out) <= TOL
     # without the extra columns: the rigid bodies only
     rigid = eng.inverse_dynamics(q, qd, qdd) - eng.friction_torque(qd) - arm.armature * qdd
     assert _rel(eng.regressor(q, qd, qdd) @ arm.parameters(), rigid) <= TOL

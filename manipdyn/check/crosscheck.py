@@ -4,8 +4,10 @@ Layer 4 (checks): talks to the two engines only through :class:`manipdyn.engines
 
 For seeded random states within the joint limits, every quantity is computed
 by both engines and compared: D, h, C (the Coriolis matrix), g, tau, the
-forward dynamics of those torques, the end pose, both energies and the
-inverse-dynamics regressor Y (tau = Y pi, :mod:`manipdyn.model.parameters`).  The error of one state is
+forward dynamics of those torques, the end pose, both energies, the
+inverse-dynamics regressor Y (tau = Y pi, :mod:`manipdyn.model.parameters`), the
+derivatives, and (when both engines offer it) the tool frame's Jacobian and
+its time derivative.  The error of one state is
 
     err = max_k |pinocchio_k - lagrange_k| / max(1, max_k |lagrange_k|)
 
@@ -65,7 +67,13 @@ QUANTITIES = {
     "dqdd_dq": "derivative of forward dynamics by q, dqdd/dq",
     "dqdd_dqd": "derivative of forward dynamics by qd, dqdd/dqd",
     "dg_dq": "derivative of the gravity torque, dg/dq",
+    "J": "geometric Jacobian of the tool frame (6 x n, linear on top, base axes)",
+    "Jdot": "time derivative of the tool frame's Jacobian, dJ/dt",
 }
+#: quantities of engine methods that are optional (:data:`manipdyn.engines.protocol.OPTIONAL_ENGINE_METHODS`):
+#: compared only when both engines offer the method; otherwise the report's notes say so (an engine
+#: without them, such as generated C, is not a disagreement, so they stay out of ``not_compared``)
+OPTIONAL_QUANTITIES = {"J": "jacobian", "Jdot": "jacobian_dot"}
 
 
 @dataclass
@@ -349,6 +357,9 @@ def _engine_results(E: DynamicsEngine, qs, qds, qdds, referee: bool) -> dict:
          "C": E.coriolis_matrix(qs, qds), "Y": E.regressor(qs, qds, qdds)}
     r["dtau_dq"], r["dtau_dqd"] = E.inverse_dynamics_derivatives(qs, qds, qdds)
     r["dg_dq"] = E.gravity_derivative(qs)
+    for key, method in OPTIONAL_QUANTITIES.items():      # only where the engine has them
+        if callable(getattr(E, method, None)):
+            r[key] = getattr(E, method)(*((qs,) if method == "jacobian" else (qs, qds)))
     return r
 
 
@@ -364,6 +375,7 @@ def _crosscheck_states(arm, samples, seed, chunk, progress, first, stop,
     pairs = _pairs(engines)
     parts: dict[str, list] = {}
     skipped: dict[str, str] = {}
+    optional_notes: dict[str, str] = {}
 
     def add(key, a, b):
         ea, es = parts.setdefault(key, ([], []))
@@ -407,6 +419,13 @@ def _crosscheck_states(arm, samples, seed, chunk, progress, first, stop,
                     parts.pop(kq, None)
             for key in ("fk", "K", "P", "C", "Y", "dtau_dq", "dtau_dqd", "dg_dq"):
                 add(key + sfx, A[key], B[key])
+            for key, method in OPTIONAL_QUANTITIES.items():
+                lacking = [n for n, R in ((a, A), (b, B)) if key not in R]
+                for n in lacking:      # one note per engine, however many pairs it is in
+                    optional_notes[n] = (f"{', '.join(OPTIONAL_QUANTITIES)} not compared where engine {n} takes "
+                                         f"part: it offers no {', '.join(OPTIONAL_QUANTITIES.values())} (optional)")
+                if not lacking:
+                    add(key + sfx, A[key], B[key])
             if kq in skipped:      # the same conditioning limits D^-1 dtau (and a singular D has none)
                 for key in ("dqdd_dq" + sfx, "dqdd_dqd" + sfx):
                     skipped.setdefault(key, skipped[kq].replace(
@@ -420,7 +439,8 @@ def _crosscheck_states(arm, samples, seed, chunk, progress, first, stop,
 
     states = {"q": q, "qd": qd, "qdd": qdd}
     report = CrosscheckReport(arm=arm.name or "arm", n=arm.n, samples=int(samples_all), seed=int(seed),
-                              notes=list(getattr(arm, "notes", ())) + list(dict.fromkeys(skipped.values())),
+                              notes=list(getattr(arm, "notes", ())) + list(dict.fromkeys(skipped.values()))
+                              + list(optional_notes.values()),
                               not_compared=dict(skipped), engines=tuple(engines))
     for key, (ra, rb) in parts.items():
         report.quantities[key] = _compare(key, np.concatenate(ra), np.concatenate(rb), states)

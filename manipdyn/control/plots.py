@@ -5,6 +5,8 @@ Layer 6 (control).  Every figure is written atomically.
 
 from __future__ import annotations
 
+import math
+
 import os
 
 import numpy as np
@@ -12,12 +14,35 @@ import numpy as np
 from .._support.errors import ModelError
 from .._support.figures import PLOT_INSTALL, pyplot, save_figure
 
-__all__ = ["PLOT_INSTALL", "pyplot", "save_figure", "plot_single", "plot_compare"]
+__all__ = ["PLOT_INSTALL", "pyplot", "save_figure", "plot_single", "plot_compare", "plain_log_ticks"]
 
 
 def _units(arm):
     pr = [t == "prismatic" for t in arm.joint_types]
     return (["m" if p else "rad" for p in pr], ["N" if p else "N m" for p in pr])
+
+
+def plain_log_ticks(axis) -> None:
+    """Tick labels of a log axis as plain numbers (``60``, ``0.002``), never ``6x10^1``.  Minor ticks
+    are labelled where the major ones alone would leave too few labels: at 2, 3 and 5 times a power
+    of ten when the axis spans under two decades, and every one when it spans under a factor 3."""
+    from matplotlib.ticker import FuncFormatter
+
+    def minor(v, _pos):
+        lo, hi = sorted(axis.get_view_interval())
+        if v <= 0 or lo <= 0 or hi / lo >= 100.0:
+            return ""
+        mantissa = v / 10.0 ** math.floor(math.log10(v) + 1e-9)
+        wanted = (2.0, 3.0, 5.0) if hi / lo >= 3.0 else (2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0)
+        return f"{v:.6g}" if any(abs(mantissa - m) < 1e-6 for m in wanted) else ""
+
+    axis.set_major_formatter(FuncFormatter(lambda v, _pos: f"{v:.6g}"))
+    axis.set_minor_formatter(FuncFormatter(minor))
+
+
+def _unit_label(units) -> str:
+    """One unit for an axis: ``"rad"``, or ``"rad or m"`` when the joints mix them."""
+    return " or ".join(dict.fromkeys(units))
 
 
 def plot_single(log, arm, title: str, path: str) -> None:
@@ -28,9 +53,9 @@ def plot_single(log, arm, title: str, path: str) -> None:
     for i in range(arm.n):
         ax_e.plot(log.t, log.e[:, i], lw=1.2, label=f"joint {i + 1} ({eu[i]})")
         ax_t.plot(log.t, log.tau[:, i], lw=1.2, label=f"joint {i + 1} ({tu[i]})")
-    ax_e.set_ylabel("tracking error  q_d - q")
+    ax_e.set_ylabel(f"tracking error  q_d - q ({_unit_label(eu)})")
     ax_e.axhline(0.0, color="k", lw=0.5)
-    ax_t.set_ylabel("joint torque")
+    ax_t.set_ylabel(f"joint torque ({_unit_label(tu)})")
     ax_t.set_xlabel("time (s)")
     for ax in (ax_e, ax_t):
         ax.grid(True, alpha=0.3)
@@ -63,12 +88,17 @@ def plot_compare(logs: dict, arm, title: str, path: str) -> None:
     floors = [np.percentile(np.linalg.norm(lg.e, axis=1)[lg.t >= 0.1 * lg.t[-1]], 1) for lg in ok.values()]
     if floors and min(floors) > 0:   # the error starts at 0: do not spend decades on that
         ax_n.set_ylim(bottom=0.3 * min(floors))
-    ax_n.set_ylabel("|q_d - q|  (norm over joints)")
+    eu, tu = _units(arm)
+    ax_n.set_ylabel(f"|q_d - q|, norm over joints ({_unit_label(eu)})")
     ax_n.set_xlabel("time (s)")
     ax_n.legend(fontsize=8, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=4, frameon=False)
+    # both on log axes: a wrist's torques are 10 to 100 times smaller than a shoulder's
     ax_r.set_yscale("log")
-    ax_r.set_ylabel("RMS tracking error (rad or m)")
-    ax_p.set_ylabel("peak |torque| (N m or N)")
+    ax_p.set_yscale("log")
+    for ax in (ax_r, ax_p):
+        plain_log_ticks(ax.yaxis)
+    ax_r.set_ylabel(f"RMS tracking error ({_unit_label(eu)})")
+    ax_p.set_ylabel(f"peak |torque| ({_unit_label(tu)})")
     for ax in (ax_r, ax_p):
         ax.set_xlabel("joint")
         ax.set_xticks(joints)

@@ -18,7 +18,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["DynamicsEngine", "ENGINE_METHODS"]
+__all__ = ["DynamicsEngine", "ENGINE_METHODS", "OPTIONAL_ENGINE_METHODS", "JacobianEngine"]
 
 #: the methods of :class:`DynamicsEngine`, in one place for tests and tools
 ENGINE_METHODS = ("mass_matrix", "coriolis_torque", "gravity_torque", "friction_torque",
@@ -26,6 +26,10 @@ ENGINE_METHODS = ("mass_matrix", "coriolis_torque", "gravity_torque", "friction_
                   "potential_energy", "coriolis_matrix", "fkine", "regressor",
                   "inverse_dynamics_derivatives", "forward_dynamics_derivatives", "gravity_derivative",
                   "friction_derivative")
+#: methods an engine MAY offer (:class:`JacobianEngine`): both Python engines do; an engine that
+#: computes dynamics only (generated C) leaves them out, and ``md.crosscheck`` then compares them
+#: between the engines that have them and says in its notes what it left out
+OPTIONAL_ENGINE_METHODS = ("jacobian", "jacobian_dot")
 
 
 @runtime_checkable
@@ -110,4 +114,22 @@ class DynamicsEngine(Protocol):
     def friction_derivative(self, qd) -> np.ndarray:
         """``dF/dqd`` of the friction law: (n, n) or (N, n, n); what a non-smooth law returns
         where it has no derivative is the engine's to document."""
+        ...
+
+
+@runtime_checkable
+class JacobianEngine(Protocol):
+    """The optional kinematic part of an engine (:data:`OPTIONAL_ENGINE_METHODS`).
+
+    The tool frame is the one :meth:`DynamicsEngine.fkine` gives.  Same shapes on every engine.
+    """
+
+    def jacobian(self, q) -> np.ndarray:
+        """Geometric Jacobian of the tool frame: (6, n) or (N, 6, n).  Rows 0-2: linear velocity of
+        the tool origin, rows 3-5: angular velocity, both in base-frame axes (Pinocchio's
+        ``LOCAL_WORLD_ALIGNED``); ``[v; w] = J qd``, SI units."""
+        ...
+
+    def jacobian_dot(self, q, qd) -> np.ndarray:
+        """``dJ/dt`` along ``qd``: (6, n) or (N, 6, n); the tool's acceleration is ``J qdd + Jdot qd``."""
         ...

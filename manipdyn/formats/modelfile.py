@@ -15,6 +15,9 @@ Format (``format = "manipdyn-model/1"``)::
     inertia = "..."
     corrections = "..."                # every change made to the published numbers, and why
 
+    [poses]                            # optional: named joint vectors, arm.poses (with sources.poses)
+    ready = [0.0, 90.0, -90.0, 0.0, 0.0, 0.0]   # in the units of qlim
+
     [units]                            # optional; these are the defaults
     length = "m"                       # m | cm | mm | in
     angle = "rad"                      # rad | deg
@@ -79,7 +82,7 @@ from .._support import limits
 from ..model.arm import Manipulator
 from .._support.errors import ModelError, SuspiciousValueWarning, warn_notes
 from ..model.links import DHLink
-from .modelfile_drive import drive_to_toml, parse_drive
+from .modelfile_drive import drive_to_toml, parse_drive, parse_poses, poses_to_toml
 from .modelfile_urdf import parse_urdf_model, urdf_model_to_toml
 
 __all__ = ["models", "load_bundled", "load_model_file", "parse_model", "save_model", "model_to_toml", "FORMAT"]
@@ -90,7 +93,7 @@ _ANGLE = {"rad": 1.0, "deg": math.pi / 180.0}
 _MASS = {"kg": 1.0, "g": 0.001}
 
 _TOP_KEYS = {"format", "name", "convention", "gravity", "source", "sources", "units", "links", "description",
-             "transmission", "friction"}
+             "transmission", "friction", "poses"}
 _LINK_REQUIRED = ("joint", "a", "alpha", "d", "theta", "mass")
 _LINK_OPTIONAL = ("name", "qlim", "com", "inertia", "motor_inertia", "gear_ratio",
                   "friction_viscous", "friction_coulomb")
@@ -215,7 +218,8 @@ def parse_model(text: str, origin: str = "<model>", strict: bool = False) -> Man
     drive = parse_drive(data, origin, [l.gear_ratio for l in links])
     try:
         arm = Manipulator(links, convention=convention, gravity=gravity, name=name, strict=strict,
-                          source=source, sources=sources, description=description, **drive)
+                          source=source, sources=sources, description=description, **drive,
+                          poses=parse_poses(data, origin, [l.joint for l in links], L, A))
     except ModelError as exc:
         if origin in str(exc):
             raise
@@ -469,7 +473,7 @@ def model_to_toml(arm: Manipulator) -> str:
         if l.friction_viscous or l.friction_coulomb:
             lines += [f"friction_viscous = {_toml_num(l.friction_viscous)}",
                       f"friction_coulomb = {_toml_num(l.friction_coulomb)}"]
-    lines += drive_to_toml(arm, _toml_num, _toml_list)
+    lines += drive_to_toml(arm, _toml_num, _toml_list) + poses_to_toml(arm, _toml_list)
     return "\n".join(lines) + "\n"
 
 

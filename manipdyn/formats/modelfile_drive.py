@@ -1,9 +1,11 @@
-"""The drive tables of model files: ``[transmission]`` and ``[friction]``.
+"""The drive tables of model files, ``[transmission]`` and ``[friction]``, and the named ``[poses]``.
 
 Layer 2 (formats), part of :mod:`manipdyn.formats.modelfile` (the format is
 documented there).  Values are SI whatever the file's ``[units]`` say: the
 gear ratios and couplings are ratios, ``motor_offset`` is rad (m) at the motor,
 ``torque_constant`` N m/A, friction N m s/rad and N m (N s/m, N) on the law's side.
+A pose is in the file's angle unit for a revolute joint and its length unit for a prismatic one,
+as ``qlim``.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ from .._support import limits
 from ..model.drive import Friction, Transmission
 from .._support.errors import ModelError
 
-__all__ = ["parse_drive", "drive_to_toml", "TRANSMISSION_KEYS", "FRICTION_KEYS"]
+__all__ = ["parse_drive", "drive_to_toml", "parse_poses", "poses_to_toml", "TRANSMISSION_KEYS", "FRICTION_KEYS"]
 
 TRANSMISSION_KEYS = ("coupling", "motor_offset", "torque_constant")
 _FRICTION_ARRAYS = ("viscous", "coulomb", "coulomb_pos", "coulomb_neg", "offset", "stribeck_level",
@@ -120,3 +122,22 @@ def drive_to_toml(arm, num, vector) -> list[str]:
         if f.stribeck_level is not None:
             lines.append(f"stribeck_exponent = {num(f.stribeck_exponent)}")
     return lines
+
+
+def parse_poses(data: dict, origin: str, joint_types, L: float, A: float):
+    """``[poses]`` (``name = [q1, ..., qn]``) in SI units, or None when the file has none;
+    :func:`manipdyn.arm_calls.as_poses` checks the names and values."""
+    if "poses" not in data:
+        return None
+    table = data["poses"]
+    if not isinstance(table, dict):
+        raise ModelError(f"{origin}: key 'poses' must be a table of name = [one value per joint]")
+    scale = [A if t == "revolute" else L for t in joint_types]
+    return {k: [x * f for x, f in zip(_numbers(v, len(scale), f"{origin}: key 'poses.{k}'"), scale)]
+            for k, v in table.items()}
+
+
+def poses_to_toml(arm, vector) -> list[str]:
+    """The ``[poses]`` lines of ``arm`` (SI units), none when it has no pose."""
+    poses = getattr(arm, "poses", {})
+    return ["", "[poses]"] + [f"{k} = {vector(v)}" for k, v in poses.items()] if poses else []

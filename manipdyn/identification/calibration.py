@@ -80,14 +80,26 @@ def calibrate(model: str = "ur5", repeats: int = 500, noise: float = 0.01, seed:
     }
 
 
-def main(argv=None) -> int:
+def build_parser() -> argparse.ArgumentParser:
+    """The command line of ``python -m manipdyn.identification.calibration``."""
     p = argparse.ArgumentParser(prog="python -m manipdyn.identification.calibration",
-                                description=__doc__.split("\n\n")[0])
-    p.add_argument("--model", default="ur5")
-    p.add_argument("--repeats", type=int, default=500)
-    p.add_argument("--noise", type=float, default=0.01)
-    p.add_argument("--seed", type=int, default=1)
-    args = p.parse_args(argv)
+                                description="Are the identification's error bars right? Identifies --repeats "
+                                "noisy logs of a known arm with wls and prints, as JSON, how often the 95 % "
+                                "intervals hold the truth (base parameters, held-out torques): 93 to 97 % is "
+                                "well calibrated.")
+    p.add_argument("--model", default="ur5", help="the prior arm, perturbed into the truth (a bundled name, "
+                   ".toml or .urdf; default: ur5)")
+    p.add_argument("--repeats", type=int, default=500, help="noise draws, each identified with wls (default: "
+                   "500; the coverage's own standard error is about 1 %% at 500)")
+    p.add_argument("--noise", type=float, default=0.01, help="torque noise as a fraction of each joint's peak "
+                   "torque, white Gaussian (default: 0.01)")
+    p.add_argument("--seed", type=int, default=1, help="seed of the truth, the trajectories and the noise "
+                   "(default: 1)")
+    return p
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
     print(json.dumps(calibrate(args.model, args.repeats, args.noise, args.seed), indent=2))
     return 0
 

@@ -43,7 +43,8 @@ def load_scored_model(spec, tip=None):
             raise OptionError("{}: a base model (" + brace_safe(s) + ") carries its own chain (the identification's "
                               "prior); {} is for a tree URDF given as a model", "tip", "tip")
         m = load_base_model(s)
-        return m, f"{m.name} (base model)"
+        # the file first: "panda (base model)" would read as the bundled arm
+        return m, f"{os.path.basename(s)} (base parameters identified from {m.name})"
     from ..formats.loading import load_with_notes
 
     arm, _ = load_with_notes(s, tip=tip)

@@ -142,6 +142,10 @@ def plot_validation(results, path, title: str | None = None, units=None) -> None
         axr.axhline(0.0, color="0.3", lw=0.6)
         ax.set_ylabel(f"torque ({units[j]})")
         axr.set_ylabel(f"residual ({units[j]})", fontsize=8)
+        axr.text(0.005, 0.97, "measured \u2212 predicted", transform=axr.transAxes, va="top", fontsize=7,
+                 bbox=dict(facecolor="white", edgecolor="none", alpha=0.8, pad=1.0))
+        for a in (ax, axr):                   # one column of labels: the two never overlap
+            a.yaxis.set_label_coords(-0.14, 0.5)
         ax.tick_params(labelbottom=False)
         ax.set_title(f"joint {j + 1}: RMS error " + ", ".join(
             f"{r.rms[j]:.3g} {units[j]}" + (f" (band holds {100 * r.coverage[j]:.0f} %)" if r.coverage is not None

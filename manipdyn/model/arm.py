@@ -26,6 +26,7 @@ from .._support import limits
 from .._support.errors import ModelError, PhysicalConsistencyWarning, warn_notes
 from .kinematics import ChainKinematics, DHKinematics, rot_x, rot_z, trans
 from .drive import arm_drive
+from .arm_calls import ArmCalls, as_poses
 from .links import ChainJoint, DHLink, as_dh_links, as_gravity, check_name, dh_links_equal, physical_note
 
 __all__ = ["Arm", "Manipulator", "URDFArm", "Convention", "TraceFormData", "register_engine",
@@ -90,7 +91,7 @@ def joint_letters(joint_types) -> str:
 _FAST_PATH = ("mass_matrix", "coriolis_torque", "gravity_torque", "inverse_dynamics", "forward_dynamics")
 
 
-class Arm:
+class Arm(ArmCalls):  # jacobian, manipulability, poses, ...: manipdyn.model.arm_calls
     """Common behaviour of every arm (DH or URDF).  Do not build directly.
 
     Subclasses set ``name``, ``gravity``, ``source`` and implement
@@ -223,22 +224,11 @@ class Arm:
         return self.lagrange.link_poses(q)
 
     def fkine(self, q) -> np.ndarray:
-        """End (tool) pose in the base frame: (4, 4) or (N, 4, 4)."""
+        """Pose of the tool frame in the base frame: ``T`` (4, 4) or (N, 4, 4), metres, with
+        ``p_base = T @ [p_tool, 1]``.  The tool frame is DH frame n (``T_n`` of eq. 2.7; the
+        ``tool`` link of the generated URDF) for a :class:`Manipulator`, and the tip link
+        (``arm.tip``) for a :class:`URDFArm`; :meth:`jacobian` is this frame's."""
         return self.lagrange.fkine(q)
-
-    def point_in_base(self, q, point, link: int | None = None) -> np.ndarray:
-        """A point given in link frame ``link`` (1..n, default n), in the base frame (eq. 2.8).
-
-        ``point`` is (3,) in metres; the result is (3,) or (N, 3) for a batch of q.
-        """
-        p = np.asarray(point, dtype=np.float64)
-        if p.shape != (3,) or not np.all(np.isfinite(p)):
-            raise ValueError(f"point: expected 3 finite numbers (x, y, z) in metres, got {point!r}")
-        k = self.n if link is None else int(link)
-        if not 1 <= k <= self.n:
-            raise ValueError(f"link: expected 1..{self.n}, got {link!r}")
-        T = self.link_poses(q)[..., k - 1, :, :]
-        return T[..., :3, :3] @ p + T[..., :3, 3]          # r = T_k [p, 1] (eq. 2.8)
 
     def random_state(self, rng, size=None):
         """Joint positions drawn uniformly within :attr:`qlim`: (n,) or (size, n)."""
@@ -303,11 +293,13 @@ class Manipulator(Arm):
     friction : Friction, optional
         The friction law; default: the links' viscous and Coulomb friction,
         joint side, sharp sign (then the links' friction must be zero).
+    poses : dict, optional
+        Named joint vectors ``{"ready": (n,), ...}`` (rad or m), kept as ``arm.poses``.
     """
 
     def __init__(self, links, convention: Convention = _REQUIRED, gravity=(0.0, 0.0, -9.81),
                  name: str = "", strict: bool = False, source: str = "", sources=None,
-                 description: str = "", transmission=None, friction=None):
+                 description: str = "", transmission=None, friction=None, poses=None):
         super().__init__()
         if convention is _REQUIRED:
             raise TypeError("Manipulator: the argument 'convention' is required: 'standard' (distal DH, "
@@ -325,6 +317,7 @@ class Manipulator(Arm):
         self.joint_types = tuple(l.joint for l in links)
         self._qlim = np.array([l.qlim if l.qlim is not None else DEFAULT_QLIM[l.joint] for l in links])
         self._qlim.setflags(write=False)
+        self.poses = as_poses(poses, self.n, f"{self.name or 'Manipulator'}: poses")
         self.motor_inertia = np.array([l.motor_inertia for l in links])
         self.motor_inertia.setflags(write=False)
         self.transmission, self.friction_model, self.rotor_inertia, self.armature, self.friction = arm_drive(
@@ -343,6 +336,8 @@ class Manipulator(Arm):
                 and self.description == other.description
                 and np.array_equal(self.gravity, other.gravity)
                 and len(self.links) == len(other.links) and self.transmission == other.transmission
+                and self.poses.keys() == other.poses.keys()
+                and all(np.array_equal(v, other.poses[k]) for k, v in self.poses.items())
                 and (self.friction_model == other.friction_model) is True
                 and all(dh_links_equal(a, b) for a, b in zip(self.links, other.links)))
 

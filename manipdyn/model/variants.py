@@ -27,10 +27,14 @@ __all__ = ["with_payload", "with_scaled_inertia"]
 def _rebuild(arm: Manipulator, links, name: str) -> Manipulator:
     # The unchanged links were checked (and warned about) when ``arm`` was built;
     # the changes below keep J positive semidefinite, so nothing new to report.
+    # The drive and the poses go along: a friction law given apart from the links (the bundled
+    # panda's sigmoid, an identified [friction]) and a coupled transmission are the plant's too.
+    law = None if any(l.friction_viscous or l.friction_coulomb for l in links) else arm.friction_model
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PhysicalConsistencyWarning)
         return Manipulator(links, convention=arm.convention, gravity=arm.gravity, name=name,
-                           strict=arm.strict, source=arm.source, sources=arm.sources)
+                           strict=arm.strict, source=arm.source, sources=arm.sources,
+                           transmission=arm.transmission, friction=law, poses=dict(arm.poses))
 
 
 def _dh_arm(arm, fn: str) -> Manipulator:

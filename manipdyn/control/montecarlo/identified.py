@@ -372,8 +372,14 @@ def plant_source(study) -> str:
     p = study.plants
     if p is None:
         d = study.distributions
-        return (f"plants: hand-chosen distributions (links x 1 +- {d.link_scale:g}, payload <= "
-                f"{d.payload_mass:g} kg, added friction)")
+        varied = [f"links x 1 +- {d.link_scale:g}" if d.link_scale else "links as the model",
+                  f"payload <= {d.payload_mass:g} kg" if d.payload_mass else "no payload"]
+        if d.friction_viscous or d.friction_coulomb:     # say what is added, and only then
+            varied.append(f"added friction: viscous <= {d.friction_viscous:g} N m s/rad, "
+                          f"Coulomb <= {d.friction_coulomb:g} N m")
+        else:
+            varied.append("no added friction")
+        return f"plants: hand-chosen distributions ({', '.join(varied)})"
     c = p.projected(study.seed, study.runs)
     cov = "" if p.covariance == "fit" else f", covariance of the {p.covariance}"
     return (f"plants: drawn from the identification {p.source} ({p.method}, {len(p.factor)} base "

@@ -12,6 +12,7 @@ from .identified import plant_source
 
 from ..demo import CONTROLLERS
 from ..._support.figures import pyplot, save_figure
+from ..plots import plain_log_ticks
 
 __all__ = ["plot_report", "pyplot"]
 
@@ -36,6 +37,7 @@ def plot_report(report, path: str) -> None:
                               color=f"C{list(CONTROLLERS).index(key) if key in CONTROLLERS else 0}")
             handles.setdefault(key, line)
         ax.set_xscale("log")
+        plain_log_ticks(ax.xaxis)
         ax.set_xlabel(f"{m.replace('_', ' ')} ({unit})")
         ax.set_ylabel("fraction of runs")
         ax.set_title(desc, fontsize=9)

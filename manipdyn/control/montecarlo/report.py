@@ -118,7 +118,9 @@ class StudyReport:
     def __str__(self) -> str:
         s = self.study
         t = self.timing
-        head = (f"montecarlo {s.model[3]!r}: {s.runs} runs x {len(s.controllers)} controllers, seed {s.seed}, "
+        nc = len(s.controllers)
+        head = (f"montecarlo {s.model[3]!r}: {s.runs} run{'s' * (s.runs != 1)} x {nc} "
+                f"controller{'s' * (nc != 1)}, seed {s.seed}, "
                 f"demo path {s.duration:g} s at {1 / s.dt:g} Hz\n{plant_source(s)}")
         foot = (f"{s.runs * len(s.controllers)} simulations in {t.get('wall_s', 0.0):.1f} s on "
                 f"{t.get('workers', 1)} worker(s) ({t.get('scheduler', '')}); replay a run with "

@@ -24,6 +24,7 @@ from ..._support.state import as_state, check_result, same_batch
 from ..._support.errors import ModelError, SingularMassMatrixError
 from ...model.kinematics import transform_inverse
 from .derivatives import TraceFormDerivatives
+from .jacobian import TraceFormJacobian
 from ...model.parameters import PARAMETER_BASIS, with_extra_columns
 from .drive import coupled_rotor_inertia, friction_torque
 
@@ -47,7 +48,7 @@ def _link_sum(S: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 _isfinite = math.isfinite
 
-class TraceFormEngine(TraceFormDerivatives):  # derivatives: manipdyn.engines.lagrange.derivatives
+class TraceFormEngine(TraceFormDerivatives, TraceFormJacobian):  # .derivatives, .jacobian
     """Trace-form Lagrange-Euler dynamics of one arm.
 
     Built by :class:`manipdyn.Manipulator`; reach it as ``arm.lagrange``.
@@ -387,7 +388,8 @@ class TraceFormEngine(TraceFormDerivatives):  # derivatives: manipdyn.engines.la
         return self._call(self._kin.poses, "link_poses", q=q)
 
     def fkine(self, q) -> np.ndarray:
-        """End pose (4, 4) or (N, 4, 4) in the base frame."""
+        """Pose of the tool frame in the base frame, (4, 4) or (N, 4, 4): DH frame n (``T_n``, eq. 2.7), or a
+        URDF chain's tip link (its last link frame times the fixed tool transform)."""
         return self._call(lambda x: self._kin.tool(self._kin.poses(x)), "trace form", q=q)
 
     # -- Coriolis matrix ---------------------------------------------------------

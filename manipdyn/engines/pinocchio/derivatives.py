@@ -119,7 +119,7 @@ class PinocchioDerivatives:
             try:
                 r = _rnea_d(m, d, q, qd, qdd)
                 dq, dv = r[0].copy(), r[1].copy()
-                if self.friction is not None:
+                if self.friction is not None or self._law is not None:    # a law too (Gaz's sigmoid)
                     dv += self._friction_jacobian(qd)
                 return dq, dv
             except (TypeError, ValueError, RuntimeError):

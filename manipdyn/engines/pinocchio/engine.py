@@ -35,6 +35,7 @@ from ...model.parameters import with_extra_columns
 from .agree import check_same_arm
 from .fast import UncheckedView, install_fast_path
 from .derivatives import PinocchioDerivatives
+from .jacobian import PinocchioJacobian
 from ...formats.urdf.writer import TOOL_LINK, arm_to_urdf
 
 _isfinite = math.isfinite
@@ -167,7 +168,7 @@ def _threads() -> int:
     return max(1, min(len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1), 8))
 
 
-class PinocchioEngine(PinocchioDerivatives):  # derivatives: manipdyn.engines.pinocchio.derivatives
+class PinocchioEngine(PinocchioDerivatives, PinocchioJacobian):  # .derivatives, .jacobian
     """Pinocchio dynamics with the same methods and shapes as ``arm.lagrange``.
 
     Parameters
@@ -468,7 +469,8 @@ class PinocchioEngine(PinocchioDerivatives):  # derivatives: manipdyn.engines.pi
         return check_result(np.array([one(qi) for qi in q]), "frame_placement", q=q)
 
     def fkine(self, q) -> np.ndarray:
-        """The tool frame's pose in the base frame: (4, 4) or (N, 4, 4)."""
+        """Pose of the tool frame (``self.tool_frame``: the generated URDF's ``tool`` link, DH frame n, or a
+        URDF arm's tip link) in the base frame: (4, 4) or (N, 4, 4)."""
         return self.frame_placement(q, self.tool_frame)
 
     # -- Coriolis matrix ---------------------------------------------------------

@@ -1,0 +1,72 @@
+"""The tool frame's geometric Jacobian from the chapter's ``dT/dq`` (eq. 2.5 to 2.8).
+
+Layer 3 (engines: lagrange), part of the trace-form engine (:mod:`manipdyn.engines.lagrange.engine`).
+Shares no code with Pinocchio's ``computeFrameJacobian``; ``md.crosscheck``
+holds the two to each other.
+
+The tool pose is ``T = T_n X`` (``X`` fixed), so eq. 2.7 and the regrouped
+derivative of CONVENTIONS.md give ``dT/dq_j = Delta_j T`` for every joint
+``j``, with ``Delta_j`` the joint's motion generator in the base frame,
+``[[w_j^, v_j], [0, 0]]``.  A point fixed in the tool frame (eq. 2.8, ``r = T p``)
+moves with ``dr/dq_j = Delta_j r``; at the tool origin ``p = 0`` that is the
+last column of ``Delta_j T``, and the frame turns with ``w_j``.  So column ``j``
+of the Jacobian is
+
+    J[:3, j] = (Delta_j T)[:3, 3]     (linear velocity of the tool origin, base axes)
+    J[3:, j] = vee(Delta_j[:3, :3])   (angular velocity, base axes),
+
+Pinocchio's ``LOCAL_WORLD_ALIGNED``.  Its time derivative follows from
+``dDelta_j/dt = [S_{j-1}, Delta_j]`` and ``dT/dt = S_n T`` with
+``S_m = sum_{k <= m} Delta_k qd_k`` (the same identity as the engine's Coriolis
+matrix): ``d(Delta_j T)/dt = ([S_{j-1}, Delta_j] + Delta_j S_n) T``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["TraceFormJacobian"]
+
+
+def _columns(X: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """(B, 6, n): linear parts ``X[..., :3, 3]`` on top, ``vee(R[..., :3, :3])`` below."""
+    lin = X[..., :3, 3]
+    ang = np.stack((R[..., 2, 1], R[..., 0, 2], R[..., 1, 0]), axis=-1)
+    return np.concatenate((lin, ang), axis=-1).swapaxes(1, 2)
+
+
+class TraceFormJacobian:
+    """Mixin of :class:`manipdyn.engines.lagrange.engine.TraceFormEngine`: ``jacobian``, ``jacobian_dot``."""
+
+    def jacobian(self, q) -> np.ndarray:
+        """Geometric Jacobian of the tool frame (:meth:`fkine`): (6, n) or (N, 6, n).
+
+        Rows 0-2: the tool origin's linear velocity per joint rate (m/s per rad/s,
+        or per m/s for a prismatic joint); rows 3-5: the tool's angular velocity
+        (rad/s per joint rate, 0 for a prismatic joint); both in base-frame axes,
+        ``v = J qd`` at the tool origin (Pinocchio's ``LOCAL_WORLD_ALIGNED``).
+        From ``dT/dq_j = Delta_j T`` (module docstring).
+        """
+        return self._call(self._k_jacobian, "jacobian", q=q)
+
+    def jacobian_dot(self, q, qd) -> np.ndarray:
+        """``dJ/dt`` along ``qd`` of :meth:`jacobian`: (6, n) or (N, 6, n), SI per second.
+
+        The tool's spatial acceleration (same point and axes) is ``J qdd + Jdot qd``.
+        """
+        return self._call(self._k_jacobian_dot, "jacobian_dot", q=q, qd=qd)
+
+    def _k_jacobian(self, q):
+        T, Delta = self._kin.frames(q)
+        Tt = self._kin.tool(T)                                   # (B, 4, 4)
+        return _columns(Delta @ Tt[:, None], Delta)
+
+    def _k_jacobian_dot(self, q, qd):
+        T, Delta = self._kin.frames(q)
+        Tt = self._kin.tool(T)
+        V = Delta * qd[:, :, None, None]                          # Delta_k qd_k
+        S = np.cumsum(V, axis=1)                                  # S_m
+        Sprev = S - V                                             # S_{j-1}
+        Ddot = Sprev @ Delta - Delta @ Sprev                      # dDelta_j/dt
+        X = (Ddot + Delta @ S[:, -1:]) @ Tt[:, None]              # d(Delta_j T)/dt
+        return _columns(X, Ddot)

@@ -1,0 +1,127 @@
+"""What a Robotics Toolbox or Pinocchio user reaches for on the arm itself.
+
+Layer 1 (model), part of :class:`manipdyn.model.arm.Arm`: named poses
+(``arm.poses["ready"]``, the Toolbox's ``qr``/``qz``), the tool frame's
+geometric Jacobian, its time derivative and manipulability, and the fast path's
+``coriolis_matrix``, ``regressor`` and ``kinetic_energy`` (as ``inverse_dynamics``).
+The model computes none of it: each call goes to an engine (Pinocchio unless
+``engine=`` names another), and both engines answer with the same shapes.
+"""
+
+from __future__ import annotations
+
+from types import MappingProxyType
+
+import numpy as np
+
+from .._support.errors import ModelError
+
+__all__ = ["ArmCalls", "as_poses", "MANIPULABILITY_AXES"]
+
+#: the rows of the Jacobian :meth:`ArmCalls.manipulability` measures
+MANIPULABILITY_AXES = {"all": slice(0, 6), "trans": slice(0, 3), "rot": slice(3, 6)}
+
+
+def as_poses(poses, n: int, where: str) -> MappingProxyType:
+    """Named joint vectors, checked: a read-only ``{name: (n,) read-only array}``.
+
+    Names are identifiers (``ready``, ``zero``, ...); values are n finite numbers
+    (rad or m).  They are not checked against the joint limits: a pose is kept as
+    its source publishes it (the model file's ``sources.poses`` says which lie outside).
+    """
+    if poses is None:
+        return MappingProxyType({})
+    if not isinstance(poses, dict):
+        raise ModelError(f"{where}: poses must be a table of name = [{n} joint values], got {type(poses).__name__}")
+    out = {}
+    for name, q in poses.items():
+        if not isinstance(name, str) or not name.isidentifier():
+            raise ModelError(f"{where}: pose name {name!r} is not a plain name (letters, digits, _)")
+        if isinstance(q, (str, bytes, dict)):
+            raise ModelError(f"{where}: pose {name!r}: expected {n} numbers (one per joint), got {q!r:.80}")
+        try:
+            arr = np.array(q, dtype=np.float64)
+        except (TypeError, ValueError, OverflowError):
+            raise ModelError(f"{where}: pose {name!r}: expected {n} numbers (one per joint), got {q!r:.80}") from None
+        if arr.shape != (n,) or not np.all(np.isfinite(arr)):
+            raise ModelError(f"{where}: pose {name!r}: expected {n} finite numbers (one per joint), got {q!r:.80}")
+        arr.setflags(write=False)
+        out[name] = arr
+    return MappingProxyType(out)
+
+
+class ArmCalls:
+    """Mixin of :class:`manipdyn.arm.Arm` (see the module docstring)."""
+
+    #: named joint vectors ``{name: (n,)}``, rad or m, from the model file's ``[poses]``
+    #: (with their source in ``arm.sources["poses"]``); empty for an arm read from a URDF
+    poses = MappingProxyType({})
+
+    def _engine_with(self, engine: str, method: str):
+        eng = self.engine(engine)
+        if not callable(getattr(eng, method, None)):
+            raise ModelError(f"engine: engine {engine!r} offers no {method} (an optional method of "
+                             "manipdyn.engines.protocol.JacobianEngine); use engine='pinocchio' or 'lagrange'")
+        return getattr(eng, method)
+
+    def jacobian(self, q, engine: str = "pinocchio") -> np.ndarray:
+        """Geometric Jacobian of the tool frame (the frame :meth:`fkine` gives): (6, n) or (N, 6, n).
+
+        ``[v; w] = J qd``: rows 0-2 the linear velocity of the tool origin (m/s), rows 3-5
+        the angular velocity (rad/s), both in base-frame axes: Pinocchio's
+        ``LOCAL_WORLD_ALIGNED``, the Toolbox's ``jacob0``.  ``engine="lagrange"`` derives it
+        from the chapter's ``dT/dq`` (eq. 2.5 to 2.8); ``md.crosscheck`` compares the two.
+        """
+        return self._engine_with(engine, "jacobian")(q)
+
+    def jacobian_dot(self, q, qd, engine: str = "pinocchio") -> np.ndarray:
+        """``dJ/dt`` of :meth:`jacobian` along ``qd``: (6, n) or (N, 6, n).
+
+        The tool's acceleration (origin, base axes) is ``J qdd + Jdot qd``: what
+        operational-space control needs.
+        """
+        return self._engine_with(engine, "jacobian_dot")(q, qd)
+
+    def manipulability(self, q, axes: str = "all", engine: str = "pinocchio"):
+        """Yoshikawa's manipulability ``sqrt(det(J_a J_a^T))``: float, or (N,) for a batch.
+
+        ``J_a`` holds the rows of :meth:`jacobian` that ``axes`` names: ``"all"`` (6 rows,
+        mixed units, as the Toolbox's default), ``"trans"`` (linear, m per rad) or
+        ``"rot"``.  It is 0 at a singularity and whenever n is smaller than the rows asked for.
+        """
+        if not isinstance(axes, str) or axes not in MANIPULABILITY_AXES:
+            raise ValueError(f"axes: expected one of {', '.join(MANIPULABILITY_AXES)}, got {axes!r}")
+        J = self.jacobian(q, engine=engine)[..., MANIPULABILITY_AXES[axes], :]
+        det = np.linalg.det(J @ np.swapaxes(J, -1, -2))
+        w = np.sqrt(np.maximum(det, 0.0))        # det(J J^T) >= 0; round-off may give -1e-20
+        return float(w) if np.ndim(w) == 0 else w
+
+    def point_in_base(self, q, point, link: int | None = None) -> np.ndarray:
+        """A point given in link frame ``link`` (1..n, default n), in the base frame (eq. 2.8).
+
+        ``point`` is (3,) in metres; the result is (3,) or (N, 3) for a batch of q.
+        """
+        p = np.asarray(point, dtype=np.float64)
+        if p.shape != (3,) or not np.all(np.isfinite(p)):
+            raise ValueError(f"point: expected 3 finite numbers (x, y, z) in metres, got {point!r}")
+        k = self.n if link is None else int(link)
+        if not 1 <= k <= self.n:
+            raise ValueError(f"link: expected 1..{self.n}, got {link!r}")
+        T = self.link_poses(q)[..., k - 1, :, :]
+        return T[..., :3, :3] @ p + T[..., :3, 3]          # r = T_k [p, 1] (eq. 2.8)
+
+    # -- the fast path, as inverse_dynamics -----------------------------------
+    def coriolis_matrix(self, q, qd) -> np.ndarray:
+        """C(q, qd), (n, n) or (N, n, n), N m s: ``C qd = h``, ``dD/dt - 2C`` skew-symmetric (Pinocchio)."""
+        return self.engine("pinocchio").coriolis_matrix(q, qd)
+
+    def regressor(self, q, qd, qdd, armature: bool = False, friction: bool = False) -> np.ndarray:
+        """Y with ``Y @ arm.parameters(armature, friction) = tau``: (n, p) or (N, n, p) (Pinocchio's
+        ``computeJointTorqueRegressor``; 10 columns per link, then armature and friction columns)."""
+        return self.engine("pinocchio").regressor(q, qd, qdd, armature=armature, friction=friction)
+
+    def kinetic_energy(self, q, qd):
+        """K = qd^T D qd / 2, rotors included: float or (N,), J (Pinocchio)."""
+        return self.engine("pinocchio").kinetic_energy(q, qd)
+
+
