@@ -18,7 +18,7 @@ from .._support.errors import ModelError
 from .common import EXIT_OK, TIP_HELP, check_outputs, cli_message, usage_error
 from .logopts import DATA_HELP, library_options, register_log_options
 
-__all__ = ["register", "run", "split_inputs"]
+__all__ = ["register", "run", "split_inputs", "load_model"]
 
 #: what a log file's name ends with (a directory is a ROS 2 bag)
 LOG_SUFFIXES = (".csv", ".mcap", ".bag", ".db3", ".txt", ".tsv")
@@ -41,6 +41,13 @@ def register(subparsers) -> None:
                    help="draw measured and predicted torque per joint (needs the plot extra)")
     register_log_options(p)
     p.set_defaults(func=run)
+
+
+def load_model(spec: str, tip=None):
+    """``(model, label)`` of one MODEL argument (:func:`manipdyn.identification.scoring.load_scored_model`)."""
+    from ..identification.scoring import load_scored_model
+
+    return load_scored_model(spec, tip)
 
 
 def split_inputs(inputs, runs_file=None):
