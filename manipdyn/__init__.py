@@ -80,6 +80,10 @@ def __getattr__(name):
         from .control.simulate import simulate
 
         return simulate
+    if name in ("identify", "validate"):   # the identification pipelines need the identify extra
+        from . import identification
+
+        return getattr(identification, name)
     if name == "montecarlo":  # ``from manipdyn import montecarlo as mc`` (README); imported on first use
         from .control import montecarlo
 
@@ -93,7 +97,7 @@ __all__ = ["Transmission", "Friction", "FrictionTerms",
     "Arm", "ChainJoint", "Convention", "CompareReport", "CrosscheckReport", "DHLink", "DynamicsEngine", "JacobianEngine",
     "LinkInertia", "Manipulator", "ModelError", "ModelNoteWarning", "PhysicalConsistencyWarning", "SingularMassMatrixError",
     "StateError", "SuspiciousValueWarning", "URDFArm", "codegen", "compare", "crosscheck", "linearize", "load", "load_with_notes", "models", "save",
-    "simulate", "to_toml", "to_urdf", "transform_inverse", "write_urdf",
+    "simulate", "identify", "validate", "to_toml", "to_urdf", "transform_inverse", "write_urdf",
 ]
 
 

@@ -29,7 +29,7 @@ def _pipelines():
     import manipdyn as md
     from manipdyn import montecarlo as mc
     from manipdyn.control.track import track
-    from manipdyn.identification import excitation, synthesize
+    from manipdyn.identification import excitation, identify, synthesize, validate
 
     same = lambda *names: {n: n for n in names}  # noqa: E731
     return {
@@ -43,7 +43,28 @@ def _pipelines():
         "synthesize/synthesize": (synthesize, same("noise", "seed")),
         "check/crosscheck": (md.crosscheck, same("samples", "seed", "scheduler", "workers")),
         "compare/compare": (md.compare, same("samples", "seed")),
+        "identify/identify": (identify, same(*IDENTIFY_OPTIONS, *LOG_OPTIONS)),
+        "validate/validate": (validate, same("tip", "predictions", *LOG_OPTIONS)),
     }
+
+
+#: the options ``manipdyn identify`` passes to ``manipdyn.identification.identify`` by name
+IDENTIFY_OPTIONS = ("method", "tip", "friction", "friction_terms", "friction_side", "smoothing", "stribeck_velocity",
+                    "sigmoid_alpha", "armature", "mass_bound", "com_bound", "total_mass_bound", "no_bounds",
+                    "prior_weight", "bootstrap", "scheduler", "band_folds", "identify_torque_constants", "output",
+                    "base_json")
+#: how to read the logs, shared by identify and validate
+LOG_OPTIONS = ("columns", "deg", "rate", "time_scale", "resample", "cutoff", "no_decimate", "t_range", "topic",
+               "joint_names", "extra_joints")
+
+
+def test_identify_and_validate_blas_threads_default_is_the_command_lines():
+    """``--blas-threads`` is the top parser's; the pipelines limit BLAS themselves, by default alike."""
+    from manipdyn.identification import identify, validate
+
+    top = {a.dest: a.default for a in build_parser()._actions}
+    for func in (identify, validate):
+        assert inspect.signature(func).parameters["blas_threads"].default == top["blas_threads"] == 1
 
 
 @pytest.mark.parametrize("key", sorted(_pipelines()))

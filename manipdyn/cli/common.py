@@ -15,7 +15,7 @@ from .._support.errors import ModelError, TipError
 from ..formats.loading import load_with_notes
 
 __all__ = ["check_outputs", "check_plot_target", "check_output_file", "require_numbers", "add_progress_options", "progress_wanted", "EXIT_OK", "EXIT_DISAGREE", "EXIT_USAGE", "EXIT_INTERNAL", "Progress", "output_folder",
-           "urdf_target", "usage_error", "load_arm", "load_all", "is_urdf", "TIP_HELP"]
+           "urdf_target", "usage_error", "cli_message", "load_arm", "load_all", "is_urdf", "TIP_HELP"]
 
 #: help of every ``--tip`` option
 TIP_HELP = ("tree URDFs (an arm with a gripper): the link that ends the chain to use; "
@@ -24,6 +24,15 @@ TIP_HELP = ("tree URDFs (an arm with a gripper): the link that ends the chain to
 #: exit codes of every subcommand: 0 success / agreement, 1 a quantity
 #: disagrees or a checked condition fails, 2 usage or model error, 3 a bug
 EXIT_OK, EXIT_DISAGREE, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
+
+
+def cli_message(exc) -> str:
+    """A library error in command-line terms: option names as ``--flags``, a tip as ``--tip``."""
+    if isinstance(exc, TipError):
+        return str(exc.for_option("--tip"))
+    if hasattr(exc, "cli_message"):
+        return exc.cli_message()
+    return str(exc)
 
 
 def usage_error(command: str, message: str) -> int:

@@ -27,13 +27,14 @@ from .logopts import log_options_from_args, model_joint_names
 __all__ = ["run_payload", "format_payload"]
 
 #: options of the full identification that mean nothing for a payload
-_NOT_WITH_PAYLOAD = (("--method", "method", None), ("--friction", "friction", False),
+_NOT_WITH_PAYLOAD = (("--method", "method", "consistent"), ("--friction", "friction", False),
                      ("--friction-terms", "friction_terms", None), ("--armature", "armature", False),
                      ("--mass-bound", "mass_bound", None), ("--com-bound", "com_bound", None),
                      ("--total-mass-bound", "total_mass_bound", None), ("--no-bounds", "no_bounds", False),
-                     ("--prior-weight", "prior_weight", "0"), ("--base-json", "base_json", None),
+                     ("--prior-weight", "prior_weight", 0.0), ("--base-json", "base_json", None),
                      ("--smoothing", "smoothing", None), ("--bootstrap", "bootstrap", 0),
-                     ("--scheduler", "scheduler", None))
+                     ("--scheduler", "scheduler", None), ("--logs", "logs", None),
+                     ("--identify-torque-constants", "identify_torque_constants", False))
 
 
 def format_payload(res, name: str = "") -> str:
@@ -64,6 +65,9 @@ def run_payload(args) -> int:
     for opt, attr, default in _NOT_WITH_PAYLOAD:
         if getattr(args, attr, default) != default:
             return usage_error("identify", f"{opt}: not with --payload (the arm is taken as known)")
+    if len(args.data) != 1:
+        return usage_error("identify", f"--payload: expected one log, got {len(args.data)}")
+    args.data = args.data[0]
     out = args.output
     if out is not None and not out.lower().endswith((".toml", ".urdf")):
         return usage_error("identify", f"-o: with --payload, expected a file name ending in .toml or .urdf "

@@ -14,7 +14,7 @@ import math
 
 from .._support.errors import ModelError
 
-__all__ = ["register_log_options", "log_options_from_args", "model_joint_names", "DATA_HELP"]
+__all__ = ["register_log_options", "log_options_from_args", "model_joint_names", "library_options", "DATA_HELP"]
 
 
 #: help of the DATA argument of identify and validate
@@ -92,3 +92,15 @@ def model_joint_names(arm):
     links = getattr(arm, "links", ())
     names = [getattr(l, "name", "") for l in links]
     return names if all(names) else None
+
+
+def library_options(args, function) -> dict:
+    """The keyword arguments of the library ``function`` that ``args`` holds, by name (the
+    pipelines take the command line's options under their ``dest``), the log options checked
+    and ``--t-range`` read."""
+    import inspect
+
+    names = inspect.signature(function).parameters
+    out = {k: v for k, v in vars(args).items() if k in names and k not in ("prior", "logs", "models")}
+    out["t_range"] = log_options_from_args(args)["t_range"]
+    return out

@@ -48,4 +48,5 @@ def check_identify(args) -> None:
         check_scheduler(args.scheduler, "--scheduler")
     check_outputs([("-o", args.output), ("--base-json", args.base_json),
                    ("the base model beside -o", _implied_base(args))],
-                  [("MODEL", args.model), ("DATA", args.data)])
+                  [("MODEL", args.model), ("--logs", getattr(args, "logs", None))]
+                  + [("LOG", d) for d in ([args.data] if isinstance(args.data, str) else args.data)])

@@ -1,44 +1,45 @@
-"""``manipdyn validate MODEL|BASE.json [MODEL2 ...] DATA [--json] [--plot FIG.png] [--predictions OUT.csv]``.
+"""``manipdyn validate MODEL [MODEL ...] LOG [LOG ...] [--logs RUNS.toml] [--json] [--plot FIG.png] [--predictions OUT.csv]``.
 
-Layer 7 (CLI, the top).
-
-MODEL is anything ``manipdyn`` loads (a bundled name, a .toml model file, a URDF) or a
-base model JSON written by ``manipdyn identify``.  DATA is read as ``identify`` reads it.
-Per joint: RMS error, RMS relative to the measured RMS, R^2 and the mean error
-(:mod:`manipdyn.identification.validation`), the 95 % band's coverage and the joints
-that leave the fitted range; several models: side by side, the best per joint marked
-(:mod:`manipdyn.identification.comparison`).  The data notes are printed as ``identify``
-prints them.
+Layer 7 (CLI, the top).  Parses, calls :func:`manipdyn.identification.validate` (same options, same
+defaults), prints.  MODEL is anything ``manipdyn`` loads or a base model JSON from
+``identify``; a LOG is a .csv, .mcap or .bag file or a bag directory (without any, the last
+argument is the log).  Several logs are read each on its own and scored together; several
+models side by side, the best per joint marked.  With a model from ``identify``: how often its
+95 % prediction band holds the measured torque and the joints that leave the states it was
+fitted on.  The data notes are printed first, as ``identify`` prints them.
 
 Exit codes: 0 scored; 2 usage, model or data error (one line on stderr).
 """
 
 from __future__ import annotations
 
+import json
 import os
 
-import json
-
 from .._support.errors import ModelError
-from .logopts import DATA_HELP, log_options_from_args, register_log_options
-from .common import EXIT_OK, TIP_HELP, check_outputs, load_arm, usage_error
+from .common import EXIT_OK, TIP_HELP, check_outputs, cli_message, usage_error
+from .logopts import DATA_HELP, library_options, register_log_options
 
-__all__ = ["register", "run"]
+__all__ = ["register", "run", "split_inputs", "load_model"]
+
+#: what a log file's name ends with (a directory is a ROS 2 bag)
+LOG_SUFFIXES = (".csv", ".mcap", ".bag", ".db3", ".txt", ".tsv")
 
 
 def register(subparsers) -> None:
     """Add ``manipdyn validate`` to the command line."""
     p = subparsers.add_parser(
         "validate", help="score a model's torque predictions on (held-out) joint data",
-        description="Predict the joint torques of DATA with MODEL (a model, or a base model JSON "
-                    "from identify) and report per joint the RMS error, the RMS relative to the "
-                    "measured RMS, R^2 and the mean error; with a model from identify, how often its 95 % "
-                    "prediction band holds the measured torque and which joints leave the states it was "
-                    "fitted on (EXTRAPOLATES). Several models: one table, the best per joint marked. "
-                    "Exit codes: 0 scored, 2 usage, model or data error.")
-    p.add_argument("model", metavar="MODEL|BASE.json", nargs="+",
-                   help="model name, .toml, .urdf, or a base model JSON; several: scored side by side")
-    p.add_argument("data", metavar="DATA", help=DATA_HELP)
+        description="Predict the joint torques of the logs with each MODEL (a model, or a base model JSON from "
+                    "identify) and report per joint the RMS error, the RMS relative to the measured RMS, R^2 and "
+                    "the mean error; with a model from identify, how often its 95 % prediction band holds the "
+                    "measured torque and which joints leave the states it was fitted on (EXTRAPOLATES). Several "
+                    "models: one table, the best per joint marked. Exit codes: 0 scored, 2 usage, model or data "
+                    "error.")
+    p.add_argument("inputs", metavar="MODEL|LOG", nargs="+",
+                   help="the models (name, .toml, .urdf, base model .json), then the logs (.csv, .mcap, .bag, a bag "
+                        "folder; without any, the last argument is the log). A log: " + DATA_HELP)
+    p.add_argument("--logs", metavar="RUNS.toml", default=None, help="[[log]] tables, as identify --logs reads them")
     p.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
     p.add_argument("--json", action="store_true", help="print a JSON object instead of text")
     p.add_argument("--plot", metavar="FIG.png", default=None,
@@ -50,56 +51,48 @@ def register(subparsers) -> None:
 
 
 def load_model(spec: str, tip=None):
-    """An arm or a base model: ``(model, label)``."""
-    if spec.lower().endswith(".json"):
-        from ..identification.basemodel import load_base_model
+    """``(model, label)`` of one MODEL argument (:func:`manipdyn.identification.scoring.load_scored_model`)."""
+    from ..identification.scoring import load_scored_model
 
-        if tip is not None:
-            raise ModelError(f"--tip: a base model ({spec}) carries its own chain (the identification's "
-                             "prior); --tip is for a tree URDF given as MODEL")
-        m = load_base_model(spec)
-        # the file first: "panda (base model)" read as the bundled arm
-        return m, f"{os.path.basename(spec)} (base parameters identified from {m.name})"
-    arm, _ = load_arm(spec, tip)
-    return arm, arm.name
+    return load_scored_model(spec, tip)
+
+
+def split_inputs(inputs, runs_file=None):
+    """``(models, logs)`` of the positional arguments: logs by their file kind (or a directory);
+    without any and without ``runs_file``, the last argument is the log."""
+    logs = [x for x in inputs if x.lower().endswith(LOG_SUFFIXES) or os.path.isdir(x)]
+    models = [x for x in inputs if x not in logs]
+    if not logs and runs_file is None and len(inputs) > 1:
+        models, logs = list(inputs[:-1]), [inputs[-1]]
+    if not models:
+        raise ModelError("MODEL: give at least one model before the logs")
+    if not logs and runs_file is None:
+        raise ModelError("LOG: give at least one log, or --logs RUNS.toml")
+    return models, logs + ([runs_file] if runs_file else [])
 
 
 def run(args) -> int:
-    from ..identification import read_log
-    from ..identification.comparison import format_side_by_side, side_by_side_dict
-    from ..identification.validation import plot_validation, validate, write_predictions
+    from ..identification import validate
 
     try:
-        if args.predictions and len(args.model) > 1:
+        models, logs = split_inputs(args.inputs, args.logs)
+        if args.predictions and len(models) > 1:
             raise ModelError("--predictions: one MODEL at a time (the file holds one model's predictions)")
         check_outputs([("--plot", args.plot), ("--predictions", args.predictions)],
-                      [*(("MODEL", m) for m in args.model), ("DATA", args.data)], plots=("--plot",))
-        models = [load_model(spec, args.tip) for spec in args.model]
-        model, label = models[0]
-        arm = getattr(model, "arm", model)
-        data = read_log(args.data, model.n, transmission=getattr(arm, "transmission", None),
-                        **log_options_from_args(args, list(getattr(arm, "joint_names", None) or []) or None))
-        results = [validate(m, data, name=lab) for m, lab in models]
-        res = results[0]
-        if args.predictions:
-            write_predictions(res, args.predictions)
+                      [("MODEL", m) for m in models] + [("DATA", x) for x in logs], plots=("--plot",))
+        res = validate(models, logs, **library_options(args, validate))
         if args.plot:
-            units = ["N" if t == "prismatic" else "N m"
-                     for t in getattr(getattr(model, "arm", model), "joint_types", ["revolute"] * model.n)]
-            plot_validation(results, args.plot, units=units)
+            res.plot(args.plot)
     except ModelError as exc:
-        return usage_error("validate", str(exc))
+        return usage_error("validate", cli_message(exc))
     except OSError as exc:
         return usage_error("validate", f"{exc.filename or args.predictions}: cannot write: {exc.strerror or exc}")
-    notes = list(getattr(data, "notes", []))
     if args.json:
-        out = res.to_dict() if len(results) == 1 else side_by_side_dict(results)
-        out.update({"data": args.data, "plot": args.plot, "predictions": args.predictions, "data_notes": notes})
+        out = res.to_dict()
+        out.update({"data": ", ".join(logs), "plot": args.plot, "predictions": args.predictions})
         print(json.dumps(out, indent=2, allow_nan=False))
     else:
-        for note in notes:
-            print(f"data: {note}")
-        print(res.format() if len(results) == 1 else format_side_by_side(results))
+        print(res.format())
         for path in (args.predictions, args.plot):
             if path:
                 print(f"wrote {path}")

@@ -83,6 +83,7 @@ from ..model.arm import Manipulator
 from .._support.errors import ModelError, SuspiciousValueWarning, warn_notes
 from ..model.links import DHLink
 from .modelfile_drive import drive_to_toml, parse_drive, parse_poses, poses_to_toml
+from .modelfile_urdf import parse_urdf_model, urdf_model_to_toml
 
 __all__ = ["models", "load_bundled", "load_model_file", "parse_model", "save_model", "model_to_toml", "FORMAT"]
 
@@ -203,6 +204,8 @@ def parse_model(text: str, origin: str = "<model>", strict: bool = False) -> Man
     table (:func:`_parse_link`), then the unit checks and the arm.
     """
     data = _read_toml(text, origin)
+    if "urdf" in data:       # a URDF's chain with its drive (modelfile_urdf)
+        return parse_urdf_model(data, origin, strict)
     name, convention, source, sources, units, (L, A, M), gravity = _top_level(data, origin)
     raw_links = data["links"]
     if not isinstance(raw_links, list) or not raw_links or not all(isinstance(l, dict) for l in raw_links):
@@ -427,7 +430,10 @@ def _toml_list(xs) -> str:
 
 
 def model_to_toml(arm: Manipulator) -> str:
-    """Model-file text for a DH arm, in SI units (m, rad, kg), floats written exactly."""
+    """Model-file text for a DH arm, in SI units (m, rad, kg), floats written exactly; for a URDF
+    arm, its URDF text with the drive (:mod:`manipdyn.formats.modelfile_urdf`)."""
+    if getattr(arm, "urdf_text", None) is not None:
+        return urdf_model_to_toml(arm, FORMAT, _toml_str, _toml_num, _toml_list)
     if not isinstance(arm, Manipulator):
         raise ModelError(f"save: only DH arms (Manipulator) have a model file; "
                          f"{type(arm).__name__} {arm.name!r} can be written with write_urdf()")

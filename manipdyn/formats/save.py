@@ -16,7 +16,8 @@ __all__ = ["save", "write_urdf", "to_urdf", "to_toml"]
 
 
 def save(arm, path) -> None:
-    """Write ``arm`` (a :class:`~manipdyn.Manipulator`) as a model file that
+    """Write ``arm`` (a :class:`~manipdyn.Manipulator`, or a URDF arm with its drive:
+    :mod:`manipdyn.formats.modelfile_urdf`) as a model file that
     :func:`manipdyn.load` reads back unchanged.  Atomic: no partial file."""
     save_model(arm, path)
 

@@ -18,6 +18,10 @@ Layer 5 (identification).  May import: ``manipdyn.check``, ``manipdyn.engines``,
 * :func:`calibrate_band` (:class:`PredictionBand`): a 95 % band from blocked hold-outs of
   the fit data; :func:`fitted_range` (:class:`StateRange`): the states a fit saw, against
   which new data is checked for extrapolation;
+* :func:`identify` and :func:`validate`: the pipelines of ``manipdyn identify`` and
+  ``manipdyn validate`` (several logs, RUNS.toml, known payloads, torque constants from
+  currents), with the command line's options and defaults; :class:`IdentifyResult`
+  saves, reports and scores itself;
 * :func:`synthesize`: torques of a model along a trajectory, with noise (a log
   without a robot; ``manipdyn synthesize``).
 
@@ -40,10 +44,16 @@ from .sdp import Bounds
 from .synthesize import Trajectory, read_trajectory, synthesize
 from .trajectory import Excitation, excitation
 from .varpro import fit_friction_shapes
+from .pipeline import identify
+from .result import IdentifyResult
+from .runs import LogSpec, Payload, read_runs_file
+from .scoring import Validation, validate
+from .torque_constants import TorqueConstants, identify_torque_constants
 
 __all__ = ["BaseParameters", "BootstrapResult", "Bounds", "Excitation", "FitResult", "INSTALL", "METHODS",
            "Measurements", "MissingExtraError", "PayloadResult", "base_parameters", "bootstrap", "excitation", "fit",
            "format_report", "fit_friction_shapes", "HardLog", "hard_log", "identify_payload", "read_log",
            "read_measurements", "write_measurements_csv",
            "Trajectory", "read_trajectory", "synthesize", "PredictionBand", "calibrate_band", "StateRange",
-           "fitted_range"]
+           "fitted_range", "identify", "IdentifyResult", "LogSpec", "Payload",
+           "read_runs_file", "Validation", "validate", "TorqueConstants", "identify_torque_constants"]

@@ -42,6 +42,7 @@ from ..model.parameters import arm_parameters, parameter_count
 from .model import arm_with_parameters
 from .base import BaseParameters, base_parameters, check_base
 from .sdp import Bounds, consistent_fit
+from .runs import segment_edges
 from .uncertainty import base_covariance
 
 __all__ = ["fit", "FitResult", "METHODS", "link_min_eigenvalues", "known_torque", "joint_noise"]
@@ -182,6 +183,15 @@ def joint_factors(Yb, y) -> np.ndarray:
     return out
 
 
+def _stack_factors(blocks) -> np.ndarray:
+    """One factor per joint (n, r + 1, r + 1) of several blocks' factors stacked (one small QR each)."""
+    rest, F = np.concatenate(blocks, axis=1), np.zeros_like(blocks[0])
+    for j in range(F.shape[0]):
+        Rj = np.linalg.qr(rest[j], mode="r")
+        F[j, :Rj.shape[0]] = Rj
+    return F
+
+
 def _stacked(F, w=None):
     """``(R, c, rho0)`` of :func:`_reduce` for the rows of every joint stacked (each weighted by ``w_j``),
     from the joints' factors ``F`` (n, r + 1, r + 1)."""
@@ -245,7 +255,7 @@ def _check(q, qd, qdd, tau, n):
 def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armature: bool = False,
         bounds: Bounds | str | None = "plausible", base: BaseParameters | None = None,
         name: str | None = None, prior_weight: float = 0.0, metadata=None, regressor=None,
-        factors=None) -> FitResult:
+        factors=None, *, segments=None) -> FitResult:
     """Identify ``arm``'s parameters from samples (module docstring).
 
     Parameters
@@ -296,6 +306,9 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     factors : (n, r + 1, r + 1) array, optional
         :func:`joint_factors` of these samples' base regressor and torques (less the known
         torques), when the caller has them (cross-validation stacks them from blocks).
+    segments : sequence of int, optional
+        The runs' sample counts (:func:`.runs.stack`): each run's joints weighed by their noise in
+        it (``report["noise_sigma_per_run"]``; ``sigma`` their RMS); not with ``factors``.
     """
     if method not in METHODS:
         raise ModelError(f"method: expected one of {', '.join(METHODS)}, got {method!r}")
@@ -335,7 +348,13 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
                          f"regressor), got {np.shape(regressor)}")
     Yb = base.regressor(regressor)
     y = tau - known_torque(arm, qd, qdd, armature, friction)
-    if factors is None:
+    edges = segment_edges(segments, N)
+    if segments is not None and factors is not None:
+        raise ModelError("factors, segments: give one (factors hold no run boundaries)")
+    runs = [joint_factors(Yb[a:b], y[a:b]) for a, b in zip(edges[:-1], edges[1:])] if len(edges) > 2 else None
+    if runs is not None:         # each run's factors: its own noise levels, then its weights
+        factors = _stack_factors(runs)
+    elif factors is None:
         factors = joint_factors(Yb, y)
     elif np.shape(factors) != (n, r + 1, r + 1):
         raise ModelError(f"factors: expected shape ({n}, {r + 1}, {r + 1}), got {np.shape(factors)}")
@@ -348,12 +367,15 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
                          f"threshold {limit:.0e}: the motion does not excite every base parameter (is q "
                          f"constant, or a column scaled wrongly?); use an excitation trajectory "
                          f"(manipdyn excite)")
-    sigma = _noise_from_factors(factors, N)
+    counts = np.diff(edges)
+    sigmas = (np.array([_noise_from_factors(F, int(k)) for F, k in zip(runs, counts)]) if runs is not None
+              else _noise_from_factors(factors, N)[None, :])
     # noise below 1e-6 of the largest joint's RMS torque is rounding, not noise:
     # flooring it keeps the weights (and the semidefinite program) well scaled
     # on exact data, where every sigma_j would otherwise be ~1e-12 and arbitrary
     floor = 1e-6 * max(float(np.sqrt(np.mean(y**2, axis=0)).max()), 1e-300)
-    sigma = np.maximum(sigma, floor)
+    sigmas = np.maximum(sigmas, floor)
+    sigma = sigmas[0] if runs is None else np.sqrt(counts @ sigmas**2 / N)
     try:
         prior = arm_parameters(arm, armature, friction)
     except ModelError:   # the prior's friction law is not of the asked-for kind: start from none
@@ -367,7 +389,11 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         solver = "lstsq"
     else:
         w = 1.0 / sigma
-        R, c, rho_w = _stacked(factors, w)
+        if runs is None:
+            R, c, rho_w = _stacked(factors, w)
+        else:                    # each run's joints by their noise in that run
+            w = np.repeat(1.0 / sigmas, counts, axis=0)                       # (N, n)
+            R, c, rho_w = _stacked(_stack_factors([F * (1.0 / s)[:, None, None] for F, s in zip(runs, sigmas)]))
         cov = base_covariance(R)     # rows have unit variance after weighting (.uncertainty)
         if method == "wls":
             beta = np.linalg.lstsq(R, c, rcond=None)[0]
@@ -408,6 +434,7 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     result.report = build_report(result, solver=solver, samples=N, cov=cov, min_eigenvalues=eig)
     result.report["active_bounds"] = bounds.active(pi, n) if bounds is not None else []
     result.report["prior_weight"] = float(prior_weight)
+    result.report.update({"noise_sigma_per_run": sigmas.tolist()} if runs is not None else {})
     if method == "consistent":
         result.report.update(_shortfall(R, c, rho_w, y * w, residuals * w, pi, n, base, bounds, solver,
                                         result.report["active_bounds"]))

@@ -71,7 +71,7 @@ from ..formats.save import save
 from ..formats.loading import load
 from .trajectory import fourier_trajectory
 
-__all__ = ["HardLog", "hard_log", "hard_arms", "recovered", "GEAR_RATIOS", "WRIST_COUPLING", "SMOOTHING"]
+__all__ = ["HardLog", "hard_log", "hard_log_set", "SET_PAYLOAD", "hard_arms", "recovered", "GEAR_RATIOS", "WRIST_COUPLING", "SMOOTHING"]
 
 #: gear ratios of motors 1..6 (joint 3's motor turns the other way)
 GEAR_RATIOS = (101.0, 101.0, -101.0, 81.0, 81.0, 81.0)
@@ -211,7 +211,8 @@ def _stamps(rng, duration, rate):
 
 
 def hard_log(seed: int = 0, directory=None, *, duration: float = 40.0, held_out: float = 10.0,
-             rate: float = 1000.0, noise: float = 0.01, counts: int = 2**16) -> HardLog:
+             rate: float = 1000.0, noise: float = 0.01, counts: int = 2**16, motion_seed: int | None = None,
+             payload=None, log_name: str = "hard_log.csv") -> HardLog:
     """A seeded hard log with known truth (module docstring).
 
     Parameters
@@ -229,9 +230,19 @@ def hard_log(seed: int = 0, directory=None, *, duration: float = 40.0, held_out:
         Motor torque noise, a fraction of each motor's peak torque.
     counts : int
         Encoder counts per motor revolution (quantisation ``2 pi / counts`` rad).
+    motion_seed : int, optional
+        Seeds the motion, stamps and noise instead of ``seed`` (the arms stay ``seed``'s):
+        another run of the same arm.
+    payload : :class:`~manipdyn.identification.runs.Payload`, optional
+        A known load at the tool frame, in the logged torques.
+    log_name : str
+        The log's file name in ``directory``.
     """
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ModelError(f"seed: expected an integer >= 0, got {seed!r}")
+    if motion_seed is not None and (isinstance(motion_seed, bool) or not isinstance(motion_seed, (int, np.integer))
+                                    or motion_seed < 0):
+        raise ModelError(f"motion_seed: expected an integer >= 0 or None, got {motion_seed!r}")
     for name, v in (("duration", duration), ("held_out", held_out), ("rate", rate)):
         if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
             raise ModelError(f"{name}: expected a positive number, got {v!r}")
@@ -242,14 +253,17 @@ def hard_log(seed: int = 0, directory=None, *, duration: float = 40.0, held_out:
     if isinstance(counts, bool) or not isinstance(counts, (int, np.integer)) or counts < 2:
         raise ModelError(f"counts: expected an integer >= 2 (encoder counts per motor revolution), got {counts!r}")
     truth, prior = hard_arms(seed)
-    rng = np.random.default_rng([int(seed), 7])
+    rng = np.random.default_rng([int(seed if motion_seed is None else motion_seed), 7])
     n, tr = truth.n, truth.transmission
     q0, a, b, period = _motion(rng, n, float(duration))
     t, src, stamps = _stamps(rng, float(duration), float(rate))
     sw, swd, swdd = _warp(t, float(duration))
     f, fd, fdd = fourier_trajectory(sw, q0, a, b, period)
     q, qd, qdd = f, fd * swd[:, None], fdd * swd[:, None] ** 2 + fd * swdd[:, None]
-    tau_m = tr.motor_torques(truth.inverse_dynamics(q, qd, qdd))
+    tau = truth.inverse_dynamics(q, qd, qdd)
+    if payload is not None:
+        tau = tau + payload.torque(truth, q, qd, qdd)
+    tau_m = tr.motor_torques(tau)
     s = noise * np.abs(tau_m).max(axis=0)
     tau_m_meas = tau_m + s * rng.standard_normal(tau_m.shape)
     step = 2.0 * math.pi / counts
@@ -261,7 +275,7 @@ def hard_log(seed: int = 0, directory=None, *, duration: float = 40.0, held_out:
     if directory is not None:
         directory = os.fspath(directory)
         os.makedirs(directory, exist_ok=True)
-        paths = tuple(os.path.join(directory, f) for f in ("hard_log.csv", "truth.toml", "prior.toml"))
+        paths = tuple(os.path.join(directory, f) for f in (log_name, "truth.toml", "prior.toml"))
         header = ",".join(["t"] + [f"qm{i + 1}" for i in range(n)] + [f"i{i + 1}" for i in range(n)])
         body = np.column_stack([stamps] + rows)
         lines = [header] + [",".join(f"{x:.10g}" for x in row) for row in body]
@@ -309,3 +323,41 @@ def recovered(result, truth) -> dict:
             out[f"motor{k + 1}.stribeck_velocity"] = {"true": tv, "identified": iv, "error": iv / tv - 1.0,
                                                       "identifiable": True}
     return out
+
+
+#: the known payload of :func:`hard_log_set`'s second run: 2.8 kg, its centre of mass off
+#: the tool axis (so that it loads the last wrist motor too), inertia about the COM
+SET_PAYLOAD = {"mass": 2.8, "com": [0.06, 0.03, 0.05], "inertia": [0.006, 0.006, 0.004, 0.0, 0.0, 0.0]}
+
+
+def hard_log_set(seed: int, directory, *, duration: float = 30.0, payload=None) -> dict:
+    """Two runs of :func:`hard_log`'s arm ``seed`` written to ``directory``, for torque constants:
+    ``run1.csv`` (motion ``seed``) and ``run2.csv`` (another motion, carrying ``payload``,
+    default :data:`SET_PAYLOAD`), each ``duration`` s of currents; ``RUNS.toml`` lists them (the
+    second with its payload); ``prior.toml`` is the prior WITHOUT torque constants and
+    ``prior_kt.toml`` the prior with them.  Returns ``{"runs", "prior", "prior_kt", "truth",
+    "torque_constant"}`` (paths, the truth arm and its k_t (6,))."""
+    from ..formats.save import to_toml
+    from .runs import Payload
+
+    spec = dict(SET_PAYLOAD if payload is None else payload)
+    load_ = Payload(float(spec["mass"]), tuple(spec["com"]), tuple(spec.get("inertia", [0.0] * 6)))
+    directory = os.fspath(directory)
+    h1 = hard_log(seed, directory, duration=duration, held_out=duration / 4, log_name="run1.csv")
+    hard_log(seed, directory, duration=duration, held_out=duration / 4, motion_seed=10_000 + int(seed),
+             payload=load_, log_name="run2.csv")
+    tr = h1.prior.transmission
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PhysicalConsistencyWarning)
+        no_kt = Manipulator(h1.prior.links, convention=h1.prior.convention, gravity=h1.prior.gravity,
+                            name=h1.prior.name, source=h1.prior.source, description=h1.prior.description,
+                            transmission=Transmission(tr.R, tr.motor_offset))
+    paths = {k: os.path.join(directory, f) for k, f in (("runs", "RUNS.toml"), ("prior", "prior.toml"),
+                                                        ("prior_kt", "prior_kt.toml"))}
+    os.replace(h1.prior_file, paths["prior_kt"])
+    atomic_write_text(paths["prior"], to_toml(no_kt))
+    vec = lambda xs: "[" + ", ".join(repr(float(x)) for x in xs) + "]"   # noqa: E731
+    atomic_write_text(paths["runs"], (
+        '[[log]]\npath = "run1.csv"\n\n[[log]]\npath = "run2.csv"\n'
+        f"payload = {{ mass = {load_.mass!r}, com = {vec(load_.com)}, inertia = {vec(load_.inertia)} }}\n"))
+    return {**paths, "truth": h1.truth, "torque_constant": np.array(tr.torque_constant)}

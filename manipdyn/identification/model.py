@@ -35,9 +35,11 @@ def arm_with_parameters(arm, pi, armature: bool = False, friction: bool = False,
 
     A URDF arm comes back as a URDF arm read from :func:`urdf_with_parameters`'s text
     (``.urdf_text``; write that to keep the file's structure).  URDF has no rotor
-    inertia (``armature=True`` raises) and its ``<dynamics>`` holds viscous and Coulomb
-    friction only (``friction=True``); another friction law is carried by the returned
-    arm (``friction_model``), not by its text.
+    inertia and its ``<dynamics>`` holds viscous and Coulomb friction only
+    (``friction=True``): the rotor inertias (``armature=True``) and another friction law
+    are carried by the returned arm (``motor_inertia``, ``friction_model``), not by its
+    text; :func:`manipdyn.save` writes them to a model file with the URDF
+    (:mod:`manipdyn.formats.modelfile_urdf`).
 
     Parameters
     ----------
@@ -147,19 +149,23 @@ def _urdf_arm_with_parameters(arm, pi, armature, friction, name, strict, metadat
     from ..formats.urdf.reader import load_urdf
 
     n = arm.n
-    if armature:
-        raise ModelError(f"arm {arm.name!r}: a URDF has no rotor inertia (armature); identify without "
-                         "armature, or from a DH model file prior")
     pi = np.asarray(pi, dtype=np.float64)
+    col = 10 * n
+    Jm = arm.motor_inertia if np.any(arm.motor_inertia) else None
+    if armature:      # the regressor's armature is R_kk^2 Jm_k; URDF has none, the arm carries Jm
+        Jm = pi[col:col + n] / np.diag(arm.transmission.R) ** 2
+        col += n
     law = None
     if friction is not True and friction is not False and friction is not None:
-        law = _friction_law(friction, pi[10 * n:], n, arm.transmission)
+        law = _friction_law(friction, pi[col:], n, arm.transmission)
     elif friction is False and arm.custom_drive:
         law = arm.friction_model
-    text = urdf_with_parameters(arm, pi, friction=friction is True, metadata=metadata)
+    body = np.concatenate([pi[:10 * n], pi[col:col + 2 * n]]) if friction is True else pi[:10 * n]
+    text = urdf_with_parameters(arm, body, friction=friction is True, metadata=metadata)
+    custom = arm.custom_drive or armature
     return load_urdf(text, tip=arm.tip, name=arm.name if name is None else name, gravity=arm.gravity,
-                     strict=strict, transmission=arm.transmission if arm.custom_drive else None,
-                     friction=law)
+                     strict=strict, transmission=arm.transmission if custom else None,
+                     friction=law, motor_inertia=Jm)
 
 
 def _psd(J, rtol=1e-12) -> bool:

@@ -415,8 +415,8 @@ class URDFArm(Arm):
     source_urdf : str
         The text Pinocchio reads: the original, with ``continuous`` joints
         written as revolute (:func:`manipdyn.formats.urdf.reader.pinocchio_text`).
-    armature : (n,) zeros
-        URDF has no rotor inertia.
+    armature : (n,)
+        ``R_kk^2 Jm_k``; zeros unless ``motor_inertia=`` is given (URDF has no rotor inertia).
     friction : (2, n) or None
         Viscous (``damping``) and Coulomb (``friction``) coefficients of ``<dynamics>``.
     transmission : Transmission
@@ -427,7 +427,7 @@ class URDFArm(Arm):
     """
 
     def __init__(self, *, name, gravity, source, urdf_text, pin_text, root, tip, joints, tool,
-                 locked, members, path=None, transmission=None, friction=None):
+                 locked, members, path=None, transmission=None, friction=None, motor_inertia=None):
         super().__init__()
         self.name = check_name(str(name), "URDFArm", "name")
         self.gravity = as_gravity(gravity)
@@ -449,8 +449,10 @@ class URDFArm(Arm):
         self._qlim = np.array([j.qlim for j in joints], dtype=np.float64)
         self._qlim.setflags(write=False)
         n = len(joints)
-        self.custom_drive = transmission is not None or friction is not None  #: not from the URDF text
-        self.motor_inertia = np.zeros(n)
+        self.custom_drive = (transmission is not None or friction is not None
+                             or motor_inertia is not None)  #: not from the URDF text
+        self.motor_inertia = (np.zeros(n) if motor_inertia is None
+                              else np.array(motor_inertia, dtype=np.float64).reshape(n))
         self.motor_inertia.setflags(write=False)
         G = np.ones(n) if transmission is None else np.diag(getattr(transmission, "R", np.eye(n)))
         fr = np.zeros((2, n)) if friction is not None else [[j.friction_viscous for j in joints],

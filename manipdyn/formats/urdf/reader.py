@@ -242,7 +242,7 @@ def pinocchio_text(root_el, text: str) -> str:
 
 
 def load_urdf(source, tip=None, *, name=None, gravity=(0.0, 0.0, -9.81), strict=False, transmission=None,
-              friction=None) -> URDFArm:
+              friction=None, motor_inertia=None) -> URDFArm:
     """Read a serial arm from a URDF file or text.
 
     Parameters
@@ -263,6 +263,8 @@ def load_urdf(source, tip=None, *, name=None, gravity=(0.0, 0.0, -9.81), strict=
         The drive (:mod:`manipdyn.model.drive`), which URDF cannot state: identity
         transmission by default; a ``friction`` law replaces ``<dynamics>``.
         (A URDF arm sent to Dask workers travels as its URDF text, without them.)
+    motor_inertia : (n,), optional
+        Rotor inertia ``Jm`` at each motor, kg m^2 (URDF has none; default zeros).
 
     Raises
     ------
@@ -284,4 +286,19 @@ def load_urdf(source, tip=None, *, name=None, gravity=(0.0, 0.0, -9.81), strict=
         name=tree.robot_name if name is None else name, gravity=gravity, source=label,
         urdf_text=text, pin_text=pin_text, root=tree.root, tip=tip, joints=joints, tool=tool,
         locked=locked, members=members, path=path, transmission=transmission, friction=friction,
+        motor_inertia=_rotor_inertias(motor_inertia, len(joints), label),
     )
+
+
+def _rotor_inertias(value, n: int, where: str):
+    """``motor_inertia`` as (n,) finite numbers >= 0 (kg m^2), or None; a ModelError names it."""
+    if value is None:
+        return None
+    try:
+        Jm = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ModelError(f"{where}: motor_inertia: expected {n} numbers (kg m^2 at each motor), got {value!r:.60}") from None
+    if Jm.shape != (n,) or not np.all(np.isfinite(Jm)) or np.any(Jm < 0):
+        raise ModelError(f"{where}: motor_inertia: expected {n} finite numbers >= 0 (kg m^2 at each motor), "
+                         f"got {Jm.tolist() if Jm.size <= 12 else Jm.shape}")
+    return Jm
