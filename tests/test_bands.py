@@ -253,3 +253,59 @@ def test_the_readme_says_which_model_to_trust():
     assert "--friction-terms viscous,coulomb,offset --friction-side motor --armature" in section
     assert "manipdyn validate panda_id.toml $LOG --t-range 10:21" in section
     assert "EXTRAPOLATES joint 2" in section
+
+
+def test_the_pipelines_carry_the_band_and_write_the_predictions(tmp_path, monkeypatch):
+    """After the merge of the pipelines (h-runs) with issue 24: ``md.identify(band_folds=K)`` puts the
+    band from K blocked hold-outs of the stacked runs in the provenance, each refit told the sample
+    counts it keeps of each run; ``md.validate(predictions=...)`` writes the CSV the CLI writes,
+    refusing several models and a path that is a log."""
+    from manipdyn.identification import estimation
+
+    arm = md.load("ur5")
+    a, b = tmp_path / "a.csv", tmp_path / "b.csv"
+    _log(a, arm, 7)
+    _log(b, arm, 8)
+    real_fit, calls = estimation.fit, []
+
+    def recording_fit(*args, **kwargs):
+        calls.append((len(args[1]), kwargs.get("segments")))
+        return real_fit(*args, **kwargs)
+
+    monkeypatch.setattr(estimation, "fit", recording_fit)     # the refits of bands.held_out_residuals
+    r = md.identify(arm, [a, b], method="wls", band_folds=3)
+    monkeypatch.undo()
+    band = PredictionBand.from_dict(r.provenance["prediction_band"], 6, "provenance")
+    assert band.folds == 3 and band.samples == 2000
+    from manipdyn.identification.bands import _blocks
+
+    assert calls[0] == (2000, [1000, 1000])             # the fit itself, then one refit per block
+    edges = _blocks(2000, 3)
+    held = [(edges[k], edges[k + 1]) for k in range(3)]
+    kept = [[1000 - max(0, min(1000, hi) - lo), 1000 - max(0, hi - max(1000, lo))] for lo, hi in held]
+    assert [seg for _, seg in calls[1:]] == kept and all(len(seg) == 2 for seg in kept)
+    assert all(sum(seg) == n for n, seg in calls)
+    assert "95 % prediction band from 3 blocked hold-outs" in r.format()
+    assert "fitted_range" in r.provenance
+    assert "prediction_band" not in md.identify(arm, [a], method="wls", band_folds=0).provenance
+    with pytest.raises(ModelError, match="band_folds: expected 0"):
+        md.identify(arm, [a], band_folds=1)
+    model = tmp_path / "id.toml"
+    r.save(model)
+    out = tmp_path / "p.csv"
+    v = md.validate(str(model), [b], predictions=out)
+    with out.open() as f:
+        rows = list(csv.reader(f))
+    assert rows[0] == ["t"] + [f"{k}{j}" for k in ("tau", "pred", "lo", "hi") for j in range(1, 7)]
+    table = np.array(rows[1:], dtype=float)
+    res = v.results[0]
+    assert len(table) == len(res.t)
+    np.testing.assert_array_equal(table[:, 7:13], res.predicted)
+    np.testing.assert_allclose(table[:, 19:25] - table[:, 7:13], np.broadcast_to(band.half_width, res.predicted.shape),
+                               rtol=1e-4)       # the model file keeps the half-widths to 5 digits
+    with pytest.raises(ModelError, match="predictions: one MODEL"):
+        md.validate(["ur5", str(model)], [b], predictions=out)
+    before = b.read_bytes()
+    with pytest.raises(ModelError, match="would overwrite DATA"):
+        md.validate(str(model), [b], predictions=b)
+    assert b.read_bytes() == before
