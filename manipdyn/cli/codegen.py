@@ -1,6 +1,6 @@
 """``manipdyn codegen``: the arm's dynamics as a C99 header and source.
 
-Layer: CLI.  A thin shell over :func:`manipdyn.codegen`.
+Layer 7 (CLI, the top).  A thin shell over :func:`manipdyn.codegen`.
 """
 
 from __future__ import annotations

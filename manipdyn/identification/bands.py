@@ -1,6 +1,6 @@
 """Prediction bands that hold on the next trajectory: blocked hold-outs of the fit data.
 
-Layer: application (identification).
+Layer 5 (identification).
 
 What a band must cover
 ----------------------

@@ -1,6 +1,6 @@
 """Several models scored on the same data, side by side: ``validate MODEL_A MODEL_B ... DATA``.
 
-Layer: application (identification).
+Layer 5 (identification).
 
 Each model is scored by :func:`.validation.validate` on the same samples; the table puts
 their held-out RMS per joint in columns and marks the best per joint (the smallest RMS,

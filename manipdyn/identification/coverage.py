@@ -1,6 +1,6 @@
 """What the data never saw: the range of states a fit used, and how far new data leaves it.
 
-Layer: application (identification).
+Layer 5 (identification).
 
 A model identified from a log is a statement about the states of that log.  Outside them
 it extrapolates: a gravity term or a friction offset that the fit learnt over

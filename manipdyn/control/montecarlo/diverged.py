@@ -1,6 +1,6 @@
 """Why a run diverges: the sampled loop, checked before the run.
 
-Layer: 7 (applications).
+Layer 6 (control: montecarlo).
 
 :func:`manipdyn.simulate` holds the controller's torque over each period ``dt`` (a
 digital controller's zero-order hold) and integrates the plant over the period by

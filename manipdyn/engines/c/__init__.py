@@ -1,6 +1,6 @@
 """Generated C: the arm's dynamics as a dependency-free C99 file, and the third engine built from it.
 
-Layer: engines.  ``md.codegen(arm, dir, prefix=None)`` writes ``dir/P.h`` and
+Layer 3 (engines: c).  ``md.codegen(arm, dir, prefix=None)`` writes ``dir/P.h`` and
 ``dir/P.c`` (:mod:`.source`); ``arm.compiled`` (``arm.engine("c")``) is the
 same C compiled and called through ctypes (:mod:`.engine`).  The recursive
 algorithms are written as CasADi SX graphs (:mod:`.graph`) and emitted as

@@ -1,6 +1,6 @@
 """Compiling the generated C: the system's compiler, a strict test build, and the build cache.
 
-Layer: engines (the generated-C engine).
+Layer 3 (engines: c), the generated-C engine.
 
 * :func:`find_compiler`: ``$CC`` if set, else ``cc``, else ``gcc`` on the PATH (None: none).
 * :func:`check_compiles`: ``-std=c99 -Wall -Wextra -pedantic -Werror -c``; a

@@ -1,6 +1,6 @@
 """The optional ``codegen`` extra (CasADi) of the generated-C engine.
 
-Layer: engines.  :func:`casadi` imports CasADi or raises
+Layer 3 (engines: c).  :func:`casadi` imports CasADi or raises
 :class:`~manipdyn.errors.MissingExtraError` with the install command, never a
 bare ``ImportError`` traceback.  Only writing C needs CasADi: a build already
 in the cache (:mod:`manipdyn.engines.c.build`) loads without it.

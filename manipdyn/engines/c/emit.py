@@ -1,6 +1,6 @@
 """Plain C99 from CasADi SX functions: one ``double`` local per work slot, constants folded in.
 
-Layer: engines (the generated-C engine).  CasADi's own code generator is not
+Layer 3 (engines: c), the generated-C engine.  CasADi's own code generator is not
 used: this module walks each SX Function's instruction list
 (``n_instructions``, ``instruction_id``, ``instruction_input``,
 ``instruction_output``, ``instruction_constant``) and writes one C statement

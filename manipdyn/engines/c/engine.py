@@ -1,6 +1,6 @@
 """The third engine: the generated C, compiled and called through ctypes (``arm.compiled``).
 
-Layer: engines (the generated-C engine).  :func:`compiled_engine` (the factory
+Layer 3 (engines: c), the generated-C engine.  :func:`compiled_engine` (the factory
 behind ``arm.engine("c")``) looks the arm's build up in the cache
 (:mod:`manipdyn.engines.c.build`), and on a miss generates the C
 (:mod:`manipdyn.engines.c.source`, CasADi needed) and compiles it.

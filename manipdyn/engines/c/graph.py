@@ -1,6 +1,6 @@
 """The arm's dynamics as CasADi SX graphs: recursive Newton-Euler, CRBA, an unrolled LDL^T.
 
-Layer: engines (the generated-C engine).  Shares no code with the trace form
+Layer 3 (engines: c), the generated-C engine.  Shares no code with the trace form
 (:mod:`manipdyn.lagrange`) or with the Pinocchio engine: it reads the model's
 public data only (:meth:`manipdyn.Arm.chain`, ``arm.gravity``,
 ``arm.transmission.R``, ``arm.motor_inertia``, ``arm.friction_model`` and

@@ -1,6 +1,6 @@
 """The generated ``P.h`` and ``P.c`` of one arm, and ``md.codegen``.
 
-Layer: engines (the generated-C engine).  :func:`generate` turns the SX
+Layer 3 (engines: c), the generated-C engine.  :func:`generate` turns the SX
 graphs of :mod:`manipdyn.engines.c.graph` into C text with
 :mod:`manipdyn.engines.c.emit`; :func:`model_sha256` is the hash of every
 number the C is made of (it names the build in the cache and in the header
