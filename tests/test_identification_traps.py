@@ -188,8 +188,15 @@ def test_block_factors_stack_into_the_fit_of_all_the_samples():
         a = fit(arm, q, qd, qdd, tau, method=method, friction=True, bounds=None, base=base)
         b = fit(arm, q, qd, qdd, tau, method=method, friction=True, bounds=None, base=base, factors=stacked)
         np.testing.assert_allclose(b.sigma, a.sigma, rtol=1e-9)
-        # wls: the same problem to rounding; consistent: the solver's tolerance (~1e-8)
-        np.testing.assert_allclose(b.beta, a.beta, rtol=1e-6, atol=1e-9 * np.abs(a.beta).max())
+        if method == "wls":   # the same problem to rounding
+            np.testing.assert_allclose(b.beta, a.beta, rtol=1e-6, atol=1e-9 * np.abs(a.beta).max())
+        else:
+            # consistent: two SDPs that are the same problem, each solved to the solver's tolerance
+            # (~1e-8 in the objective).  Directions the data hardly excite move by more than that
+            # (measured: 6e-6 absolute on small parameters) without changing the fit, so compare what
+            # the data determine: the fitted torques, to the solver's tolerance relative to their size.
+            fa, fb = np.einsum("...p,p->...", Y, a.beta), np.einsum("...p,p->...", Y, b.beta)
+            np.testing.assert_allclose(fb, fa, rtol=0, atol=1e-6 * np.abs(fa).max())
 
 
 
