@@ -199,6 +199,9 @@ def test_block_factors_stack_into_the_fit_of_all_the_samples():
 
 
 
+# -- Coulomb smoothing from the log ------------------------------------------------------------
+
+@pytest.mark.parametrize("noise", [1e-4, 3e-3])
 def test_coulomb_smoothing_is_the_logged_velocitys_noise(tmp_path, capsys, noise):
     """qd logged with white noise ``noise`` rad/s: the law's smoothing is that level (within 20 %: the
     filter removes all but ~2 fc / (rate / 2) = 2 % of the noise's power, and the RMS of 5000 samples

@@ -329,9 +329,7 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         raise ModelError("prior_weight: only the 'consistent' method takes a prior weight")
     n = arm.n
     q, qd, qdd, tau = _check(q, qd, qdd, tau, n)
-    # No MAX_SIGNAL cap here: logs are capped where they are read (read_log).  The fit itself is
-    # unit-independent (tests/test_fit_scaling.py scales exact data by up to 1e30) and says when
-    # the data and the prior's bounds are orders of magnitude apart.
+    # no MAX_SIGNAL cap: logs are capped where read; the fit is unit-independent (test_fit_scaling)
     if not np.any(tau):
         raise ModelError("tau: every torque of every joint is 0; a logged torque is never exactly 0 "
                          "throughout (a missing column, or the wrong one?)")
