@@ -28,10 +28,8 @@ or ``--out DIR``).
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
-import tempfile
 import time
 import warnings
 
@@ -39,7 +37,7 @@ import numpy as np
 
 import manipdyn as md
 from benchmarks.bench_identification import environment
-from benchmarks.timing import publish
+from benchmarks.timing import publish, seeded_runs
 from manipdyn.model.friction import Friction
 from manipdyn.identification import read_log
 from manipdyn.identification.hardlog import SMOOTHING, hard_log, recovered
@@ -82,18 +80,8 @@ def run_seed(seed: int, folder: str) -> dict:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m benchmarks.bench_hardlog", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
-    p.add_argument("--out", default=None, metavar="DIR",
-                   help="folder of results.json (default benchmarks/results/runs/<UTC time>-hardlog)")
-    p.add_argument("--no-write", action="store_true", help="print only")
-    args = p.parse_args(argv)
     env = environment()
-    runs = []
-    with tempfile.TemporaryDirectory() as tmp:
-        for seed in args.seeds:
-            runs.append(run_seed(seed, os.path.join(tmp, f"seed{seed}")))
+    args, runs = seeded_runs("python -m benchmarks.bench_hardlog", __doc__, "hardlog", run_seed, argv)
     env["loadavg_end"] = list(os.getloadavg())
     for r in runs:
         print(f"seed {r['seed']}: {r['rows']} rows logged, {r['samples_identified']} samples identified; "

@@ -24,10 +24,8 @@ are printed and written, atomically, to
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
-import tempfile
 import time
 import warnings
 
@@ -35,7 +33,7 @@ import numpy as np
 
 import manipdyn as md
 from benchmarks.bench_identification import environment
-from benchmarks.timing import publish
+from benchmarks.timing import publish, seeded_runs
 from manipdyn.identification.hardlog import SMOOTHING, hard_log_set
 
 #: the README's options for the hard log (motor-side law, Stribeck shapes by variable projection)
@@ -62,18 +60,8 @@ def run_seed(seed: int, folder: str) -> dict:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m benchmarks.bench_torque_constants", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
-    p.add_argument("--out", default=None, metavar="DIR",
-                   help="folder of results.json (default benchmarks/results/runs/<UTC time>-torque_constants)")
-    p.add_argument("--no-write", action="store_true", help="print only")
-    args = p.parse_args(argv)
     env = environment()
-    runs = []
-    with tempfile.TemporaryDirectory() as tmp:
-        for seed in args.seeds:
-            runs.append(run_seed(seed, os.path.join(tmp, f"seed{seed}")))
+    args, runs = seeded_runs("python -m benchmarks.bench_torque_constants", __doc__, "torque_constants", run_seed, argv)
     env["loadavg_end"] = list(os.getloadavg())
     for r in runs:
         for mode in ("payload", "model"):

@@ -196,3 +196,25 @@ def publish(args, env: dict, payload: dict, label: str) -> None:
     if not args.no_write:
         path = write_run(json.dumps({"environment": env, **payload}, indent=2) + "\n", label, args.out)
         print(f"wrote {path}")
+
+
+def seeded_runs(prog: str, doc: str, label: str, run_seed, argv=None):
+    """The command line and the loop shared by the seeded hard-log benchmarks.
+
+    Parses ``--seeds`` (default 0 1 2), ``--out`` and ``--no-write``, then calls
+    ``run_seed(seed, folder)`` for each seed with a fresh folder in one temporary
+    directory.  Returns ``(args, runs)``.
+    """
+    import argparse
+    import os
+    import tempfile
+
+    p = argparse.ArgumentParser(prog=prog, description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    p.add_argument("--out", default=None, metavar="DIR",
+                   help=f"folder of results.json (default benchmarks/results/runs/<UTC time>-{label})")
+    p.add_argument("--no-write", action="store_true", help="print only")
+    args = p.parse_args(argv)
+    with tempfile.TemporaryDirectory() as tmp:
+        runs = [run_seed(seed, os.path.join(tmp, f"seed{seed}")) for seed in args.seeds]
+    return args, runs
