@@ -49,6 +49,9 @@ Format (``format = "manipdyn-model/1"``)::
     motor_offset = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]   # rad (m) at the motor, optional
     torque_constant = [0.5, 0.5, 0.5, 0.5, 0.5, 0.5]  # N m per A at each motor, optional
 
+    [trust]                            # optional: what an identified model carries from its fit
+                                       # (manipdyn.formats.trust: data sha256, options, band, ...)
+
     [friction]                         # optional: the friction law (manipdyn.model.friction); then the
                                        # links' friction_viscous/coulomb must be 0 (one description)
     side = "joint"                     # or "motor": acts on qd_m = R qd, reaches the joints as R^T tau_m
@@ -84,6 +87,7 @@ from .._support.errors import ModelError, SuspiciousValueWarning, warn_notes
 from ..model.links import DHLink
 from .modelfile_drive import drive_to_toml, parse_drive, parse_poses, poses_to_toml
 from .modelfile_urdf import parse_urdf_model, urdf_model_to_toml
+from .trust import trust_from_toml, trust_to_toml
 
 __all__ = ["models", "load_bundled", "load_model_file", "parse_model", "save_model", "model_to_toml", "FORMAT"]
 
@@ -93,7 +97,7 @@ _ANGLE = {"rad": 1.0, "deg": math.pi / 180.0}
 _MASS = {"kg": 1.0, "g": 0.001}
 
 _TOP_KEYS = {"format", "name", "convention", "gravity", "source", "sources", "units", "links", "description",
-             "transmission", "friction", "poses"}
+             "transmission", "friction", "poses", "trust"}
 _LINK_REQUIRED = ("joint", "a", "alpha", "d", "theta", "mass")
 _LINK_OPTIONAL = ("name", "qlim", "com", "inertia", "motor_inertia", "gear_ratio",
                   "friction_viscous", "friction_coulomb")
@@ -225,6 +229,8 @@ def parse_model(text: str, origin: str = "<model>", strict: bool = False) -> Man
             raise
         raise ModelError(f"{origin}: {exc}") from None  # always name the file
     arm.notes = tuple(unit_notes) + arm.notes
+    if "trust" in data:
+        arm.trust = trust_from_toml(data["trust"], origin)
     warn_notes(name or origin, unit_notes, SuspiciousValueWarning)
     return arm
 
@@ -474,6 +480,7 @@ def model_to_toml(arm: Manipulator) -> str:
             lines += [f"friction_viscous = {_toml_num(l.friction_viscous)}",
                       f"friction_coulomb = {_toml_num(l.friction_coulomb)}"]
     lines += drive_to_toml(arm, _toml_num, _toml_list) + poses_to_toml(arm, _toml_list)
+    lines += trust_to_toml(getattr(arm, "trust", None))
     return "\n".join(lines) + "\n"
 
 

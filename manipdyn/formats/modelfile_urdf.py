@@ -22,6 +22,8 @@ prior with those (``manipdyn identify ROBOT.urdf LOG --armature --friction-terms
 
     [friction]                         # the friction law, as in DH model files (replaces <dynamics>)
 
+    [trust]                            # what the fit carries (manipdyn.formats.trust), as in DH model files
+
 ``md.load`` reads it back as a :class:`manipdyn.URDFArm` that predicts what the fit predicted.
 """
 
@@ -33,12 +35,13 @@ import numpy as np
 
 from .._support.errors import ModelError
 from .modelfile_drive import TRANSMISSION_KEYS, parse_drive
+from .trust import trust_from_toml, trust_to_toml
 
 __all__ = ["URDF_MODEL_KEYS", "parse_urdf_model", "urdf_model_to_toml"]
 
 #: top-level keys of a URDF model file
 URDF_MODEL_KEYS = {"format", "name", "gravity", "source", "sources", "description", "urdf", "tip", "transmission",
-                   "friction"}
+                   "friction", "trust"}
 #: the [transmission] keys a URDF model adds to a DH model's
 URDF_DRIVE_KEYS = ("gear_ratio", "motor_inertia")
 
@@ -102,6 +105,8 @@ def parse_urdf_model(data: dict, origin: str, strict: bool = False):
     arm.source = _text(data.get("source", arm.source), f"{origin}: key 'source'")
     arm.sources = dict(sources)
     arm.description = _text(data.get("description", ""), f"{origin}: key 'description'")
+    if "trust" in data:           # the table wins over a trust comment inside the URDF text
+        arm.trust = trust_from_toml(data["trust"], origin)
     return arm
 
 
@@ -149,4 +154,5 @@ def urdf_model_to_toml(arm, fmt: str, string, num, vector) -> str:
             lines.append(f"{k} = {vector(v)}")
         if f.stribeck_level is not None:
             lines.append(f"stribeck_exponent = {num(f.stribeck_exponent)}")
+    lines += trust_to_toml(getattr(arm, "trust", None))
     return "\n".join(lines) + "\n"

@@ -102,6 +102,9 @@ class Arm(ArmCalls):  # jacobian, manipulability, poses, ...: manipdyn.model.arm
     gravity: np.ndarray
     source: str = ""
     notes: tuple = ()  #: one line per physically impossible link, suspicious unit, ...
+    #: what an identified model carries from its fit (a JSON-ready dict: data sha256, options, fitted range,
+    #: prediction band, ...; :mod:`manipdyn.formats.trust` moves it across the disk), or None
+    trust: dict | None = None
     #: the drive (:func:`manipdyn.model.drive.arm_drive`): transmission, friction_model (Friction or None), Jm (n,),
     #: rotor inertia R^T diag(Jm) R (n, n), armature R_kk^2 Jm_k (n,), friction (2, n) of the links' kind or None
     transmission: object

@@ -60,6 +60,7 @@ from ...model.inertia import LinkInertia, transform_pseudo_inertia
 from ...model.links import ChainJoint
 from .tree import URDFTree, default_tip, some_names, unknown_tip
 from .xml import decode, parse_xml, read_source
+from ..trust import trust_from_urdf
 
 __all__ = ["load_urdf", "URDFArm", "build_chain", "pinocchio_text"]
 
@@ -282,12 +283,15 @@ def load_urdf(source, tip=None, *, name=None, gravity=(0.0, 0.0, -9.81), strict=
     if path is None and tree.robot_name:
         label = f"URDF text (robot '{tree.robot_name}')"
     pin_text = pinocchio_text(root_el, text)
-    return URDFArm(
+    trust = trust_from_urdf(root_el, label)
+    arm = URDFArm(
         name=tree.robot_name if name is None else name, gravity=gravity, source=label,
         urdf_text=text, pin_text=pin_text, root=tree.root, tip=tip, joints=joints, tool=tool,
         locked=locked, members=members, path=path, transmission=transmission, friction=friction,
         motor_inertia=_rotor_inertias(motor_inertia, len(joints), label),
     )
+    arm.trust = trust
+    return arm
 
 
 def _rotor_inertias(value, n: int, where: str):

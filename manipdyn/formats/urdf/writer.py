@@ -23,6 +23,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..trust import trust_comment
+
 __all__ = ["arm_to_urdf", "limit_provenance", "DEFAULT_EFFORT", "DEFAULT_VELOCITY", "TOOL_LINK"]
 
 #: name of the fixed flange link at the end frame T_n
@@ -155,6 +157,9 @@ def arm_to_urdf(arm) -> str:
             " ".join(repr(float(a)) for a in arm.armature)
     _clean_numbers(root)
     root.insert(0, etree.Comment(_comment(comment) + " "))
+    record = trust_comment(getattr(arm, "trust", None))      # what an identified arm carries (formats.trust)
+    if record is not None:
+        root.insert(1, etree.Comment(record))
     for el in root.findall("joint"):
         k = index.get(el.get("name"))
         if k is not None:
