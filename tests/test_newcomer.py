@@ -385,7 +385,7 @@ def test_item7_cli_runs_commands_on_one_blas_thread(monkeypatch):
 
 def test_item7_demo_shows_progress(capsys):
     pytest.importorskip("cvxpy", reason="the demo needs the identify extra")
-    from manipdyn.identification.demo import run_demo
+    from manipdyn.identification.experiments.demo import run_demo
 
     run_demo("ur5", iterations=1, progress=True)
     err = capsys.readouterr().err

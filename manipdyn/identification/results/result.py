@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._support.errors import ModelError
+from ..._support.errors import ModelError
 
 __all__ = ["IdentifyResult", "write_model_files", "EXIT_OK", "EXIT_NO_ARM"]
 
@@ -67,7 +67,7 @@ class IdentifyResult:
 
     def rename(self, name: str) -> None:
         """Name the identified arm ``name`` (its citation stays the fit's provenance)."""
-        from .model import arm_with_parameters
+        from ..estimation.model import arm_with_parameters
 
         self.name = name
         if self.fit.arm is None:
@@ -75,7 +75,7 @@ class IdentifyResult:
             return
         import warnings
 
-        from .._support.errors import PhysicalConsistencyWarning
+        from ..._support.errors import PhysicalConsistencyWarning
 
         with warnings.catch_warnings():      # as fit() builds it: the prior's own notes were given at load
             warnings.simplefilter("ignore", PhysicalConsistencyWarning)
@@ -91,9 +91,9 @@ class IdentifyResult:
 
         Raises :class:`ModelError` when the parameters are no physical arm (write ``.json``).
         """
-        from .._support.files import atomic_write_text
-        from ..model.arm import URDFArm
-        from ..formats.save import save, write_urdf
+        from ..._support.files import atomic_write_text
+        from ...model.arm import URDFArm
+        from ...formats.save import save, write_urdf
         from .basemodel import prior_text, write_base_model
 
         path = os.fspath(path)
@@ -141,7 +141,7 @@ class IdentifyResult:
 
     def format(self) -> str:
         """The text ``manipdyn identify`` prints."""
-        from .report import format_report
+        from ..estimation.report import format_report
 
         rep = self.report()
         lines = [f"data: {note}" for note in rep["data_notes"]]
@@ -172,7 +172,7 @@ class IdentifyResult:
                 f"k{j + 1} {v:.5g} +- {s:.2g}" for j, (v, s) in enumerate(zip(tc.values, tc.std))))
             lines += [f"  {note}" for note in tc.notes]
         if self.bootstrap is not None:
-            from .bootstrap import format_bootstrap
+            from ..uncertainty.bootstrap import format_bootstrap
 
             lines.append(format_bootstrap(self.bootstrap, rep["base_parameters"]))
         band = self.provenance.get("prediction_band")

@@ -1,4 +1,4 @@
-"""Identification on data no one tuned to: ``python -m manipdyn.identification.demo``.
+"""Identification on data no one tuned to: ``python -m manipdyn.identification.experiments.demo``.
 
 Layer 5 (identification).
 
@@ -30,10 +30,10 @@ import warnings
 
 import numpy as np
 
-from .._support.threads import blas_threads
-from ..model.arm import Manipulator
-from .._support.errors import ModelError, PhysicalConsistencyWarning
-from ..formats.loading import load
+from ..._support.threads import blas_threads
+from ...model.arm import Manipulator
+from ..._support.errors import ModelError, PhysicalConsistencyWarning
+from ...formats.loading import load
 
 __all__ = ["true_arm", "measure", "run_demo"]
 
@@ -63,7 +63,7 @@ def measure(arm, traj, rng, tau_noise: float = 0.01, q_noise: float = 1e-4, peak
     noisy torques at the same samples, and the per-joint peak |tau| that set
     the noise (``tau_noise * peak`` standard deviation).
     """
-    from ..formats.logs.data import Measurements, derivatives
+    from ...formats.logs.data import Measurements, derivatives
 
     tau = arm.inverse_dynamics(traj.q, traj.qd, traj.qdd)
     if peak is None:
@@ -106,8 +106,9 @@ def run_demo(name: str = "ur5", seed: int = 0, iterations: int = 15, plot: str |
 
     ``progress=True`` reports each stage (and the optimiser's iterations) on stderr.
     """
-    from . import base_parameters, excitation, fit
-    from .trajectory import fourier_trajectory, Excitation
+    from ..estimation.base import base_parameters
+    from ..estimation.fitting import fit
+    from .trajectory import Excitation, excitation, fourier_trajectory
 
     stages = _Stages(progress)
     stages.stage(f"loading {name} and drawing the true arm")
@@ -163,13 +164,13 @@ def run_demo(name: str = "ur5", seed: int = 0, iterations: int = 15, plot: str |
         print(f"poorly exciting data (condition number {r.condition_number:.3g}), {method}: "
               f"physically consistent: {r.consistent}", file=out)
     if plot:
-        from .._support.deps import MissingExtraError
+        from ..._support.deps import MissingExtraError
         try:
             import matplotlib  # noqa: F401  (the figure itself: validation.plot_validation)
         except ImportError:
             raise MissingExtraError("--plot needs matplotlib: pip install 'manipdyn[plot]'") from None
-        from ..formats.logs.measurements import Measurements
-        from .validation import plot_validation, validate
+        from ...formats.logs.measurements import Measurements
+        from ..results.validation import plot_validation, validate
 
         scored = validate(fits["consistent"], Measurements(held.t, held.q, held.qd, held.qdd, held_tau),
                           name="consistent fit")
@@ -180,7 +181,7 @@ def run_demo(name: str = "ur5", seed: int = 0, iterations: int = 15, plot: str |
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m manipdyn.identification.demo", description=__doc__,
+    p = argparse.ArgumentParser(prog="python -m manipdyn.identification.experiments.demo", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--model", default="ur5", help="prior model (default ur5)")
     p.add_argument("--seed", type=int, default=0)

@@ -6,12 +6,12 @@ Layer 5 (identification).
 robot run along it logs its joint torques.  Without a robot,
 :func:`synthesize` computes them from a model (inverse dynamics, the fast
 path, friction included) and adds seeded Gaussian noise of ``noise`` times
-each joint's peak torque, the way :mod:`manipdyn.identification.demo` does::
+each joint's peak torque, the way :mod:`manipdyn.identification.experiments.demo` does::
 
     traj = read_trajectory("traj.csv", arm.n)
     tau = synthesize(arm, traj.q, traj.qd, traj.qdd, noise=0.01, seed=0)
 
-:func:`manipdyn.identification.demo.true_arm` gives an arm around a prior
+:func:`manipdyn.identification.experiments.demo.true_arm` gives an arm around a prior
 (masses +-20 %, centres of mass moved by up to 2 cm, friction added), for a
 log that the prior does not fit exactly (``manipdyn synthesize --perturb``).
 """
@@ -24,8 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._support import limits
-from .._support.errors import ModelError
+from ..._support import limits
+from ..._support.errors import ModelError
 
 __all__ = ["Trajectory", "read_trajectory", "synthesize"]
 

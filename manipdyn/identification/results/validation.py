@@ -30,8 +30,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._support.errors import ModelError
-from .._support.limits import check_fit_size
+from ..._support.errors import ModelError
+from ..._support.limits import check_fit_size
 
 __all__ = ["ValidationResult", "validate", "plot_validation", "write_predictions"]
 
@@ -153,7 +153,7 @@ def validate(model, data, name: str | None = None) -> ValidationResult:
 def write_predictions(result: ValidationResult, path) -> None:
     """Write ``t, tau1..taun`` (measured), ``pred1..predn`` and, with a band, ``lo1..lon, hi1..hin``
     per sample as CSV, atomically (s, N m or N): anyone can check the band with it."""
-    from .._support.files import atomic_write_text
+    from ..._support.files import atomic_write_text
 
     n = result.measured.shape[1]
     cols = [result.t[:, None], result.measured, result.predicted]
@@ -172,7 +172,7 @@ def plot_validation(results, path, title: str | None = None, units=None) -> None
     ``results`` is one :class:`ValidationResult` or a list of them (several models on the
     same data, e.g. identified against published); ``units`` per joint (default N m).
     """
-    from .._support.figures import pyplot, save_figure
+    from ..._support.figures import pyplot, save_figure
 
     plt = pyplot()
     results = results if isinstance(results, (list, tuple)) else [results]

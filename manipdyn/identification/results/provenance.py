@@ -25,8 +25,8 @@ import datetime as _dt
 import hashlib
 import os
 
-from .._support import limits
-from .._support.errors import ModelError
+from ..._support import limits
+from ..._support.errors import ModelError
 
 __all__ = ["file_sha256", "provenance", "model_metadata", "fit_record", "carried"]
 
@@ -80,11 +80,11 @@ def model_metadata(prov: dict) -> tuple[str, dict, str]:
     }
     n = len(prov["rms_residual"])
     if prov.get("fitted_range") is not None:
-        from .coverage import StateRange
+        from ..uncertainty.coverage import StateRange
 
         sources["fitted_range"] = StateRange.from_dict(prov["fitted_range"], n, "fitted_range").to_text()
     if prov.get("prediction_band") is not None:
-        from .bands import PredictionBand
+        from ..uncertainty.bands import PredictionBand
 
         sources["prediction_band"] = PredictionBand.from_dict(prov["prediction_band"], n,
                                                               "prediction_band").to_text()
@@ -100,8 +100,8 @@ def fit_record(arm, data, folds: int | None = None, **fit_kwargs) -> tuple[dict,
     the fit's own options; ``folds`` None: the default 5).  When the band cannot be had (data
     too short for the blocks, a refit failing) it is left out and ``notes`` says why.
     """
-    from .bands import DEFAULT_FOLDS, calibrate_band
-    from .coverage import fitted_range
+    from ..uncertainty.bands import DEFAULT_FOLDS, calibrate_band
+    from ..uncertainty.coverage import fitted_range
 
     record = {"fitted_range": fitted_range(data.q, data.qd, data.tau).to_dict()}
     notes = []
@@ -120,8 +120,8 @@ def carried(model) -> tuple[object, object, list]:
     it has none: an arm read from a model file (its ``sources``), or a base model (its
     ``provenance``).  A record that does not read is reported in ``notes``, not raised: the
     model still predicts."""
-    from .bands import PredictionBand
-    from .coverage import StateRange
+    from ..uncertainty.bands import PredictionBand
+    from ..uncertainty.coverage import StateRange
 
     n = model.n
     data = getattr(model, "data", None)

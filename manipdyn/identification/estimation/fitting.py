@@ -33,17 +33,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._support.state import state_array
-from .._support.errors import ModelError, StateError
-from .._support import limits
-from .._support.limits import check_fit_size
-from ..model.inertia import pseudo_inertia_from_parameters
-from ..model.parameters import arm_parameters, parameter_count
+from ..._support.state import state_array
+from ..._support.errors import ModelError, StateError
+from ..._support import limits
+from ..._support.limits import check_fit_size
+from ...model.inertia import pseudo_inertia_from_parameters
+from ...model.parameters import arm_parameters, parameter_count
 from .model import arm_with_parameters
 from .base import BaseParameters, base_parameters, check_base
 from .sdp import Bounds, consistent_fit
-from .runs import segment_edges
-from .uncertainty import base_covariance
+from ...formats.logs.measurements import segment_edges
+from .covariance import base_covariance
 
 __all__ = ["fit", "FitResult", "METHODS", "link_min_eigenvalues", "known_torque", "joint_noise"]
 
@@ -124,7 +124,7 @@ class FitResult:
 
     def inverse_dynamics(self, q, qd, qdd) -> np.ndarray:
         """:meth:`predict`, under the name every model has (so a fit can be scored by
-        :func:`manipdyn.identification.validation.validate`)."""
+        :func:`manipdyn.identification.results.validation.validate`)."""
         return self.predict(q, qd, qdd)
 
     def predict(self, q, qd, qdd) -> np.ndarray:
@@ -139,7 +139,7 @@ def known_torque(prior, qd, qdd, armature, friction):
     """Prior torques outside the fitted parameters (rotor inertia, friction), (..., n).
 
     Shared by :meth:`FitResult.predict`, :func:`fit` (subtracted from the measurements) and
-    :meth:`manipdyn.identification.basemodel.BaseModel.inverse_dynamics`."""
+    :meth:`manipdyn.identification.results.basemodel.BaseModel.inverse_dynamics`."""
     out = np.zeros(np.shape(qd))
     if not armature:
         out = out + np.asarray(qdd) @ np.asarray(prior.rotor_inertia)   # R^T diag(Jm) R, symmetric
@@ -289,7 +289,7 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         for ``ols``/``wls`` when left at the default.
     prior_weight : float
         ``consistent`` only: weight of the entropic pull of each body towards the prior's
-        (:func:`manipdyn.identification.sdp.consistent_fit`); 0 (the default) fits the
+        (:func:`manipdyn.identification.estimation.sdp.consistent_fit`); 0 (the default) fits the
         data alone.
     metadata : (source, sources, description), optional
         Citation of the identified arm (:func:`.provenance.model_metadata`); default: the
@@ -417,7 +417,7 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     try:
         import warnings
 
-        from .._support.errors import PhysicalConsistencyWarning
+        from ..._support.errors import PhysicalConsistencyWarning
 
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", PhysicalConsistencyWarning)

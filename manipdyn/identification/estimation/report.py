@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .uncertainty import STD_SOURCE
+from .covariance import STD_SOURCE
 
 __all__ = ["build_report", "format_report", "friction_to_json"]
 
@@ -17,7 +17,7 @@ def friction_to_json(friction, n: int):
     deadband and nonlinear shapes (:func:`friction_from_json` reads it back)."""
     if friction is None or friction is False or friction is True:
         return bool(friction)
-    from ..model.friction import friction_spec
+    from ...model.friction import friction_spec
 
     spec = friction_spec(friction, n)
     out = {"terms": list(spec.terms), "side": spec.side, "smoothing": spec.smoothing,

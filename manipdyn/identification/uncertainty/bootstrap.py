@@ -13,7 +13,7 @@ method and options.  The spread of the replicates' base parameters estimates
 the estimator's covariance, correlation included::
 
     from manipdyn.identification import read_log
-    from manipdyn.identification.bootstrap import bootstrap
+    from manipdyn.identification.uncertainty.bootstrap import bootstrap
 
     data = read_log("log.csv", arm.n)
     boot = bootstrap(arm, data, 200, block=50, seed=0, method="wls", friction=True)
@@ -49,8 +49,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._support import limits
-from .._support.errors import ModelError
+from ..._support import limits
+from ..._support.errors import ModelError
 
 __all__ = ["bootstrap", "BootstrapResult", "block_indices", "bootstrap_summary", "format_bootstrap"]
 
@@ -131,9 +131,9 @@ def _replicates(spec: tuple, part) -> dict:
     """Refit replicates ``part``: ``{k: (beta or None, error or None), "timing": {...}}``.
 
     A pure function of its arguments (runs on any worker, bit-identical)."""
-    from .._support.threads import blas_threads
-    from ..check.scale import arm_from_text
-    from .estimation import fit
+    from ..._support.threads import blas_threads
+    from ...check.scale import arm_from_text
+    from ..estimation.fitting import fit
 
     model, arrays, block, seed, method, base, fit_kwargs = spec
     t0 = time.perf_counter()
@@ -180,9 +180,9 @@ def bootstrap(arm, data, n: int, block: int | None = None, seed: int = 0, schedu
         Passed to every :func:`~manipdyn.identification.fit` (``friction``,
         ``armature``, ``bounds``, ``prior_weight``).
     """
-    from ..check.scale import chunks, check_scheduler, local_cores, map_chunks, model_text
-    from .base import base_parameters
-    from .estimation import METHODS
+    from ...check.scale import chunks, check_scheduler, local_cores, map_chunks, model_text
+    from ..estimation.base import base_parameters
+    from ..estimation.fitting import METHODS
 
     n = _int(n, "n", 2)
     limits.check_count(n, "bootstrap", "n (the replicates, each a whole refit)", "MAX_BOOTSTRAP")

@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._support.errors import ModelError
+from ..._support.errors import ModelError
 
 __all__ = ["TorqueConstants", "identify_torque_constants", "CURRENT_NOTE"]
 
@@ -62,7 +62,7 @@ class TorqueConstants:
 
 def _blocks(arm, runs, base, armature, friction):
     """Per run: ``(Ym (N, n, r), current (N, n), Km (N, n))``, motor side (module docstring)."""
-    from .estimation import known_torque
+    from ..estimation.fitting import known_torque
 
     RinvT = np.linalg.inv(np.asarray(arm.transmission.R, dtype=np.float64)).T
     out = []
@@ -101,7 +101,7 @@ def _beta(Rs, a):
 def _fit_gains(Rs, a0, free):
     """Inverse gains ``a = 1 / k_t`` minimising the current residual (variable projection over
     ``log a`` of the ``free`` motors; the others held)."""
-    from .._support.deps import require
+    from ..._support.deps import require
 
     optimize = require("scipy.optimize", "identify_torque_constants")
     a0 = np.asarray(a0, dtype=np.float64)
@@ -180,7 +180,7 @@ def identify_torque_constants(arm, runs, *, armature: bool = False, friction=Fal
         1-based motors whose model ``k_t`` (``arm.transmission.torque_constant``) fixes
         the scale when no run carries a payload; default all of them.
     """
-    from .base import base_parameters
+    from ..estimation.base import base_parameters
 
     n = arm.n
     has_payload = any(p is not None for _, p in runs)

@@ -1,4 +1,4 @@
-"""Are the identification's error bars right?  ``python -m manipdyn.identification.calibration``.
+"""Are the identification's error bars right?  ``python -m manipdyn.identification.experiments.calibration``.
 
 Layer 5 (identification).
 
@@ -35,12 +35,12 @@ Z95 = 1.959963984540054
 def calibrate(model: str = "ur5", repeats: int = 500, noise: float = 0.01, seed: int = 1,
               duration: float = 6.0, rate: float = 100.0, samples: int = 200) -> dict:
     """Run the study of the module docstring; a JSON-ready dict of its figures."""
-    from .._support.threads import blas_threads
-    from ..formats.loading import load
-    from ..model.parameters import arm_parameters
-    from .base import base_parameters
+    from ..._support.threads import blas_threads
+    from ...formats.loading import load
+    from ...model.parameters import arm_parameters
+    from ..estimation.base import base_parameters
     from .demo import true_arm
-    from .estimation import fit
+    from ..estimation.fitting import fit
     from .trajectory import excitation
 
     prior = load(model)
@@ -81,8 +81,8 @@ def calibrate(model: str = "ur5", repeats: int = 500, noise: float = 0.01, seed:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The command line of ``python -m manipdyn.identification.calibration``."""
-    p = argparse.ArgumentParser(prog="python -m manipdyn.identification.calibration",
+    """The command line of ``python -m manipdyn.identification.experiments.calibration``."""
+    p = argparse.ArgumentParser(prog="python -m manipdyn.identification.experiments.calibration",
                                 description="Are the identification's error bars right? Identifies --repeats "
                                 "noisy logs of a known arm with wls and prints, as JSON, how often the 95 % "
                                 "intervals hold the truth (base parameters, held-out torques): 93 to 97 % is "

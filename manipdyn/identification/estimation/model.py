@@ -20,11 +20,11 @@ import dataclasses
 
 import numpy as np
 
-from ..model.arm import Manipulator
-from .._support.errors import ModelError
-from ..model.inertia import LinkInertia, pseudo_inertia_from_parameters, transform_pseudo_inertia
-from ..model.kinematics import transform_inverse
-from ..model.parameters import parameter_count
+from ...model.arm import Manipulator
+from ..._support.errors import ModelError
+from ...model.inertia import LinkInertia, pseudo_inertia_from_parameters, transform_pseudo_inertia
+from ...model.kinematics import transform_inverse
+from ...model.parameters import parameter_count
 
 __all__ = ["arm_with_parameters", "urdf_with_parameters"]
 
@@ -62,7 +62,7 @@ def arm_with_parameters(arm, pi, armature: bool = False, friction: bool = False,
     that), naming the link.  A link whose identified mass is exactly 0 has no
     centre of mass: its first moments are dropped.
     """
-    from ..model.arm import URDFArm
+    from ...model.arm import URDFArm
 
     if isinstance(arm, URDFArm):
         return _urdf_arm_with_parameters(arm, pi, armature, friction, name, strict, metadata)
@@ -120,7 +120,7 @@ def _friction_law(friction, values, n, transmission):
     Motor-side parameters are reflected (:mod:`manipdyn.model.friction`): viscous ``R_kk^2 Fv``,
     the other amplitudes ``|R_kk| x``; they are divided back here.
     """
-    from ..model.friction import Friction, friction_spec
+    from ...model.friction import Friction, friction_spec
 
     spec = friction_spec(friction, n)
     values = np.asarray(values, dtype=np.float64)
@@ -146,7 +146,7 @@ def _friction_law(friction, values, n, transmission):
 
 
 def _urdf_arm_with_parameters(arm, pi, armature, friction, name, strict, metadata):
-    from ..formats.urdf.reader import load_urdf
+    from ...formats.urdf.reader import load_urdf
 
     n = arm.n
     pi = np.asarray(pi, dtype=np.float64)
@@ -175,7 +175,7 @@ def _psd(J, rtol=1e-12) -> bool:
 
 def _inertial_element(etree, J, where):
     """An ``<inertial>`` element holding the body of pseudo-inertia ``J`` (link frame)."""
-    from ..model.inertia import tensor_from_pseudo_inertia
+    from ...model.inertia import tensor_from_pseudo_inertia
 
     J = 0.5 * (J + J.T)
     m, c, I = tensor_from_pseudo_inertia(J, name=where) if J[3, 3] > 0 else (0.0, np.zeros(3), np.zeros((3, 3)))
@@ -209,7 +209,7 @@ def urdf_with_parameters(arm, pi, friction: bool = False, metadata=None) -> str:
     """
     from lxml import etree
 
-    from ..formats.urdf.tree import read_link
+    from ...formats.urdf.tree import read_link
 
     n = arm.n
     pi = np.asarray(pi, dtype=np.float64)

@@ -62,13 +62,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._support.files import atomic_write_text
-from ..model.arm import Manipulator
-from ..model.drive import Transmission
-from .._support.errors import ModelError, PhysicalConsistencyWarning
-from ..model.friction import Friction
-from ..formats.save import save
-from ..formats.loading import load
+from ..._support.files import atomic_write_text
+from ...model.arm import Manipulator
+from ...model.drive import Transmission
+from ..._support.errors import ModelError, PhysicalConsistencyWarning
+from ...model.friction import Friction
+from ...formats.save import save
+from ...formats.loading import load
 from .trajectory import fourier_trajectory
 
 __all__ = ["HardLog", "hard_log", "hard_log_set", "SET_PAYLOAD", "hard_arms", "recovered", "GEAR_RATIOS", "WRIST_COUPLING", "SMOOTHING"]
@@ -233,7 +233,7 @@ def hard_log(seed: int = 0, directory=None, *, duration: float = 40.0, held_out:
     motion_seed : int, optional
         Seeds the motion, stamps and noise instead of ``seed`` (the arms stay ``seed``'s):
         another run of the same arm.
-    payload : :class:`~manipdyn.identification.runs.Payload`, optional
+    payload : :class:`~manipdyn.identification.inputs.runs.Payload`, optional
         A known load at the tool frame, in the logged torques.
     log_name : str
         The log's file name in ``directory``.
@@ -302,7 +302,7 @@ def recovered(result, truth) -> dict:
     motor 1's rotor inertia, grouped with link 1's ``Izz``); its value is then
     the prior's share of the group and says nothing about the fit.
     """
-    from ..model.parameters import arm_parameters
+    from ...model.parameters import arm_parameters
 
     base, n = result.base, truth.n
     law = base.friction
@@ -337,8 +337,8 @@ def hard_log_set(seed: int, directory, *, duration: float = 30.0, payload=None) 
     second with its payload); ``prior.toml`` is the prior WITHOUT torque constants and
     ``prior_kt.toml`` the prior with them.  Returns ``{"runs", "prior", "prior_kt", "truth",
     "torque_constant"}`` (paths, the truth arm and its k_t (6,))."""
-    from ..formats.save import to_toml
-    from .runs import Payload
+    from ...formats.save import to_toml
+    from ..inputs.runs import Payload
 
     spec = dict(SET_PAYLOAD if payload is None else payload)
     load_ = Payload(float(spec["mass"]), tuple(spec["com"]), tuple(spec.get("inertia", [0.0] * 6)))

@@ -21,9 +21,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._support.threads import blas_threads as _blas
-from .._support.errors import ModelError
-from .options import OptionError
+from ..._support.threads import blas_threads as _blas
+from ..._support.errors import ModelError
+from ..inputs.options import OptionError
 
 __all__ = ["validate", "Validation", "load_scored_model"]
 
@@ -42,14 +42,14 @@ def load_scored_model(spec, tip=None):
         from .basemodel import load_base_model
 
         if tip is not None:
-            from .options import OptionError, brace_safe
+            from ..inputs.options import OptionError, brace_safe
 
             raise OptionError("{}: a base model (" + brace_safe(s) + ") carries its own chain (the identification's "
                               "prior); {} is for a tree URDF given as a model", "tip", "tip")
         m = load_base_model(s)
         # the file first: "panda (base model)" would read as the bundled arm
         return m, f"{os.path.basename(s)} (base parameters identified from {m.name})"
-    from ..formats.loading import load_with_notes
+    from ...formats.loading import load_with_notes
 
     arm, _ = load_with_notes(s, tip=tip)
     return arm, arm.name
@@ -137,7 +137,7 @@ def validate(models, logs, *, tip=None, columns=None, deg: bool = False, rate=No
     blas_threads : int or None
         BLAS threads while scoring (None: the library's own choice).
     """
-    from .runs import read_runs, stack
+    from ..inputs.runs import read_runs, stack
     from .validation import validate as score
 
     with _blas(blas_threads):
@@ -173,8 +173,8 @@ def validate(models, logs, *, tip=None, columns=None, deg: bool = False, rate=No
 
 def _check_predictions(path, loaded, logs) -> None:
     """Refuse, before any log is read, a ``predictions`` file for several models or one that is a log."""
-    from .._support.files import overwrites
-    from .options import brace_safe
+    from ..._support.files import overwrites
+    from ..inputs.options import brace_safe
 
     if len(loaded) != 1:
         raise OptionError("{}: one MODEL at a time (the file holds one model's predictions)", "predictions")

@@ -40,8 +40,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._support.errors import ModelError
-from .base import base_parameters, check_base
+from ..._support.errors import ModelError
+from ..estimation.base import base_parameters, check_base
 
 __all__ = ["Excitation", "excitation", "fourier_trajectory", "DEFAULT_VMAX", "DEFAULT_AMAX"]
 
@@ -107,7 +107,7 @@ class Excitation:
 
     def to_csv(self, path) -> None:
         """Write ``t,q1..qn,qd1..qdn,qdd1..qddn`` (SI units), atomically."""
-        from ..formats.logs.data import write_trajectory_csv
+        from ...formats.logs.data import write_trajectory_csv
 
         write_trajectory_csv(path, self.t, self.q, self.qd, self.qdd)
 
@@ -284,7 +284,7 @@ def excitation(arm, duration: float = 10.0, harmonics: int = 5, rate: float = 10
     base : BaseParameters, optional
         Reuse a :func:`base_parameters` result (same armature/friction flags).
     """
-    from .._support.deps import require
+    from ..._support.deps import require
 
     optimize = require("scipy.optimize", "excitation")
     for name, v in (("duration", duration), ("rate", rate)):

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._support.errors import ModelError
+from ..._support.errors import ModelError
 
 __all__ = ["best_per_joint", "format_side_by_side", "side_by_side_dict"]
 

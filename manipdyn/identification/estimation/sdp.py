@@ -36,9 +36,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._support.errors import ModelError
-from ..model.parameters import PARAMETER_BASIS
-from .._support.deps import require
+from ..._support.errors import ModelError
+from ...model.parameters import PARAMETER_BASIS
+from ..._support.deps import require
 
 __all__ = ["Bounds", "consistent_fit", "solve_problem", "EPS"]
 
@@ -350,7 +350,7 @@ def consistent_fit(R, c, K, n, prior, extra: bool, bounds: Bounds | None = None,
     if prior_weight and prior_weight > 0:
         if not rows:
             raise ValueError("rows: needed with prior_weight")
-        from ..model.inertia import pseudo_inertia_from_parameters
+        from ...model.inertia import pseudo_inertia_from_parameters
 
         # d(u J', J0) = d(J', J0 / u): the divergence in the solver's units, to the prior scaled
         # as above when the data are beyond PRIOR_RANGE of it
@@ -457,7 +457,7 @@ def _two_steps(cp, x, obj, K, n, prior, pscale, extra, bounds, nonnegative, eps=
 def project_physical(pi, n: int, eps: float = EPS, nonnegative=None) -> np.ndarray:
     """Every link's J_i with eigenvalues below ``eps`` raised to ``eps`` (a no-op for a
     solver answer within tolerance; it guards against an inaccurate one), (p,)."""
-    from ..model.inertia import parameters_from_pseudo_inertia, pseudo_inertia_from_parameters
+    from ...model.inertia import parameters_from_pseudo_inertia, pseudo_inertia_from_parameters
 
     pi = np.array(pi, dtype=np.float64)
     J = pseudo_inertia_from_parameters(pi[:10 * n].reshape(n, 10))

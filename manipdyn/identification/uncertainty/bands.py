@@ -56,7 +56,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._support.errors import ModelError
+from ..._support.errors import ModelError
 
 __all__ = ["PredictionBand", "calibrate_band", "held_out_residuals", "DEFAULT_FOLDS", "DEFAULT_LEVEL"]
 
@@ -180,7 +180,7 @@ def held_out_residuals(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, segment
     :func:`manipdyn.identification.fit` (``method``, ``friction``, ``armature``, ``bounds``,
     ``prior_weight``): the refits are the fit the user asked for, on less data.
     """
-    from .estimation import fit
+    from ..estimation.fitting import fit
 
     q, qd, qdd, tau = (np.asarray(x, dtype=np.float64) for x in (q, qd, qdd, tau))
     N = len(q)

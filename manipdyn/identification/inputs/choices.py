@@ -48,7 +48,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._support.errors import ModelError
+from ..._support.errors import ModelError
 
 __all__ = ["friction_side", "coulomb_smoothing", "motor_side_torques", "choose_friction_options"]
 
@@ -104,7 +104,7 @@ def coulomb_smoothing(data, side: str = "joint", transmission=None) -> tuple[flo
     ``data``: :class:`~manipdyn.identification.Measurements` with ``qd_noise`` (n,) rad/s or
     None; ``side``: ``"joint"`` or ``"motor"``; ``transmission``: needed on the motor side.
     """
-    from ..model.friction import DEFAULT_SMOOTHING
+    from ...model.friction import DEFAULT_SMOOTHING
 
     noise = getattr(data, "qd_noise", None)
     if noise is None:

@@ -30,8 +30,8 @@ import numbers
 
 import numpy as np
 
-from .._support.errors import ModelError
-from ..model.parameters import parameter_count, parameter_names
+from ..._support.errors import ModelError
+from ...model.parameters import parameter_count, parameter_names
 
 __all__ = ["BaseParameters", "base_parameters", "check_base", "stacked_regressor"]
 
@@ -134,7 +134,7 @@ def base_parameters(arm, armature: bool = False, friction: bool = False, samples
     rtol : float
         Rank tolerance, relative to the largest pivot of R.
     """
-    from .._support.deps import require
+    from ..._support.deps import require
 
     p = parameter_count(arm.n, armature, friction) if friction in (True, False, None) else None
     if isinstance(samples, (bool, np.bool_)) or not isinstance(samples, numbers.Integral) or samples < 1:

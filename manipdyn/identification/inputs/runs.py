@@ -31,10 +31,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._support.errors import ModelError
-from ..formats.logs.measurements import Measurements
+from ..._support.errors import ModelError
+from ...formats.logs.measurements import Measurements
 
-__all__ = ["Payload", "LogSpec", "read_runs_file", "as_log_specs", "read_runs", "stack", "segment_edges", "RUN_KEYS"]
+__all__ = ["Payload", "LogSpec", "read_runs_file", "as_log_specs", "read_runs", "stack", "RUN_KEYS"]
 
 #: the keys of a ``[[log]]`` table
 RUN_KEYS = ("path", "t_range", "rate", "columns", "payload")
@@ -53,7 +53,7 @@ class Payload:
 
     def parameters(self) -> np.ndarray:
         """``[m, m c, I_xx, I_xy, I_yy, I_xz, I_yz, I_zz]`` (10,), tensor about the tool frame's origin."""
-        from ..model.inertia import parameters_from_pseudo_inertia, pseudo_inertia_from_tensor
+        from ...model.inertia import parameters_from_pseudo_inertia, pseudo_inertia_from_tensor
 
         ixx, iyy, izz, ixy, ixz, iyz = self.inertia
         I = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]], dtype=np.float64)
@@ -61,8 +61,8 @@ class Payload:
 
     def regressor(self, arm, q, qd, qdd) -> np.ndarray:
         """``Y_P`` (N, n, 10): the joint torque of a unit of each payload parameter."""
-        from ..model.inertia import parameters_from_pseudo_inertia, transform_pseudo_inertia
-        from ..model.parameters import PARAMETER_BASIS
+        from ...model.inertia import parameters_from_pseudo_inertia, transform_pseudo_inertia
+        from ...model.parameters import PARAMETER_BASIS
 
         _, tool = arm.chain()
         k = arm.n - 1
@@ -118,7 +118,7 @@ def _payload(raw, where) -> Payload:
     p = Payload(mass, com, inertia)
     try:
         J = p.parameters()
-        from ..model.inertia import pseudo_inertia_from_parameters
+        from ...model.inertia import pseudo_inertia_from_parameters
 
         ev = np.linalg.eigvalsh(pseudo_inertia_from_parameters(J))
     except ModelError as exc:
@@ -160,7 +160,7 @@ def read_runs_file(path) -> list[LogSpec]:
     :class:`~manipdyn.ModelError` naming the key and the ``[[log]]`` index (from 1)."""
     import tomllib
 
-    from .._support import limits
+    from ..._support import limits
 
     where = os.fspath(path)
     raw = limits.read_regular(where, where, "MAX_MODEL_FILE_BYTES", "the runs file", "the runs file")
@@ -207,7 +207,7 @@ def read_runs(logs, arm, *, transmission=None, **read_options) -> list[tuple[Mea
     :func:`~manipdyn.identification.read_log` common to every run (a run's own ``t_range``,
     ``rate`` and ``columns`` replace them).  ``transmission``: default ``arm.transmission``.
     """
-    from ..formats.logs.read import read_log
+    from ...formats.logs.read import read_log
 
     tr = arm.transmission if transmission is None else transmission
     out = []
@@ -221,19 +221,6 @@ def read_runs(logs, arm, *, transmission=None, **read_options) -> list[tuple[Mea
                 opts[key] = getattr(spec, key)
         out.append((read_log(spec.path, arm.n, transmission=tr, **opts), spec.payload))
     return out
-
-
-def segment_edges(segments, N: int) -> np.ndarray:
-    """``[0, N_1, N_1 + N_2, ..., N]`` from the runs' sample counts (None: one run)."""
-    if segments is None:
-        return np.array([0, N])
-    try:
-        counts = np.array([int(k) for k in segments])
-    except (TypeError, ValueError):
-        raise ModelError(f"segments: expected the runs' sample counts, got {segments!r:.80}") from None
-    if counts.size == 0 or np.any(counts < 1) or counts.sum() != N:
-        raise ModelError(f"segments: expected sample counts >= 1 adding up to the {N} samples, got {counts.tolist()}")
-    return np.concatenate([[0], np.cumsum(counts)])
 
 
 def stack(parts) -> Measurements:

@@ -39,10 +39,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._support.errors import ModelError
-from ..model.friction import Friction
+from ..._support.errors import ModelError
+from ...model.friction import Friction
 from .base import base_parameters
-from .estimation import fit
+from .fitting import fit
 
 __all__ = ["fit_friction_shapes", "fit_shapes", "SHAPE_RANGE", "SHAPES"]
 
@@ -198,7 +198,7 @@ def fit_shapes(arm, data, friction: Friction, *, armature: bool = False, max_nfe
     shapes (its amplitudes untouched: zeros for a spec); ``info`` is what
     ``report["friction_shapes"]`` holds.  Parameters as for :func:`fit_friction_shapes`.
     """
-    from .._support.deps import require
+    from ..._support.deps import require
 
     optimize = require("scipy.optimize", "fit_friction_shapes")
     if not isinstance(friction, Friction):

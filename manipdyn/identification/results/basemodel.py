@@ -24,7 +24,7 @@ keeps exactly that, self-contained:
 * ``provenance``: data file, its sha256, method, options, date;
 * ``bootstrap`` (with ``identify --bootstrap N``): replicates, block, seed, failed
   replicates, and the block bootstrap's ``std`` and ``covariance`` of the base parameters
-  (:func:`~manipdyn.identification.bootstrap.bootstrap_summary`), which ``--plants-from``
+  (:func:`~manipdyn.identification.uncertainty.bootstrap.bootstrap_summary`), which ``--plants-from``
   draws from in place of ``covariance``: it keeps the residuals' correlation over time.
 
 :func:`load_base_model` reads it back; :meth:`BaseModel.inverse_dynamics` predicts.
@@ -39,10 +39,10 @@ import os
 
 import numpy as np
 
-from .._support import limits
-from .._support.files import atomic_write_text
-from .._support.errors import ModelError
-from .report import friction_to_json
+from ..._support import limits
+from ..._support.files import atomic_write_text
+from ..._support.errors import ModelError
+from ..estimation.report import friction_to_json
 
 __all__ = ["BASE_MODEL_FORMAT", "BaseModel", "base_model_dict", "write_base_model", "load_base_model",
            "prior_text"]
@@ -52,8 +52,8 @@ BASE_MODEL_FORMAT = "manipdyn-base-model/1"
 
 def prior_text(arm) -> dict:
     """The prior as self-contained text: ``{"kind": "toml"|"urdf", "text": ..., "tip": ...}``."""
-    from ..model.arm import Manipulator
-    from ..formats.save import to_toml
+    from ...model.arm import Manipulator
+    from ...formats.save import to_toml
 
     if isinstance(arm, Manipulator):
         return {"kind": "toml", "text": to_toml(arm), "tip": None}
@@ -69,7 +69,7 @@ def friction_from_json(value, n: int):
         return value
     if not isinstance(value, dict) or not isinstance(value.get("terms"), list):
         raise ValueError("key 'friction': expected true, false or {terms: [...], side: ...}")
-    from ..model.friction import Friction
+    from ...model.friction import Friction
 
     z = np.zeros(n)
     kw = {}
@@ -99,7 +99,7 @@ def _covariance_rows(cov):
 
 def base_model_dict(result, prior: dict, provenance: dict, bootstrap: dict | None = None) -> dict:
     """The JSON-ready base model of a :class:`FitResult` (module docstring); ``bootstrap``: the
-    :func:`~manipdyn.identification.bootstrap.bootstrap_summary` of the same fit, if any."""
+    :func:`~manipdyn.identification.uncertainty.bootstrap.bootstrap_summary` of the same fit, if any."""
     rep = result.report
     rows = []
     for row in rep["base_parameters"]:
@@ -183,7 +183,7 @@ class BaseModel:
         where those were not identified, the prior's own armature and friction torques are
         added (as :meth:`FitResult.predict` does).
         """
-        from .estimation import known_torque
+        from ..estimation.fitting import known_torque
 
         Y = self.arm.lagrange.regressor(q, qd, qdd, armature=self.armature, friction=self.friction)
         return Y @ self.parameters + known_torque(self.arm, qd, qdd, self.armature, self.friction)
@@ -305,16 +305,16 @@ def load_base_model(path) -> BaseModel:
         raise ModelError(f"{where}: key 'prior.tip': expected a link name or null, got {prior['tip']!r:.60}")
     try:
         if prior["kind"] == "toml":
-            from ..formats.modelfile import parse_model
+            from ...formats.modelfile import parse_model
 
             arm = parse_model(prior["text"], origin=f"{where} (prior)")
         else:
-            from ..formats.urdf.reader import load_urdf
+            from ...formats.urdf.reader import load_urdf
 
             arm = load_urdf(prior["text"], tip=prior.get("tip"))
     except ModelError as exc:
         raise ModelError(f"{where}: key 'prior': {exc}") from None
-    from ..model.parameters import parameter_count
+    from ...model.parameters import parameter_count
 
     try:
         friction = friction_from_json(data["friction"], arm.n)

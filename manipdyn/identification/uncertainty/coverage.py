@@ -39,7 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._support.errors import ModelError
+from ..._support.errors import ModelError
 
 __all__ = ["StateRange", "Extrapolation", "fitted_range", "FLAG_FRACTION", "FLAG_MARGIN", "QUANTITIES"]
 

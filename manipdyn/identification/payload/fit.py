@@ -57,14 +57,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._support.errors import ModelError
-from .._support.limits import check_signals
-from ..model.inertia import (LINK_PARAMETERS, parameters_from_pseudo_inertia, tensor_from_pseudo_inertia,
+from ..._support.errors import ModelError
+from ..._support.limits import check_signals
+from ...model.inertia import (LINK_PARAMETERS, parameters_from_pseudo_inertia, tensor_from_pseudo_inertia,
                        transform_pseudo_inertia)
-from ..model.parameters import PARAMETER_BASIS
-from .._support.deps import require
-from .estimation import joint_noise
-from .sdp import EPS, solve_problem
+from ...model.parameters import PARAMETER_BASIS
+from ..._support.deps import require
+from ..estimation.fitting import joint_noise
+from ..estimation.sdp import EPS, solve_problem
 
 __all__ = ["PayloadResult", "identify_payload", "payload_parameter_map"]
 
@@ -164,9 +164,9 @@ class PayloadResult:
         parameters plus the payload's (:func:`.model.arm_with_parameters`).
         Needs a DH arm (a URDF arm raises :class:`ModelError`).
         """
-        from ..model.arm import Manipulator
-        from ..model.kinematics import transform_inverse
-        from ..model.parameters import arm_parameters
+        from ...model.arm import Manipulator
+        from ...model.kinematics import transform_inverse
+        from ...model.parameters import arm_parameters
 
         arm = self.arm
         if not isinstance(arm, Manipulator):
@@ -175,13 +175,13 @@ class PayloadResult:
         J_link = transform_pseudo_inertia(self.J, self.frame)        # URDF link frame L_k
         name = name if name is not None else f"{arm.name or 'arm'}+payload"
         if self.link == arm.n - 1:
-            from ..model.variants import with_payload
+            from ...model.variants import with_payload
 
             S = arm.urdf_link_offsets()[-1]                            # DH frame n = L_n S_n
             m, c, I = tensor_from_pseudo_inertia(transform_pseudo_inertia(J_link, transform_inverse(S)),
                                                  name="payload")
             return with_payload(arm, m, c, I, name=name)
-        from .model import arm_with_parameters
+        from ..estimation.model import arm_with_parameters
 
         pi = arm_parameters(arm)
         pi[10 * self.link:10 * self.link + 10] += parameters_from_pseudo_inertia(J_link)

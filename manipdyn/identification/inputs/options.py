@@ -19,8 +19,8 @@ import math
 
 import numpy as np
 
-from .._support import limits
-from .._support.errors import ModelError
+from ..._support import limits
+from ..._support.errors import ModelError
 
 __all__ = ["OptionError", "brace_safe", "friction_option", "bounds_option", "prior_weight_option", "check_limits",
            "START_STRIBECK_VELOCITY", "START_SIGMOID_ALPHA", "SHAPED"]
@@ -63,7 +63,7 @@ def bounds_option(arm, method: str, mass_bound=None, com_bound=None, total_mass_
     ``mass_bound`` (fraction), ``com_bound`` (m), ``total_mass_bound`` (fraction) default to
     :meth:`Bounds.plausible`'s; ``no_bounds`` drops them.  Only ``consistent`` takes bounds.
     """
-    from .sdp import PLAUSIBLE_COM, PLAUSIBLE_MASS, PLAUSIBLE_TOTAL, Bounds
+    from ..estimation.sdp import PLAUSIBLE_COM, PLAUSIBLE_MASS, PLAUSIBLE_TOTAL, Bounds
 
     given = _given((("mass_bound", mass_bound), ("com_bound", com_bound), ("total_mass_bound", total_mass_bound)))
     if method != "consistent":
@@ -97,7 +97,7 @@ def friction_option(arm, friction: bool = False, friction_terms=None, friction_s
     :class:`manipdyn.Friction` holding the shapes' starting values (``stribeck_velocity``
     rad/s, ``sigmoid_alpha`` s/rad, on the law's side).
     """
-    from ..model.friction import DEFAULT_SMOOTHING, FRICTION_TERMS, FrictionTerms
+    from ...model.friction import DEFAULT_SMOOTHING, FRICTION_TERMS, FrictionTerms
 
     if friction_side not in (None, "joint", "motor"):
         raise OptionError("{}: expected 'joint' or 'motor', got " + brace_safe(repr(friction_side)), "friction_side")

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._support.errors import ModelError
+from ..._support.errors import ModelError
 
 __all__ = ["choose_prior_weight", "DEFAULT_WEIGHTS"]
 
@@ -54,7 +54,7 @@ def choose_prior_weight(arm, q, qd, qdd, tau, weights=DEFAULT_WEIGHTS, folds: in
     over the folds).
     """
     from .base import base_parameters
-    from .estimation import fit, joint_factors, known_torque
+    from .fitting import fit, joint_factors, known_torque
 
     if int(folds) != folds or folds < 2:
         raise ModelError(f"folds: expected an integer >= 2, got {folds!r}")
