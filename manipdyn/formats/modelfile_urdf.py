@@ -35,7 +35,7 @@ import numpy as np
 
 from .._support.errors import ModelError
 from .modelfile_drive import TRANSMISSION_KEYS, parse_drive
-from .trust import trust_from_toml, trust_to_toml
+from .trust import trust_from_toml, trust_to_toml, without_trust_comment
 
 __all__ = ["URDF_MODEL_KEYS", "parse_urdf_model", "urdf_model_to_toml"]
 
@@ -126,7 +126,8 @@ def urdf_model_to_toml(arm, fmt: str, string, num, vector) -> str:
         lines.append(f"description = {string(arm.description, 'description')}")
     if arm.tip is not None:
         lines.append(f"tip = {string(arm.tip, 'tip')}")
-    lines.append(f"urdf = {_multiline(arm.urdf_text, string)}")
+    text = arm.urdf_text if getattr(arm, "trust", None) is None else without_trust_comment(arm.urdf_text)
+    lines.append(f"urdf = {_multiline(text, string)}")
     sources = getattr(arm, "sources", None) or {}
     if sources:
         lines += ["", "[sources]"] + [f"{string(k, 'a key of sources')} = {string(v, 'a source')}"

@@ -42,7 +42,7 @@ import re
 from .._support.errors import ModelError
 
 __all__ = ["TRUST_FORMAT", "check_trust", "trust_to_toml", "trust_from_toml", "trust_comment", "trust_from_urdf",
-           "strip_trust_comments", "trust_to_json", "trust_from_json"]
+           "strip_trust_comments", "without_trust_comment", "trust_to_json", "trust_from_json"]
 
 TRUST_FORMAT = "manipdyn-trust/1"
 _COMMENT_HEAD = " " + TRUST_FORMAT + " "
@@ -150,6 +150,11 @@ def strip_trust_comments(root) -> None:
     for node in list(root):
         if isinstance(node, etree._Comment) and (node.text or "").startswith(_COMMENT_HEAD):
             root.remove(node)
+
+
+def without_trust_comment(text: str) -> str:
+    """URDF ``text`` with its trust comments removed (a model file holds the record once, in ``[trust]``)."""
+    return re.sub(r"[ \t]*<!--" + re.escape(_COMMENT_HEAD) + r".*?-->\n?", "", text, flags=re.S)
 
 
 def trust_from_urdf(root, label: str):

@@ -277,8 +277,9 @@ def _identify(prior, logs, o) -> IdentifyResult:
     prov = provenance(", ".join(os.path.basename(str(s)) for s in sources), o["method"], options, prior_label,
                       result.report["rms_residual"], sha256=", ".join(str(s) for s in shas))
     # the fitted range and the band travel with the model: in the provenance before its metadata is written
-    record, record_notes = fit_record(arm, data, folds=int(folds), method=o["method"], friction=law,
-                                      armature=o["armature"], bounds=bounds, prior_weight=weight, segments=segments)
+    record, record_notes = fit_record(arm, data, folds=int(folds), smoothing=smoothing, method=o["method"],
+                                      friction=law, armature=o["armature"], bounds=bounds, prior_weight=weight,
+                                      segments=segments)
     prov.update(record)
     rep = dict(result.report)
     rep["fit_notes"] = law_notes + list(rep.get("fit_notes", [])) + record_notes

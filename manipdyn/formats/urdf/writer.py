@@ -157,7 +157,13 @@ def arm_to_urdf(arm) -> str:
             " ".join(repr(float(a)) for a in arm.armature)
     _clean_numbers(root)
     root.insert(0, etree.Comment(_comment(comment) + " "))
-    record = trust_comment(getattr(arm, "trust", None))      # what an identified arm carries (formats.trust)
+    trust = getattr(arm, "trust", None)      # what an identified arm carries (formats.trust)
+    if trust is not None and (getattr(arm, "friction_model", None) is not None or np.any(getattr(arm, "armature", 0))):
+        trust = dict(trust, doubts=list(trust.get("doubts", [])) + [
+            "written as URDF, which holds neither the fitted friction law nor rotor inertia: the band and the "
+            "leverage were calibrated with them, so this URDF's predictions are not the ones the band covers "
+            "(keep the model file)"])
+    record = trust_comment(trust)
     if record is not None:
         root.insert(1, etree.Comment(record))
     for el in root.findall("joint"):

@@ -30,7 +30,7 @@ __all__ = ["arm_with_parameters", "urdf_with_parameters"]
 
 
 def arm_with_parameters(arm, pi, armature: bool = False, friction: bool = False,
-                        name: str | None = None, strict: bool = False, metadata=None):
+                        name: str | None = None, strict: bool = False, metadata=None, trust=None):
     """A copy of the DH or URDF arm ``arm`` whose links carry the parameters ``pi``.
 
     A URDF arm comes back as a URDF arm read from :func:`urdf_with_parameters`'s text
@@ -57,6 +57,9 @@ def arm_with_parameters(arm, pi, armature: bool = False, friction: bool = False,
         Passed to :class:`Manipulator` (a physically impossible link raises).
     metadata : (source, sources, description), optional
         The new arm's citation (:func:`.provenance.model_metadata`); default: the prior's.
+    trust : dict, optional
+        The fit's trust record (:func:`.provenance.trust_record`): ``arm.trust``, and in a URDF
+        arm's text as its comment (:mod:`manipdyn.formats.trust`).
 
     Raises :class:`ModelError` if a link's mass is negative (no file can hold
     that), naming the link.  A link whose identified mass is exactly 0 has no
@@ -65,7 +68,7 @@ def arm_with_parameters(arm, pi, armature: bool = False, friction: bool = False,
     from ...model.arm import URDFArm
 
     if isinstance(arm, URDFArm):
-        return _urdf_arm_with_parameters(arm, pi, armature, friction, name, strict, metadata)
+        return _urdf_arm_with_parameters(arm, pi, armature, friction, name, strict, metadata, trust)
     if not isinstance(arm, Manipulator):
         raise ModelError(f"arm: writing identified parameters needs a DH arm (a Manipulator) or a URDF "
                          f"arm, got {type(arm).__name__} {arm.name!r}")
@@ -108,10 +111,12 @@ def arm_with_parameters(arm, pi, armature: bool = False, friction: bool = False,
             kw["friction_viscous"], kw["friction_coulomb"] = 0.0, 0.0
         links.append(dataclasses.replace(l, **kw))
     source, sources, description = metadata or (arm.source, arm.sources, arm.description)
-    return Manipulator(links, convention=arm.convention, gravity=arm.gravity,
-                       name=arm.name if name is None else name, strict=strict,
-                       source=source, sources=sources, description=description,
-                       transmission=arm.transmission, friction=law)
+    out = Manipulator(links, convention=arm.convention, gravity=arm.gravity,
+                      name=arm.name if name is None else name, strict=strict,
+                      source=source, sources=sources, description=description,
+                      transmission=arm.transmission, friction=law)
+    out.trust = trust
+    return out
 
 
 def _friction_law(friction, values, n, transmission):
@@ -145,7 +150,7 @@ def _friction_law(friction, values, n, transmission):
                     stribeck_exponent=spec.stribeck_exponent, n=n)
 
 
-def _urdf_arm_with_parameters(arm, pi, armature, friction, name, strict, metadata):
+def _urdf_arm_with_parameters(arm, pi, armature, friction, name, strict, metadata, trust=None):
     from ...formats.urdf.reader import load_urdf
 
     n = arm.n
@@ -161,7 +166,7 @@ def _urdf_arm_with_parameters(arm, pi, armature, friction, name, strict, metadat
     elif friction is False and arm.custom_drive:
         law = arm.friction_model
     body = np.concatenate([pi[:10 * n], pi[col:col + 2 * n]]) if friction is True else pi[:10 * n]
-    text = urdf_with_parameters(arm, body, friction=friction is True, metadata=metadata)
+    text = urdf_with_parameters(arm, body, friction=friction is True, metadata=metadata, trust=trust)
     custom = arm.custom_drive or armature
     return load_urdf(text, tip=arm.tip, name=arm.name if name is None else name, gravity=arm.gravity,
                      strict=strict, transmission=arm.transmission if custom else None,
@@ -198,17 +203,19 @@ def _replace_inertial(etree, link_el, new):
         link_el.replace(old, new)
 
 
-def urdf_with_parameters(arm, pi, friction: bool = False, metadata=None) -> str:
+def urdf_with_parameters(arm, pi, friction: bool = False, metadata=None, trust=None) -> str:
     """The URDF text of the URDF arm ``arm`` with its chain bodies set to ``pi`` (p,).
 
     Only ``<inertial>`` elements change (module docstring), and with ``friction=True``
     the chain joints' ``<dynamics damping friction>`` (the viscous and Coulomb entries
     of ``pi`` after the 10 n body ones).  ``metadata`` (source, sources, description)
-    becomes a comment after ``<robot>``.  Raises :class:`ModelError` for a negative
+    becomes a comment after ``<robot>``, and the trust record ``trust`` another
+    (:func:`manipdyn.formats.trust.trust_comment`; a prior's own is removed).  Raises :class:`ModelError` for a negative
     identified mass, naming the link.
     """
     from lxml import etree
 
+    from ...formats.trust import strip_trust_comments, trust_comment
     from ...formats.urdf.tree import read_link
 
     n = arm.n
@@ -254,4 +261,10 @@ def urdf_with_parameters(arm, pi, friction: bool = False, metadata=None) -> str:
         comment = etree.Comment(text)
         comment.tail = "\n  "
         root.insert(0, comment)
+    strip_trust_comments(root)           # the prior's record is not this fit's
+    record = trust_comment(trust)
+    if record is not None:
+        el = etree.Comment(record)
+        el.tail = "\n  "
+        root.insert(1 if metadata is not None else 0, el)
     return '<?xml version="1.0"?>\n' + etree.tostring(root, encoding="unicode") + "\n"

@@ -100,6 +100,9 @@ def _covariance_rows(cov):
 def base_model_dict(result, prior: dict, provenance: dict, bootstrap: dict | None = None) -> dict:
     """The JSON-ready base model of a :class:`FitResult` (module docstring); ``bootstrap``: the
     :func:`~manipdyn.identification.uncertainty.bootstrap.bootstrap_summary` of the same fit, if any."""
+    from ...formats.trust import trust_to_json
+    from .provenance import trust_record
+
     rep = result.report
     rows = []
     for row in rep["base_parameters"]:
@@ -120,6 +123,7 @@ def base_model_dict(result, prior: dict, provenance: dict, bootstrap: dict | Non
         "parameters": [float(x) for x in result.parameters],
         "why_no_model": result.arm_error,
         "provenance": provenance,
+        "trust": trust_to_json(trust_record(provenance)),       # manipdyn.formats.trust: what validate reads
         **({} if bootstrap is None else {"bootstrap": bootstrap}),
     }
 
@@ -324,7 +328,12 @@ def load_base_model(path) -> BaseModel:
     if not isinstance(data["parameters"], list) or len(data["parameters"]) != want:
         raise ModelError(f"{where}: key 'parameters': expected {want} numbers for this prior")
     check_numbers(data, where, want)
+    from ...formats.trust import trust_from_json
+
+    trust = trust_from_json(data.get("trust"), where)
     try:
-        return BaseModel(data, arm, where)
+        model = BaseModel(data, arm, where)
+        model.trust = trust
+        return model
     except (TypeError, ValueError, KeyError) as exc:
         raise ModelError(f"{where}: malformed base model ({exc})") from None

@@ -15,8 +15,18 @@ instead, in the model file's ``source`` and ``[sources]`` table (and in a base m
 * ``residuals``: the RMS residual per joint on the fit data, N m;
 * ``fitted_range``: the states the fit saw (:mod:`.coverage`) and ``prediction_band``: the
   band's half-widths from blocked hold-outs of the fit data (:mod:`.bands`), both written by
-  :func:`fit_record`, and read back from a model or a base model by :func:`carried`, which is
-  how ``validate`` reports extrapolation and bands on new data.
+  :func:`fit_record`, with ``leverage`` (:mod:`.leverage`), and read back from a model or a base
+  model by :func:`carried_trust`, which is how ``validate`` reports extrapolation and bands on
+  new data.
+
+These travel as the model's **trust record** (:func:`trust_record`: ``format``, the data,
+its sha256, method, options, date, prior, residuals, fitted range, band, leverage and
+``doubts``, what the fit found doubtful), ``arm.trust``, which
+:mod:`manipdyn.formats.trust` alone writes to and reads from every kind of file: a model
+file's ``[trust]`` table (DH or with an embedded URDF, bundled or not), a URDF comment
+(``md.to_urdf``, ``manipdyn urdf``, ``identify -o OUT.urdf``) and a base model's ``"trust"``.
+The ``[sources]`` lines stay for the reader; :func:`carried_trust` reads them only from
+files written before the record.
 """
 
 from __future__ import annotations
@@ -24,11 +34,15 @@ from __future__ import annotations
 import datetime as _dt
 import hashlib
 import os
+from dataclasses import dataclass, field
+
+import numpy as np
 
 from ..._support import limits
 from ..._support.errors import ModelError
 
-__all__ = ["file_sha256", "provenance", "model_metadata", "fit_record", "carried"]
+__all__ = ["file_sha256", "provenance", "model_metadata", "fit_record", "carried", "carried_trust", "Carried",
+           "trust_record", "TRUST_KEYS"]
 
 
 def file_sha256(path, label: str | None = None) -> str:
@@ -93,53 +107,113 @@ def model_metadata(prov: dict) -> tuple[str, dict, str]:
     return source, sources, description
 
 
-def fit_record(arm, data, folds: int | None = None, **fit_kwargs) -> tuple[dict, list]:
+def fit_record(arm, data, folds: int | None = None, smoothing: float | None = None, **fit_kwargs) -> tuple[dict, list]:
     """``(record, notes)``: what a fit on ``data`` (``q``, ``qd``, ``qdd``, ``tau`` (N, n)) adds
     to its provenance: ``fitted_range`` (:func:`.coverage.fitted_range`) and, unless
     ``folds`` is 0, ``prediction_band`` (:func:`.bands.calibrate_band` with ``fit_kwargs``,
-    the fit's own options; ``folds`` None: the default 5).  When the band cannot be had (data
+    the fit's own options; ``folds`` None: the default 5) and ``leverage``, the extrapolation
+    measure's reference (:class:`.leverage.Leverage`, features with the Coulomb smoothing
+    ``smoothing``, joints weighed by their held-out RMS).  When the band cannot be had (data
     too short for the blocks, a refit failing) it is left out and ``notes`` says why.
     """
     from ..uncertainty.bands import DEFAULT_FOLDS, calibrate_band
     from ..uncertainty.coverage import fitted_range
+    from ..uncertainty.leverage import Leverage
 
     record = {"fitted_range": fitted_range(data.q, data.qd, data.tau).to_dict()}
     notes = []
     folds = DEFAULT_FOLDS if folds is None else int(folds)
     if folds:
         try:
-            band = calibrate_band(arm, data.q, data.qd, data.qdd, data.tau, folds=folds, **fit_kwargs)
+            band = calibrate_band(arm, data.q, data.qd, data.qdd, data.tau, folds=folds, smoothing=smoothing,
+                                  **fit_kwargs)
             record["prediction_band"] = band.to_dict()
+            weights = 1.0 / np.maximum(band.held_out_rms, 1e-12 * max(float(np.max(band.held_out_rms)), 1e-300))
+            record["leverage"] = Leverage.of_fit(arm, data.q, data.qd, data.qdd, weights,
+                                                 smoothing or 0.01).to_dict()
         except ModelError as exc:
             notes.append(f"no prediction band from blocked hold-outs: {exc}")
     return record, notes
 
 
-def carried(model) -> tuple[object, object, list]:
-    """``(fitted_range, prediction_band, notes)`` that ``model`` carries from its fit, each None when
-    it has none: an arm read from a model file (its ``sources``), or a base model (its
-    ``provenance``).  A record that does not read is reported in ``notes``, not raised: the
-    model still predicts."""
+#: the provenance keys that go into the trust record (manipdyn.formats.trust), in order
+TRUST_KEYS = ("data", "data_sha256", "method", "options", "date", "prior", "rms_residual", "fitted_range",
+              "prediction_band", "leverage", "doubts")
+
+
+def trust_record(prov: dict) -> dict:
+    """The trust record (:mod:`manipdyn.formats.trust`) of a fit's provenance ``prov``."""
+    from ...formats.trust import TRUST_FORMAT, check_trust
+
+    return check_trust({"format": TRUST_FORMAT, **{k: prov[k] for k in TRUST_KEYS if prov.get(k) is not None}})
+
+
+@dataclass
+class Carried:
+    """What a model carries from its fit (:func:`carried_trust`), each None when it has none:
+    ``fitted_range`` (:class:`.coverage.StateRange`), ``band`` (:class:`.bands.PredictionBand`),
+    ``leverage`` (:class:`.leverage.Leverage`), ``record`` (the trust record, a dict) and ``notes``
+    (records that did not read, and the fit's ``doubts``)."""
+
+    fitted_range: object = None
+    band: object = None
+    leverage: object = None
+    record: dict | None = None
+    notes: list = field(default_factory=list)
+
+
+def _record_of(model):
+    """``(record, legacy)``: the trust record of an arm, a base model or an IdentifyResult; ``legacy``: the
+    older ``[sources]`` strings of a model file written before the trust record."""
+    trust = getattr(model, "trust", None)
+    if isinstance(trust, dict):
+        return trust, None
+    data = getattr(model, "data", None)
+    if isinstance(data, dict) and "base_parameters" in data:       # a base model of an older manipdyn
+        return (data.get("provenance") if isinstance(data.get("provenance"), dict) else None), None
+    prov = getattr(model, "provenance", None)
+    if isinstance(prov, dict):                                     # an IdentifyResult with no arm
+        return prov, None
+    sources = getattr(model, "sources", None) or {}
+    return None, sources
+
+
+def carried_trust(model) -> Carried:
+    """:class:`Carried` from ``model``: an arm (``arm.trust``, read from any model file or URDF by
+    :mod:`manipdyn.formats.trust`), a base model, an :class:`.result.IdentifyResult`.  A record
+    that does not read is reported in ``notes``, not raised: the model still predicts."""
     from ..uncertainty.bands import PredictionBand
     from ..uncertainty.coverage import StateRange
+    from ..uncertainty.leverage import Leverage
 
     n = model.n
-    data = getattr(model, "data", None)
-    if isinstance(data, dict) and "base_parameters" in data:       # a base model
-        prov = data.get("provenance") if isinstance(data.get("provenance"), dict) else {}
-        readers = {"fitted_range": StateRange.from_dict, "prediction_band": PredictionBand.from_dict}
+    record, legacy = _record_of(model)
+    out = Carried(record=record)
+    if record is not None:
+        readers = {"fitted_range": StateRange.from_dict, "band": PredictionBand.from_dict,
+                   "leverage": Leverage.from_dict}
+        keys = {"fitted_range": "fitted_range", "band": "prediction_band", "leverage": "leverage"}
+        prov = record
     else:
-        prov = getattr(model, "sources", None) or {}
-        readers = {"fitted_range": StateRange.from_text, "prediction_band": PredictionBand.from_text}
-    out, notes = [], []
-    for key, read in readers.items():
-        value = prov.get(key)
+        readers = {"fitted_range": StateRange.from_text, "band": PredictionBand.from_text}
+        keys = {"fitted_range": "fitted_range", "band": "prediction_band"}
+        prov = legacy
+    for attr, read in readers.items():
+        value = prov.get(keys[attr])
         if value is None:
-            out.append(None)
             continue
         try:
-            out.append(read(value, n, f"the model's {key}"))
+            setattr(out, attr, read(value, n, f"the model's {keys[attr]}"))
         except ModelError as exc:
-            out.append(None)
-            notes.append(f"{exc}; ignored")
-    return out[0], out[1], notes
+            out.notes.append(f"{exc}; ignored")
+    doubts = record.get("doubts") if record is not None else None
+    if isinstance(doubts, list):
+        out.notes += [f"the fit doubted: {d}" for d in doubts if isinstance(d, str)]
+    return out
+
+
+def carried(model) -> tuple[object, object, list]:
+    """``(fitted_range, prediction_band, notes)`` that ``model`` carries from its fit
+    (:func:`carried_trust`, kept for its callers)."""
+    c = carried_trust(model)
+    return c.fitted_range, c.band, c.notes

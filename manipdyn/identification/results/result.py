@@ -68,6 +68,7 @@ class IdentifyResult:
     def rename(self, name: str) -> None:
         """Name the identified arm ``name`` (its citation stays the fit's provenance)."""
         from ..estimation.model import arm_with_parameters
+        from .provenance import trust_record
 
         self.name = name
         if self.fit.arm is None:
@@ -80,7 +81,8 @@ class IdentifyResult:
         with warnings.catch_warnings():      # as fit() builds it: the prior's own notes were given at load
             warnings.simplefilter("ignore", PhysicalConsistencyWarning)
             self.arm = arm_with_parameters(self.prior, self.fit.parameters, armature=self.armature,
-                                           friction=self.friction, name=name, metadata=self.metadata)
+                                           friction=self.friction, name=name, metadata=self.metadata,
+                                           trust=trust_record(self.provenance))
         self.fit.arm = self.arm
 
     def save(self, path) -> str:

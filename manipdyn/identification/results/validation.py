@@ -17,7 +17,11 @@ measured states; the score per joint is
   carries only a covariance, ``1.96 sqrt(y_b C y_b^T + sigma_j^2)`` (parameter uncertainty
   plus white noise: too narrow on real data, and said so);
 * with a model that carries its fitted range (:mod:`.coverage`): per joint, the fraction
-  of samples outside the states the fit saw, and the joints that extrapolate.
+  of samples outside the states the fit saw, and the joints that extrapolate; with its
+  leverage reference (:mod:`.leverage`), per sample and joint whether the state is beyond
+  every fitted sample's for that joint's regressor row, and the band widened there;
+* a joint whose band holds under 80 % of the samples is flagged (``BAND MISSES``,
+  ``--json`` ``band_95_missed``): the band failed there, whatever the flags predicted.
 
 The model's own friction and armature are included: what :meth:`Arm.inverse_dynamics`
 predicts, the fast path.
@@ -35,6 +39,8 @@ from ..._support.limits import check_fit_size
 
 __all__ = ["ValidationResult", "validate", "plot_validation", "write_predictions"]
 
+#: a joint whose 95 % band holds under this fraction of the samples is flagged (the band failed there)
+MISS_COVERAGE = 0.8
 COVARIANCE_BAND = "parameter covariance and white noise only: no model error, too narrow on real data"
 
 
@@ -61,6 +67,11 @@ class ValidationResult:
     notes: list = field(default_factory=list)
 
     @property
+    def band_missed(self) -> np.ndarray | None:
+        """(n,) bool: the joints whose band holds under :data:`MISS_COVERAGE` of this data's samples."""
+        return None if self.coverage is None else self.coverage < MISS_COVERAGE
+
+    @property
     def pooled_coverage(self) -> float | None:
         """The band's coverage over all joints' samples together."""
         return None if self.coverage is None else float(np.mean(self.coverage))
@@ -79,7 +90,14 @@ class ValidationResult:
             out["band_method"] = self.band_method
             if self.carried_band is not None:
                 out["band_95_half_width"] = clean(self.carried_band.half_width)
+                out["band_95_leverage_gain"] = (None if self.carried_band.leverage_gain is None
+                                                else clean(self.carried_band.leverage_gain))
+            out["band_95_mean_half_width"] = clean(np.mean(self.band, axis=0))
+            out["band_95_missed"] = [int(j + 1) for j in np.flatnonzero(self.band_missed)]
         out["extrapolation"] = None if self.extrapolation is None else self.extrapolation.to_list()
+        ex = self.extrapolation
+        out["beyond_fit_fraction"] = (None if ex is None or ex.beyond is None
+                                      else float(np.mean(np.any(ex.beyond, axis=1))))
         out["model_notes"] = list(self.notes)
         return out
 
@@ -97,6 +115,10 @@ class ValidationResult:
             lines.append(f"95 % prediction band ({self.band_method}) holds the measured torque: "
                          + ", ".join(f"j{j + 1} {100 * c:.1f} %" for j, c in enumerate(self.coverage))
                          + f"; pooled {100 * self.pooled_coverage:.1f} %")
+            for j in np.flatnonzero(self.band_missed):
+                lines.append(f"BAND MISSES joint {j + 1}: the 95 % band holds {100 * self.coverage[j]:.0f} % of these "
+                             f"samples (under {100 * MISS_COVERAGE:g} %): this joint's error here is beyond what the "
+                             "fit data showed; do not trust its band")
         if self.extrapolation is not None:
             lines.append(self.extrapolation.format(units=None if unit == "N m" else [unit] * len(self.rms)))
         lines += [f"note: {x}" for x in self.notes]
@@ -129,13 +151,21 @@ def validate(model, data, name: str | None = None) -> ValidationResult:
     with np.errstate(divide="ignore", invalid="ignore"):
         rel = np.where(meas_rms > 0, rms / meas_rms, np.nan)
         r2 = np.where(ss_tot > 0, 1.0 - np.sum(err**2, axis=0) / ss_tot, np.nan)
-    from .provenance import carried
+    from .provenance import carried_trust
 
-    fitted, held_out, notes = carried(model)
+    trust = carried_trust(model)
+    fitted, held_out, notes = trust.fitted_range, trust.band, list(trust.notes)
+    u = beyond = None
+    if trust.leverage is not None:
+        try:
+            u, beyond = trust.leverage.ratio(_feature_arm(model), data.q, data.qd, data.qdd)
+        except ModelError as exc:
+            notes.append(f"{exc}; no leverage")
     band = coverage = method = None
     std = None
     if held_out is not None:
-        band, method = np.broadcast_to(held_out.half_width, pred.shape), held_out.describe()
+        band = np.array(np.broadcast_to(held_out.widths(u), pred.shape))
+        method = held_out.describe()
     elif hasattr(model, "prediction_std"):
         std = model.prediction_std(data.q, data.qd, data.qdd)
     if std is not None:
@@ -147,11 +177,29 @@ def validate(model, data, name: str | None = None) -> ValidationResult:
     return ValidationResult(model=name or getattr(model, "name", "model"), rms=rms, relative_rms=rel,
                             r2=r2, mean_error=err.mean(axis=0), t=np.asarray(data.t), measured=data.tau,
                             predicted=pred, band=band, coverage=coverage, band_method=method, carried_band=held_out,
-                            extrapolation=None if fitted is None else fitted.outside(data), notes=notes)
+                            extrapolation=_extrapolation(fitted, data, u, beyond), notes=notes)
+
+
+def _feature_arm(model):
+    """The arm whose regressor gives ``model``'s leverage features: itself, or a base model's or a result's prior."""
+    from ...model.arm import Arm
+
+    if isinstance(model, Arm):
+        return model
+    return getattr(model, "prior", None) or getattr(model, "arm", None) or model
+
+
+def _extrapolation(fitted, data, u, beyond):
+    if fitted is None:
+        return None
+    out = fitted.outside(data)
+    out.beyond, out.leverage_ratio = beyond, u
+    return out
 
 
 def write_predictions(result: ValidationResult, path) -> None:
-    """Write ``t, tau1..taun`` (measured), ``pred1..predn`` and, with a band, ``lo1..lon, hi1..hin``
+    """Write ``t, tau1..taun`` (measured), ``pred1..predn``, with a band ``lo1..lon, hi1..hin``, and with a
+    leverage reference ``x1..xn`` (1 where the sample is beyond the fit on that joint, :mod:`.leverage`)
     per sample as CSV, atomically (s, N m or N): anyone can check the band with it."""
     from ..._support.files import atomic_write_text
 
@@ -161,6 +209,10 @@ def write_predictions(result: ValidationResult, path) -> None:
     if result.band is not None:
         cols += [result.predicted - result.band, result.predicted + result.band]
         names += [f"{k}{j + 1}" for k in ("lo", "hi") for j in range(n)]
+    ex = result.extrapolation
+    if ex is not None and ex.beyond is not None:     # 1 where the sample is beyond the fit (leverage)
+        cols.append(ex.beyond.astype(np.float64))
+        names += [f"x{j + 1}" for j in range(n)]
     table = np.hstack(cols)
     lines = [",".join(names)] + [",".join(repr(float(x)) for x in row) for row in table]
     atomic_write_text(path, "\n".join(lines) + "\n")

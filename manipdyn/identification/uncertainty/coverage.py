@@ -178,17 +178,44 @@ class Extrapolation:
     far_fraction: np.ndarray
     flag_fraction: float = FLAG_FRACTION
     margin: float = FLAG_MARGIN
+    beyond: np.ndarray | None = None        # (N, n) bool: the sample's leverage beyond every fit sample's
+    leverage_ratio: np.ndarray | None = None  # (N, n): leverage over the fit samples' mean (.leverage)
+
+    @property
+    def range_flagged(self) -> np.ndarray:
+        """(n,) bool: the joint's own q, qd or tau leaves the fitted interval (module docstring)."""
+        return self.far_fraction > self.flag_fraction
+
+    @property
+    def beyond_fraction(self) -> np.ndarray | None:
+        """(n,): the fraction of samples whose leverage is beyond the fit's (None without a leverage reference)."""
+        return None if self.beyond is None else np.mean(self.beyond, axis=0)
+
+    @property
+    def leverage_flagged(self) -> np.ndarray:
+        """(n,) bool: over :data:`FLAG_FRACTION` of the samples beyond the fit by the leverage of the joint's row,
+        the whole state its torque depends on (:mod:`.leverage`)."""
+        b = self.beyond_fraction
+        return np.zeros(len(self.fraction), dtype=bool) if b is None else b > self.flag_fraction
 
     @property
     def flagged(self) -> np.ndarray:
-        return self.far_fraction > self.flag_fraction
+        """(n,) bool: the joint extrapolates, by its own range or by its regressor row's leverage."""
+        return self.range_flagged | self.leverage_flagged
 
     def to_list(self) -> list:
         """JSON-ready, one object per joint."""
         out = []
         for j in range(len(self.fraction)):
             row = {"joint": j + 1, "outside_fraction": float(self.fraction[j]),
-                   "far_outside_fraction": float(self.far_fraction[j]), "extrapolates": bool(self.flagged[j])}
+                   "far_outside_fraction": float(self.far_fraction[j]), "extrapolates": bool(self.flagged[j]),
+                   "range_extrapolates": bool(self.range_flagged[j]),
+                   "leverage_extrapolates": bool(self.leverage_flagged[j])}
+            if self.beyond is not None:
+                row["beyond_fit_fraction"] = float(self.beyond_fraction[j])
+                u = self.leverage_ratio[:, j]
+                row["leverage_ratio"] = {"median": float(np.median(u)), "p95": float(np.quantile(u, 0.95)),
+                                         "max": float(np.max(u))}
             for k, _ in QUANTITIES:
                 row[k] = {"outside_fraction": float(self.by_quantity[k][j]),
                           "fitted": [float(x) for x in self.fitted.to_dict()[k][j]],
@@ -208,7 +235,16 @@ class Extrapolation:
         n = len(self.fraction)
         lines = ["samples outside the fitted range (q, qd or tau): " + ", ".join(
             f"j{j + 1} {100 * self.fraction[j]:.1f} %" for j in range(n))]
-        for j in np.flatnonzero(self.flagged):
+        if self.beyond is not None:
+            lines.append("samples beyond the fit by the leverage of the joint's regressor row (every joint's state): "
+                         + ", ".join(f"j{j + 1} {100 * f:.1f} %" for j, f in enumerate(self.beyond_fraction)))
+            for j in np.flatnonzero(self.leverage_flagged & ~self.range_flagged):
+                lines.append(f"EXTRAPOLATES joint {j + 1}: its own q, qd and tau stay near the fitted range, but "
+                             f"{100 * self.beyond_fraction[j]:.0f} % of its samples lie beyond every fitted sample by "
+                             "the leverage of its regressor row (the other joints' states its torque depends on; "
+                             f"up to {np.max(self.leverage_ratio[:, j]):.3g} times the fit's mean): trust this joint's "
+                             "prediction less")
+        for j in np.flatnonzero(self.range_flagged):
             revolute = units is None or units[j] != "N"
             why = []
             for k, unit in QUANTITIES:
@@ -221,5 +257,7 @@ class Extrapolation:
                                f"({100 * f:.0f} % outside)")
             lines.append(f"EXTRAPOLATES joint {j + 1}: " + "; ".join(why)
                          + f"; {100 * self.far_fraction[j]:.0f} % beyond it by over {100 * self.margin:g} % of its "
-                           "width: the fit never saw these states, so trust this joint's prediction less")
+                           "width: the fit never saw these states, so trust this joint's prediction less"
+                         + (f" ({100 * self.beyond_fraction[j]:.0f} % beyond the fit by leverage)"
+                            if self.beyond is not None else ""))
         return "\n".join(lines)
