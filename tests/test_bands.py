@@ -73,7 +73,7 @@ def test_band_holds_on_another_trajectory_with_the_right_model(tmp_path, capsys)
     with open(pred_csv, newline="") as fh:
         rows = list(csv.reader(fh))
     n = 6
-    assert rows[0] == ["t"] + [f"{k}{j}" for k in ("tau", "pred", "lo", "hi") for j in range(1, n + 1)]
+    assert rows[0] == ["t"] + [f"{k}{j}" for k in ("tau", "pred", "lo", "hi", "x") for j in range(1, n + 1)]
     table = np.array(rows[1:], dtype=float)
     tau, pred, lo, hi = (table[:, 1 + k * n:1 + (k + 1) * n] for k in range(4))
     np.testing.assert_allclose(tau, tau_new, rtol=0, atol=1e-9)
@@ -103,7 +103,10 @@ def test_the_band_and_the_fitted_range_travel_with_a_model_file(tmp_path, capsys
     out = json.loads(capsys.readouterr().out)
     assert [row["outside_fraction"] for row in out["extrapolation"]] == [0.0] * 6
     # a broken record: validate still scores, says so, and has no band
-    text = model.read_text().replace(loaded.sources["prediction_band"], "95 % band: garbage")
+    text = model.read_text()
+    assert "[trust.prediction_band]\n" in text
+    text = text.replace("[trust.prediction_band]\n", "[trust.prediction_band]\nfolds = \"garbage\"\n", 1)
+    text = text.replace("\nfolds = 4\n", "\n", 1)
     broken = tmp_path / "broken.toml"
     broken.write_text(text)
     assert main(["validate", str(broken), str(fit_log), "--json"]) == 0
@@ -113,6 +116,7 @@ def test_the_band_and_the_fitted_range_travel_with_a_model_file(tmp_path, capsys
     assert main(["identify", "ur5", str(fit_log), "-o", str(model), "--band-folds", "0"]) == 0
     capsys.readouterr()
     assert "prediction_band" not in md.load(str(model)).sources
+    assert "prediction_band" not in md.load(str(model)).trust and "fitted_range" in md.load(str(model)).trust
     assert main(["identify", "ur5", str(fit_log), "-o", str(model), "--band-folds", "1"]) == 2
     assert "--band-folds" in capsys.readouterr().err
 
@@ -296,13 +300,18 @@ def test_the_pipelines_carry_the_band_and_write_the_predictions(tmp_path, monkey
     v = md.validate(str(model), [b], predictions=out)
     with out.open() as f:
         rows = list(csv.reader(f))
-    assert rows[0] == ["t"] + [f"{k}{j}" for k in ("tau", "pred", "lo", "hi") for j in range(1, 7)]
+    assert rows[0] == ["t"] + [f"{k}{j}" for k in ("tau", "pred", "lo", "hi", "x") for j in range(1, 7)]
     table = np.array(rows[1:], dtype=float)
     res = v.results[0]
     assert len(table) == len(res.t)
     np.testing.assert_array_equal(table[:, 7:13], res.predicted)
-    np.testing.assert_allclose(table[:, 19:25] - table[:, 7:13], np.broadcast_to(band.half_width, res.predicted.shape),
-                               rtol=1e-4)       # the model file keeps the half-widths to 5 digits
+    np.testing.assert_allclose(table[:, 19:25] - table[:, 7:13], res.band, rtol=1e-12)
+    np.testing.assert_array_equal(table[:, 25:31], res.extrapolation.beyond)
+    # the half-width is the band's at each sample's leverage ratio (constant where its gain is 0)
+    from manipdyn.identification.results.provenance import carried_trust
+
+    u, _ = carried_trust(md.load_with_notes(str(model))[0]).leverage.ratio(arm, v.data.q, v.data.qd, v.data.qdd)
+    np.testing.assert_allclose(res.band, band.widths(u), rtol=1e-9)
     with pytest.raises(ModelError, match="predictions: one MODEL"):
         md.validate(["ur5", str(model)], [b], predictions=out)
     before = b.read_bytes()

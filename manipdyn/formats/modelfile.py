@@ -49,8 +49,7 @@ Format (``format = "manipdyn-model/1"``)::
     motor_offset = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]   # rad (m) at the motor, optional
     torque_constant = [0.5, 0.5, 0.5, 0.5, 0.5, 0.5]  # N m per A at each motor, optional
 
-    [trust]                            # optional: what an identified model carries from its fit
-                                       # (manipdyn.formats.trust: data sha256, options, band, ...)
+    [trust]                            # optional: an identified model's fit record (manipdyn.formats.trust)
 
     [friction]                         # optional: the friction law (manipdyn.model.friction); then the
                                        # links' friction_viscous/coulomb must be 0 (one description)

@@ -15,8 +15,9 @@ In order:
    (:mod:`.torque_constants`), the torques rescaled, the prior's ``[transmission]``
    given them;
 4. the known payloads' torques moved to the known side; the runs stacked;
-5. the friction shapes by variable projection (:mod:`.varpro`) when the friction terms
-   have any, the prior weight by cross-validation when ``"auto"``;
+5. the Coulomb smoothing, unless given, by blocked held-out error among candidates around the
+   log's velocity noise (:mod:`.inputs.smoothing`); the friction shapes by variable projection
+   (:mod:`.varpro`) when the friction terms have any, the prior weight by cross-validation when ``"auto"``;
 6. :func:`.fit` with each run's joints weighed by their noise in that run;
 7. with ``band_folds`` (default 5): ``band_folds`` refits, each on all but one block of the
    stacked data in time and keeping the runs' boundaries, whose held-out residuals give the 95 %
@@ -245,6 +246,10 @@ def _identify(prior, logs, o) -> IdentifyResult:
         arm, runs, tc = _torque_constants(arm, runs, law, o["armature"], o["torque_constant_reference"])
     payload_logs = [os.path.basename(str(d.source)) for d, p in runs if p is not None]
     data = _known_payloads(arm, runs)
+    smoothing_table = None
+    if o["smoothing"] is None and o["friction_terms"] is not None and smoothing is not None:
+        smoothing, law, smoothing_table, note = _held_out_smoothing(arm, data, o, side, smoothing, bounds, weight)
+        law_notes.append(note)
     shapes = None
     from ..model.friction import Friction
     from .inputs.options import SHAPED
@@ -283,6 +288,8 @@ def _identify(prior, logs, o) -> IdentifyResult:
     prov.update(record)
     rep = dict(result.report)
     rep["fit_notes"] = law_notes + list(rep.get("fit_notes", [])) + record_notes
+    if smoothing_table is not None:
+        rep["smoothing_selection"] = smoothing_table
     if isinstance(law, Friction) or not isinstance(law, bool):
         if getattr(law, "side", "joint") == "motor" and np.array_equal(np.asarray(arm.transmission.R), np.eye(arm.n)):
             rep["fit_notes"] = list(rep.get("fit_notes", [])) + [
@@ -304,6 +311,21 @@ def _identify(prior, logs, o) -> IdentifyResult:
     if o["output"] is not None or o["base_json"] is not None:
         write_model_files(out, o["output"], o["base_json"])
     return out
+
+
+def _held_out_smoothing(arm, data, o, side, v0, bounds, weight):
+    """``(smoothing, law, table, note)``: the Coulomb smoothing by blocked held-out error
+    (:mod:`.inputs.smoothing`), starting from the noise-level choice ``v0``."""
+    from .inputs.options import friction_option
+    from .inputs.smoothing import choose_smoothing
+
+    def law_of(v):
+        return friction_option(arm, o["friction"], o["friction_terms"], side, v, o["stribeck_velocity"],
+                               o["sigmoid_alpha"])
+
+    v, table, note = choose_smoothing(arm, data, law_of, v0, method=o["method"], armature=o["armature"],
+                                      bounds=bounds, prior_weight=0.0 if weight == "auto" else weight)
+    return v, law_of(v), table, note
 
 
 def _reread(runs, tc, arm):

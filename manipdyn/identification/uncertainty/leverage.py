@@ -54,6 +54,8 @@ FRICTION_FEATURES = ("qd", "tanh(qd/v_s)", "1", "qdd")
 RTOL = 1e-10
 #: significant digits of the basis in a file (a leverage to ~1e-8 relative: far below what it is compared with)
 _DIGITS = 10
+#: a leverage within this fraction of the fit's largest is the same sample's (the basis is stored rounded)
+_SAME = 1e-6
 
 
 def features(arm, q, qd, qdd, smoothing: float) -> np.ndarray:
@@ -128,7 +130,7 @@ class Leverage:
         """``(u, beyond)``, each (N, n): the leverage over the fit samples' mean, and whether it exceeds
         every fit sample's (the sample is beyond the fit on that joint)."""
         h = self.leverage(arm, q, qd, qdd)
-        return h / self.mean, h > self.largest
+        return h / self.mean, h > self.largest * (1.0 + _SAME)
 
     def to_dict(self) -> dict:
         def r(a):
