@@ -24,7 +24,9 @@ In order:
    prediction band (:mod:`.bands`); with the states the fit saw (:mod:`.coverage`) it goes into
    the provenance (:func:`.provenance.fit_record`), so the written model carries what
    ``validate`` scores on new data;
-8. provenance (:mod:`.provenance`) and the identified arm, named as the command line names
+8. what the fit should doubt (:mod:`.results.doubts`: degenerate bodies, a run far off, a declared
+   payload the data contradict), in the notes and the trust record;
+9. provenance (:mod:`.provenance`) and the identified arm, named as the command line names
    it: after the output file (``-o arm_id.toml`` gives ``arm_id``), else
    ``<prior>_identified`` until :meth:`IdentifyResult.save` names it after its file.
 
@@ -286,8 +288,12 @@ def _identify(prior, logs, o) -> IdentifyResult:
                                       friction=law, armature=o["armature"], bounds=bounds, prior_weight=weight,
                                       segments=segments)
     prov.update(record)
+    doubts = _doubts(result, data, runs)
+    if doubts:
+        prov["doubts"] = doubts
     rep = dict(result.report)
-    rep["fit_notes"] = law_notes + list(rep.get("fit_notes", [])) + record_notes
+    rep["fit_notes"] = law_notes + list(rep.get("fit_notes", [])) + record_notes + doubts
+    rep["doubts"] = doubts
     if smoothing_table is not None:
         rep["smoothing_selection"] = smoothing_table
     if isinstance(law, Friction) or not isinstance(law, bool):
@@ -311,6 +317,15 @@ def _identify(prior, logs, o) -> IdentifyResult:
     if o["output"] is not None or o["base_json"] is not None:
         write_model_files(out, o["output"], o["base_json"])
     return out
+
+
+def _doubts(result, data, runs) -> list[str]:
+    """What the fit should doubt (:mod:`.results.doubts`): degenerate bodies, runs far off, payloads contradicted."""
+    from .results.doubts import degenerate_links, floor_doubts, payload_doubts, run_doubts
+
+    return ((degenerate_links(result.arm) if result.arm is not None else [])
+            + floor_doubts(result.report.get("active_bounds")) + run_doubts(result, data, result.report)
+            + payload_doubts(result.arm, runs))
 
 
 def _held_out_smoothing(arm, data, o, side, v0, bounds, weight):

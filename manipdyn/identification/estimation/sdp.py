@@ -38,6 +38,7 @@ import numpy as np
 
 from ..._support.errors import ModelError
 from ...model.parameters import PARAMETER_BASIS
+from ...model.inertia import pseudo_inertia_from_parameters
 from ..._support.deps import require
 
 __all__ = ["Bounds", "consistent_fit", "solve_problem", "EPS"]
@@ -53,6 +54,7 @@ PRIOR_RANGE = 10.0
 PLAUSIBLE_MASS = 0.5
 PLAUSIBLE_COM = 0.1
 PLAUSIBLE_TOTAL = 0.25
+PLAUSIBLE_GYRATION = 0.01
 
 
 @dataclass(frozen=True)
@@ -65,14 +67,18 @@ class Bounds:
         ``lo_i <= m_i <= hi_i`` (kg).
     com : (n, 2, 3) array or None
         The centre of mass inside the box ``[lo, hi]`` (m): ``m lo <= m c <= m hi``.
+    gyration : (n,) array or None
+        Floor ``r_i`` (m) of the radii of gyration about the COM: ``J_i - r_i^2 m_i diag(1, 1, 1, 0) >= 0``
+        (linear in J), every principal second moment about the COM at least ``m_i r_i^2``.
     """
 
     mass: np.ndarray | None = None
     com: np.ndarray | None = None
     total_mass: tuple | None = None
+    gyration: np.ndarray | None = None
 
     def __post_init__(self):
-        for name in ("mass", "com", "total_mass"):
+        for name in ("mass", "com", "total_mass", "gyration"):
             v = getattr(self, name)
             if v is None:
                 continue
@@ -95,21 +101,22 @@ class Bounds:
             a = np.array(a, dtype=np.float64)   # native byte order, a copy we own
             if not np.all(np.isfinite(a)):
                 raise ModelError(f"Bounds.{name}: must be finite, got {a.tolist()}")
-            want = {"mass": (None, 2), "com": (None, 2, 3), "total_mass": (2,)}[name]
+            want = {"mass": (None, 2), "com": (None, 2, 3), "total_mass": (2,), "gyration": (None,)}[name]
             if a.ndim != len(want) or any(w is not None and w != s for w, s in zip(want, a.shape)):
                 raise ModelError(f"Bounds.{name}: expected shape {tuple('n' if w is None else w for w in want)}, "
                                  f"got {a.shape}")
-            lo, hi = (a[..., 0, :], a[..., 1, :]) if name == "com" else (a[..., 0], a[..., 1])
+            lo, hi = ((a[..., 0, :], a[..., 1, :]) if name == "com" else (0 * a, a) if name == "gyration"
+                      else (a[..., 0], a[..., 1]))
             if np.any(lo > hi):
                 raise ModelError(f"Bounds.{name}: a lower bound exceeds its upper bound")
-            if name in ("mass", "total_mass") and np.any(lo < 0):
+            if name in ("mass", "total_mass", "gyration") and np.any(lo < 0):
                 raise ModelError(f"Bounds.{name}: masses must be >= 0")
             a.setflags(write=False)
             object.__setattr__(self, name, a)
 
     @classmethod
     def plausible(cls, arm, mass: float | None = PLAUSIBLE_MASS, com: float | None = PLAUSIBLE_COM,
-                  total: float | None = PLAUSIBLE_TOTAL) -> "Bounds":
+                  total: float | None = PLAUSIBLE_TOTAL, gyration: float | None = PLAUSIBLE_GYRATION) -> "Bounds":
         """The default bounds of ``identify --method consistent``: plausible around the prior.
 
         * each link's mass within ``+-mass`` (fraction) of the prior's ``m``: ``[m (1 - mass),
@@ -117,7 +124,11 @@ class Bounds:
           tenth of the heaviest prior link's mass);
         * each centre of mass within ``+-com`` m of the prior's, per axis of the URDF link
           frame (default 0.1 m: a centre of mass stays on its link);
-        * the total mass within ``+-total`` (fraction) of the prior's (default 0.25).
+        * the total mass within ``+-total`` (fraction) of the prior's (default 0.25);
+        * every radius of gyration about a body's COM at least ``gyration`` (fraction, default
+          0.01) of the arm's size, the lengths of its joint offsets and tool summed: where the data
+          do not decide a body's shape the fit otherwise ends on ``J_i >= 0``'s boundary, a 5 kg
+          rod 1e-4 m thick (issue 30; :mod:`..results.doubts` names such bodies).
 
         A bound given as None is left out.  Why: ten seconds of data rarely pin down every
         parameter direction, and an unbounded physically consistent fit can put a 79 kg
@@ -140,12 +151,15 @@ class Bounds:
             if not 0 <= total < 1:
                 raise ModelError(f"total: expected a fraction in [0, 1), got {total}")
             kw["total_mass"] = (float(m.sum()) * (1 - total), float(m.sum()) * (1 + total))
+        if gyration:
+            size = sum(float(np.linalg.norm(j.origin[:3, 3])) for j in joints) + float(np.linalg.norm(_[:3, 3]))
+            kw["gyration"] = np.full(len(joints), gyration * size)
         return cls(**kw)
 
     def scaled(self, factor: float) -> "Bounds":
         """The same bounds for parameters multiplied by ``factor`` (masses scaled, COM boxes kept)."""
         return Bounds(mass=None if self.mass is None else self.mass * factor, com=self.com,
-                      total_mass=None if self.total_mass is None else self.total_mass * factor)
+                      total_mass=None if self.total_mass is None else self.total_mass * factor, gyration=self.gyration)
 
     def check(self, n: int) -> None:
         """Raise :class:`ModelError` unless these bounds are for an arm of ``n`` links."""
@@ -171,7 +185,7 @@ class Bounds:
             tot, (lo, hi) = float(m.sum()), self.total_mass
             if tot < lo - rtol * hi or tot > hi + rtol * hi:
                 return False
-        return True
+        return self.gyration is None or not any(_floor_gap(pi, n, self.gyration) < -rtol)
 
     def active(self, pi, n: int, rtol: float = 1e-4) -> list[str]:
         """The bounds that the full parameters ``pi`` sit on (within ``rtol``), as readable strings."""
@@ -200,6 +214,9 @@ class Bounds:
             tot = float(m.sum())
             if tot <= lo + rtol * hi or tot >= hi - rtol * hi:
                 out.append(f"total mass {tot:.4g} kg at its bound [{lo:.4g}, {hi:.4g}] kg")
+        if self.gyration is not None:
+            out += [f"link {i + 1} radius of gyration at its floor {self.gyration[i]:.3g} m"
+                    for i in np.flatnonzero(_floor_gap(pi, n, self.gyration) < 1e-3)]
         return out
 
     @classmethod
@@ -254,11 +271,21 @@ def solve_problem(problem, what: str, solvers=("CLARABEL", "SCS")) -> str:
     return _solve(cp, problem, what, solvers)
 
 
+def _floor_gap(pi, n, r):
+    """Per body, the smallest eigenvalue of ``J - r^2 m D`` over the largest of ``J``."""
+    J = pseudo_inertia_from_parameters(np.asarray(pi, dtype=np.float64)[:10 * n].reshape(n, 10))
+    shifted = J - (np.asarray(r) ** 2 * J[:, 3, 3])[:, None, None] * np.diag([1.0, 1, 1, 0])
+    return np.linalg.eigvalsh(shifted)[:, 0] / np.maximum(np.linalg.eigvalsh(J)[:, -1], 1e-300)
+
+
 def _constraints(cp, x, n, extra, bounds, eps=EPS, nonnegative=None):
     E = PARAMETER_BASIS
     cons = []
+    floor = None if bounds is None or bounds.gyration is None else bounds.gyration ** 2
     for i in range(n):
         J = sum(x[10 * i + k] * E[k] for k in range(10))
+        if floor is not None and floor[i] > 0:
+            J = J - floor[i] * x[10 * i] * np.diag([1.0, 1, 1, 0])
         cons.append(J - eps * np.eye(4) >> 0)
     if extra:
         idx = np.arange(10 * n, x.shape[0])   # armature, friction coefficients (not offsets)
@@ -350,8 +377,6 @@ def consistent_fit(R, c, K, n, prior, extra: bool, bounds: Bounds | None = None,
     if prior_weight and prior_weight > 0:
         if not rows:
             raise ValueError("rows: needed with prior_weight")
-        from ...model.inertia import pseudo_inertia_from_parameters
-
         # d(u J', J0) = d(J', J0 / u): the divergence in the solver's units, to the prior scaled
         # as above when the data are beyond PRIOR_RANGE of it
         J0 = pseudo_inertia_from_parameters(prior_u[:10 * n].reshape(n, 10))
