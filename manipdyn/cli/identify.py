@@ -26,8 +26,9 @@ OPTIONS = (
     ("--friction-terms", None, str, "T1,T2", "some of viscous, coulomb, asymmetric, offset, stribeck, sigmoid"),
     ("--friction-side", None, None, None, "with --friction(-terms): the law acts on the joint or motor velocities "
      "(default: motor when the torques were logged at the motors and the [transmission] couples joints, else joint)"),
-    ("--smoothing", None, float, "V", "with --friction-terms: Coulomb as tanh(v / V) (default: the velocity's noise "
-     "level measured on the log, said in the notes; 0 sharp)"),
+    ("--smoothing", None, float, "V", "with --friction-terms: Coulomb as tanh(v / V) (default: the lowest blocked "
+     "held-out error among the velocity's noise level on the log times 1/30 to 30, candidates and scores in the "
+     "notes; 0 sharp)"),
     ("--stribeck-velocity", None, float, "V", "start of the Stribeck search, rad/s on the law's side"),
     ("--sigmoid-alpha", None, float, "A", "start of the sigmoid search, s/rad on the law's side"),
     ("--armature", False, "store_true", None, "identify armature (reflected rotor inertia)"),

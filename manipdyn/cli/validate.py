@@ -45,7 +45,8 @@ def register(subparsers) -> None:
     p.add_argument("--plot", metavar="FIG.png", default=None,
                    help="draw measured and predicted torque per joint (needs the plot extra)")
     p.add_argument("--predictions", metavar="OUT.csv", default=None,
-                   help="write t, tau1..n (measured), pred1..n, lo1..n, hi1..n (the 95 %% band) per sample")
+                   help="write t, tau1..n (measured), pred1..n, lo1..n, hi1..n (the 95 %% band) and x1..n (1 where "
+                        "the sample is beyond the fit data by the leverage of the joint's regressor row) per sample")
     register_log_options(p)
     p.set_defaults(func=run)
 

@@ -6,5 +6,6 @@ identification.
 * ``runs``: several logs, RUNS.toml, known payloads (:class:`~manipdyn.identification.LogSpec`,
   :class:`~manipdyn.identification.Payload`);
 * ``options``: the options checked, friction specs and bounds;
-* ``choices``: what the log decides when the user does not (friction side, Coulomb smoothing).
+* ``choices``: what the log decides when the user does not (friction side, Coulomb smoothing);
+* ``smoothing``: the Coulomb smoothing chosen by blocked held-out error.
 """

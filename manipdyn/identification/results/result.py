@@ -123,7 +123,16 @@ class IdentifyResult:
         return path
 
     def report(self) -> dict:
-        """The figures ``manipdyn identify --json`` prints (JSON-ready)."""
+        """The figures ``manipdyn identify --json`` prints (JSON-ready).
+
+        Keys are added, never renamed (other tools read them).  Besides the fit's
+        (:func:`.estimation.report`): ``fit_notes`` (sentences), ``doubts`` (what the fit should
+        doubt, :mod:`.doubts`; also in ``fit_notes`` and the trust record), ``smoothing_selection``
+        (when the Coulomb smoothing was chosen: one ``{"smoothing", "score", "rms"}`` per candidate,
+        :mod:`..inputs.smoothing`), ``prior_weight_selection``, ``bootstrap``, ``friction_shapes``,
+        ``torque_constants``, ``provenance`` (with ``prediction_band``, ``fitted_range``,
+        ``leverage``, ``doubts``: the trust record's content), ``runs``, ``data_notes``.
+        """
         rep = dict(self.report_dict)
         if self.selection is not None:
             rep["prior_weight_selection"] = self.selection

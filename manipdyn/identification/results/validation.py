@@ -77,7 +77,16 @@ class ValidationResult:
         return None if self.coverage is None else float(np.mean(self.coverage))
 
     def to_dict(self) -> dict:
-        """JSON-ready figures (NaN, e.g. R^2 of a joint with constant torque, becomes None)."""
+        """JSON-ready figures (NaN, e.g. R^2 of a joint with constant torque, becomes None).
+
+        Keys (added, never renamed): ``model``, ``samples``, ``rms``, ``relative_rms``, ``r2``,
+        ``mean_error`` (per joint); with a band ``band_95_coverage`` (per joint), ``band_95_pooled``,
+        ``band_method``, ``band_95_half_width`` (at a typical fitted sample), ``band_95_leverage_gain``,
+        ``band_95_mean_half_width`` (over these samples), ``band_95_missed`` (1-based joints under
+        80 %); ``extrapolation`` (one object per joint: ``extrapolates``, ``range_extrapolates``,
+        ``leverage_extrapolates``, ``beyond_fit_fraction``, ``leverage_ratio``, and per quantity),
+        ``beyond_fit_fraction`` (samples beyond the fit on any joint), ``model_notes``.
+        """
         def clean(a):
             return [float(x) if math.isfinite(x) else None for x in np.asarray(a)]
 

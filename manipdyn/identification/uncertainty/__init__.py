@@ -5,5 +5,6 @@ and the layers below identification; not ``payload`` (its sibling).
 
 * ``bootstrap``: a moving-block bootstrap of a fit, locally or on Dask;
 * ``bands``: prediction bands from blocked hold-outs of the fit data;
-* ``coverage``: the states a fit saw, and the joints new data extrapolates.
+* ``coverage``: the states a fit saw, and the joints new data extrapolates;
+* ``leverage``: how far a state is from what the fit data excited, per joint's regressor row.
 """
