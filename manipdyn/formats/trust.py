@@ -50,7 +50,8 @@ _COMMENT_HEAD = " " + TRUST_FORMAT + " "
 
 def _plain(value, where: str):
     """``value`` checked to be JSON-ready and TOML-writable: str, bool, int, finite float, lists, string-keyed
-    dicts (None values dropped from dicts: TOML has no null)."""
+    dicts (TOML has no null: None values are dropped from dicts, and written ``"none"`` in lists, e.g. an open
+    ``t_range``)."""
     if isinstance(value, bool) or isinstance(value, str):
         return value
     if isinstance(value, int):
@@ -65,7 +66,7 @@ def _plain(value, where: str):
         return v
     if isinstance(value, (list, tuple)) or (hasattr(value, "tolist") and not isinstance(value, dict)):
         items = value.tolist() if hasattr(value, "tolist") else value
-        return [_plain(x, f"{where}[{k}]") for k, x in enumerate(items)]
+        return [("none" if x is None else _plain(x, f"{where}[{k}]")) for k, x in enumerate(items)]
     if isinstance(value, dict):
         out = {}
         for k, v in value.items():

@@ -125,10 +125,9 @@ class Bounds:
         * each centre of mass within ``+-com`` m of the prior's, per axis of the URDF link
           frame (default 0.1 m: a centre of mass stays on its link);
         * the total mass within ``+-total`` (fraction) of the prior's (default 0.25);
-        * every radius of gyration about a body's COM at least ``gyration`` (fraction, default
-          0.01) of the arm's size, the lengths of its joint offsets and tool summed: where the data
-          do not decide a body's shape the fit otherwise ends on ``J_i >= 0``'s boundary, a 5 kg
-          rod 1e-4 m thick (issue 30; :mod:`..results.doubts` names such bodies).
+        * every radius of gyration about a body's COM at least ``gyration`` (default 0.01) of the
+          arm's size (joint offsets and tool summed), or half the prior body's own if less: else,
+          where the data do not decide a body's shape, the fit ends on ``J_i >= 0`` (issue 30).
 
         A bound given as None is left out.  Why: ten seconds of data rarely pin down every
         parameter direction, and an unbounded physically consistent fit can put a 79 kg
@@ -151,9 +150,11 @@ class Bounds:
             if not 0 <= total < 1:
                 raise ModelError(f"total: expected a fraction in [0, 1), got {total}")
             kw["total_mass"] = (float(m.sum()) * (1 - total), float(m.sum()) * (1 + total))
-        if gyration:
+        if gyration:       # never above half the prior body's own: a flat link stays feasible
             size = sum(float(np.linalg.norm(j.origin[:3, 3])) for j in joints) + float(np.linalg.norm(_[:3, 3]))
-            kw["gyration"] = np.full(len(joints), gyration * size)
+            own = [np.sqrt(max(np.trace(j.body.inertia) / 2 - np.linalg.eigvalsh(j.body.inertia)[-1], 0.0)
+                           / j.body.mass) if j.body.mass > 0 else 0.0 for j in joints]
+            kw["gyration"] = np.minimum(gyration * size, 0.5 * np.array(own))
         return cls(**kw)
 
     def scaled(self, factor: float) -> "Bounds":
@@ -185,7 +186,7 @@ class Bounds:
             tot, (lo, hi) = float(m.sum()), self.total_mass
             if tot < lo - rtol * hi or tot > hi + rtol * hi:
                 return False
-        return self.gyration is None or not any(_floor_gap(pi, n, self.gyration) < -rtol)
+        return self.gyration is None or not any(_floor_gap(pi, n, self.gyration) < -max(rtol, 1e-4))  # a plausibility floor
 
     def active(self, pi, n: int, rtol: float = 1e-4) -> list[str]:
         """The bounds that the full parameters ``pi`` sit on (within ``rtol``), as readable strings."""

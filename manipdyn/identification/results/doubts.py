@@ -94,7 +94,8 @@ def floor_doubts(active_bounds) -> list[str]:
     links = [b.split(" radius")[0] for b in active_bounds or [] if "radius of gyration at its floor" in b]
     if not links:
         return []
-    return [", ".join(links) + ": radius of gyration at the plausibility floor (1 % of the arm's size): the data do "
+    return [", ".join(links) + ": radius of gyration at the plausibility floor (1 % of the arm's size, or half the "
+            "prior's own): the data do "
             "not decide these bodies' shapes, the floor does (their smallest principal moments are not measured)"]
 
 
