@@ -261,14 +261,10 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     Parameters
     ----------
     arm : manipdyn.Manipulator
-        Kinematics and prior (its parameters are the starting point of the
-        full-parameter choice; their values do not bias beta).
+        Kinematics and prior (the start of the full-parameter choice; they do not bias beta).
     q, qd, qdd, tau : (N, n)
-        Joint positions, velocities, accelerations and torques (SI), validated as the
-        dynamics validate states (:func:`manipdyn._support.state.state_array`: bool, complex, object,
-        string, datetime and masked entries are refused, other byte orders and integer
-        dtypes converted); a :class:`ModelError` names the argument and, for a NaN or inf,
-        its row and column.
+        Joint positions, velocities, accelerations and torques (SI), validated as the dynamics
+        validate states (:func:`manipdyn._support.state.state_array`); a :class:`ModelError` names the argument.
     method : "ols" | "wls" | "consistent"
     friction : bool or friction spec
         ``True``: viscous and Coulomb friction (sharp sign, joint side); or which friction
@@ -282,11 +278,9 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         Identify the motors' reflected rotor inertias.
     bounds : Bounds, "plausible" or None
         Extra constraints of ``consistent`` (mass ranges, COM boxes, total mass).  The
-        default ``"plausible"`` is :meth:`Bounds.plausible` around the prior (each link's
-        mass within +-50 % of the prior's, its COM within 0.1 m of the prior's per
-        axis, the total mass within 25 %); None leaves only ``J_i >= 0``.  The bounds that
-        the answer sits on are listed in ``report["active_bounds"]``.  Ignored (no error)
-        for ``ols``/``wls`` when left at the default.
+        default ``"plausible"`` is :meth:`Bounds.plausible` around the prior (masses +-50 %, COMs
+        +-0.1 m, total mass +-25 %, a radius-of-gyration floor: dropped when the solve with it fails);
+        None leaves only ``J_i >= 0``; ignored by ols/wls.  Active bounds: ``report["active_bounds"]``.
     prior_weight : float
         ``consistent`` only: weight of the entropic pull of each body towards the prior's
         (:func:`manipdyn.identification.estimation.sdp.consistent_fit`); 0 (the default) fits the
@@ -400,15 +394,21 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
             pi = base.full_closest_to(beta, prior)
             solver = "lstsq"
         else:
-            try:
-                pi, solver = consistent_fit(R, c, base.K, n, prior, extra=len(base.names) > 10 * n,
-                                            bounds=bounds, nonnegative=nonnegative_extras(base.names, n),
-                                            prior_weight=float(prior_weight), rows=N * n)
-                if bounds is not None and not bounds.satisfied(pi, n, rtol=1e-6):
-                    raise ModelError("consistent fit: the answer does not satisfy the bounds (the solver "
-                                     "cannot resolve them at the data's scale)")
-            except ModelError as exc:
-                raise ModelError(f"{exc}{_scale_hint(R, c, base.K, prior, bounds)}") from None
+            tries = [bounds] + ([Bounds(mass=bounds.mass, com=bounds.com, total_mass=bounds.total_mass)]  # the floor:
+                                if bounds is not None and bounds.gyration is not None else [])  # best effort
+            for k, b in enumerate(tries):
+                try:
+                    pi, solver = consistent_fit(R, c, base.K, n, prior, extra=len(base.names) > 10 * n, bounds=b,
+                                                nonnegative=nonnegative_extras(base.names, n),
+                                                prior_weight=float(prior_weight), rows=N * n)
+                    if b is not None and not b.satisfied(pi, n, rtol=1e-6):
+                        raise ModelError("consistent fit: the answer does not satisfy the bounds (the solver "
+                                         "cannot resolve them at the data's scale)")
+                    bounds = b
+                    break
+                except ModelError as exc:
+                    if k == len(tries) - 1:
+                        raise ModelError(f"{exc}{_scale_hint(R, c, base.K, prior, b)}") from None
             beta = base.from_full(pi)
     residuals = y - Yb @ beta
     eig = link_min_eigenvalues(pi, n)
