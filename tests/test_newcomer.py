@@ -601,13 +601,13 @@ def test_item14_scaling_legend_off_the_lines(tmp_path, monkeypatch):
     root = Path(__file__).resolve().parents[1]
     if str(root) not in sys.path:
         sys.path.insert(0, str(root))
-    from benchmarks import run as bench_run
+    from benchmarks import scaling as bench_scaling
     import matplotlib.pyplot as plt
 
     figs = []
     monkeypatch.setattr(plt, "close", lambda fig=None: figs.append(fig))
     ref = json.loads((root / "benchmarks" / "results" / "reference.json").read_text())["scaling"]
-    bench_run._plot(ref["n"], ref["median_s"], ref["exponents"], str(tmp_path))
+    bench_scaling.plot_scaling(ref["n"], ref["median_s"], ref["exponents"], str(tmp_path))
     (fig,) = figs
     assert not _legend_overlaps(fig)
 
