@@ -237,12 +237,12 @@ def test_the_graph_walker_sees_lazy_and_relative_imports(tmp_path):
 
 
 #: modules whose split is under way (each must still exist and be long: remove it when split)
-PENDING_SPLIT: set = set()
+PENDING_SPLIT: set = {"benchmarks/bench_codegen.py"}
 
 
 def test_no_module_over_500_lines():
-    long = {str(f.relative_to(ROOT)): n for f in (ROOT / "manipdyn").rglob("*.py")
-            if (n := len(f.read_text(encoding="utf-8").splitlines())) > 500}
+    files = [*(ROOT / "manipdyn").rglob("*.py"), *(ROOT / "benchmarks").rglob("*.py")]   # the suite too
+    long = {str(f.relative_to(ROOT)): n for f in files if (n := len(f.read_text(encoding="utf-8").splitlines())) > 500}
     assert set(long) >= PENDING_SPLIT, "a pending split is done: remove it from PENDING_SPLIT"
     assert {k: v for k, v in long.items() if k not in PENDING_SPLIT} == {}
 
