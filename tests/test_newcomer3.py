@@ -259,8 +259,9 @@ def _readme_outputs() -> set:
     outs = set()
     inline = [(0, m.group(1)) for m in re.finditer(r"`(manipdyn [^`]+)`", README)]
     for _, block in _blocks("sh") + _blocks("console") + inline:
-        for m in re.finditer(r"(?:^|\s)(?:-o|--plot|--base-json|>)\s+([^\s$]+)", block, flags=re.M):
-            outs.add(m.group(1))
+        for m in re.finditer(r"(?:^|\s)(?:-o|--plot|--base-json|>)\s+([^\s]+)", block, flags=re.M):
+            if not m.group(1).startswith("$"):
+                outs.add(re.sub(r"\$\{?k\}?", "1", m.group(1)))       # a loop's run$k.csv: run1.csv
     for _, block in PY_BLOCKS:
         for m in re.finditer(r"md\.(?:save|write_urdf)\([^,]+,\s*\"([^\"]+)\"\)", block):
             outs.add(m.group(1))

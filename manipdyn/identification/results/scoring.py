@@ -90,7 +90,8 @@ class Validation:
         then the RMS per log."""
         from .comparison import format_side_by_side
 
-        body = self.results[0].format() if len(self.results) == 1 else format_side_by_side(self.results)
+        body = (self.results[0].format(units=self.units) if len(self.results) == 1
+                else format_side_by_side(self.results, units=self.units))
         return "\n".join([f"data: {note}" for note in self.notes] + [body] + self._runs_text())
 
     def write_predictions(self, path) -> None:

@@ -83,22 +83,28 @@ class ValidationResult:
         out["model_notes"] = list(self.notes)
         return out
 
-    def format(self, unit: str = "N m") -> str:
-        """A table, one row per joint."""
+    def format(self, unit: str = "N m", units=None) -> str:
+        """A table, one row per joint; ``units`` per joint (N m, N for a prismatic joint), else
+        ``unit`` for every joint.  Mixed units are printed on each row, one unit in the header."""
+        n = len(self.rms)
+        units = list(units) if units is not None else [unit] * n
+        same = len(set(units)) == 1
+        head = f" ({units[0]})" if same else ""
         lines = [f"model {self.model}: {len(self.t)} samples",
-                 f"joint   rms ({unit})   rms / measured rms       R^2   mean error ({unit})"]
-        for j in range(len(self.rms)):
+                 f"joint   rms{head:<7}   rms / measured rms       R^2   mean error{head}" + ("" if same else "   unit")]
+        for j in range(n):
             lines.append(f"{j + 1:>5}   {self.rms[j]:10.4g}   {self.relative_rms[j]:18.4g}   "
-                         f"{self.r2[j]:7.4f}   {self.mean_error[j]:+14.4g}")
+                         f"{self.r2[j]:7.4f}   {self.mean_error[j]:+14.4g}" + ("" if same else f"   {units[j]}"))
         if self.coverage is not None:
             if self.carried_band is not None:
                 lines.append("95 % prediction band: predicted +- " + ", ".join(
-                    f"{x:.3g}" for x in self.carried_band.half_width) + f" {unit} per joint")
+                    f"{x:.3g}" + ("" if same else f" {u}") for x, u in zip(self.carried_band.half_width, units))
+                    + (f" {units[0]} per joint" if same else " per joint"))
             lines.append(f"95 % prediction band ({self.band_method}) holds the measured torque: "
                          + ", ".join(f"j{j + 1} {100 * c:.1f} %" for j, c in enumerate(self.coverage))
                          + f"; pooled {100 * self.pooled_coverage:.1f} %")
         if self.extrapolation is not None:
-            lines.append(self.extrapolation.format(units=None if unit == "N m" else [unit] * len(self.rms)))
+            lines.append(self.extrapolation.format(units=units))
         lines += [f"note: {x}" for x in self.notes]
         return "\n".join(lines)
 

@@ -1,0 +1,93 @@
+"""Issue 31, as a newcomer meets manipdyn (round four): the README, the text and the labels.
+
+Items 2, 3, 7, 19 and 22 here; item 1 (the README's shell blocks) is tests/test_readme_shell.py,
+item 20 (the API reference) tests/test_docs_build.py, item 21 (figures) tests/test_figures_docs.py.
+"""
+
+from __future__ import annotations
+
+import re
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import manipdyn as md
+
+ROOT = Path(__file__).resolve().parents[1]
+README = (ROOT / "README.md").read_text(encoding="utf-8")
+
+
+def _load(name):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", md.PhysicalConsistencyWarning)
+        return md.load(name)
+
+
+# -- item 2: the README lists every subcommand -----------------------------------------------------
+def test_item2_readme_lists_every_subcommand():
+    from manipdyn.cli import build_parser
+
+    sub = next(a for a in build_parser()._actions if a.dest == "command")
+    names = set(sub.choices)
+    m = re.search(r"`manipdyn --help`\s+lists the other commands, one line each: (.+?)\.\n", README, flags=re.S)
+    assert m, "the README's sentence listing the commands under 'Set up'"
+    listed = set(re.findall(r"`([a-z0-9_-]+)`", m.group(1))) | {"check"}      # check is the sentence before
+    assert names <= listed, f"subcommands the README does not list: {sorted(names - listed)}"
+    # `mjcf` is added by another branch of issue 31; every other listed name is a subcommand
+    assert listed - names <= {"mjcf"}, f"the README lists commands that do not exist: {sorted(listed - names)}"
+
+
+# -- item 7: validate's units follow the joint type -------------------------------------------------
+@pytest.fixture(scope="module")
+def stanford_log(tmp_path_factory):
+    pytest.importorskip("scipy", reason="excitation and log reading need the identify extra")
+    from manipdyn.identification import excitation, synthesize, write_measurements_csv
+
+    arm = _load("stanford")
+    ex = excitation(arm, duration=4.0, harmonics=3, rate=100.0, iterations=0, seed=1)
+    path = tmp_path_factory.mktemp("stanford") / "st.csv"
+    write_measurements_csv(str(path), ex.t, ex.q, synthesize(arm, ex.q, ex.qd, ex.qdd, noise=0.01, seed=1))
+    return path
+
+
+def _rows(out: str, n: int = 6):
+    return [l for l in out.splitlines() if re.match(r"^\s+[1-6]\s", l)][:n]
+
+
+def test_item7_validate_labels_a_prismatic_joint_in_newtons(stanford_log, capsys):
+    from manipdyn.cli import main
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert main(["validate", "stanford", str(stanford_log)]) == 0
+    out = capsys.readouterr().out
+    rows = _rows(out)
+    assert len(rows) == 6, out
+    assert rows[2].rstrip().endswith(" N") and not rows[2].rstrip().endswith("N m"), rows[2]   # joint 3: prismatic
+    assert all(r.rstrip().endswith("N m") for k, r in enumerate(rows) if k != 2), rows
+    assert "rms (N m)" not in out                   # no one unit claimed for every joint
+
+
+def test_item7_side_by_side_labels_each_joint(stanford_log, capsys):
+    from manipdyn.cli import main
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert main(["validate", "stanford", "puma560", str(stanford_log)]) == 0
+    out = capsys.readouterr().out
+    assert "RMS error (N m)" not in out, out
+    rows = _rows(out)
+    assert rows[2].rstrip().endswith(" N") and rows[0].rstrip().endswith("N m"), rows
+
+
+def test_item7_all_revolute_keeps_one_unit_in_the_header():
+    from manipdyn.identification.results.validation import ValidationResult
+
+    r = ValidationResult(model="m", rms=np.ones(2), relative_rms=np.ones(2), r2=np.ones(2), mean_error=np.zeros(2),
+                         t=np.arange(3.0), measured=np.zeros((3, 2)), predicted=np.zeros((3, 2)))
+    text = r.format(units=["N m", "N m"])
+    assert "rms (N m)" in text and not any(l.endswith("N m") for l in text.splitlines()[2:])
+    mixed = r.format(units=["N m", "N"])
+    assert mixed.splitlines()[-1].endswith(" N") and mixed.splitlines()[-2].endswith("N m")
