@@ -129,3 +129,28 @@ def test_item8_exact_data_name_the_floor():
     rows = [l for l in format_report(f.report).splitlines() if re.match(r"^\s+[1-6]\s", l)]
     assert len(rows) == 6 and all(r.endswith("(floor)") for r in rows), rows
     assert "below 1e-6 of its own RMS torque" in format_report(f.report)
+
+
+# -- item 19: licence, citation, the classic references ----------------------------------------------
+def test_item19_license_and_citation_agree_with_pyproject():
+    import tomllib
+
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    lic = (ROOT / "LICENSE").read_text()
+    assert project["license"]["text"] == "BSD-3-Clause"
+    assert lic.startswith("BSD 3-Clause License") and "the manipdyn developers" in lic
+    assert "Neither the name of the copyright holder" in lic          # the third clause
+    cff = (ROOT / "CITATION.cff").read_text()
+    assert re.search(r"^cff-version: 1\.2\.0$", cff, flags=re.M)
+    assert f'version: "{project["version"]}"' in cff and "license: BSD-3-Clause" in cff
+    assert f'version: "{md.__version__}"' in cff
+    for name in ("Uicker", "Paul", "Fu", "Gonzalez", "Lee"):
+        assert f"family-names: {name}" in cff
+
+
+def test_item19_readme_sources_cite_the_trace_form_classics():
+    sources = README[README.index("## Sources"):]
+    for needle in ("J. J. Uicker", "1965", "Dynamic force\n  analysis of spatial linkages", "R. P. Paul",
+                   "*Robot Manipulators: Mathematics, Programming, and Control*, MIT Press, 1981",
+                   "K. S. Fu, R. C. Gonzalez and C. S. G. Lee", "McGraw-Hill, 1987", "`LICENSE`", "`CITATION.cff`"):
+        assert needle in sources, needle
