@@ -1,7 +1,7 @@
 """Issue 31, as a newcomer meets manipdyn (round four): the README, the text and the labels.
 
 Items 2, 3, 7, 19 and 22 here; item 1 (the README's shell blocks) is tests/test_readme_shell.py,
-item 20 (the API reference) tests/test_docs_build.py, item 21 (figures) tests/test_figures_docs.py.
+item 20 (the API reference) tests/test_docs_build.py.
 """
 
 from __future__ import annotations

@@ -67,7 +67,7 @@ def plot_single(log, arm, title: str, path: str) -> None:
 
 
 def plot_compare(logs: dict, arm, title: str, path: str) -> None:
-    """Controllers side by side: |e(t)| over time, RMS error and peak torque per joint."""
+    """Controllers side by side: ``|e(t)|`` over time, RMS error and peak torque per joint."""
     plt = pyplot()
     fig = plt.figure(figsize=(11, 9))
     gs = fig.add_gridspec(2, 2, height_ratios=[1.2, 1.0])

@@ -127,11 +127,11 @@ class SimulationLog:
         return np.sqrt(np.mean(e**2, axis=0))
 
     def max_error(self, since=None) -> np.ndarray:
-        """max |e| per joint (n,), over samples with ``t >= since``."""
+        """``max |e|`` per joint (n,), over samples with ``t >= since``."""
         return np.max(np.abs(self.e[self._window(since)]), axis=0)
 
     def peak_torque(self, since=None) -> np.ndarray:
-        """max |tau| per joint (n,), over samples with ``t >= since``."""
+        """``max |tau|`` per joint (n,), over samples with ``t >= since``."""
         return np.max(np.abs(self.tau[self._window(since)]), axis=0)
 
     def summary(self, since=None) -> str:

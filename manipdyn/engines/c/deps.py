@@ -1,7 +1,7 @@
 """The optional ``codegen`` extra (CasADi) of the generated-C engine.
 
 Layer 3 (engines: c).  :func:`casadi` imports CasADi or raises
-:class:`~manipdyn.errors.MissingExtraError` with the install command, never a
+:class:`~manipdyn._support.errors.MissingExtraError` with the install command, never a
 bare ``ImportError`` traceback.  Only writing C needs CasADi: a build already
 in the cache (:mod:`manipdyn.engines.c.build`) loads without it.
 """
