@@ -154,3 +154,46 @@ def test_item19_readme_sources_cite_the_trace_form_classics():
                    "*Robot Manipulators: Mathematics, Programming, and Control*, MIT Press, 1981",
                    "K. S. Fu, R. C. Gonzalez and C. S. G. Lee", "McGraw-Hill, 1987", "`LICENSE`", "`CITATION.cff`"):
         assert needle in sources, needle
+
+
+# -- item 22: output text ---------------------------------------------------------------------------
+def _help(*argv) -> str:
+    from manipdyn.cli import build_parser
+
+    sub = next(a for a in build_parser()._actions if a.dest == "command")
+    return " ".join(sub.choices[argv[0]].format_help().split())
+
+
+def test_item22_help_states_the_defaults():
+    from manipdyn.identification.inputs.options import START_SIGMOID_ALPHA, START_STRIBECK_VELOCITY
+
+    text = _help("identify")
+    assert f"default {START_STRIBECK_VELOCITY:g} rad/s at the joint" in text
+    assert f"default {START_SIGMOID_ALPHA:g} s/rad at the joint" in text
+    assert "no pull" in text and "default 0, none" in text
+    assert "--no-progress never show" in _help("excite")
+    assert "default: puma560 stanford ur5 ur10" in _help("bench")
+
+
+def test_item22_bench_arms_help_is_the_suite_default():
+    pytest.importorskip("benchmarks.arm_set", reason="the benchmarks folder is absent")
+    from benchmarks.arm_set import BENCH_ARMS
+
+    assert f"default: {' '.join(BENCH_ARMS)}" in _help("bench")
+
+
+def test_item22_relative_std_of_a_near_zero_parameter_is_not_millions_of_percent():
+    from manipdyn.identification.estimation.report import format_report
+
+    rep = {"method": "wls", "solver": "lstsq", "samples": 10, "n_base": 2, "condition_number": 3.0,
+           "consistent": True, "rms_residual": [0.1], "noise_sigma": [0.1], "std_source": "wls",
+           "base_parameters": [{"expression": "a", "value": 1e-9, "std": 0.06, "rel_std_percent": 6083977.0},
+                               {"expression": "b", "value": 2.0, "std": 0.02, "rel_std_percent": 1.0}]}
+    text = format_report(rep)
+    assert "6.1e+06 %" not in text and "over 10 times its value, not determined" in text
+    assert "(+-1 %)" in text
+
+
+def test_item22_puma560_file_does_not_say_coulomb_is_symmetric():
+    text = (ROOT / "manipdyn" / "formats" / "models" / "puma560.toml").read_text()
+    assert "Coulomb model is symmetric" not in text

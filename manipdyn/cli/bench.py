@@ -91,7 +91,7 @@ def register(sub) -> None:
     b.add_argument("--strict", "--check-targets", dest="check_targets", action="store_true",
                    help="exit 1 when a performance target is missed (the report still says MISS; "
                         "without it a miss is reported and the exit is 0)")
-    b.add_argument("--arms", nargs="+", default=None, metavar="ARM", help="bundled arms to time")
+    b.add_argument("--arms", nargs="+", default=None, metavar="ARM", help="bundled arms to time (default: puma560 stanford ur5 ur10)")
     b.add_argument("--no-rtb", action="store_true", help="leave the Robotics Toolbox out")
     b.add_argument("--no-plot", action="store_true", help="do not write scaling.png")
     b.add_argument("--skip", nargs="+", default=None, choices=("per-call", "batch", "scaling"),

@@ -82,7 +82,10 @@ def format_report(rep: dict) -> str:
     lines.append("base parameters" + (" (+- %sigma: Gautier's relative standard deviation, "
                                       f"{rep['std_source']})" if rep.get("std_source") else "") + ":")
     for row in rep["base_parameters"]:
-        extra = f"  (+-{row['rel_std_percent']:.2g} %)" if "rel_std_percent" in row else ""
+        extra = ""
+        if "rel_std_percent" in row:     # a relative spread over 1000 % says nothing a reader can use
+            extra = (f"  (+-{row['rel_std_percent']:.2g} %)" if row["rel_std_percent"] <= 1000
+                     else f"  (+-{row['std']:.2g}: over 10 times its value, not determined)")
         lines.append(f"  {row['value']:+.6g} = {row['expression']}{extra}")
     if rep.get("arm_error"):
         lines.append(f"the identified parameters cannot be written as a model: {rep['arm_error']}")
