@@ -197,3 +197,29 @@ def test_item22_relative_std_of_a_near_zero_parameter_is_not_millions_of_percent
 def test_item22_puma560_file_does_not_say_coulomb_is_symmetric():
     text = (ROOT / "manipdyn" / "formats" / "models" / "puma560.toml").read_text()
     assert "Coulomb model is symmetric" not in text
+
+
+# -- item 21: the validation figure's title names the log, the window, and whether it is held out ----
+def test_item21_validation_title_names_log_window_and_held_out(tmp_path):
+    pytest.importorskip("cvxpy", reason="identification needs the identify extra")
+    pytest.importorskip("matplotlib", reason="figures need the plot extra")
+    from manipdyn.identification import excitation, synthesize, write_measurements_csv
+
+    arm = _load("ur5")
+    for k in (1, 2):
+        ex = excitation(arm, duration=8.0, harmonics=4, rate=100.0, iterations=0, seed=k)
+        write_measurements_csv(str(tmp_path / f"run{k}.csv"), ex.t, ex.q,
+                               synthesize(arm, ex.q, ex.qd, ex.qdd, noise=0.01, seed=k))
+    r = md.identify("ur5", str(tmp_path / "run1.csv"), t_range=(0.0, 5.0), method="wls", band_folds=0)
+    r.save(str(tmp_path / "ur5_id.toml"))
+    model = str(tmp_path / "ur5_id.toml")
+    later = md.validate([model, "ur5"], str(tmp_path / "run1.csv"), t_range=(5.0, 8.0))
+    assert later.held_out == ["held out: another window", "not fitted by manipdyn"]
+    title = later.title()
+    assert "run1.csv" in title and "t = 5" in title and "held out: another window" in title
+    same = md.validate(model, str(tmp_path / "run1.csv"), t_range=(0.0, 5.0))
+    assert same.held_out == ["FIT DATA, not held out"]
+    other = md.validate(model, str(tmp_path / "run2.csv"))
+    assert other.held_out == ["held out: another log"]
+    later.plot(str(tmp_path / "v.png"))
+    assert (tmp_path / "v.png").stat().st_size > 10000
