@@ -301,3 +301,22 @@ def test_item21_track_figure_draws_no_bars_on_its_log_axes(tmp_path, monkeypatch
     for ax in figs[0].axes:
         if ax.get_yscale() == "log":
             assert not [p for p in ax.patches if isinstance(p, Rectangle)], ax.get_ylabel()
+
+
+def test_item22_bench_help_has_no_rst_quotes():
+    assert "``" not in _help("bench")
+
+
+def test_item22_benchmarks_print_blas_pools_as_text():
+    pytest.importorskip("benchmarks.report", reason="the benchmarks folder is absent")
+    from benchmarks.report import format_load, format_pools
+
+    pools = [{"user_api": "blas", "internal_api": "openblas", "num_threads": 1, "version": "0.3.15",
+              "architecture": "Prescott"}]
+    assert format_pools(pools) == "openblas 0.3.15 (blas, 1 threads, Prescott)"
+    assert format_load([15.19970703125, 15.6669921875, 15.7]) == "15.20 15.67 15.70"
+    for name in ("bench_hardlog", "bench_identification", "bench_torque_constants", "bench_panda",
+                 "bench_montecarlo", "bench_derivatives"):
+        text = (ROOT / "benchmarks" / f"{name}.py").read_text()
+        assert not re.search(r"print\(f\"[^\n]*BLAS[^\n]*\{(env|result)\[[^\n]*\]\['?blas'?\]\}", text), name
+        assert "format_pools(" in text, name

@@ -82,7 +82,7 @@ def register(sub) -> None:
     """Add ``manipdyn bench``."""
     b = sub.add_parser(
         "bench", help="run the benchmark suite (source checkout only)",
-        description=__doc__.split("\n\n")[2].replace("\n", " "))
+        description=__doc__.split("\n\n")[2].replace("\n", " ").replace("``", "'"))   # no RST quotes in --help
     b.add_argument("--smoke", action="store_true", help="a few seconds, tiny sizes (checks the code runs)")
     b.add_argument("--out", default=None, metavar="DIR",
                    help="output folder (default: benchmarks/results/runs/<UTC time>-<mode>/, ignored by git)")
