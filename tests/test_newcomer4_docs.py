@@ -320,3 +320,14 @@ def test_item22_benchmarks_print_blas_pools_as_text():
         text = (ROOT / "benchmarks" / f"{name}.py").read_text()
         assert not re.search(r"print\(f\"[^\n]*BLAS[^\n]*\{(env|result)\[[^\n]*\]\['?blas'?\]\}", text), name
         assert "format_pools(" in text, name
+
+
+def test_item22_missing_extra_messages_give_the_source_checkout_form():
+    from manipdyn._support.deps import INSTALL as IDENTIFY
+    from manipdyn.engines.c.deps import INSTALL as CODEGEN
+
+    assert "pip install -e '.[identify]'" in IDENTIFY and "pip install 'manipdyn[identify]'" in IDENTIFY
+    assert "pip install -e '.[codegen]'" in CODEGEN
+    scale = (ROOT / "manipdyn" / "check" / "scale.py").read_text()
+    assert "pip install -e '.[scale]'" in scale
+    assert "pip install -e '.[codegen]'" in _help("codegen")

@@ -15,7 +15,7 @@ from ..._support.errors import MissingExtraError
 __all__ = ["casadi", "INSTALL", "manipdyn_version"]
 
 #: the command that installs what code generation needs
-INSTALL = "pip install 'manipdyn[codegen]'"
+INSTALL = "pip install 'manipdyn[codegen]' (in a source checkout: pip install -e '.[codegen]')"
 
 
 def casadi():
