@@ -331,3 +331,25 @@ def test_item22_missing_extra_messages_give_the_source_checkout_form():
     scale = (ROOT / "manipdyn" / "check" / "scale.py").read_text()
     assert "pip install -e '.[scale]'" in scale
     assert "pip install -e '.[codegen]'" in _help("codegen")
+
+
+def test_item21_scaling_figure_says_which_sizes_its_slopes_are_fitted_on(tmp_path):
+    pytest.importorskip("matplotlib", reason="figures need the plot extra")
+    pytest.importorskip("benchmarks.scaling", reason="the benchmarks folder is absent")
+    import matplotlib.pyplot as plt
+
+    import benchmarks.scaling as scaling
+
+    ns = [2, 4, 8, 16, 32]
+    series = {"a": [1e-6, 2e-6, 4e-6, 9e-6, 2e-5]}
+    exps = {"a": {"all": 1.0, "tail": 1.2, "tail_range": [8, 32]}}
+    seen = []
+    real_close = plt.close
+    plt.close = lambda fig=None: (seen.append(fig), real_close(fig))
+    try:
+        assert scaling.plot_scaling(ns, series, exps, str(tmp_path)) == ("scaling.png", None)
+    finally:
+        plt.close = real_close
+    ax = seen[0].axes[0]
+    assert "slope fitted on 8 <= n <= 32" in ax.get_legend().get_title().get_text()
+    assert [t.get_text() for t in ax.xaxis.get_minorticklabels() if t.get_text()] == []
