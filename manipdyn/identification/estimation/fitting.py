@@ -15,8 +15,8 @@ Only the base parameters ``beta = K pi`` (:mod:`.base`) are identifiable:
   ``sigma_j^2 = ||rho_j||^2 / (N - r_j)``.  (The residuals of the pooled
   OLS fit would not do: that fit is dominated by the large proximal torques
   and leaves misfit, not noise, in the small wrist torques.)  A noise level
-  below ``1e-6`` of that joint's own RMS torque is raised to that floor and
-  the joint is named (:mod:`.noise`: exact data, where it is rounding);
+  below ``1e-6`` of that joint's own RMS torque is rounding (exact data): it is
+  weighed as ``1e-6`` of the largest joint's RMS torque, and named (:mod:`.noise`);
 * ``consistent``: the same weighted objective over the full parameters
   subject to ``J_i >= 0`` for every link (:mod:`.sdp`).
 

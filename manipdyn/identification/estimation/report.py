@@ -78,7 +78,8 @@ def format_report(rep: dict) -> str:
         lines.append(f"{j + 1:>5}   {r:12.4g}   {s:11.4g}" + ("  (floor)" if j + 1 in floored else ""))
     if floored:
         lines.append("(floor): the joint's OLS noise estimate is below 1e-6 of its own RMS torque, rounding "
-                     "rather than noise (exact data?); the floor is printed and weighs it")
+                     "rather than noise (exact data?); the floor, 1e-6 of the "
+                     "largest joint's RMS torque, is printed and weighs it")
     lines.append("base parameters" + (" (+- %sigma: Gautier's relative standard deviation, "
                                       f"{rep['std_source']})" if rep.get("std_source") else "") + ":")
     for row in rep["base_parameters"]:
