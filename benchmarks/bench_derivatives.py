@@ -36,6 +36,7 @@ import warnings
 
 import numpy as np
 
+from benchmarks.report import format_pools
 import manipdyn as md
 from manipdyn.check.crosscheck import TOLERANCE
 from manipdyn.model.random_arms import random_state
@@ -133,8 +134,7 @@ def main(argv=None) -> int:
                         "--rounds 101: short samples are less often interrupted, and the best rounds show it)")
     args = p.parse_args(argv)
     pools = blas_config()
-    blas = pools if isinstance(pools, str) else [(i.get("internal_api"), i.get("num_threads")) for i in pools]
-    print(f"BLAS/OpenMP pools: {blas or 'none loaded'}; batch {args.batch}; "
+    print(f"BLAS/OpenMP pools: {format_pools(pools) or 'none loaded'}; batch {args.batch}; "
           f"targets: fast path <= {TARGET_FAST}x raw Pinocchio, trace form per state <= {TARGET_BATCH}x "
           f"(moonshot {MOONSHOT_BATCH}x)")
     print(f"{'arm':9s} {'derivative':9s} {'manipdyn us':>11s} {'raw pin us':>10s} {'ratio':>6s} {'best':>6s} "

@@ -35,6 +35,7 @@ import warnings
 
 import numpy as np
 
+from benchmarks.report import format_load, format_pools
 import manipdyn as md
 from benchmarks.bench_identification import environment
 from benchmarks.timing import publish, seeded_runs
@@ -91,7 +92,8 @@ def main(argv=None) -> int:
         print("  worst relative error per kind (target 5 %): " + ", ".join(
             f"{k} {100 * v['error']:.2f} % ({v['parameter']})" for k, v in r["worst_by_kind"].items()))
         print(f"  not identifiable alone: {', '.join(r['not_identifiable']) or 'none'}")
-    print(f"BLAS: {env['blas']}; load average {env['loadavg_start']} -> {env['loadavg_end']}")
+    print(f"BLAS: {format_pools(env['blas'])}; load average {format_load(env['loadavg_start'])} -> "
+          f"{format_load(env['loadavg_end'])}")
     publish(args, env, {"runs": runs}, "hardlog")
     return 0
 

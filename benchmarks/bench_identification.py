@@ -36,6 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.report import format_load, format_pools
 import manipdyn as md
 from benchmarks.timing import blas_config, interleaved, paired_ratio, write_atomic, write_run
 from manipdyn.identification import excitation, fit
@@ -160,7 +161,8 @@ def main(argv=None) -> int:
         d, o = v["blas_threads_default"], v["blas_threads_1"]
         print(f"  {m:<11} {d['median_s']:7.3f} s (x{d['ratio_to_ols']:.2f} of ols)   one BLAS thread "
               f"{o['median_s']:7.3f} s (x{o['ratio_to_ols']:.2f})   (consistent: {v['consistent']}, {v['solver']})")
-    print(f"BLAS: {env['blas']}; load average {env['loadavg_start']} -> {env['loadavg_end']}")
+    print(f"BLAS: {format_pools(env['blas'])}; load average {format_load(env['loadavg_start'])} -> "
+          f"{format_load(env['loadavg_end'])}")
     if not args.no_write:
         text = json.dumps(result, indent=2) + "\n"
         path = write_run(text, "identification", args.out)

@@ -46,6 +46,7 @@ import warnings
 
 import numpy as np
 
+from benchmarks.report import format_pools
 import manipdyn as md
 from manipdyn import montecarlo as mc
 
@@ -323,7 +324,7 @@ def main(argv=None) -> int:
     if args.publish:
         atomic_write_text(os.path.join(ROOT, "benchmarks", "results", "montecarlo_reference.json"),
                           json.dumps(result, indent=2) + "\n")
-    print(f"BLAS: {result['machine']['blas']}")
+    print(f"BLAS: {format_pools(result['machine']['blas'])}")
     print(f"results written to {os.path.relpath(args.out, ROOT)}")
     return 0
 

@@ -40,6 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.report import format_pools
 import manipdyn as md
 from benchmarks.bench_identification import environment
 from benchmarks.timing import publish
@@ -187,7 +188,7 @@ def main(argv=None) -> int:
         print(_row(f"{row['scheme']} CV, {row['folds']} folds -> {row['chosen']:g}", row["held_out_rms"])
               + ("   wins all" if row["wins_all"] else ""))
     print(_row("oracle (fitted on the held-out too)", res["oracle_held_out_rms"]))
-    print(f"{res['wall_s']:.0f} s; BLAS: {env['blas']}")
+    print(f"{res['wall_s']:.0f} s; BLAS: {format_pools(env['blas'])}")
     publish(args, env, {"results": res}, "panda")
     return 0
 

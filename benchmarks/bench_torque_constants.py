@@ -31,6 +31,7 @@ import warnings
 
 import numpy as np
 
+from benchmarks.report import format_load, format_pools
 import manipdyn as md
 from benchmarks.bench_identification import environment
 from benchmarks.timing import publish, seeded_runs
@@ -70,7 +71,8 @@ def main(argv=None) -> int:
                   + " ".join(f"{100 * e:+.2f}" for e in m["relative_error"]) + " %  (std "
                   + " ".join(f"{100 * e:.2f}" for e in m["relative_std"]) + f" %); worst {100 * m['worst']:.2f} % "
                   f"(target 2 %), {m['seconds']:.0f} s")
-    print(f"BLAS: {env['blas']}; load average {env['loadavg_start']} -> {env['loadavg_end']}")
+    print(f"BLAS: {format_pools(env['blas'])}; load average {format_load(env['loadavg_start'])} -> "
+          f"{format_load(env['loadavg_end'])}")
     publish(args, env, {"runs": runs}, "torque_constants")
     return 0
 

@@ -102,12 +102,22 @@ def _md_table(head, body):
     return out
 
 
-def _pools(pools) -> str:
+def format_pools(pools) -> str:
+    """threadpoolctl's pools as one readable line (``openblas 0.3.30 (blas, 2 threads, SkylakeX); ...``),
+    never a Python list of dicts."""
     if not isinstance(pools, list):
         return str(pools)
     return "; ".join(f"{p.get('internal_api')} {p.get('version') or ''} ({p.get('user_api')}, "
                      f"{p.get('num_threads')} threads"
                      + (f", {p['architecture']}" if p.get("architecture") else "") + ")" for p in pools)
+
+
+def format_load(values) -> str:
+    """A load average (1, 5, 15 min) as ``15.20 15.67 15.69``."""
+    try:
+        return " ".join(f"{float(x):.2f}" for x in values)
+    except (TypeError, ValueError):
+        return str(values)
 
 
 def markdown(res):
@@ -128,7 +138,7 @@ def _md_header(res) -> list:
              f"roboticstoolbox-python {m['roboticstoolbox'] or 'not installed'}; "
              f"OPENBLAS_CORETYPE={m.get('OPENBLAS_CORETYPE')}; load average "
              f"{_load(m.get('loadavg_start'))} at the start, {_load(m.get('loadavg_end'))} at the end.  ")
-    L.append(f"BLAS and OpenMP thread pools (threadpoolctl): {_pools(m.get('blas_config'))}; "
+    L.append(f"BLAS and OpenMP thread pools (threadpoolctl): {format_pools(m.get('blas_config'))}; "
              f"OPENBLAS_L2_SIZE={m.get('OPENBLAS_L2_SIZE')}.")
     L.append("")
     L.append("Times are medians over interleaved rounds (every candidate timed in every round); "

@@ -101,18 +101,30 @@ def plot_scaling(ns, series, exps, out_dir):
     if len(ns) < 2:
         return None, "fewer than two sizes"
     fig, ax = plt.subplots(figsize=(10, 5))
+    fitted = set()
     for k, ts in series.items():
         e = exps[k].get("tail", exps[k].get("all"))
+        span = exps[k].get("tail_range") if "tail" in exps[k] else [min(ns), max(ns)]
+        fitted.add(tuple(span))
         ax.loglog(ns, np.array(ts) * 1e6, "o-", label=f"{k}  (~n^{e:.2f})", ms=4)
+    if len(fitted) == 1:       # say which sizes the slopes are fitted on (the small ones are overheads)
+        (lo, hi), = fitted
+        ax.axvspan(lo, hi, color="0.94", zorder=0, lw=0)
+        slope_title = f"per state; slope fitted on {lo} <= n <= {hi} (shaded)"
+    else:
+        slope_title = "per state; slope fitted on n >= 8 where measured"
     ax.set_xlabel("number of joints n")
     ax.set_ylabel("time per state (microseconds)")
     ax.set_title("manipdyn: cost vs number of joints (random DH chains)")
     ax.set_xticks(ns)
     ax.set_xticklabels([str(n) for n in ns])
+    from matplotlib.ticker import NullFormatter
+
+    ax.xaxis.set_minor_formatter(NullFormatter())     # only the sizes measured are labelled
     ax.grid(True, which="both", alpha=0.3)
     # the legend beside the axes, never over a line (the curves span the whole height)
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0,
-              title="per state, fitted slope", title_fontsize=8)
+              title=slope_title, title_fontsize=8)
     fig.tight_layout()
     path = os.path.join(out_dir, "scaling.png")
     try:

@@ -12,7 +12,10 @@ int main(void)
     const double dt = 1e-3, kp = 400.0, kd = 40.0;   /* 1 kHz; critically damped at 20 rad/s */
     double q[N], qd[N], qdd[N], v[N], M[N * N], h[N], tau[N], err = 0.0;
     int i, j, k;
-    for (i = 0; i < N; ++i) { q[i] = 0.2; qd[i] = 0.0; }            /* start 0.2 off the path */
+    for (i = 0; i < N; ++i) {                                        /* start 0.2 rad off the path, */
+        q[i] = 0.5 * sin((double)i) + 0.2;                           /* with the path's velocity */
+        qd[i] = 0.5 * cos((double)i);
+    }
     for (k = 0; k <= 3000; ++k) {                                    /* 3 s */
         double t = k * dt;
         err = 0.0;

@@ -259,8 +259,9 @@ def _readme_outputs() -> set:
     outs = set()
     inline = [(0, m.group(1)) for m in re.finditer(r"`(manipdyn [^`]+)`", README)]
     for _, block in _blocks("sh") + _blocks("console") + inline:
-        for m in re.finditer(r"(?:^|\s)(?:-o|--plot|--base-json|>)\s+([^\s$]+)", block, flags=re.M):
-            outs.add(m.group(1))
+        for m in re.finditer(r"(?:^|\s)(?:-o|--plot|--base-json|>)\s+([^\s]+)", block, flags=re.M):
+            if not m.group(1).startswith("$"):
+                outs.add(re.sub(r"\$\{?k\}?", "1", m.group(1)))       # a loop's run$k.csv: run1.csv
     for _, block in PY_BLOCKS:
         for m in re.finditer(r"md\.(?:save|write_urdf)\([^,]+,\s*\"([^\"]+)\"\)", block):
             outs.add(m.group(1))
@@ -522,8 +523,12 @@ def test_item15_validation_residual_says_measured_minus_predicted(captured_figur
     r = validation.ValidationResult(model="m", rms=np.ones(2), relative_rms=np.ones(2), r2=np.ones(2),
                                     mean_error=np.zeros(2), t=t, measured=meas, predicted=meas * 0.9)
     validation.plot_validation(r, "v.png")
-    texts = _texts(captured_figures[-1])
+    texts = [" ".join(x.split()) for x in _texts(captured_figures[-1])]
     assert sum("measured \u2212 predicted" in x for x in texts) == 2        # one per joint's residual panel
+    # issue 31 item 21: it is the residual axis's label, outside the traces, not a text over them
+    labels = [" ".join(ax.get_ylabel().split()) for ax in captured_figures[-1].axes]
+    assert sum(x.startswith("measured \u2212 predicted") for x in labels) == 2
+    assert not any(ax.texts for ax in captured_figures[-1].axes)
 
 
 def test_item15_base_model_figure_is_named_by_its_file(monkeypatch):

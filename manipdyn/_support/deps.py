@@ -15,7 +15,7 @@ from .errors import MissingExtraError
 __all__ = ["MissingExtraError", "require", "INSTALL"]
 
 #: the command that installs what identification needs
-INSTALL = "pip install 'manipdyn[identify]'"
+INSTALL = "pip install 'manipdyn[identify]' (in a source checkout: pip install -e '.[identify]')"
 
 
 def require(module: str, what: str):

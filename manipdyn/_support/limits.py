@@ -1,7 +1,7 @@
 """Limits that keep the process alive on hostile or careless input.
 
 Layer 0 (support).  Every limit is a module attribute: raise it
-for an unusual but trusted model, e.g. ``manipdyn._support.limits.MAX_LINKS = 5000``
+for an unusual but trusted model, e.g. ``manipdyn.limits.MAX_LINKS = 5000``
 before ``md.load``.  A model over a limit is refused with a
 :class:`~manipdyn.ModelError` that names the limit and says how to raise it.
 
@@ -130,8 +130,8 @@ def over_limit(where: str, what: str, value, name: str) -> ModelError:
     """The error for ``what`` (= ``value``) beyond the limit ``name`` of this module."""
     limit = globals()[name]
     return ModelError(
-        f"{where}: {what} is {value}, over the limit of {limit:g} (manipdyn._support.limits.{name}); "
-        f"if the model is trusted, raise it: manipdyn._support.limits.{name} = ..."
+        f"{where}: {what} is {value}, over the limit of {limit:g} (manipdyn.limits.{name}); "
+        f"if the model is trusted, raise it: manipdyn.limits.{name} = ..."
     )
 
 
@@ -146,7 +146,7 @@ def check_count(value, where: str, what: str, name: str, cli: bool = False) -> N
         except OverflowError:               # an integer beyond the float range
             shown = f"an integer of {len(str(value))} digits"
         raise ModelError(f"{where}: {what} is {shown}, over the limit of {limit:g} "
-                         f"(manipdyn._support.limits.{name}); to go beyond it, raise it: {how}")
+                         f"(manipdyn.limits.{name}); to go beyond it, raise it: {how}")
 
 
 def check_fit_size(samples: int, joints: int, parameters: int, where: str = "data") -> None:
@@ -193,7 +193,7 @@ def check_magnitude(value, where: str, field: str, unit: str = "") -> None:
         worst = float(arr.reshape(-1)[int(np.argmax(arr))])
         raise ModelError(
             f"{where}: field '{field}' has magnitude {worst:g}{unit}, over {MAX_MAGNITUDE:g} "
-            "(manipdyn._support.limits.MAX_MAGNITUDE): products of such numbers overflow float64; "
+            "(manipdyn.limits.MAX_MAGNITUDE): products of such numbers overflow float64; "
             "check the units, or raise the limit for a trusted model"
         )
 
@@ -213,7 +213,7 @@ def check_range(value, where: str, field: str, kind: str) -> None:
         worst = float(arr.reshape(-1)[int(np.argmax(arr))])
         raise ModelError(
             f"{where}: field '{field}' has the {kind} {worst:g}{unit}, over {limit:g}{unit} "
-            f"(manipdyn._support.limits.{name}): float64 cannot hold it beside the arm's other {kind}s to the "
+            f"(manipdyn.limits.{name}): float64 cannot hold it beside the arm's other {kind}s to the "
             "cross-check's 1e-9; check the units, or raise the limit for a trusted model"
         )
 

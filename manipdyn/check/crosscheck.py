@@ -7,7 +7,7 @@ by both engines and compared: D, h, C (the Coriolis matrix), g, tau, the
 forward dynamics of those torques, the end pose, both energies, the
 inverse-dynamics regressor Y (tau = Y pi, :mod:`manipdyn.model.parameters`), the
 derivatives, and (when both engines offer it) the tool frame's Jacobian and
-its time derivative.  The error of one state is
+its time derivative.  The error of one state is::
 
     err = max_k |pinocchio_k - lagrange_k| / max(1, max_k |lagrange_k|)
 

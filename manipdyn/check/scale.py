@@ -64,7 +64,7 @@ def require_distributed():
         import distributed
     except ImportError:
         need = ("Monte-Carlo studies and cluster cross-checks on Dask need dask.distributed: "
-                "pip install 'manipdyn[scale]'")
+                "pip install 'manipdyn[scale]' (in a source checkout: pip install -e '.[scale]')")
         raise MissingExtraError(need + "  (or pass scheduler='sync' to run in this process)",
                                 cli_message=need + "  (or pass --scheduler sync to run in this process)") from None
     return distributed

@@ -82,7 +82,7 @@ def register(sub) -> None:
     """Add ``manipdyn bench``."""
     b = sub.add_parser(
         "bench", help="run the benchmark suite (source checkout only)",
-        description=__doc__.split("\n\n")[2].replace("\n", " "))
+        description=__doc__.split("\n\n")[2].replace("\n", " ").replace("``", "'"))   # no RST quotes in --help
     b.add_argument("--smoke", action="store_true", help="a few seconds, tiny sizes (checks the code runs)")
     b.add_argument("--out", default=None, metavar="DIR",
                    help="output folder (default: benchmarks/results/runs/<UTC time>-<mode>/, ignored by git)")
@@ -91,7 +91,7 @@ def register(sub) -> None:
     b.add_argument("--strict", "--check-targets", dest="check_targets", action="store_true",
                    help="exit 1 when a performance target is missed (the report still says MISS; "
                         "without it a miss is reported and the exit is 0)")
-    b.add_argument("--arms", nargs="+", default=None, metavar="ARM", help="bundled arms to time")
+    b.add_argument("--arms", nargs="+", default=None, metavar="ARM", help="bundled arms to time (default: puma560 stanford ur5 ur10)")
     b.add_argument("--no-rtb", action="store_true", help="leave the Robotics Toolbox out")
     b.add_argument("--no-plot", action="store_true", help="do not write scaling.png")
     b.add_argument("--skip", nargs="+", default=None, choices=("per-call", "batch", "scaling"),

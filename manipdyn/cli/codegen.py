@@ -26,7 +26,7 @@ def register(sub) -> None:
                                    "regressor, with the model's numbers folded in (C99, <math.h> only, no "
                                    "allocation, reentrant).  With a C compiler present, the source is "
                                    "test-compiled with -std=c99 -Wall -Wextra -pedantic -Werror.",
-                       epilog="Needs CasADi: pip install 'manipdyn[codegen]'.  Exit codes: 0 written; "
+                       epilog="Needs CasADi: pip install 'manipdyn[codegen]' (in a source checkout: pip install -e '.[codegen]').  Exit codes: 0 written; "
                               "2 usage or model error (a model the C cannot express is refused by name).")
     c.add_argument("model", metavar="MODEL",
                    help="bundled model name, .toml model file, .urdf file, identified model or erd:NAME")

@@ -130,7 +130,8 @@ def add_progress_options(parser, what: str = "the progress bar") -> None:
     prog = parser.add_mutually_exclusive_group()
     prog.add_argument("--progress", dest="progress", action="store_true", default=None,
                       help=f"always show {what} on stderr (default: only on a terminal)")
-    prog.add_argument("--no-progress", dest="progress", action="store_false")
+    prog.add_argument("--no-progress", dest="progress", action="store_false",
+                      help=f"never show {what} (for logs and scripts)")
 
 
 def progress_wanted(args) -> bool:

@@ -29,15 +29,17 @@ OPTIONS = (
     ("--smoothing", None, float, "V", "with --friction-terms: Coulomb as tanh(v / V) (default: the lowest blocked "
      "held-out error among the velocity's noise level on the log times 1/30 to 30, candidates and scores in the "
      "notes; 0 sharp)"),
-    ("--stribeck-velocity", None, float, "V", "start of the Stribeck search, rad/s on the law's side"),
-    ("--sigmoid-alpha", None, float, "A", "start of the sigmoid search, s/rad on the law's side"),
+    ("--stribeck-velocity", None, float, "V", "start of the Stribeck search, rad/s on the law's side "
+     "(default 0.1 rad/s at the joint, scaled by the gear ratio on the motor side)"),
+    ("--sigmoid-alpha", None, float, "A", "start of the sigmoid search, s/rad on the law's side "
+     "(default 10 s/rad at the joint, scaled by the gear ratio on the motor side)"),
     ("--armature", False, "store_true", None, "identify armature (reflected rotor inertia)"),
     ("--mass-bound", None, float, "F", "consistent: each link's mass within +-F of the prior's (default 0.5)"),
     ("--com-bound", None, float, "M", "consistent: each COM within +-M m of the prior's, per axis (default 0.1)"),
     ("--total-mass-bound", None, float, "F", "consistent: total mass within +-F of the prior's (default 0.25)"),
     ("--no-bounds", False, "store_true", None, "consistent: no plausibility bounds, only J_i >= 0"),
-    ("--prior-weight", 0.0, None, "W|auto", "consistent: pull towards the prior (auto: blocked cross-validation)"),
-    ("--bootstrap", 0, int, "N", "also refit on N block-resampled copies; each base parameter's spread"),
+    ("--prior-weight", 0.0, None, "W|auto", "consistent: pull towards the prior (auto: blocked cross-validation; default 0, no pull)"),
+    ("--bootstrap", 0, int, "N", "also refit on N block-resampled copies; each base parameter's spread (default 0, none)"),
     ("--scheduler", None, str, "ADDR", "--bootstrap on Dask: 'local' or tcp://HOST:PORT"),
     ("--band-folds", 5, int, "K", "refit on K-1 of K blocks in time and score the held-out one, for the 95 %% "
      "prediction band validate draws (model error and correlated noise; default 5, 0: none)"),

@@ -4,7 +4,7 @@ Layer 6 (control).
 
 Each controller follows a reference trajectory (``trajectory(t) -> (q_d,
 qd_d, qdd_d)``, see :mod:`manipdyn.control.trajectory`), bound at
-construction or by :meth:`Controller.reset` (which :func:`simulate` calls).
+construction or by :meth:`Controller.reset` (which :func:`manipdyn.simulate` calls).
 The tracking error is ``e = q_d - q`` (reference minus actual) and
 ``e_dot = qd_d - qd``.  Gains are scalars or per-joint ``(n,)`` arrays
 (diagonal gain matrices).
@@ -154,7 +154,7 @@ class Controller:
     def step(self, t, q, qd, q_d, qd_d, qdd_d) -> np.ndarray:
         """The saturated control law for a reference already evaluated: no validation.
 
-        For loops that validated their inputs once (:func:`simulate` does):
+        For loops that validated their inputs once (:func:`manipdyn.simulate` does):
         ``q, qd, q_d, qd_d, qdd_d`` must be finite ``(n,)`` float64 arrays in
         native byte order, and ``t`` must not go back in time without
         :meth:`reset`.  Model calls go to the arm's unchecked Pinocchio path.

@@ -71,6 +71,7 @@ def make_controller(kind: str, arm, wn: float = DEFAULT_BANDWIDTH, gamma: float 
       ``Kd = 2 wn D_ii``), its gains on the grid of the controller period ``dt``
       (s; the simulation's step).  Without ``path`` the gains are computed when
       a path is bound (``reset``, which :func:`manipdyn.simulate` calls).
+
     ``D_ii`` is the model's mass matrix at the middle of the joint limits.
     ``path`` and ``dt`` matter to ``lqr`` only.
     """

@@ -25,16 +25,30 @@ def _units(arm):
 def plain_log_ticks(axis) -> None:
     """Tick labels of a log axis as plain numbers (``60``, ``0.002``), never ``6x10^1``.  Minor ticks
     are labelled where the major ones alone would leave too few labels: at 2, 3 and 5 times a power
-    of ten when the axis spans under two decades, and every one when it spans under a factor 3."""
-    from matplotlib.ticker import FuncFormatter
+    of ten when the axis spans under two decades, and every one when it spans under a factor 3.
+    An axis narrower than a factor 3 (peak torques of 80 to 120 N m) also gets ticks at tenths of a
+    power of ten (110, 120, ...), labelled at a step that leaves at most 8 labels, so no stretch of
+    it above a power of ten is left without a number."""
+    import numpy as np
+    from matplotlib.ticker import FuncFormatter, LogLocator
+
+    lo0, hi0 = sorted(axis.get_view_interval())
+    if lo0 > 0 and hi0 / lo0 < 3.0:
+        axis.set_minor_locator(LogLocator(base=10.0, subs=np.arange(1.0, 10.0, 0.1), numticks=200))
 
     def minor(v, _pos):
         lo, hi = sorted(axis.get_view_interval())
         if v <= 0 or lo <= 0 or hi / lo >= 100.0:
             return ""
         mantissa = v / 10.0 ** math.floor(math.log10(v) + 1e-9)
-        wanted = (2.0, 3.0, 5.0) if hi / lo >= 3.0 else (2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0)
-        return f"{v:.6g}" if any(abs(mantissa - m) < 1e-6 for m in wanted) else ""
+        if hi / lo >= 3.0:
+            wanted = (2.0, 3.0, 5.0)
+            return f"{v:.6g}" if any(abs(mantissa - m) < 1e-6 for m in wanted) else ""
+        # the smallest round step (1, 2 or 5 times a power of ten) leaving at most 8 labels
+        power = 10.0 ** math.floor(math.log10(hi - lo))
+        step = next(s * power / 10.0 for s in (1.0, 2.0, 5.0, 10.0, 20.0, 50.0)
+                    if (hi - lo) / (s * power / 10.0) <= 8)
+        return f"{v:.6g}" if abs(v / step - round(v / step)) < 1e-6 else ""
 
     axis.set_major_formatter(FuncFormatter(lambda v, _pos: f"{v:.6g}"))
     axis.set_minor_formatter(FuncFormatter(minor))
@@ -67,7 +81,7 @@ def plot_single(log, arm, title: str, path: str) -> None:
 
 
 def plot_compare(logs: dict, arm, title: str, path: str) -> None:
-    """Controllers side by side: |e(t)| over time, RMS error and peak torque per joint."""
+    """Controllers side by side: ``|e(t)|`` over time, RMS error and peak torque per joint."""
     plt = pyplot()
     fig = plt.figure(figsize=(11, 9))
     gs = fig.add_gridspec(2, 2, height_ratios=[1.2, 1.0])
@@ -80,8 +94,10 @@ def plot_compare(logs: dict, arm, title: str, path: str) -> None:
     for c, (label, log) in enumerate(ok.items()):
         norm = np.linalg.norm(log.e, axis=1)
         ax_n.semilogy(log.t, np.maximum(norm, 1e-12), lw=1.2, label=label)
-        ax_r.bar(joints + (c - (len(ok) - 1) / 2) * width, log.rms_error(), width, label=label)
-        ax_p.bar(joints + (c - (len(ok) - 1) / 2) * width, log.peak_torque(), width, label=label)
+        # markers, not bars: on a log axis a bar's length is measured from an arbitrary bottom
+        x = joints + (c - (len(ok) - 1) / 2) * width
+        ax_r.plot(x, log.rms_error(), "o", ms=6, color=f"C{c}", label=label)
+        ax_p.plot(x, log.peak_torque(), "o", ms=6, color=f"C{c}", label=label)
     for label, v in logs.items():
         if isinstance(v, str):
             ax_n.plot([], [], " ", label=f"{label}: {v}")

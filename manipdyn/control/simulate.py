@@ -127,11 +127,11 @@ class SimulationLog:
         return np.sqrt(np.mean(e**2, axis=0))
 
     def max_error(self, since=None) -> np.ndarray:
-        """max |e| per joint (n,), over samples with ``t >= since``."""
+        """``max |e|`` per joint (n,), over samples with ``t >= since``."""
         return np.max(np.abs(self.e[self._window(since)]), axis=0)
 
     def peak_torque(self, since=None) -> np.ndarray:
-        """max |tau| per joint (n,), over samples with ``t >= since``."""
+        """``max |tau|`` per joint (n,), over samples with ``t >= since``."""
         return np.max(np.abs(self.tau[self._window(since)]), axis=0)
 
     def summary(self, since=None) -> str:
@@ -148,7 +148,7 @@ class SimulationLog:
             pr = self.joint_types[i] == "prismatic" if self.joint_types else False
             eu, tu = ("m", "N") if pr else ("rad", "N m")
             rows.append(f"  {i + 1:<6} {rms[i]:9.3e} {eu:<3}{'':1}{mx[i]:9.3e} {eu:<3}"
-                        f"{'':1}{pk[i]:10.3f} {tu}")
+                        f"{'':1}{pk[i]:10.4g} {tu}")     # 4 significant digits: a wrist's 3e-4 N m too
         return "\n".join(rows)
 
     def truncated(self, k: int) -> "SimulationLog":

@@ -48,7 +48,7 @@ from .._support.errors import ModelError, SingularMassMatrixError, StateError
 __all__ = ["rk4_substeps", "reference_samples", "sampled_loop_rate", "SAFE_STEP", "MAX_SUBSTEPS", "SAMPLES",
            "SAMPLED_LIMIT"]
 
-#: the largest h |lambda| allowed (RK4 is stable to 2.785 on the negative real axis)
+#: the largest ``h |lambda|`` allowed (RK4 is stable to 2.785 on the negative real axis)
 SAFE_STEP = 2.0
 #: more steps than this per control period is refused (the plant is too stiff for the period)
 MAX_SUBSTEPS = 1000

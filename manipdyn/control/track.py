@@ -119,7 +119,7 @@ class TrackResult:
                 rows.append(f"{label:<24} {log}")
                 continue
             rows.append(f"{label:<24} {np.linalg.norm(log.rms_error()):11.3e} {log.max_error().max():11.3e} "
-                        f"{np.linalg.norm(log.rms_error(since=final)):12.3e} {log.peak_torque().max():12.2f}")
+                        f"{np.linalg.norm(log.rms_error(since=final)):12.3e} {log.peak_torque().max():12.4g}")
         rows.append("  (RMS: norm over joints of the per-joint RMS error; rad and m mixed for "
                     "arms with prismatic joints)")
         return "\n".join(rows)

@@ -155,7 +155,7 @@ def _num(value, where: str) -> float:
         raise ModelError(f"{where}: expected a finite number, got {value!r}")
     if abs(v) > limits.MAX_MAGNITUDE:
         raise ModelError(f"{where}: magnitude {abs(v):g} is over {limits.MAX_MAGNITUDE:g} "
-                         "(manipdyn._support.limits.MAX_MAGNITUDE): products of such numbers overflow float64")
+                         "(manipdyn.limits.MAX_MAGNITUDE): products of such numbers overflow float64")
     return v
 
 
@@ -487,7 +487,7 @@ def save_model(arm: Manipulator, path) -> None:
     """Write ``arm`` as a model file, atomically.
 
     Whatever this writes, :func:`load_model_file` reads back: a model whose file
-    would be over :data:`manipdyn._support.limits.MAX_MODEL_FILE_BYTES` (e.g. a description
+    would be over :data:`manipdyn.limits.MAX_MODEL_FILE_BYTES` (e.g. a description
     of megabytes) is refused here, before anything is written, with how to raise it.
     """
     text = model_to_toml(arm)
@@ -495,6 +495,6 @@ def save_model(arm: Manipulator, path) -> None:
     if size > limits.MAX_MODEL_FILE_BYTES:
         raise ModelError(
             f"save {os.fspath(path)}: the model file would be {size} bytes, over the {limits.MAX_MODEL_FILE_BYTES} "
-            "bytes that load reads (manipdyn._support.limits.MAX_MODEL_FILE_BYTES); shorten the description or "
-            "sources, or raise the limit (manipdyn._support.limits.MAX_MODEL_FILE_BYTES = ...) where it is saved and loaded")
+            "bytes that load reads (manipdyn.limits.MAX_MODEL_FILE_BYTES); shorten the description or "
+            "sources, or raise the limit (manipdyn.limits.MAX_MODEL_FILE_BYTES = ...) where it is saved and loaded")
     atomic_write_text(path, text)

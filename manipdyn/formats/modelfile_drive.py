@@ -126,7 +126,7 @@ def drive_to_toml(arm, num, vector) -> list[str]:
 
 def parse_poses(data: dict, origin: str, joint_types, L: float, A: float):
     """``[poses]`` (``name = [q1, ..., qn]``) in SI units, or None when the file has none;
-    :func:`manipdyn.arm_calls.as_poses` checks the names and values."""
+    :func:`manipdyn.model.arm_calls.as_poses` checks the names and values."""
     if "poses" not in data:
         return None
     table = data["poses"]

@@ -51,7 +51,7 @@ def as_poses(poses, n: int, where: str) -> MappingProxyType:
 
 
 class ArmCalls:
-    """Mixin of :class:`manipdyn.arm.Arm` (see the module docstring)."""
+    """Mixin of :class:`manipdyn.model.arm.Arm` (see the module docstring)."""
 
     #: named joint vectors ``{name: (n,)}``, rad or m, from the model file's ``[poses]``
     #: (with their source in ``arm.sources["poses"]``); empty for an arm read from a URDF
@@ -65,7 +65,7 @@ class ArmCalls:
         return getattr(eng, method)
 
     def jacobian(self, q, engine: str = "pinocchio") -> np.ndarray:
-        """Geometric Jacobian of the tool frame (the frame :meth:`fkine` gives): (6, n) or (N, 6, n).
+        """Geometric Jacobian of the tool frame (the frame ``fkine`` gives): (6, n) or (N, 6, n).
 
         ``[v; w] = J qd``: rows 0-2 the linear velocity of the tool origin (m/s), rows 3-5
         the angular velocity (rad/s), both in base-frame axes: Pinocchio's

@@ -4,16 +4,16 @@ Layer 1 (model).  Friction acts outside the Lagrangian:
 ``tau = D qdd + h + g + tau_f(qd)``.  A :class:`Friction` holds one law per
 actuator, a sum of terms, each linear in its parameters:
 
-=============  =====================================================  ==========================
-term           torque of actuator k at velocity v                     parameters (n each)
-=============  =====================================================  ==========================
-viscous        ``Fv v``                                               ``viscous``
-coulomb        ``Fc sigma(v)``                                        ``coulomb``
-asymmetric     ``Fc+ sigma(v)`` for v > 0, ``Fc- sigma(v)`` for v < 0  ``coulomb_pos, coulomb_neg``
-offset         ``c`` (constant, always per JOINT)                     ``offset``
-stribeck       ``(Fs - Fc) exp(-|v / vs|^delta) sigma(v)``            ``stribeck_level``
-sigmoid        ``A / (1 + exp(-alpha (v + p3))) - A / (1 + exp(-alpha p3))``  ``sigmoid_A``
-=============  =====================================================  ==========================
+=============  ==============================================================  ==========================
+term           torque of actuator k at velocity v                              parameters (n each)
+=============  ==============================================================  ==========================
+viscous        ``Fv v``                                                        ``viscous``
+coulomb        ``Fc sigma(v)``                                                 ``coulomb``
+asymmetric     ``Fc+ sigma(v)`` for v > 0, ``Fc- sigma(v)`` for v < 0          ``coulomb_pos, coulomb_neg``
+offset         ``c`` (constant, always per JOINT)                              ``offset``
+stribeck       ``(Fs - Fc) exp(-|v / vs|^delta) sigma(v)``                     ``stribeck_level``
+sigmoid        ``A / (1 + exp(-alpha (v + p3))) - A / (1 + exp(-alpha p3))``   ``sigmoid_A``
+=============  ==============================================================  ==========================
 
 ``sigma(v)`` is the sign, smoothed: ``tanh(v / smoothing)``, or ``sign(v)`` when
 ``smoothing == 0``; and 0 where ``|v| <= deadband``.  The sigmoid is the
@@ -44,7 +44,7 @@ the dither of a joint at rest (a differentiated encoder signal: a 17-bit encoder
 behind a 100:1 gear sampled at 1 kHz steps by 5e-4 rad/s; filtered velocities at
 rest wander by about 1e-3 rad/s) into full +-Fc torque jumps, which breaks fits
 on real logs.  With v_s = 0.01 rad/s that dither stays in tanh's linear zone
-(|sigma| < 0.1), while at the speeds an identification trajectory runs (above
+(``|sigma| < 0.1``), while at the speeds an identification trajectory runs (above
 0.05 rad/s, 5 v_s) ``tanh`` differs from the sign by under 1e-4 (at 0.1 rad/s by
 4e-9).  The links' friction (:class:`manipdyn.DHLink`) keeps the sharp sign.
 """

@@ -109,7 +109,7 @@ def _check_actuator(where, motor_inertia, gear_ratio, friction_viscous, friction
         raise ModelError(f"{where}: field 'gear_ratio' must be non-zero, got {g}")
     if abs(g) ** 2 * jm > limits.MAX_MAGNITUDE:
         raise ModelError(f"{where}: the reflected rotor inertia gear_ratio^2 * motor_inertia = "
-                         f"{abs(g) ** 2 * jm:g} is over {limits.MAX_MAGNITUDE:g} (manipdyn._support.limits.MAX_MAGNITUDE)")
+                         f"{abs(g) ** 2 * jm:g} is over {limits.MAX_MAGNITUDE:g} (manipdyn.limits.MAX_MAGNITUDE)")
     fv = _scalar(friction_viscous, where, "friction_viscous")
     fc = _scalar(friction_coulomb, where, "friction_coulomb")
     if fv < 0 or fc < 0:
@@ -218,17 +218,17 @@ class DHLink:
 
     @property
     def mass(self) -> float:
-        """Link mass, kg (of :attr:`body`)."""
+        """Link mass, kg (of ``body``)."""
         return self.body.mass
 
     @property
     def com(self) -> np.ndarray:
-        """Centre of mass in DH frame n, (3,), m (of :attr:`body`)."""
+        """Centre of mass in DH frame n, (3,), m (of ``body``)."""
         return self.body.com
 
     @property
     def inertia(self) -> np.ndarray:
-        """Tensor about the centre of mass, frame-n axes, (3, 3), kg m^2 (of :attr:`body`)."""
+        """Tensor about the centre of mass, frame-n axes, (3, 3), kg m^2 (of ``body``)."""
         return self.body.inertia
 
     @property

@@ -59,7 +59,7 @@ class Alignment:
 
 
 def kabsch(P: np.ndarray, Q: np.ndarray) -> np.ndarray:
-    """Rigid transform X (4x4, det +1) minimising sum |X p_k - q_k|^2; P, Q (k, 3)."""
+    """Rigid transform X (4x4, det +1) minimising ``sum |X p_k - q_k|^2``; P, Q (k, 3)."""
     pc, qc = P.mean(axis=0), Q.mean(axis=0)
     H = (P - pc).T @ (Q - qc)
     U, _, Vt = np.linalg.svd(H)

@@ -48,9 +48,9 @@ MIN_BANDWIDTH = 1e-3
 
 def check_study_size(runs, controllers: int, duration: float, dt: float, bandwidth: float,
                      cli: bool = False) -> None:
-    """Refuse a study beyond :data:`manipdyn._support.limits.MAX_RUN_STEPS` (steps of one run),
-    :data:`~manipdyn._support.limits.MAX_STUDY_STEPS` (runs x controllers x steps) or
-    :data:`~manipdyn._support.limits.MAX_BANDWIDTH`; the ModelError (a ValueError) says how to
+    """Refuse a study beyond :data:`manipdyn.limits.MAX_RUN_STEPS` (steps of one run),
+    :data:`~manipdyn.limits.MAX_STUDY_STEPS` (runs x controllers x steps) or
+    :data:`~manipdyn.limits.MAX_BANDWIDTH`; the ModelError (a ValueError) says how to
     raise the limit (``cli=True``: for one command-line run too)."""
     import math
 
@@ -94,7 +94,7 @@ def study(arm, runs: int, seed: int = 0, controllers=CONTROLLER_KEYS, duration: 
     duration, dt : float
         s; the ``track`` demo path over ``duration``, simulated at ``1/dt`` Hz.
     distributions : Distributions, optional
-        Default :class:`Distributions()`.
+        Default ``Distributions()`` (:class:`Distributions`).
     tau_max : float or (n,), optional
         Torque limits of every controller, N m (N); default the model's own.
     bandwidth, gamma : float

@@ -159,7 +159,7 @@ class Study:
     # -- the arm and the run's pieces (cached per process) ---------------------------
     @property
     def arm(self):
-        """The nominal arm, rebuilt from :attr:`model` (once per process)."""
+        """The nominal arm, rebuilt from ``model`` (once per process)."""
         return arm_from_text(*self.model)
 
     @property

@@ -1,7 +1,7 @@
 """The optional ``codegen`` extra (CasADi) of the generated-C engine.
 
 Layer 3 (engines: c).  :func:`casadi` imports CasADi or raises
-:class:`~manipdyn.errors.MissingExtraError` with the install command, never a
+:class:`~manipdyn._support.errors.MissingExtraError` with the install command, never a
 bare ``ImportError`` traceback.  Only writing C needs CasADi: a build already
 in the cache (:mod:`manipdyn.engines.c.build`) loads without it.
 """
@@ -15,7 +15,7 @@ from ..._support.errors import MissingExtraError
 __all__ = ["casadi", "INSTALL", "manipdyn_version"]
 
 #: the command that installs what code generation needs
-INSTALL = "pip install 'manipdyn[codegen]'"
+INSTALL = "pip install 'manipdyn[codegen]' (in a source checkout: pip install -e '.[codegen]')"
 
 
 def casadi():

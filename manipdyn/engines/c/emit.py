@@ -7,7 +7,7 @@ used: this module walks each SX Function's instruction list
 per instruction, so the output is ours to keep within what the issue asks:
 ``<math.h>`` only, no allocation, no static or global state (reentrant and
 thread-safe), clean under ``-std=c99 -Wall -Wextra -pedantic -Werror``.  An
-operation outside :data:`OPERATIONS` is refused by name, never dropped.
+operation outside the table of :func:`_operations` is refused by name, never dropped.
 
 Arrays are row-major; every input is read, every output written in full.
 """

@@ -1,7 +1,7 @@
 """The arm's dynamics as CasADi SX graphs: recursive Newton-Euler, CRBA, an unrolled LDL^T.
 
 Layer 3 (engines: c), the generated-C engine.  Shares no code with the trace form
-(:mod:`manipdyn.lagrange`) or with the Pinocchio engine: it reads the model's
+(:mod:`manipdyn.engines.lagrange`) or with the Pinocchio engine: it reads the model's
 public data only (:meth:`manipdyn.Arm.chain`, ``arm.gravity``,
 ``arm.transmission.R``, ``arm.motor_inertia``, ``arm.friction_model`` and
 :meth:`manipdyn.Arm.parameters`) and writes the algorithms out once more.
@@ -12,7 +12,7 @@ with ``v`` the velocity of the frame's origin, spatial forces ``(n, f)``
 about the origin.  Joint j maps parent to child by ``E_j = R_origin Rot(axis,
 q_j)`` (rotation child -> parent) and ``p_j`` (child origin in the parent
 frame).  Gravity enters as the base's acceleration ``-g``.  Each link's 10
-inertial parameters are those of :mod:`manipdyn.parameters` (about the URDF
+inertial parameters are those of :mod:`manipdyn.model.parameters` (about the URDF
 frame's origin, tensor sign), here symbols ``pi`` so that the regressor is
 ``d tau / d pi``; the numbers are substituted (folded) for every other
 function.
@@ -44,7 +44,7 @@ __all__ = ["ArmGraph", "KNOWN_FRICTION_TERMS"]
 #: entries of rotations, axes (unit) and translations (m) under this magnitude are rounding residue: 0
 SNAP = 1e-15
 
-#: the friction terms the generated C writes out (:mod:`manipdyn.friction`)
+#: the friction terms the generated C writes out (:mod:`manipdyn.model.friction`)
 KNOWN_FRICTION_TERMS = ("viscous", "coulomb", "asymmetric", "offset", "stribeck", "sigmoid")
 
 
@@ -290,7 +290,7 @@ class ArmGraph:
         return ca.if_else(ca.fabs(v) > law.deadband, s, 0.0) if law.deadband else s
 
     def friction(self, pi, qd):
-        """The friction law at the joints (:mod:`manipdyn.friction`), parameters from ``pi``."""
+        """The friction law at the joints (:mod:`manipdyn.model.friction`), parameters from ``pi``."""
         n, law, ca = self.n, self.law, self.ca
         if law is None:
             return [0.0] * n

@@ -200,7 +200,7 @@ class TraceFormDerivatives:
         ``dtau_dq[..., i, m] = d tau_i / d q_m`` (N m/rad; N/m for prismatic
         joints), ``dtau_dqd`` likewise per joint velocity (friction included,
         :meth:`friction_derivative`).  ``dtau/dqdd`` is the mass matrix
-        :meth:`mass_matrix` (rotors included) and is not repeated here.
+        :meth:`TraceFormEngine.mass_matrix` (rotors included) and is not repeated here.
         Closed form from the trace form (module docstring); base frame, SI units.
         """
         return self._call(self._k_inverse_derivatives, "inverse_dynamics_derivatives",

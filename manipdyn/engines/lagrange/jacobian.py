@@ -39,7 +39,7 @@ class TraceFormJacobian:
     """Mixin of :class:`manipdyn.engines.lagrange.engine.TraceFormEngine`: ``jacobian``, ``jacobian_dot``."""
 
     def jacobian(self, q) -> np.ndarray:
-        """Geometric Jacobian of the tool frame (:meth:`fkine`): (6, n) or (N, 6, n).
+        """Geometric Jacobian of the tool frame (``fkine``): (6, n) or (N, 6, n).
 
         Rows 0-2: the tool origin's linear velocity per joint rate (m/s per rad/s,
         or per m/s for a prismatic joint); rows 3-5: the tool's angular velocity

@@ -27,7 +27,7 @@ class PinocchioJacobian:
         return self.model.getFrameId(self.tool_frame)
 
     def jacobian(self, q) -> np.ndarray:
-        """Geometric Jacobian of the tool frame (:meth:`fkine`): (6, n) or (N, 6, n).
+        """Geometric Jacobian of the tool frame (``fkine``): (6, n) or (N, 6, n).
 
         Linear velocity of the tool origin on top, angular velocity below, both in
         base-frame axes (``pin.LOCAL_WORLD_ALIGNED``); SI units.

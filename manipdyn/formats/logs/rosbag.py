@@ -18,7 +18,7 @@ extra joints (a gripper) or joints split across messages do not matter:
   relative to the first message (``t = 0`` there; the note gives the
   absolute start), so ``t_range`` reads in seconds into the recording.
 
-The input is capped like a CSV (:data:`manipdyn._support.limits.MAX_DATA_BYTES` over
+The input is capped like a CSV (:data:`manipdyn.limits.MAX_DATA_BYTES` over
 all the bag's files, regular files only: a FIFO is refused, never opened).
 """
 

@@ -9,8 +9,8 @@ about its parsed array (8 bytes a number) plus a few MB.  Every limit comes
 from :mod:`manipdyn._support.limits`: the file is opened with
 :func:`~manipdyn._support.limits.open_regular` (a FIFO or a device such as
 ``/dev/zero`` is refused at once, never read), at most
-:data:`~manipdyn._support.limits.MAX_DATA_BYTES` are read and no field may exceed
-:data:`~manipdyn._support.limits.MAX_DATA_FIELD_BYTES`.
+:data:`~manipdyn.limits.MAX_DATA_BYTES` are read and no field may exceed
+:data:`~manipdyn.limits.MAX_DATA_FIELD_BYTES`.
 
 What is understood: a UTF-8 byte-order mark (Excel's "CSV UTF-8"), CRLF line
 ends, blank lines and lines starting with ``#`` (skipped; row numbers stay

@@ -39,7 +39,7 @@ Rules (CONVENTIONS.md for frames and inertia):
 Security and agreement: a document with a DOCTYPE is refused before any
 parsing (entities, ATTLIST defaults and external DTDs are read differently
 by libxml2 and by urdfdom, and are how XML entity attacks work); numbers are
-ASCII, finite and within :data:`manipdyn._support.limits.MAX_MAGNITUDE`, vectors are
+ASCII, finite and within :data:`manipdyn.limits.MAX_MAGNITUDE`, vectors are
 separated by spaces only; files, link counts, chain lengths and runs of
 fixed joints are capped (:mod:`manipdyn._support.limits`).  Pinocchio only ever sees
 text that passed these checks, and the model it builds is compared with

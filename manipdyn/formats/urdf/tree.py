@@ -203,7 +203,7 @@ class URDFTree:
         self.check_fixed_runs()
 
     def check_fixed_runs(self) -> None:
-        """Refuse more than :data:`manipdyn._support.limits.MAX_FIXED_RUN` fixed joints in a row."""
+        """Refuse more than :data:`manipdyn.limits.MAX_FIXED_RUN` fixed joints in a row."""
         stack = [(self.root, 0)]
         while stack:
             ln, run = stack.pop()

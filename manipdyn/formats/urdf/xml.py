@@ -176,7 +176,7 @@ def where_in(label: str, el, what: str) -> str:
 
 def parse_number(s: str):
     """A URDF number as urdfdom reads it, or None: ASCII, finite, within
-    :data:`manipdyn._support.limits.MAX_MAGNITUDE`, and not a non-zero literal that
+    :data:`manipdyn.limits.MAX_MAGNITUDE`, and not a non-zero literal that
     underflows to 0 (urdfdom refuses those)."""
     if not NUMBER.match(s):
         return None
@@ -198,7 +198,7 @@ def why_not_a_number(s: str) -> str:
         return "not a decimal number (no nan, inf, hex or 1_000)"
     v = float(s)
     if not math.isfinite(v) or abs(v) > limits.MAX_MAGNITUDE:
-        return (f"magnitude over {limits.MAX_MAGNITUDE:g} (manipdyn._support.limits.MAX_MAGNITUDE: products of "
+        return (f"magnitude over {limits.MAX_MAGNITUDE:g} (manipdyn.limits.MAX_MAGNITUDE: products of "
                 "such numbers overflow)")
     return "a non-zero number that underflows to 0 (urdfdom refuses it)"
 

@@ -15,8 +15,8 @@ Only the base parameters ``beta = K pi`` (:mod:`.base`) are identifiable:
   ``sigma_j^2 = ||rho_j||^2 / (N - r_j)``.  (The residuals of the pooled
   OLS fit would not do: that fit is dominated by the large proximal torques
   and leaves misfit, not noise, in the small wrist torques.)  A noise level
-  below ``1e-6`` of the largest joint's RMS torque is raised to that floor
-  (exact data then weigh the joints equally);
+  below ``1e-6`` of that joint's own RMS torque is rounding (exact data): it is
+  weighed as ``1e-6`` of the largest joint's RMS torque, and named (:mod:`.noise`);
 * ``consistent``: the same weighted objective over the full parameters
   subject to ``J_i >= 0`` for every link (:mod:`.sdp`).
 
@@ -44,6 +44,7 @@ from .base import BaseParameters, base_parameters, check_base
 from .sdp import Bounds, consistent_fit
 from ...formats.logs.measurements import segment_edges
 from .covariance import base_covariance
+from .noise import floor_noise
 
 __all__ = ["fit", "FitResult", "METHODS", "link_min_eigenvalues", "known_torque", "joint_noise"]
 
@@ -364,11 +365,7 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     counts = np.diff(edges)
     sigmas = (np.array([_noise_from_factors(F, int(k)) for F, k in zip(runs, counts)]) if runs is not None
               else _noise_from_factors(factors, N)[None, :])
-    # noise below 1e-6 of the largest joint's RMS torque is rounding, not noise:
-    # flooring it keeps the weights (and the semidefinite program) well scaled
-    # on exact data, where every sigma_j would otherwise be ~1e-12 and arbitrary
-    floor = 1e-6 * max(float(np.sqrt(np.mean(y**2, axis=0)).max()), 1e-300)
-    sigmas = np.maximum(sigmas, floor)
+    sigmas, floored = floor_noise(sigmas, y)          # rounding, not noise, on exact data (.noise)
     sigma = sigmas[0] if runs is None else np.sqrt(counts @ sigmas**2 / N)
     try:
         prior = arm_parameters(arm, armature, friction)
@@ -435,6 +432,7 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     result.report["active_bounds"] = bounds.active(pi, n) if bounds is not None else []
     result.report["prior_weight"] = float(prior_weight)
     result.report.update({"noise_sigma_per_run": sigmas.tolist()} if runs is not None else {})
+    result.report["noise_floor_joints"] = floored
     if method == "consistent":
         result.report.update(_shortfall(R, c, rho_w, y * w, residuals * w, pi, n, base, bounds, solver,
                                         result.report["active_bounds"]))

@@ -73,12 +73,20 @@ def format_report(rep: dict) -> str:
         f"physically consistent (every J_i >= 0): {'yes' if rep['consistent'] else 'NO'}",
         "joint   rms residual   noise (OLS)",
     ]
+    floored = set(rep.get("noise_floor_joints") or ())
     for j, (r, s) in enumerate(zip(rep["rms_residual"], rep["noise_sigma"])):
-        lines.append(f"{j + 1:>5}   {r:12.4g}   {s:11.4g}")
+        lines.append(f"{j + 1:>5}   {r:12.4g}   {s:11.4g}" + ("  (floor)" if j + 1 in floored else ""))
+    if floored:
+        lines.append("(floor): the joint's OLS noise estimate is below 1e-6 of its own RMS torque, rounding "
+                     "rather than noise (exact data?); the floor, 1e-6 of the "
+                     "largest joint's RMS torque, is printed and weighs it")
     lines.append("base parameters" + (" (+- %sigma: Gautier's relative standard deviation, "
                                       f"{rep['std_source']})" if rep.get("std_source") else "") + ":")
     for row in rep["base_parameters"]:
-        extra = f"  (+-{row['rel_std_percent']:.2g} %)" if "rel_std_percent" in row else ""
+        extra = ""
+        if "rel_std_percent" in row:     # a relative spread over 1000 % says nothing a reader can use
+            extra = (f"  (+-{row['rel_std_percent']:.2g} %)" if row["rel_std_percent"] <= 1000
+                     else f"  (+-{row['std']:.2g}: over 10 times its value, not determined)")
         lines.append(f"  {row['value']:+.6g} = {row['expression']}{extra}")
     if rep.get("arm_error"):
         lines.append(f"the identified parameters cannot be written as a model: {rep['arm_error']}")

@@ -18,7 +18,7 @@ Cost: ``len(weights) x folds`` consistent fits (25 by default).  What does not d
 fold or the weight is done once: the base parameters (a pivoted QR of the regressor at random
 states, :func:`.base.base_parameters`, which every fit used to recompute), the regressor of the
 whole window, which each fold slices, and the least-squares reduction: each block's per-joint
-triangular factors (:func:`.estimation.joint_factors`, one QR over the samples), which stack
+triangular factors (:func:`.fitting.joint_factors`, one QR over the samples), which stack
 into each fold's training factors with a small QR, so no fit runs a QR over the samples.
 """
 

@@ -60,7 +60,7 @@ def measure(arm, traj, rng, tau_noise: float = 0.01, q_noise: float = 1e-4, peak
 
     Returns ``(data, tau_raw, peak)``: :class:`Measurements` after the identify
     pipeline (qd, qdd derived from the noisy q, ends trimmed), the measured
-    noisy torques at the same samples, and the per-joint peak |tau| that set
+    noisy torques at the same samples, and the per-joint peak ``|tau|`` that set
     the noise (``tau_noise * peak`` standard deviation).
     """
     from ...formats.logs.data import Measurements, derivatives

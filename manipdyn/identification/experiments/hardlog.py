@@ -49,7 +49,7 @@ sampled the way a host records it:
 
 The CSV has columns ``t, qm1..qm6, i1..i6`` (no velocities).  The joint
 torque noise is ``sigma_j = sqrt(sum_k R_kj^2 s_k^2)`` (``s_k`` the motor
-torque noise), reported in :attr:`HardLog.sigma`.
+torque noise), reported in ``HardLog.sigma``.
 """
 
 from __future__ import annotations

@@ -34,7 +34,7 @@ data resolves (an arm whose controller logs qd to 1e-4 rad/s lost a wrist joint
 to its published model at the old fixed 0.01 rad/s, and won every joint at
 1e-4); far below it, the model switches the full Coulomb torque on noise.  So
 ``v_s`` is the velocity's noise level, measured on the log
-(:attr:`Measurements.qd_noise`, per joint: the RMS of what the low-pass filter
+(``Measurements.qd_noise``, per joint: the RMS of what the low-pass filter
 removed from a measured qd, or ``2 pi cutoff`` times the RMS of what it removed
 from q when qd is derived: the speed of a sine at the cut-off with q's noise as
 amplitude), taken to the law's side (``sqrt(R^2 sigma^2)`` per motor,

@@ -25,7 +25,7 @@ from ..._support.errors import ModelError
 __all__ = ["OptionError", "brace_safe", "friction_option", "bounds_option", "prior_weight_option", "check_limits",
            "START_STRIBECK_VELOCITY", "START_SIGMOID_ALPHA", "SHAPED"]
 
-#: where variable projection starts the shapes, at the joint (motor k: scaled by |R_kk|)
+#: where variable projection starts the shapes, at the joint (motor k: scaled by ``|R_kk|``)
 START_STRIBECK_VELOCITY = 0.1   # rad/s
 START_SIGMOID_ALPHA = 10.0      # s/rad
 #: the friction terms with a nonlinear shape (fitted by :mod:`.varpro`)

@@ -19,7 +19,7 @@ A payload is rigidly attached at the tool frame (the frame of ``arm.fkine``): ``
 kg, ``com`` in m in that frame, the optional ``inertia`` ``[ixx, iyy, izz, ixy, ixz, iyz]``
 about the COM in kg m^2 (tensor sign, tool-frame axes; default 0, a point mass).  Its
 torque is known (:meth:`Payload.torque`: its ten parameters on the last link's regressor
-columns, :func:`.payload.payload_parameter_map`), so a fit moves it to the known side:
+columns, :func:`.payload.fit.payload_parameter_map`), so a fit moves it to the known side:
 ``tau - tau_payload = Y pi``.
 """
 

@@ -34,18 +34,22 @@ def _labels(results) -> list[str]:
     return [f"{lab} [{k + 1}]" if labels.count(lab) > 1 else lab for k, lab in enumerate(labels)]
 
 
-def format_side_by_side(results, unit: str = "N m") -> str:
+def format_side_by_side(results, unit: str = "N m", units=None) -> str:
     """One table: RMS per joint (rows) and model (columns), the best per joint marked ``*``; then each
-    model's band coverage and extrapolation lines."""
+    model's band coverage and extrapolation lines.  ``units`` per joint (N m, N for a prismatic
+    joint), else ``unit`` for every joint; mixed units are printed at the end of each row."""
     best = best_per_joint(results)
     labels = _labels(results)
     width = max(12, *(len(lab) + 2 for lab in labels))
     n = len(results[0].rms)
-    lines = [f"{len(results)} models on {len(results[0].t)} samples: RMS error ({unit}), * = best on the joint",
+    units = list(units) if units is not None else [unit] * n
+    same = len(set(units)) == 1
+    lines = [f"{len(results)} models on {len(results[0].t)} samples: RMS error"
+             + (f" ({units[0]})" if same else " (unit at the end of each row)") + ", * = best on the joint",
              "joint " + "".join(f"{lab:>{width}}" for lab in labels)]
     for j in range(n):
         cells = [f"{r.rms[j]:.4g}" + ("*" if best[j] == k else " ") for k, r in enumerate(results)]
-        lines.append(f"{j + 1:>5} " + "".join(f"{c:>{width}}" for c in cells))
+        lines.append(f"{j + 1:>5} " + "".join(f"{c:>{width}}" for c in cells) + ("" if same else f"  {units[j]}"))
     lines.append("best  " + ", ".join(f"j{j + 1}: {labels[best[j]]}" for j in range(n)))
     for lab, r in zip(labels, results):
         extra = []

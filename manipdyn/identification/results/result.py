@@ -88,7 +88,7 @@ class IdentifyResult:
     def save(self, path) -> str:
         """Write the identified model to ``path``: ``.toml`` (a model file), ``.urdf`` (a URDF
         prior's text with the identified ``<inertial>``s, or a DH arm as URDF) or ``.json`` (the
-        base model, :mod:`.basemodel`).  Unless a ``name`` was given to :func:`identify`, the
+        base model, :mod:`.basemodel`).  Unless a ``name`` was given to :func:`manipdyn.identify`, the
         arm is named after the file (``arm_id.toml``: ``arm_id``).  Returns the path.
 
         Raises :class:`ModelError` when the parameters are no physical arm (write ``.json``).

@@ -64,6 +64,16 @@ class Validation:
     data: object
     notes: list = field(default_factory=list)
     units: list | None = None
+    held_out: list | None = None       # per model, :func:`.heldout.held_out_label`
+
+    def title(self) -> str:
+        """The figure's title: the models, the logs, the scored window and, per model, whether
+        the data are held out (:mod:`.heldout`)."""
+        t0, t1 = float(self.data.t[0]), float(self.data.t[-1])
+        logs = ", ".join(os.path.basename(str(s)) for s in self.data.sources) or "the data"
+        held = self.held_out or [""] * len(self.results)
+        models = "; ".join(f"{r.model} ({h})" if h else r.model for r, h in zip(self.results, held))
+        return f"{models}\nscored on {logs}, t = {t0:.4g} to {t1:.4g} s ({len(self.data.t)} samples)"
 
     def to_dict(self) -> dict:
         """JSON-ready: one model's figures, or ``{"models": [...], "best": [...]}`` for several
@@ -90,7 +100,8 @@ class Validation:
         then the RMS per log."""
         from .comparison import format_side_by_side
 
-        body = self.results[0].format() if len(self.results) == 1 else format_side_by_side(self.results)
+        body = (self.results[0].format(units=self.units) if len(self.results) == 1
+                else format_side_by_side(self.results, units=self.units))
         return "\n".join([f"data: {note}" for note in self.notes] + [body] + self._runs_text())
 
     def write_predictions(self, path) -> None:
@@ -114,7 +125,7 @@ class Validation:
         ``units`` per joint (default: N m, N for a prismatic joint of the first model)."""
         from .validation import plot_validation
 
-        plot_validation(self.results, path, units=units or self.units)
+        plot_validation(self.results, path, title=self.title(), units=units or self.units)
 
 
 def validate(models, logs, *, tip=None, columns=None, deg: bool = False, rate=None, time_scale: float = 1.0,
@@ -165,7 +176,10 @@ def validate(models, logs, *, tip=None, columns=None, deg: bool = False, rate=No
         data = stack([d for d, _ in runs])
         results = [score(m, data, name=label) for m, label in loaded]
     units = ["N" if t == "prismatic" else "N m" for t in getattr(arm, "joint_types", ())] or None
-    out = Validation(results=results, data=data, notes=list(data.notes), units=units)
+    from .heldout import held_out_label
+
+    out = Validation(results=results, data=data, notes=list(data.notes), units=units,
+                     held_out=[held_out_label(m, data) for m, _ in loaded])
     if predictions is not None:
         out.write_predictions(predictions)
     return out

@@ -110,17 +110,23 @@ class ValidationResult:
         out["model_notes"] = list(self.notes)
         return out
 
-    def format(self, unit: str = "N m") -> str:
-        """A table, one row per joint."""
+    def format(self, unit: str = "N m", units=None) -> str:
+        """A table, one row per joint; ``units`` per joint (N m, N for a prismatic joint), else
+        ``unit`` for every joint.  Mixed units are printed on each row, one unit in the header."""
+        n = len(self.rms)
+        units = list(units) if units is not None else [unit] * n
+        same = len(set(units)) == 1
+        head = f" ({units[0]})" if same else ""
         lines = [f"model {self.model}: {len(self.t)} samples",
-                 f"joint   rms ({unit})   rms / measured rms       R^2   mean error ({unit})"]
-        for j in range(len(self.rms)):
+                 f"joint   rms{head:<7}   rms / measured rms       R^2   mean error{head}" + ("" if same else "   unit")]
+        for j in range(n):
             lines.append(f"{j + 1:>5}   {self.rms[j]:10.4g}   {self.relative_rms[j]:18.4g}   "
-                         f"{self.r2[j]:7.4f}   {self.mean_error[j]:+14.4g}")
+                         f"{self.r2[j]:7.4f}   {self.mean_error[j]:+14.4g}" + ("" if same else f"   {units[j]}"))
         if self.coverage is not None:
             if self.carried_band is not None:
                 lines.append("95 % prediction band: predicted +- " + ", ".join(
-                    f"{x:.3g}" for x in self.carried_band.half_width) + f" {unit} per joint")
+                    f"{x:.3g}" + ("" if same else f" {u}") for x, u in zip(self.carried_band.half_width, units))
+                    + (f" {units[0]} per joint" if same else " per joint"))
             lines.append(f"95 % prediction band ({self.band_method}) holds the measured torque: "
                          + ", ".join(f"j{j + 1} {100 * c:.1f} %" for j, c in enumerate(self.coverage))
                          + f"; pooled {100 * self.pooled_coverage:.1f} %")
@@ -129,7 +135,7 @@ class ValidationResult:
                              f"samples (under {100 * MISS_COVERAGE:g} %): this joint's error here is beyond what the "
                              "fit data showed; do not trust its band")
         if self.extrapolation is not None:
-            lines.append(self.extrapolation.format(units=None if unit == "N m" else [unit] * len(self.rms)))
+            lines.append(self.extrapolation.format(units=units))
         lines += [f"note: {x}" for x in self.notes]
         return "\n".join(lines)
 
@@ -242,8 +248,8 @@ def plot_validation(results, path, title: str | None = None, units=None) -> None
     units = units or ["N m"] * n
     ncol = 2 if n > 3 else 1
     nrow = math.ceil(n / ncol)
-    fig = plt.figure(figsize=(12 if ncol == 2 else 7.5, 2.9 * nrow + 0.9))
-    outer = fig.add_gridspec(nrow, ncol, hspace=0.5, wspace=0.3, top=1 - 1.3 / (2.9 * nrow + 0.9))
+    fig = plt.figure(figsize=(12 if ncol == 2 else 7.5, 2.9 * nrow + 1.2))
+    outer = fig.add_gridspec(nrow, ncol, hspace=0.5, wspace=0.3, top=1 - 1.75 / (2.9 * nrow + 0.9))
     for j in range(n):
         inner = outer[j // ncol, j % ncol].subgridspec(2, 1, height_ratios=(3, 1), hspace=0.05)
         ax, axr = fig.add_subplot(inner[0]), fig.add_subplot(inner[1])
@@ -256,9 +262,8 @@ def plot_validation(results, path, title: str | None = None, units=None) -> None
             axr.plot(r.t, r.measured[:, j] - r.predicted[:, j], lw=0.8, color=f"C{k}")
         axr.axhline(0.0, color="0.3", lw=0.6)
         ax.set_ylabel(f"torque ({units[j]})")
-        axr.set_ylabel(f"residual ({units[j]})", fontsize=8)
-        axr.text(0.005, 0.97, "measured \u2212 predicted", transform=axr.transAxes, va="top", fontsize=7,
-                 bbox=dict(facecolor="white", edgecolor="none", alpha=0.8, pad=1.0))
+        # the residual's name is its axis label, outside the traces
+        axr.set_ylabel(f"measured \u2212\npredicted ({units[j]})", fontsize=7)
         for a in (ax, axr):                   # one column of labels: the two never overlap
             a.yaxis.set_label_coords(-0.14, 0.5)
         ax.tick_params(labelbottom=False)
@@ -269,19 +274,16 @@ def plot_validation(results, path, title: str | None = None, units=None) -> None
         warn = ", EXTRAPOLATES" if flagged else ""     # beyond the states the fit saw (coverage.py)
         if len(results) == 1:
             ax.set_title(f"joint {j + 1}: RMS error {scores[0]}{warn}", fontsize=9, color="C3" if flagged else "black")
-        else:           # one line per model inside the panel, the best marked
-            ax.set_title(f"joint {j + 1}: best {results[best].model}{warn}", fontsize=9,
-                         color="C3" if flagged else "black")
-            ax.text(0.01, 0.97, "\n".join(("* " if k == best else "  ") + f"{r.model}: {scores[k]}"
-                                          for k, r in enumerate(results)),
-                    transform=ax.transAxes, va="top", ha="left", fontsize=7, family="monospace",
-                    bbox=dict(facecolor="white", alpha=0.7, lw=0))
+        else:           # the scores in the title, above the traces (a box inside would hide them)
+            ax.set_title(f"joint {j + 1}{warn}: RMS " + ", ".join(
+                ("*" if k == best else "") + f"{r.model} {scores[k]}" for k, r in enumerate(results)),
+                fontsize=8, color="C3" if flagged else "black", wrap=True)
         if j == 0:
             handles, labels = ax.get_legend_handles_labels()
         ax.grid(alpha=0.3)
         axr.grid(alpha=0.3)
         axr.set_xlabel("time (s)", fontsize=8)
     fig.legend(handles, labels, loc="upper center", ncol=min(len(labels), 4), frameon=False, fontsize=8,
-               bbox_to_anchor=(0.5, 1 - 0.55 / (2.9 * nrow + 0.9)))
-    fig.suptitle(title or f"measured and predicted joint torques: {', '.join(r.model for r in results)}")
+               bbox_to_anchor=(0.5, 1 - 0.8 / (2.9 * nrow + 0.9)))
+    fig.suptitle(title or f"measured and predicted joint torques: {', '.join(r.model for r in results)}", fontsize=10)
     save_figure(fig, path)
