@@ -160,7 +160,11 @@ class ArmCalls:
 
     def regressor(self, q, qd, qdd, armature: bool = False, friction: bool = False) -> np.ndarray:
         """Y with ``Y @ arm.parameters(armature, friction) = tau``: (n, p) or (N, n, p) (Pinocchio's
-        ``computeJointTorqueRegressor``; 10 columns per link, then armature and friction columns)."""
+        ``computeJointTorqueRegressor``; 10 columns per link, then armature and friction columns).
+
+        ``friction=True`` is viscous and Coulomb columns (joint side, sharp sign); an arm with
+        another law (the bundled panda's sigmoid) needs ``friction=arm.friction_model``, and
+        ``arm.parameters(friction=True)`` says so rather than leave its friction out."""
         return self.engine("pinocchio").regressor(q, qd, qdd, armature=armature, friction=friction)
 
     def kinetic_energy(self, q, qd):

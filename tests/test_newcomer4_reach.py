@@ -1,0 +1,102 @@
+"""Issue 31 (as a newcomer meets it, round four): items 6, 9, 11, 13, 16 and 18.
+
+Each test is named after its item.  Item 17 (inverse kinematics, Jacobian frames and links,
+tool wrenches, potential energy) has its own file, tests/test_reach.py.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+
+import numpy as np
+import pytest
+
+import manipdyn as md
+from manipdyn.cli import main
+from manipdyn.check.crosscheck import QUANTITIES
+
+
+def _load(name):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", md.ModelNoteWarning)
+        return md.load(name)
+
+
+def _with_law(arm, law):
+    """``arm`` (a Manipulator) with the friction law ``law`` and no friction of its links."""
+    links = [dataclasses.replace(l, friction_viscous=0.0, friction_coulomb=0.0) for l in arm.links]
+    return md.Manipulator(links, convention=arm.convention, gravity=arm.gravity, name=arm.name,
+                          transmission=arm.transmission, friction=law)
+
+
+# -- item 6: regressor(friction=True) @ parameters(friction=True) is the arm's own inverse dynamics ----------
+def _states(arm, k=5, seed=11):
+    rng = np.random.default_rng(seed)
+    return arm.random_state(rng, k), rng.uniform(-1.5, 1.5, (k, arm.n)), rng.uniform(-3, 3, (k, arm.n))
+
+
+def test_item6_friction_true_on_a_sigmoid_law_is_refused_by_name():
+    arm = _load("panda")                                       # the bundled panda: a sigmoid law
+    assert arm.friction_model is not None and "sigmoid" in arm.friction_model.terms
+    with pytest.raises(md.ModelError, match=r"^friction: panda's friction law has sigmoid term.*"
+                                            r"friction=arm\.friction_model"):
+        arm.parameters(friction=True)
+    q, qd, qdd = _states(arm)
+    law = arm.friction_model                                   # its own columns: the identity holds
+    for engine in ("pinocchio", "lagrange"):
+        Y = arm.engine(engine).regressor(q, qd, qdd, friction=law)
+        # 1e-10 N m on torques of tens of N m: float64 round-off
+        np.testing.assert_allclose(Y @ arm.parameters(friction=law), arm.inverse_dynamics(q, qd, qdd), atol=1e-10)
+
+
+@pytest.mark.parametrize("law", [
+    dict(viscous=[0.3] * 6, coulomb=[0.5] * 6, smoothing=0.0),           # what True's columns hold
+    dict(viscous=[0.3] * 6, offset=[0.1] * 6, smoothing=0.0),
+    dict(viscous=[0.2] * 6, coulomb=[0.4] * 6, stribeck_level=[0.3] * 6, stribeck_velocity=[0.1] * 6,
+         smoothing=0.0),
+    dict(coulomb=[0.5] * 6, smoothing=0.02),
+    dict(viscous=[0.3] * 6, coulomb=[0.5] * 6, smoothing=0.0, side="motor"),
+])
+def test_item6_friction_true_holds_or_is_refused_for_any_law(law):
+    base = _load("ur5")
+    gear = md.Transmission(np.diag([50.0, 50, 50, 30, 30, 30]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", md.ModelNoteWarning)
+        arm = md.Manipulator([dataclasses.replace(l, gear_ratio=g) for l, g in zip(base.links, np.diag(gear.R))],
+                             convention=base.convention, name="ur5", transmission=gear, friction=md.Friction(**law))
+    q, qd, qdd = _states(arm)
+    tau = arm.inverse_dynamics(q, qd, qdd)
+    try:
+        p = arm.parameters(friction=True)
+    except md.ModelError as exc:                    # refused: by name, and never for what True's columns hold
+        assert str(exc).startswith(("friction:", "ur5:")) and "friction=arm.friction_model" in str(exc)
+        assert set(law) - {"smoothing"} != {"viscous", "coulomb"} or law.get("side") == "motor" or law["smoothing"]
+    else:                                           # accepted: then the identity holds on both engines
+        for engine in ("pinocchio", "lagrange"):
+            Y = arm.engine(engine).regressor(q, qd, qdd, friction=True)
+            np.testing.assert_allclose(Y @ p, tau, atol=1e-10)
+    for engine in ("pinocchio", "lagrange"):        # the law's own columns always hold it
+        Y = arm.engine(engine).regressor(q, qd, qdd, friction=arm.friction_model)
+        np.testing.assert_allclose(Y @ arm.parameters(friction=arm.friction_model), tau, atol=1e-10)
+
+
+# -- item 13: check's timing table has every engine compared; --help lists every quantity --------------------
+def test_item13_check_times_every_engine_and_lists_every_quantity(capsys):
+    with pytest.raises(SystemExit):
+        main(["check", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    for key, what in QUANTITIES.items():
+        assert f"{key}: {' '.join(what.split())}" in text
+    assert f"the {len(QUANTITIES)} quantities" in text
+    pytest.importorskip("casadi", reason="the C engine's first build needs CasADi (the codegen extra)")
+    code = main(["check", "ur5", "--samples", "5", "--engines", "lagrange,pinocchio,c", "--timing-calls", "5",
+                 "--no-progress"])
+    out = capsys.readouterr().out
+    assert code == 0
+    header = next(l for l in out.splitlines() if "per call (median, us)" in l)
+    assert header.split()[-3:] == ["lagrange", "pinocchio", "c"]
+    for label in ("inverse dynamics", "mass matrix", "forward dynamics"):
+        row = next(l for l in out.splitlines() if l.strip().startswith(label))
+        values = [float(x) for x in row.split()[-3:]]
+        assert all(v > 0 for v in values)            # each engine measured, the C one too
