@@ -100,3 +100,28 @@ def test_item13_check_times_every_engine_and_lists_every_quantity(capsys):
         row = next(l for l in out.splitlines() if l.strip().startswith(label))
         values = [float(x) for x in row.split()[-3:]]
         assert all(v > 0 for v in values)            # each engine measured, the C one too
+
+
+# -- item 11: montecarlo, excite and codegen show the model's notes, as check and track do -------------------
+def test_item11_every_command_shows_the_model_notes(tmp_path, capsys):
+    notes = md.load_with_notes("stanford")[1]
+    assert notes                                             # link 5 breaks the triangle inequality
+    code = main(["montecarlo", "stanford", "--runs", "2", "--duration", "0.2", "--scheduler", "sync",
+                 "--controllers", "pd", "--no-progress"])
+    out = capsys.readouterr().out
+    assert code == 0 and all(f"note: {n}" in out for n in notes)
+    main(["montecarlo", "stanford", "--runs", "2", "--duration", "0.2", "--scheduler", "sync",
+          "--controllers", "pd", "--no-progress", "--json"])
+    import json
+    assert json.loads(capsys.readouterr().out)["notes"] == list(notes)
+    for args in (["excite", "stanford", "-o", str(tmp_path / "x.csv"), "--duration", "2", "--harmonics", "2",
+                  "--iterations", "2", "--no-progress"],):
+        assert main(args) == 0
+        out = capsys.readouterr().out
+        assert all(f"note: {n}" in out for n in notes)
+        assert main(args[:3] + [str(tmp_path / "y.csv")] + args[4:] + ["--json"]) == 0
+        assert json.loads(capsys.readouterr().out)["notes"] == list(notes)
+    pytest.importorskip("casadi", reason="codegen needs CasADi (the codegen extra)")
+    assert main(["codegen", "stanford", "-o", str(tmp_path / "gen")]) == 0
+    out = capsys.readouterr().out
+    assert all(f"note: {n}" in out for n in notes)

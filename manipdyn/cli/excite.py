@@ -97,7 +97,7 @@ def run(args) -> int:
 
     try:
         check_options(args)
-        arm, _ = load_arm(args.model, args.tip)
+        arm, notes = load_arm(args.model, args.tip)
         ex = excitation(arm, duration=args.duration, harmonics=args.harmonics, rate=args.rate,
                         seed=args.seed, vmax=args.vmax, amax=args.amax, iterations=args.iterations,
                         friction=args.friction, progress=Progress("optimising", progress_wanted(args), unit="iterations"))
@@ -110,11 +110,13 @@ def run(args) -> int:
            "duration": ex.period, "harmonics": int(ex.a.shape[1]), "rate": args.rate,
            "n_base": ex.n_base, "condition_number": ex.condition_number,
            "max_abs_qd": [float(x) for x in abs(ex.qd).max(axis=0)],
-           "max_abs_qdd": [float(x) for x in abs(ex.qdd).max(axis=0)]}
+           "max_abs_qdd": [float(x) for x in abs(ex.qdd).max(axis=0)], "notes": list(notes)}
     if args.json:
         print(json.dumps(out, indent=2))
     else:
         print(f"wrote {args.output}: {out['samples']} samples over {ex.period:g} s, {out['harmonics']} "
               f"harmonics; {ex.n_base} base parameters, condition number {ex.condition_number:.4g}",
               file=sys.stdout)
+        for n in notes:                  # the model's notes, as check and track show them
+            print(f"  note: {n}")
     return EXIT_OK
