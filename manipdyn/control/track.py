@@ -95,7 +95,7 @@ class TrackResult:
     payload: float
     logs: dict = field(default_factory=dict)       # label -> SimulationLog | str ("DIVERGED at t = ...")
     messages: dict = field(default_factory=dict)   # label -> the divergence's full message
-    reference: str = ""                            # the user's path ("path FILE (N samples)"), "" the demo path
+    reference: str = ""                            # the user's path ("path FILE (N samples of q)"), "" the demo
 
     @property
     def final(self) -> float:
@@ -167,17 +167,18 @@ class TrackResult:
         return None
 
 
-def reference_for(arm, path=None, duration=None):
-    """``(trajectory or None, duration, label)`` of a run: the demo path (``path`` None: built by
-    :func:`track`; ``duration`` default 8 s), or the user's (a CSV file name, read by
+def reference_for(arm, trajectory=None, duration=None):
+    """``(trajectory or None, duration, label)`` of a run: the demo path (``trajectory`` None: built
+    by :func:`track`; ``duration`` default 8 s), or the user's (a CSV file name, read by
     :func:`~manipdyn.control.reference.read_path`, or a
     :class:`~manipdyn.control.trajectory.Trajectory`), ``duration`` default its length."""
+    path = trajectory
     if path is None:
         return None, (8.0 if duration is None else duration), ""
     if isinstance(path, (str, os.PathLike)):
         path = read_path(path, arm)
     elif not (isinstance(path, Trajectory) and getattr(path, "n", None) == arm.n):
-        raise ModelError(f"path: expected a CSV file of t, q1..q{arm.n} or a Trajectory of {arm.n} joints, "
+        raise ModelError(f"trajectory: expected a CSV file of t, q1..q{arm.n} or a Trajectory of {arm.n} joints, "
                          f"got {path!r:.80}")
     label = (f"path {path.source} ({path.samples} samples of {path.columns})" if isinstance(path, ReferencePath)
              else f"path {type(path).__name__}")
@@ -186,8 +187,8 @@ def reference_for(arm, path=None, duration=None):
 
 def track(arm, controllers=("ct",), *, payload: float = 0.0, duration: float | None = None, dt: float = 1e-3,
           bandwidth: float = DEFAULT_BANDWIDTH, gamma: float = DEFAULT_GAMMA, progress=None,
-          on_run=None, path=None) -> TrackResult:
-    """Run the demo path (or the user's ``path``) with each controller of ``controllers`` on ``arm``.
+          on_run=None, trajectory=None) -> TrackResult:
+    """Run the demo path (or the user's ``trajectory``) with each controller of ``controllers`` on ``arm``.
 
     Parameters
     ----------
@@ -210,13 +211,13 @@ def track(arm, controllers=("ct",), *, payload: float = 0.0, duration: float | N
         ``progress(label) -> callback(done, total)``: a progress reporter per run.
     on_run : callable, optional
         Called as ``on_run(result, label)`` after each run (the command line prints there).
-    path : str, os.PathLike or Trajectory, optional
+    trajectory : str, os.PathLike or Trajectory, optional
         The reference to track instead of the demo path: a CSV file of ``t, q1..qn``
         (:func:`~manipdyn.control.reference.read_path`: times from the first row, positions
-        within the joint limits, optional velocities and accelerations), or a trajectory.
-        The arm starts on it (its position and velocity at t = 0).
+        within the joint limits, or ``excite``'s file with velocities and accelerations), or a
+        :class:`~manipdyn.control.trajectory.Trajectory`.  The arm starts on it.
     """
-    path, duration, reference = reference_for(arm, path, duration)
+    path, duration, reference = reference_for(arm, trajectory, duration)
     check_track_options(duration=duration, dt=dt, payload=payload, bandwidth=bandwidth, gamma=gamma)
     path = demo_path(arm, duration) if path is None else path
     kinds = list(CONTROLLERS) if controllers == "all" else [str(k).lower() for k in controllers]
