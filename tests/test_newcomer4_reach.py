@@ -214,3 +214,37 @@ def test_item18_velocities_and_accelerations_are_matched(tmp_path):
         np.testing.assert_allclose(a, q[k], atol=1e-12)
         np.testing.assert_allclose(b, qd[k], atol=1e-12)
         np.testing.assert_allclose(c, qdd[k], atol=1e-12)
+
+
+# -- item 16: synthesize --perturb --truth FILE writes the arm it drew -----------------------------------------
+def test_item16_synthesize_writes_the_true_arm(tmp_path, capsys):
+    from manipdyn.formats.logs.trajectory import read_trajectory
+    traj, log, truth = tmp_path / "traj.csv", tmp_path / "log.csv", tmp_path / "truth.toml"
+    assert main(["excite", "ur5", "-o", str(traj), "--duration", "2", "--harmonics", "2", "--iterations", "2",
+                 "--no-progress"]) == 0
+    assert main(["synthesize", "ur5", str(traj), "-o", str(log), "--perturb", "--seed", "4", "--noise", "0",
+                 "--truth", str(truth)]) == 0
+    assert f"the true arm written to {truth}" in capsys.readouterr().out
+    arm = md.load(str(truth))
+    prior = _load("ur5")
+    assert arm.name == "ur5_true" and "--seed 4" in arm.description
+    T = read_trajectory(traj, 6)
+    table = np.loadtxt(log, delimiter=",", skiprows=1)
+    # noise 0: the log is the true arm's inverse dynamics (written with repr precision: 1e-9 N m)
+    np.testing.assert_allclose(table[:, 7:13], arm.inverse_dynamics(T.q, T.qd, T.qdd), atol=1e-9)
+    assert np.abs(table[:, 7:13] - prior.inverse_dynamics(T.q, T.qd, T.qdd)).max() > 0.1   # not the prior
+    # the same seed draws the same arm: a second run writes the same file
+    again = tmp_path / "again.toml"
+    assert main(["synthesize", "ur5", str(traj), "-o", str(tmp_path / "log2.csv"), "--perturb", "--seed", "4",
+                 "--truth", str(again)]) == 0
+    np.testing.assert_array_equal(md.load(str(again)).inverse_dynamics(T.q, T.qd, T.qdd),
+                                  arm.inverse_dynamics(T.q, T.qd, T.qdd))
+    same = str(tmp_path / "same.toml")
+    for model, out, args, word in (("ur5", log, ["--truth", str(tmp_path / "t.toml")], "--perturb"),
+                                   ("ur5", log, ["--perturb", "--truth", str(tmp_path / "t.json")], ".toml"),
+                                   ("ur5", same, ["--perturb", "--truth", same], "the same file as -o"),
+                                   (str(truth), log, ["--perturb", "--truth", str(truth)], "would overwrite MODEL")):
+        capsys.readouterr()
+        assert main(["synthesize", model, str(traj), "-o", str(out), *args]) == 2
+        err = capsys.readouterr().err
+        assert "--truth" in err and word in err and len(err.strip().splitlines()) == 1
