@@ -59,7 +59,7 @@ def test_limits_hold_between_samples():
     arm = _load("ur5")
     ex = excitation(arm, duration=4.0, harmonics=3, rate=5.0, grid=20, iterations=2, seed=1,
                     vmax=0.8, amax=2.0)
-    q, qd, qdd = ex.sample(np.linspace(0.0, ex.period, 40001))
+    q, qd, qdd = ex.sample(ex.ramp + np.linspace(0.0, ex.period, 40001))      # the period between the ramps
     lo, hi = arm.qlim[:, 0], arm.qlim[:, 1]
     span = hi - lo
     assert np.all(q >= lo + 0.05 * span) and np.all(q <= hi - 0.05 * span)
