@@ -104,5 +104,5 @@ def test_harmonics_above_nyquist_are_refused():
     with pytest.raises(md.ModelError, match="grid: 10 points per period cannot resolve 5 harmonics"):
         excitation(arm, duration=10.0, harmonics=5, grid=10, iterations=0)
     # below Nyquist is accepted: 4 / 20 s = 0.2 Hz < 0.25 Hz, 10 samples x 6 joints >= r
-    ex = excitation(arm, duration=20.0, harmonics=4, rate=0.5, iterations=0)
+    ex = excitation(arm, duration=20.0, harmonics=4, rate=0.5, iterations=0, ramp=0)   # one period: 10 samples
     assert len(ex.t) == 10 and np.isfinite(ex.condition_number)

@@ -337,3 +337,44 @@ def test_item14_excitation_ramps_from_rest_and_keeps_its_limits(tmp_path, capsys
         assert "--ramp" in err and len(err.strip().splitlines()) == 1
     with pytest.raises(md.ModelError, match="^ramp:"):
         excitation(arm, iterations=0, ramp="later")
+
+
+# -- item 10: the API's log options are checked by name; the CLI's 'T0:T1' works in the API too -----------------
+def _synthetic_log(tmp_path):
+    from manipdyn.formats.logs.data import write_measurements_csv
+    arm = _load("ur5")
+    t = np.arange(400) / 100.0
+    q = arm.qlim.mean(axis=1) + 0.3 * np.sin(np.outer(t, 0.5 + 0.2 * np.arange(6)))
+    qd = 0.3 * (0.5 + 0.2 * np.arange(6)) * np.cos(np.outer(t, 0.5 + 0.2 * np.arange(6)))
+    qdd = -0.3 * (0.5 + 0.2 * np.arange(6)) ** 2 * np.sin(np.outer(t, 0.5 + 0.2 * np.arange(6)))
+    path = tmp_path / "log.csv"
+    write_measurements_csv(path, t, q, arm.inverse_dynamics(q, qd, qdd))
+    return path
+
+
+@pytest.mark.parametrize("kw, name", [
+    (dict(t_range=(10,)), "t_range"), (dict(t_range=(0, "a")), "t_range"), (dict(t_range=5), "t_range"),
+    (dict(t_range=(0, float("nan"))), "t_range"), (dict(t_range="10"), "t_range"), (dict(t_range="3:1"), "t_range"),
+    (dict(t_range=(True, 2)), "t_range"), (dict(resample="200"), "resample"), (dict(rate="100"), "rate"),
+    (dict(cutoff="5"), "cutoff"), (dict(resample=-1.0), "resample"),
+])
+def test_item10_api_log_options_are_refused_by_name(tmp_path, kw, name):
+    pytest.importorskip("scipy", reason="identification needs the identify extra")
+    log = _synthetic_log(tmp_path)
+    for call in (lambda: md.identify("ur5", str(log), method="ols", **kw),
+                 lambda: md.validate("ur5", str(log), **kw)):
+        with pytest.raises(md.ModelError, match=f"^{name}: expected"):
+            call()
+
+
+def test_item10_the_clis_t_range_text_is_the_apis_too(tmp_path, capsys):
+    pytest.importorskip("scipy", reason="identification needs the identify extra")
+    log = _synthetic_log(tmp_path)
+    a = md.identify("ur5", str(log), method="ols", t_range="0.5:3")
+    b = md.identify("ur5", str(log), method="ols", t_range=(0.5, 3.0))
+    c = md.identify("ur5", str(log), method="ols", t_range=":3")
+    np.testing.assert_array_equal(a.fit.beta, b.fit.beta)
+    assert not np.array_equal(a.fit.beta, c.fit.beta)              # the window was applied
+    assert main(["identify", "ur5", str(log), "-o", str(tmp_path / "x.toml"), "--method", "ols", "--t-range", "0.5"]) == 2
+    err = capsys.readouterr().err
+    assert "--t-range: expected" in err and len(err.strip().splitlines()) == 1
