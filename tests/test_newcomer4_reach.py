@@ -378,3 +378,36 @@ def test_item10_the_clis_t_range_text_is_the_apis_too(tmp_path, capsys):
     assert main(["identify", "ur5", str(log), "-o", str(tmp_path / "x.toml"), "--method", "ols", "--t-range", "0.5"]) == 2
     err = capsys.readouterr().err
     assert "--t-range: expected" in err and len(err.strip().splitlines()) == 1
+
+
+# -- item 12: a fit that is no physical arm: the API's save and the CLI do the same thing ---------------------
+def test_item12_no_physical_arm_is_one_behaviour(tmp_path, capsys):
+    pytest.importorskip("scipy", reason="identification needs the identify extra")
+    import json
+    from manipdyn.formats.logs.data import write_measurements_csv
+    from manipdyn.identification import excitation
+    arm = _load("ur5")
+    ex = excitation(arm, duration=6.0, harmonics=3, rate=100.0, iterations=0, ramp=0)
+    tau = arm.inverse_dynamics(ex.q, ex.qd, ex.qdd) + 0.5 * np.random.default_rng(5).standard_normal(ex.q.shape)
+    data = tmp_path / "data.csv"                               # heavy noise: ols sends wrist inertias negative
+    write_measurements_csv(data, ex.t, ex.q, tau, qd=ex.qd, qdd=ex.qdd)
+    # the command line: X.base.json beside X.toml, exit 1
+    assert main(["identify", "ur5", str(data), "-o", str(tmp_path / "cli.toml"), "--method", "ols"]) == 1
+    capsys.readouterr()
+    assert not (tmp_path / "cli.toml").exists() and (tmp_path / "cli.base.json").exists()
+    # the API: the same file beside it, and the failure raised (as the CLI's exit 1)
+    r = md.identify("ur5", str(data), method="ols")
+    assert r.arm is None
+    with pytest.raises(md.ModelError, match=r"api\.toml: the ols parameters are not a physical arm .* the base "
+                                            r"model is written to .*api\.base\.json instead"):
+        r.save(tmp_path / "api.toml")
+    assert not (tmp_path / "api.toml").exists()
+    cli = json.loads((tmp_path / "cli.base.json").read_text())
+    api = json.loads((tmp_path / "api.base.json").read_text())
+    assert [p["value"] for p in api["base_parameters"]] == [p["value"] for p in cli["base_parameters"]]
+    assert api["why_no_model"] == cli["why_no_model"]
+    # identify(output=...) in Python: the CLI's path exactly (the base model, exit_code 1)
+    r2 = md.identify("ur5", str(data), method="ols", output=str(tmp_path / "out.toml"))
+    assert r2.exit_code == 1 and r2.base_model == str(tmp_path / "out.base.json")
+    with pytest.raises(md.ModelError, match="^path: expected a file name ending in .toml, .urdf or .json"):
+        r.save(tmp_path / "api.yaml")
