@@ -174,11 +174,18 @@ def effect_on_arm(dist: Distributions, arm, bandwidth: float) -> dict:
     def unit(j):                                  # joint j (1-based): rad, or m for a prismatic joint
         return "m" if arm.joint_types[j - 1] == "prismatic" else "rad"
 
+    parts = []
+    if dist.friction_coulomb:
+        parts.append(f"added Coulomb friction up to {dist.friction_coulomb:g} N m holds joint {c[1]} up to "
+                     f"{c[0]:.3g} {unit(c[1])} off")
+    if dist.torque_noise:
+        parts.append(f"torque noise of {dist.torque_noise:g} N m pushes joint {nz[1]} {nz[0]:.3g} {unit(nz[1])} "
+                     "per standard deviation")
+    if dist.friction_viscous:
+        parts.append(f"added viscous friction up to {dist.friction_viscous:g} N m s/rad is {v[0]:.3g} times joint "
+                     f"{v[1]}'s damping 2 wn D_jj")
     out["text"] = "" if not big else (
         f"what these draws do to {arm.name or 'the arm'} (absolute, not scaled to it) at the demo gains "
-        f"Kp = wn^2 D_jj of {kp.min():.3g} to {kp.max():.3g} N m/rad: added Coulomb friction up to "
-        f"{dist.friction_coulomb:g} N m holds joint {c[1]} up to {c[0]:.3g} {unit(c[1])} off, torque noise of "
-        f"{dist.torque_noise:g} N m pushes joint {nz[1]} {nz[0]:.3g} {unit(nz[1])} per standard deviation, added "
-        f"viscous friction up to {dist.friction_viscous:g} N m s/rad is {v[0]:.3g} times joint {v[1]}'s damping "
-        "2 wn D_jj; scale --friction-coulomb, --friction-viscous and --torque-noise to the arm where these are large")
+        f"Kp = wn^2 D_jj of {kp.min():.3g} to {kp.max():.3g} N m/rad: {', '.join(parts)}; scale "
+        "--friction-coulomb, --friction-viscous and --torque-noise to the arm where these are large")
     return out

@@ -25,10 +25,11 @@ first scaled about ``q0`` (:func:`_feasible`, with the bounds of
 
 From rest to rest (issue 31, item 14): a robot cannot start on the series, which is moving
 at t = 0.  By default the trajectory ramps in and out: ``q(t) = q0 + e(t) (p(t) - q0)`` with
-``p`` the series and ``e`` rising from 0 to 1 over ``ramp`` seconds by the quintic smoothstep
-``10 u^3 - 15 u^4 + 6 u^5`` (``u = t / ramp``), staying 1 over one period, and falling back
-over ``ramp`` seconds; so it starts and ends at ``q0`` at rest (``qd = qdd = 0``), and
-position, velocity and acceleration are continuous.  ``q`` stays within the joint limits
+``p`` the series and ``e`` rising from 0 to 1 over ``ramp`` seconds by the septic smoothstep
+``35 u^4 - 84 u^5 + 70 u^6 - 20 u^7`` (``u = t / ramp``), staying 1 over one period, and falling
+back over ``ramp`` seconds; so it starts and ends at ``q0`` at rest (``qd = qdd = 0``, and no
+jump in the jerk), and position, velocity, acceleration and jerk are continuous (a
+discontinuous jerk would put a kink in qdd that a log's low-pass filter rounds off).  ``q`` stays within the joint limits
 (``e`` in [0, 1]); the ramps' velocities and accelerations (``e' (p - q0) + e qd_p``, ...) are
 bounded at every time like the series' (:func:`_ramp_peaks`), and ``ramp="auto"`` takes
 the shortest of ``period / 4, period / 2, period, 2 period`` under which they hold the
@@ -86,10 +87,10 @@ def _envelope(t, ramp: float, period: float):
     T = period + 2.0 * ramp
     u = np.clip(np.minimum(t, T - t) / ramp, 0.0, 1.0)
     sgn = np.where(t <= T / 2, 1.0, -1.0)              # falling: d/dt of u is -1 / ramp
-    e = u**3 * (10 - 15 * u + 6 * u**2)
+    e = u**4 * (35 - 84 * u + 70 * u**2 - 20 * u**3)
     inside = (u > 0) & (u < 1)
-    e1 = np.where(inside, 30 * u**2 * (1 - u) ** 2, 0.0) * sgn / ramp
-    e2 = np.where(inside, 60 * u * (1 - u) * (1 - 2 * u), 0.0) / ramp**2
+    e1 = np.where(inside, 140 * u**3 * (1 - u) ** 3, 0.0) * sgn / ramp
+    e2 = np.where(inside, 420 * u**2 * (1 - u) ** 2 * (1 - 2 * u), 0.0) / ramp**2
     return e, e1, e2
 
 
@@ -104,8 +105,9 @@ def ramped_trajectory(t, q0, a, b, period: float, ramp: float):
     return q0 + e * d, e1 * d + e * qd, e2 * d + 2.0 * e1 * qd + e * qdd
 
 
-#: suprema of |e^(k)| of the smoothstep per unit u, k = 0..4
-_SMOOTHSTEP_SUP = (1.0, 1.875, 10.0 / math.sqrt(3.0), 60.0, 360.0)
+#: suprema of |e^(k)| of the smoothstep per unit u, k = 0..4 (35/16; 7.51319 at u = 0.2764,
+#: rounded up; 52.5 at u = 1/2; 840 at both ends)
+_SMOOTHSTEP_SUP = (1.0, 2.1875, 7.5132, 52.5, 840.0)
 
 
 def _ramp_peaks(a, b, period: float, ramp: float, points: int = 4000):
