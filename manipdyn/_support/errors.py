@@ -15,7 +15,8 @@ import warnings
 _PACKAGE_DIR = os.path.dirname(os.path.dirname(os.path.abspath(__file__))) + os.sep  # manipdyn/, not _support/
 
 __all__ = ["ModelError", "TipError", "UnreachablePoseError", "ModelNoteWarning", "PhysicalConsistencyWarning",
-           "SuspiciousValueWarning", "SingularMassMatrixError", "StateError", "warn_at_caller", "warn_notes", "MissingExtraError"]
+           "SuspiciousValueWarning", "SingularMassMatrixError", "StateError", "warn_at_caller", "warn_notes",
+           "MissingExtraError"]
 
 
 class ModelError(ValueError):

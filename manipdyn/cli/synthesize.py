@@ -34,7 +34,8 @@ def run(args) -> int:
     if args.truth is not None and not args.perturb:
         raise ModelError("--truth: only with --perturb (without it the log is MODEL's own, and MODEL is the truth)")
     if args.truth is not None and not str(args.truth).endswith(".toml"):
-        raise ModelError(f"--truth: expected a model file name ending in .toml (what md.load reads), got {args.truth!r}")
+        raise ModelError(f"--truth: expected a model file name ending in .toml (what md.load reads), "
+                         f"got {args.truth!r}")
     check_outputs([("-o", args.output), ("--truth", args.truth)],
                   [("MODEL", args.model), ("TRAJ.csv", args.trajectory)])
     arm, _notes = load_arm(args.model, args.tip)

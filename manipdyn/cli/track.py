@@ -30,7 +30,8 @@ def run(args) -> int:
     check_track_options(duration=args.duration, dt=args.dt, payload=args.payload, bandwidth=args.bandwidth,
                         gamma=args.gamma, prefix="--")
     # fail before a long run, not after it
-    check_outputs([("--plot", args.plot)], [("MODEL", args.model)] + ([("--trajectory", args.trajectory)] if args.trajectory else []),
+    inputs = [("MODEL", args.model)] + ([("--trajectory", args.trajectory)] if args.trajectory else [])
+    check_outputs([("--plot", args.plot)], inputs,
                   plots=("--plot",))
     arm, notes = load_arm(args.model, args.tip)
     path, duration, reference = reference_for(arm, args.trajectory, args.duration)   # read before any run

@@ -42,7 +42,8 @@ def check_track_options(*, duration: float | None, dt: float, payload: float, ba
     length of a path still to be read); it is checked again when it is.
     """
     if duration is None:
-        check_track_options(duration=min(max(dt, 1e-9), MAX_DURATION) if isinstance(dt, (int, float)) and dt > 0 else 1.0, dt=dt,
+        stand_in = min(max(dt, 1e-9), MAX_DURATION) if isinstance(dt, (int, float)) and dt > 0 else 1.0
+        check_track_options(duration=stand_in, dt=dt,
                             payload=payload, bandwidth=bandwidth, gamma=gamma, prefix=prefix)
         return
     values = {"duration": duration, "dt": dt, "payload": payload, "bandwidth": bandwidth, "gamma": gamma}

@@ -339,7 +339,8 @@ def run_many(study: Study, runs, key: str, cache: dict) -> list:
     from .lockstep import simulate_lockstep
 
     setups = [study.setup(int(r), key, cache) for r in runs]
-    return [_record(study, setup, key, log, diverged) for setup, (log, diverged) in zip(setups, simulate_lockstep(setups))]
+    return [_record(study, setup, key, log, diverged)
+            for setup, (log, diverged) in zip(setups, simulate_lockstep(setups))]
 
 
 def run_chunk(study: Study, runs) -> dict:
