@@ -37,7 +37,7 @@ SIGMA = np.array([0.06, 0.5, 0.15, 0.02, 0.004, 0.001])    # N m per joint, as t
 
 
 def _synthetic(arm, seed):
-    ex = excitation(arm, duration=10.0, harmonics=3, rate=100.0, iterations=0, seed=seed)
+    ex = excitation(arm, duration=10.0, harmonics=3, rate=100.0, iterations=0, seed=seed, ramp=0)   # as published
     rng = np.random.default_rng(100 + seed)
     w = rng.standard_normal(ex.q.shape)
     e = np.empty_like(w)

@@ -98,7 +98,7 @@ def bench_fit(name: str, samples: int, repeats: int) -> dict:
     rate = 200.0
     trim = 2 * int(np.ceil(3 * rate / 5.0))             # what the zero-phase derivatives drop
     duration = (samples + trim) / rate
-    traj = excitation(prior, duration=duration, harmonics=5, rate=rate, iterations=0, friction=True)
+    traj = excitation(prior, duration=duration, harmonics=5, rate=rate, iterations=0, friction=True, ramp=0)  # as published
     data, _, _ = measure(truth, traj, np.random.default_rng(0))
     from threadpoolctl import threadpool_limits
 

@@ -20,7 +20,7 @@ Importing it imports both engines, which register themselves with the model.
 """
 
 from ._support.errors import (ModelError, ModelNoteWarning, PhysicalConsistencyWarning, SingularMassMatrixError,
-                     StateError, SuspiciousValueWarning)
+                     StateError, SuspiciousValueWarning, UnreachablePoseError)
 from .model.inertia import LinkInertia
 from .model.kinematics import transform_inverse
 from .model.links import ChainJoint, DHLink
@@ -96,7 +96,7 @@ __version__ = "0.1.0"
 __all__ = ["Transmission", "Friction", "FrictionTerms", 
     "Arm", "ChainJoint", "Convention", "CompareReport", "CrosscheckReport", "DHLink", "DynamicsEngine", "JacobianEngine",
     "LinkInertia", "Manipulator", "ModelError", "ModelNoteWarning", "PhysicalConsistencyWarning", "SingularMassMatrixError",
-    "StateError", "SuspiciousValueWarning", "URDFArm", "codegen", "compare", "crosscheck", "linearize", "load", "load_with_notes", "models", "save",
+    "StateError", "SuspiciousValueWarning", "URDFArm", "UnreachablePoseError", "codegen", "compare", "crosscheck", "linearize", "load", "load_with_notes", "models", "save",
     "simulate", "identify", "validate", "to_toml", "to_urdf", "transform_inverse", "write_urdf",
 ]
 

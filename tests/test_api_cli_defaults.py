@@ -39,7 +39,7 @@ def _pipelines():
                              | {"plants_from": "plants"}),
         "montecarlo/run": (mc.run, same("scheduler", "workers", "chunk_size")),
         "excite/excitation": (excitation, same("duration", "harmonics", "rate", "seed", "vmax", "amax",
-                                               "iterations", "friction")),
+                                               "iterations", "friction", "ramp")),
         "synthesize/synthesize": (synthesize, same("noise", "seed")),
         "check/crosscheck": (md.crosscheck, same("samples", "seed", "scheduler", "workers")),
         "compare/compare": (md.compare, same("samples", "seed")),

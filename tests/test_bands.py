@@ -38,7 +38,7 @@ def _coloured(rng, shape, phi=0.5):
 def _log(path, arm, seed, shift=None):
     """A 10 s, 100 Hz excitation of ``arm`` (seeded), its exact torques plus coloured noise of SIGMA,
     written with measured qd and qdd (nothing filtered).  ``shift``: added to q (n,) before the torques."""
-    ex = excitation(arm, duration=10.0, harmonics=3, rate=100.0, iterations=0, seed=seed)
+    ex = excitation(arm, duration=10.0, harmonics=3, rate=100.0, iterations=0, seed=seed, ramp=0)   # 1000 samples
     q = ex.q + (0.0 if shift is None else np.asarray(shift))
     tau = arm.inverse_dynamics(q, ex.qd, ex.qdd) + SIGMA * _coloured(np.random.default_rng(100 + seed), q.shape)
     write_measurements_csv(path, ex.t, q, tau, qd=ex.qd, qdd=ex.qdd)
@@ -221,7 +221,7 @@ def test_too_little_data_for_the_blocks_gives_no_band_and_says_so():
     from manipdyn.identification.results.provenance import fit_record
 
     arm = md.load("ur5")
-    ex = excitation(arm, duration=0.9, harmonics=3, rate=100.0, iterations=0, seed=7)
+    ex = excitation(arm, duration=0.9, harmonics=3, rate=100.0, iterations=0, seed=7, ramp=0)      # 90 samples
     tau = arm.inverse_dynamics(ex.q, ex.qd, ex.qdd)
     data = Measurements(ex.t, ex.q, ex.qd, ex.qdd, tau)
     record, notes = fit_record(arm, data, folds=5, method="wls")

@@ -59,7 +59,7 @@ def test_limits_hold_between_samples():
     arm = _load("ur5")
     ex = excitation(arm, duration=4.0, harmonics=3, rate=5.0, grid=20, iterations=2, seed=1,
                     vmax=0.8, amax=2.0)
-    q, qd, qdd = ex.sample(np.linspace(0.0, ex.period, 40001))
+    q, qd, qdd = ex.sample(ex.ramp + np.linspace(0.0, ex.period, 40001))      # the period between the ramps
     lo, hi = arm.qlim[:, 0], arm.qlim[:, 1]
     span = hi - lo
     assert np.all(q >= lo + 0.05 * span) and np.all(q <= hi - 0.05 * span)
@@ -104,5 +104,5 @@ def test_harmonics_above_nyquist_are_refused():
     with pytest.raises(md.ModelError, match="grid: 10 points per period cannot resolve 5 harmonics"):
         excitation(arm, duration=10.0, harmonics=5, grid=10, iterations=0)
     # below Nyquist is accepted: 4 / 20 s = 0.2 Hz < 0.25 Hz, 10 samples x 6 joints >= r
-    ex = excitation(arm, duration=20.0, harmonics=4, rate=0.5, iterations=0)
+    ex = excitation(arm, duration=20.0, harmonics=4, rate=0.5, iterations=0, ramp=0)   # one period: 10 samples
     assert len(ex.t) == 10 and np.isfinite(ex.condition_number)

@@ -119,8 +119,8 @@ def test_excitation_grid_zero_and_numpy_duration():
     arm = md.load("ur5")
     with pytest.raises(ModelError, match="grid: expected a positive integer, got 0"):
         excitation(arm, grid=0, iterations=0)
-    ex = excitation(arm, duration=np.int64(2), harmonics=2, rate=np.float32(50.0), iterations=0)
-    ref = excitation(arm, duration=2.0, harmonics=2, rate=50.0, iterations=0)
+    ex = excitation(arm, duration=np.int64(2), harmonics=2, rate=np.float32(50.0), iterations=0, ramp=0)
+    ref = excitation(arm, duration=2.0, harmonics=2, rate=50.0, iterations=0, ramp=0)     # one period each
     assert ex.q.shape == ref.q.shape == (100, 6)
     assert np.array_equal(ex.q, ref.q)
     with pytest.raises(ModelError, match="duration: expected a positive number, got np.True_|duration: expected"):

@@ -40,8 +40,8 @@ def logs(tmp_path_factory):
     """A UR5 log with exact torques of the bare arm (qd, qdd measured), its trajectory, and a
     wls base model identified from it."""
     d = tmp_path_factory.mktemp("hostile")
-    assert main(["excite", "ur5", "--iterations", "0", "--duration", "4", "--rate", "200",
-                 "-o", str(d / "traj.csv")]) == 0
+    assert main(["excite", "ur5", "--iterations", "0", "--duration", "4", "--rate", "200", "--ramp", "0",
+                 "-o", str(d / "traj.csv")]) == 0          # one 4 s period, no ramps: the sizes below count it
     assert main(["synthesize", "ur5", str(d / "traj.csv"), "-o", str(d / "data.csv"), "--derivatives",
                  "--noise", "0"]) == 0
     assert main(["identify", "ur5", str(d / "data.csv"), "--method", "wls", "-o", str(d / "id.toml"),

@@ -347,8 +347,8 @@ def test_item10_crosscheck_compares_the_jacobian_and_catches_a_wrong_one():
         def __getattr__(self, attr):
             return getattr(self._eng, attr)
 
-        def jacobian(self, q):
-            J = self._eng.jacobian(q)
+        def jacobian(self, q, frame="world", link=None):
+            J = self._eng.jacobian(q, frame=frame, link=link)
             return np.concatenate((J[..., 3:, :], J[..., :3, :]), axis=-2)
 
     bad = _load("ur5")
@@ -374,7 +374,8 @@ def test_item10_an_engine_without_jacobian_is_not_a_failure():
     r = md.crosscheck(arm, samples=10)
     assert r.ok and not r.not_compared and "J" not in r.quantities
     assert [n for n in r.notes if "not compared" in n] == [
-        "J, Jdot not compared where engine pinocchio takes part: it offers no jacobian, jacobian_dot (optional)"]
+        "J, Jdot, J_tool, J_link, tau_f not compared where engine pinocchio takes part: it offers no jacobian, "
+        "jacobian_dot (optional)"]
     assert isinstance(_load("ur5").lagrange, md.JacobianEngine)
     assert not isinstance(DynamicsOnly(arm.lagrange), md.JacobianEngine)
     with pytest.raises(md.ModelError, match="offers no jacobian"):

@@ -25,7 +25,7 @@ def perturbed_ur5():
     6 s excitation at 100 Hz (600 samples), the exact torques and 1 %-of-peak noise levels."""
     prior = md.load("ur5")
     truth = true_arm(prior, seed=1)
-    ex = excitation(prior, duration=6.0, harmonics=3, rate=100.0, iterations=0)
+    ex = excitation(prior, duration=6.0, harmonics=3, rate=100.0, iterations=0, ramp=0)   # 600 samples
     tau0 = truth.inverse_dynamics(ex.q, ex.qd, ex.qdd)
     sigma = 0.01 * np.abs(tau0).max(axis=0)
     base = base_parameters(prior, friction=True)

@@ -14,8 +14,9 @@ import warnings
 
 _PACKAGE_DIR = os.path.dirname(os.path.dirname(os.path.abspath(__file__))) + os.sep  # manipdyn/, not _support/
 
-__all__ = ["ModelError", "TipError", "ModelNoteWarning", "PhysicalConsistencyWarning", "SuspiciousValueWarning",
-           "SingularMassMatrixError", "StateError", "warn_at_caller", "warn_notes", "MissingExtraError"]
+__all__ = ["ModelError", "TipError", "UnreachablePoseError", "ModelNoteWarning", "PhysicalConsistencyWarning",
+           "SuspiciousValueWarning", "SingularMassMatrixError", "StateError", "warn_at_caller", "warn_notes",
+           "MissingExtraError"]
 
 
 class ModelError(ValueError):
@@ -62,6 +63,19 @@ class TipError(ModelError):
 
 class StateError(ValueError):
     """A joint state (q, qd, qdd, tau) has the wrong shape or is not finite."""
+
+
+class UnreachablePoseError(StateError):
+    """Inverse kinematics found no joint positions within the limits that reach the pose.
+
+    Attributes: ``q`` (n,) the closest joint positions found, ``position_error`` (m) and
+    ``rotation_error`` (rad) of their pose; the message says the same.
+    """
+
+    def __init__(self, message: str, q=None, position_error: float = float("nan"),
+                 rotation_error: float = float("nan")):
+        super().__init__(message)
+        self.q, self.position_error, self.rotation_error = q, position_error, rotation_error
 
 
 class ModelNoteWarning(UserWarning):

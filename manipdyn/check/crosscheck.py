@@ -7,7 +7,8 @@ by both engines and compared: D, h, C (the Coriolis matrix), g, tau, the
 forward dynamics of those torques, the end pose, both energies, the
 inverse-dynamics regressor Y (tau = Y pi, :mod:`manipdyn.model.parameters`), the
 derivatives, and (when both engines offer it) the tool frame's Jacobian and
-its time derivative.  The error of one state is::
+its time derivative, in the tool's own axes, every link's, and the inverse dynamics under
+a tool wrench (:data:`TOOL_WRENCH`).  The error of one state is
 
     err = max_k |pinocchio_k - lagrange_k| / max(1, max_k |lagrange_k|)
 
@@ -34,12 +35,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..model.arm import register_service
-from ..engines.protocol import DynamicsEngine
+from .quantities import OPTIONAL_QUANTITIES, QUANTITIES, TOOL_WRENCH, engine_results as _engine_results
 from .._support.errors import ModelError, SingularMassMatrixError, StateError
 from .scale import arm_from_text, chunks, local_cores, map_chunks, model_text
 
 __all__ = ["crosscheck", "CrosscheckReport", "QuantityError", "TOLERANCE", "draw_states", "DEFAULT_ENGINES",
-           "as_engines"]
+           "as_engines", "QUANTITIES", "TOOL_WRENCH"]
 
 TOLERANCE = 1e-9
 #: the engines compared by default: the referee (the trace form) and Pinocchio
@@ -50,31 +51,6 @@ DEFAULT_ENGINES = ("lagrange", "pinocchio")
 MAX_COND = 1e7
 #: most states one cross-check draws (3 arrays of samples x n doubles are held)
 MAX_SAMPLES = 10_000_000
-
-QUANTITIES = {
-    "D": "mass matrix D(q)",
-    "h": "Coriolis/centripetal torque h(q, qd)",
-    "C": "Coriolis matrix C(q, qd) (Christoffel form)",
-    "g": "gravity torque g(q)",
-    "tau": "inverse dynamics tau",
-    "qdd": "forward dynamics qdd",
-    "fk": "end pose (forward kinematics)",
-    "K": "kinetic energy",
-    "P": "potential energy",
-    "Y": "inverse-dynamics regressor Y(q, qd, qdd) (10 parameters per link)",
-    "dtau_dq": "derivative of inverse dynamics by q, dtau/dq",
-    "dtau_dqd": "derivative of inverse dynamics by qd, dtau/dqd (friction included)",
-    "dqdd_dq": "derivative of forward dynamics by q, dqdd/dq",
-    "dqdd_dqd": "derivative of forward dynamics by qd, dqdd/dqd",
-    "dg_dq": "derivative of the gravity torque, dg/dq",
-    "J": "geometric Jacobian of the tool frame (6 x n, linear on top, base axes)",
-    "Jdot": "time derivative of the tool frame's Jacobian, dJ/dt",
-}
-#: quantities of engine methods that are optional (:data:`manipdyn.engines.protocol.OPTIONAL_ENGINE_METHODS`):
-#: compared only when both engines offer the method; otherwise the report's notes say so (an engine
-#: without them, such as generated C, is not a disagreement, so they stay out of ``not_compared``)
-OPTIONAL_QUANTITIES = {"J": "jacobian", "Jdot": "jacobian_dot"}
-
 
 @dataclass
 class QuantityError:
@@ -345,24 +321,6 @@ def _pairs(engines) -> list:
     return out
 
 
-def _engine_results(E: DynamicsEngine, qs, qds, qdds, referee: bool) -> dict:
-    """Everything the cross-check compares but forward dynamics, by one engine on one chunk
-    (D, h, g in one call for the referee, by their own methods for the others)."""
-    if referee:
-        D, h, g = E.dynamics_terms(qs, qds)
-    else:
-        D, h, g = E.mass_matrix(qs), E.coriolis_torque(qs, qds), E.gravity_torque(qs)
-    r = {"D": D, "h": h, "g": g, "tau": E.inverse_dynamics(qs, qds, qdds), "fk": E.fkine(qs),
-         "K": E.kinetic_energy(qs, qds)[:, None], "P": np.asarray(E.potential_energy(qs))[:, None],
-         "C": E.coriolis_matrix(qs, qds), "Y": E.regressor(qs, qds, qdds)}
-    r["dtau_dq"], r["dtau_dqd"] = E.inverse_dynamics_derivatives(qs, qds, qdds)
-    r["dg_dq"] = E.gravity_derivative(qs)
-    for key, method in OPTIONAL_QUANTITIES.items():      # only where the engine has them
-        if callable(getattr(E, method, None)):
-            r[key] = getattr(E, method)(*((qs,) if method == "jacobian" else (qs, qds)))
-    return r
-
-
 def _crosscheck_states(arm, samples, seed, chunk, progress, first, stop,
                        engines=DEFAULT_ENGINES) -> CrosscheckReport:
     """The cross-check of rows ``first:stop`` of the states (worst indices global).
@@ -423,7 +381,8 @@ def _crosscheck_states(arm, samples, seed, chunk, progress, first, stop,
                 lacking = [n for n, R in ((a, A), (b, B)) if key not in R]
                 for n in lacking:      # one note per engine, however many pairs it is in
                     optional_notes[n] = (f"{', '.join(OPTIONAL_QUANTITIES)} not compared where engine {n} takes "
-                                         f"part: it offers no {', '.join(OPTIONAL_QUANTITIES.values())} (optional)")
+                                         f"part: it offers no {', '.join(dict.fromkeys(OPTIONAL_QUANTITIES.values()))} "
+                                         "(optional)")
                 if not lacking:
                     add(key + sfx, A[key], B[key])
             if kq in skipped:      # the same conditioning limits D^-1 dtau (and a singular D has none)

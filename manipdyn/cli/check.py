@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import json
 
-from ..check.crosscheck import as_engines, crosscheck
+from ..check.crosscheck import QUANTITIES, as_engines, crosscheck
 from ..check.timing import engine_timings
 from .._support.errors import ModelError
 from ..formats.save import write_urdf
@@ -33,13 +33,13 @@ def _print_result(report, timing, urdf_path, strict_failed: bool) -> None:
     print(report)                       # the arm's notes are part of the report
     if strict_failed:
         print(f"  STRICT: {len(report.notes)} note(s) above fail --strict")
-    if timing:
-        p, l = timing["pinocchio"], timing["lagrange"]
-        print(f"  per call (median, us)   {'pinocchio':>10} {'lagrange':>10}")
+    if timing:                          # one column per engine compared, in the report's order
+        names = list(timing)
+        print(f"  per call (median, us)   " + " ".join(f"{e:>10}" for e in names))
         for key, label in (("inverse_dynamics_us", "inverse dynamics"),
                            ("mass_matrix_us", "mass matrix"),
                            ("forward_dynamics_us", "forward dynamics")):
-            print(f"  {label:<22} {p[key]:10.1f} {l[key]:10.1f}")
+            print(f"  {label:<22} " + " ".join(f"{timing[e][key]:10.1f}" for e in names))
     if urdf_path:
         print(f"  URDF written to {urdf_path}")
     print()
@@ -73,7 +73,8 @@ def run(args) -> int:
         if urdf_path:
             write_urdf(arm, urdf_path)
         report = _crosscheck(arm, args, Progress(arm.name or spec, show_progress))
-        timing = engine_timings(arm, calls=args.timing_calls) if args.timing_calls > 0 else {}
+        timing = (engine_timings(arm, calls=args.timing_calls, engines=report.engines)
+                  if args.timing_calls > 0 else {})
         strict_failed = bool(args.strict and notes)
         if not report.ok or strict_failed or report.not_compared:
             # a quantity that could not be compared (forward dynamics of a
@@ -101,9 +102,11 @@ def run(args) -> int:
 def register(sub) -> None:
     """Add ``manipdyn check``."""
     c = sub.add_parser("check", help="cross-check both engines on arms",
-                       description="For each arm: build the URDF, load both engines, compare D, h, g, "
-                                   "tau, forward dynamics and FK on random states, and time both engines. "
-                                   "Every model is loaded before the first is run.",
+                       description="For each arm: build the URDF, load the engines, compare on random "
+                                   f"states the {len(QUANTITIES)} quantities below, and time each engine "
+                                   "compared (inverse dynamics, mass matrix, forward dynamics). Every "
+                                   "model is loaded before the first is run. Compared: "
+                                   + "; ".join(f"{k}: {v}" for k, v in QUANTITIES.items()) + ".",
                        epilog="Exit codes: 0 every arm agrees; 1 a quantity disagrees, or could not be "
                               "compared (forward dynamics of an arm whose mass matrix is singular: a "
                               "failed condition, never 'all agree'), or a note under --strict; 2 usage "

@@ -12,9 +12,11 @@ __all__ = ["register", "run"]
 
 
 def run(args) -> int:
-    (_, arm, _), = load_all([args.model], args.tip)
+    (_, arm, notes), = load_all([args.model], args.tip)
     hpath, cpath, note = codegen(arm, args.output, prefix=args.prefix)
     print(f"wrote {hpath} and {cpath} ({arm.name or 'arm'}, {arm.n} joints){'; ' + note if note else ''}")
+    for n in notes:                      # the model's notes, as check and track show them
+        print(f"  note: {n}")
     return EXIT_OK
 
 

@@ -34,7 +34,8 @@ def register(subparsers) -> None:
     p.add_argument("model", metavar="MODEL", help="bundled model name, .toml model file, .urdf file or erd:NAME (manipdyn models --erd)")
     p.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
     p.add_argument("-o", "--output", required=True, metavar="TRAJ.csv", help="CSV file to write")
-    p.add_argument("--duration", type=float, default=10.0, metavar="S", help="period and length, s (default 10)")
+    p.add_argument("--duration", type=float, default=10.0, metavar="S",
+                   help="period, s (default 10); the file covers it and the ramps (--ramp)")
     p.add_argument("--harmonics", type=int, default=5, metavar="K", help=f"harmonics per joint (default 5, at most {limits.MAX_HARMONICS})")
     p.add_argument("--rate", type=float, default=100.0, metavar="HZ", help=f"sample rate, Hz (default 100; --rate x --duration at most {limits.MAX_EXCITATION_SAMPLES} samples)")
     p.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the optimiser's start (default 0)")
@@ -45,6 +46,11 @@ def register(subparsers) -> None:
                    help=f"acceleration limit, one or n values (default {DEFAULT_AMAX['revolute']} rad/s^2, "
                         f"{DEFAULT_AMAX['prismatic']} m/s^2)")
     p.add_argument("--iterations", type=int, default=60, help="optimiser iterations (default 60)")
+    p.add_argument("--ramp", default="auto", metavar="S",
+                   help="seconds to ramp in from rest at the middle of the limits and back out to it, "
+                        "velocity and acceleration limits kept (default auto: the shortest of a quarter, "
+                        "half, one or two periods that keeps them; 0: the bare periodic series, which "
+                        "starts moving)")
     p.add_argument("--friction", action="store_true", help="also excite friction parameters")
     p.add_argument("--json", action="store_true", help="print a JSON object instead of text")
     add_progress_options(p, "the progress bar")
@@ -84,6 +90,15 @@ def check_options(args) -> None:
     if round(samples) < 2:
         raise ModelError(f"--rate x --duration: {args.rate:g} Hz over {args.duration:g} s gives "
                          f"{round(samples)} sample(s); expected at least 2")
+    if args.ramp != "auto":
+        try:
+            args.ramp = float(args.ramp)
+        except (TypeError, ValueError):
+            raise ModelError(f"--ramp: expected seconds >= 0 or 'auto', got {args.ramp!r:.40}") from None
+        if not (math.isfinite(args.ramp) and args.ramp >= 0):
+            raise ModelError(f"--ramp: expected seconds >= 0 or 'auto', got {args.ramp}")
+        limits.check_count((args.duration + 2 * args.ramp) * args.rate, "--rate x (--duration + 2 --ramp)",
+                           "the number of samples", "MAX_EXCITATION_SAMPLES", cli=True)
     for name in ("vmax", "amax"):
         for v in getattr(args, name) or ():
             if not (math.isfinite(v) and 0 < v <= MAX_RATE_LIMIT):
@@ -97,24 +112,30 @@ def run(args) -> int:
 
     try:
         check_options(args)
-        arm, _ = load_arm(args.model, args.tip)
+        arm, notes = load_arm(args.model, args.tip)
         ex = excitation(arm, duration=args.duration, harmonics=args.harmonics, rate=args.rate,
                         seed=args.seed, vmax=args.vmax, amax=args.amax, iterations=args.iterations,
-                        friction=args.friction, progress=Progress("optimising", progress_wanted(args), unit="iterations"))
+                        friction=args.friction, ramp=args.ramp,
+                        progress=Progress("optimising", progress_wanted(args), unit="iterations"))
         ex.to_csv(args.output)
     except ModelError as exc:
         return usage_error("excite", str(exc))
     except OSError as exc:
         return usage_error("excite", f"{args.output}: cannot write: {exc.strerror or exc}")
     out = {"model": args.model, "output": args.output, "n": arm.n, "samples": int(len(ex.t)),
-           "duration": ex.period, "harmonics": int(ex.a.shape[1]), "rate": args.rate,
+           "duration": ex.duration, "period": ex.period, "ramp": ex.ramp, "harmonics": int(ex.a.shape[1]),
+           "rate": args.rate,
            "n_base": ex.n_base, "condition_number": ex.condition_number,
            "max_abs_qd": [float(x) for x in abs(ex.qd).max(axis=0)],
-           "max_abs_qdd": [float(x) for x in abs(ex.qdd).max(axis=0)]}
+           "max_abs_qdd": [float(x) for x in abs(ex.qdd).max(axis=0)], "notes": list(notes)}
     if args.json:
         print(json.dumps(out, indent=2))
     else:
-        print(f"wrote {args.output}: {out['samples']} samples over {ex.period:g} s, {out['harmonics']} "
+        ramp = (f" ({ex.ramp:g} s ramps from and to rest around a {ex.period:g} s period)" if ex.ramp
+                else " (one period, no ramp: it starts moving)")
+        print(f"wrote {args.output}: {out['samples']} samples over {ex.duration:g} s{ramp}, {out['harmonics']} "
               f"harmonics; {ex.n_base} base parameters, condition number {ex.condition_number:.4g}",
               file=sys.stdout)
+        for n in notes:                  # the model's notes, as check and track show them
+            print(f"  note: {n}")
     return EXIT_OK

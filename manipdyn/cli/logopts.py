@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 
 from .._support.errors import ModelError
+from ..formats.logs.read import as_t_range
 
 __all__ = ["register_log_options", "log_options_from_args", "model_joint_names", "library_options", "DATA_HELP"]
 
@@ -51,18 +52,7 @@ def register_log_options(parser) -> None:
 
 
 def _t_range(text):
-    if text is None:
-        return None
-    lo, sep, hi = text.partition(":")
-    if not sep:
-        raise ModelError(f"--t-range: expected T0:T1 in seconds (either may be empty), got {text!r}")
-    try:
-        out = tuple(None if not x.strip() else float(x) for x in (lo, hi))
-    except ValueError:
-        raise ModelError(f"--t-range: expected numbers T0:T1 in seconds, got {text!r}") from None
-    if any(x is not None and not math.isfinite(x) for x in out):
-        raise ModelError(f"--t-range: expected finite times, got {text!r}")
-    return out
+    return as_t_range(text, "--t-range")
 
 
 def log_options_from_args(args, joint_names=None) -> dict:

@@ -14,6 +14,7 @@ Exit codes: 0 the study completed (diverged runs are results, not failures),
 from __future__ import annotations
 
 import argparse
+import json
 import math
 
 from ..control.demo import CONTROLLERS, DEFAULT_BANDWIDTH
@@ -84,7 +85,7 @@ def run(args) -> int:
         if not isinstance(args.plants_from, str):
             raise ModelError("--plants-from: expected a file name")
         plants = load_identified(args.plants_from)
-    arm, _notes = load_arm(args.model, args.tip)   # consistency notes: not this command's business
+    arm, notes = load_arm(args.model, args.tip)     # the model's notes are shown, as check and track show them
     try:
         s = study(arm, args.runs, seed=args.seed, controllers=keys, duration=args.duration, dt=args.dt,
                   distributions=dist, tau_max=tau_max, bandwidth=args.bandwidth, plants=plants)
@@ -94,9 +95,11 @@ def run(args) -> int:
     report = run_study(s, scheduler=args.scheduler, workers=args.workers, chunk_size=args.chunk_size,
                        progress=Progress(arm.name or args.model, show, unit="runs"))
     if args.json:
-        print(report.to_json())
+        print(json.dumps({**json.loads(report.to_json()), "notes": list(notes)}, indent=2))
     else:
         print(report)
+        for n in notes:
+            print(f"  note: {n}")
     if args.plot:
         plot_report(report, args.plot)
         if not args.json:

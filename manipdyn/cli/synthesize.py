@@ -6,7 +6,9 @@ Reads the trajectory ``manipdyn excite`` wrote, computes the joint torques of
 MODEL along it (``--perturb``: of the demo's "true" arm around MODEL, with
 masses, centres of mass and friction off), adds seeded noise, and writes
 ``t,q1..qn,tau1..taun`` (``--derivatives``: with ``qd``, ``qdd``), the log
-``manipdyn identify`` reads.  Exit codes: 0 written, 2 usage, model or data error.
+``manipdyn identify`` reads; ``--truth FILE.toml`` also writes the arm ``--perturb`` drew,
+as a model file (``md.load`` reads it back), so an identification can be checked against it.
+Exit codes: 0 written, 2 usage, model or data error.
 """
 
 from __future__ import annotations
@@ -29,11 +31,23 @@ def run(args) -> int:
         raise ModelError(f"--noise: expected a finite fraction >= 0 of each joint's peak torque, got {args.noise}")
     if args.seed < 0:
         raise ModelError(f"--seed: expected an integer >= 0, got {args.seed}")
-    check_outputs([("-o", args.output)], [("MODEL", args.model), ("TRAJ.csv", args.trajectory)])
+    if args.truth is not None and not args.perturb:
+        raise ModelError("--truth: only with --perturb (without it the log is MODEL's own, and MODEL is the truth)")
+    if args.truth is not None and not str(args.truth).endswith(".toml"):
+        raise ModelError(f"--truth: expected a model file name ending in .toml (what md.load reads), "
+                         f"got {args.truth!r}")
+    check_outputs([("-o", args.output), ("--truth", args.truth)],
+                  [("MODEL", args.model), ("TRAJ.csv", args.trajectory)])
     arm, _notes = load_arm(args.model, args.tip)
     if args.perturb and not isinstance(arm, Manipulator):
         raise ModelError(f"--perturb: only for DH models (a bundled name or a .toml file), not {args.model!r}")
     robot = true_arm(arm, args.seed) if args.perturb else arm
+    if args.truth is not None:
+        from ..formats.save import save
+        save(Manipulator(robot.links, convention=robot.convention, gravity=robot.gravity, name=robot.name,
+                         source=robot.source, sources=robot.sources, description=f"the true arm that manipdyn synthesize --perturb --seed {args.seed} drew "
+                                     f"around {args.model} (masses, centres of mass and friction off), whose "
+                                     f"torques it logged to {args.output}"), args.truth)
     traj = read_trajectory(args.trajectory, arm.n)
     tau = synthesize(robot, traj.q, traj.qd, traj.qdd, noise=args.noise, seed=args.seed)
     if args.derivatives:
@@ -41,13 +55,15 @@ def run(args) -> int:
     else:
         write_measurements_csv(args.output, traj.t, traj.q, tau)
     out = {"model": args.model, "robot": robot.name, "trajectory": args.trajectory, "output": args.output,
+           "truth": args.truth,
            "samples": int(len(traj.t)), "noise": args.noise, "seed": args.seed,
            "peak_torque": [float(x) for x in abs(tau).max(axis=0)]}
     if args.json:
         print(json.dumps(out, indent=2))
     else:
         print(f"wrote {args.output}: {out['samples']} samples of {robot.name!r} along {args.trajectory}, "
-              f"torque noise {args.noise:g} of each joint's peak (seed {args.seed})")
+              f"torque noise {args.noise:g} of each joint's peak (seed {args.seed})"
+              + (f"; the true arm written to {args.truth}" if args.truth else ""))
     return EXIT_OK
 
 
@@ -72,6 +88,9 @@ def register(sub) -> None:
     p.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the noise and of --perturb (default 0)")
     p.add_argument("--perturb", action="store_true",
                    help="log the demo's perturbed 'true' arm instead of MODEL itself (DH models only)")
+    p.add_argument("--truth", default=None, metavar="FILE.toml",
+                   help="with --perturb: also write the true arm it drew, as a model file (md.load and every "
+                        "command read it), to check an identification against (default: not written)")
     p.add_argument("--derivatives", action="store_true",
                    help="also write qd and qdd (exact); by default identify derives them from q")
     p.add_argument("--json", action="store_true", help="print a JSON object instead of text")

@@ -1,9 +1,9 @@
-"""``manipdyn track``: run a tracking controller on the standard demo path.
+"""``manipdyn track``: run a tracking controller on the standard demo path, or on the user's own.
 
 Layer 7 (CLI, the top).
 
     manipdyn track MODEL [--controller pd|pdg|ct|adaptive|lqr] [--payload KG]
-                         [--duration S] [--plot out.png] [--compare]
+                         [--duration S] [--trajectory FILE.csv] [--plot out.png] [--compare]
 
 The controller is built on the arm as described (MODEL); with ``--payload``
 the simulated plant carries an extra mass on its last link that the
@@ -19,7 +19,7 @@ import json
 import sys
 
 from ..control.demo import CONTROLLERS, DEFAULT_BANDWIDTH, DEFAULT_GAMMA
-from ..control.track import check_track_options, track, track_header
+from ..control.track import check_track_options, reference_for, track, track_header
 from .._support.figures import PLOT_INSTALL
 from .common import TIP_HELP, Progress, add_progress_options, check_outputs, load_arm, progress_wanted
 
@@ -30,8 +30,13 @@ def run(args) -> int:
     check_track_options(duration=args.duration, dt=args.dt, payload=args.payload, bandwidth=args.bandwidth,
                         gamma=args.gamma, prefix="--")
     # fail before a long run, not after it
-    check_outputs([("--plot", args.plot)], [("MODEL", args.model)], plots=("--plot",))
+    inputs = [("MODEL", args.model)] + ([("--trajectory", args.trajectory)] if args.trajectory else [])
+    check_outputs([("--plot", args.plot)], inputs,
+                  plots=("--plot",))
     arm, notes = load_arm(args.model, args.tip)
+    path, duration, reference = reference_for(arm, args.trajectory, args.duration)   # read before any run
+    check_track_options(duration=duration, dt=args.dt, payload=args.payload, bandwidth=args.bandwidth,
+                        gamma=args.gamma, prefix="--")
     say = (lambda *a, **k: None) if args.json else print     # --json: one document, nothing else
     show = progress_wanted(args)
 
@@ -39,12 +44,12 @@ def run(args) -> int:
         say()
         say(result.run_text(label))
 
-    say(track_header(arm, args.duration, args.dt, args.bandwidth, args.payload))
+    say(track_header(arm, duration, args.dt, args.bandwidth, args.payload, reference))
     for n in notes:
         say(f"  note: {n}")
     result = track(arm, "all" if args.compare else (args.controller,), payload=args.payload,
-                   duration=args.duration, dt=args.dt, bandwidth=args.bandwidth, gamma=args.gamma,
-                   progress=lambda label: Progress(label, show, unit="steps"), on_run=printed)
+                   duration=duration, dt=args.dt, bandwidth=args.bandwidth, gamma=args.gamma,
+                   progress=lambda label: Progress(label, show, unit="steps"), on_run=printed, trajectory=path)
     if args.compare:
         say()
         say(result.compare_table())
@@ -63,7 +68,8 @@ def register(subparsers) -> None:
     """Add ``manipdyn track`` to the ``manipdyn`` command line."""
     p = subparsers.add_parser(
         "track", help="simulate a tracking controller on a demo path",
-        description="Simulate a joint-space tracking controller on the standard demo path "
+        description="Simulate a joint-space tracking controller on the standard demo path (or on your "
+                    "own, --trajectory) "
                     "(fixed-step RK4, zero-order hold) and report tracking errors and torques. "
                     "Exit codes: 0 finished, 1 a controller diverged, 2 bad input.")
     p.add_argument("model", metavar="MODEL_OR_FILE", help="bundled model name, .toml model file, .urdf file or erd:NAME (manipdyn models --erd)")
@@ -73,7 +79,12 @@ def register(subparsers) -> None:
                         "lqr (time-varying LQR along the path, the gains on the --dt grid); any case")
     p.add_argument("--payload", type=float, default=0.0, metavar="KG",
                    help="extra mass on the last link of the simulated arm, unknown to the controller")
-    p.add_argument("--duration", type=float, default=8.0, metavar="S", help="seconds (default 8)")
+    p.add_argument("--duration", type=float, default=None, metavar="S",
+                   help="seconds (default 8 on the demo path, the --trajectory file's length on it)")
+    p.add_argument("--trajectory", default=None, metavar="FILE.csv",
+                   help="track your own reference path instead of the demo path: a CSV with the header "
+                        "t,q1..qn (s; rad, or m for prismatic joints), or excite's t,q1..qn,qd1..qdn,qdd1..qddn; "
+                        "times from the first row, positions within the joint limits (default: the demo path)")
     p.add_argument("--dt", type=float, default=1e-3, metavar="S",
                    help="step and controller period (default 0.001)")
     p.add_argument("--bandwidth", type=float, default=DEFAULT_BANDWIDTH, metavar="RAD_S",

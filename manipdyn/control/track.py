@@ -13,6 +13,7 @@ thing with the same defaults.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -20,9 +21,11 @@ import numpy as np
 from .._support.errors import ModelError
 from ..model.variants import with_payload
 from .demo import CONTROLLERS, DEFAULT_BANDWIDTH, DEFAULT_GAMMA, DEFAULT_PAYLOAD_COM, demo_path, make_controller
+from .reference import ReferencePath, read_path
 from .simulate import SimulationDiverged, simulate
+from .trajectory import Trajectory
 
-__all__ = ["track", "TrackResult", "check_track_options", "track_header", "MAX_DURATION", "MAX_STEPS"]
+__all__ = ["track", "TrackResult", "check_track_options", "track_header", "reference_for", "MAX_DURATION", "MAX_STEPS"]
 
 #: bounds on a demo run: the via-point spline of the demo path is solved densely
 #: (its cost grows with the square of the duration) and the log is in memory
@@ -30,13 +33,19 @@ MAX_DURATION = 300.0
 MAX_STEPS = 2e6
 
 
-def check_track_options(*, duration: float, dt: float, payload: float, bandwidth: float, gamma: float,
+def check_track_options(*, duration: float | None, dt: float, payload: float, bandwidth: float, gamma: float,
                         prefix: str = "") -> None:
     """Refuse every bad numeric option of :func:`track` before any work.
 
     ``prefix`` is put before each name in the message (the command line passes ``"--"``,
-    so that its one-line errors name its options).
+    so that its one-line errors name its options).  ``duration`` None: not known yet (the
+    length of a path still to be read); it is checked again when it is.
     """
+    if duration is None:
+        stand_in = min(max(dt, 1e-9), MAX_DURATION) if isinstance(dt, (int, float)) and dt > 0 else 1.0
+        check_track_options(duration=stand_in, dt=dt,
+                            payload=payload, bandwidth=bandwidth, gamma=gamma, prefix=prefix)
+        return
     values = {"duration": duration, "dt": dt, "payload": payload, "bandwidth": bandwidth, "gamma": gamma}
     for name, v in values.items():
         if not isinstance(v, (int, float, np.floating, np.integer)) or isinstance(v, bool) or not math.isfinite(v):
@@ -55,9 +64,10 @@ def check_track_options(*, duration: float, dt: float, payload: float, bandwidth
         raise ModelError(f"{prefix}gamma: must be >= 0, got {gamma}")
 
 
-def track_header(arm, duration: float, dt: float, bandwidth: float, payload: float) -> str:
-    """The one-line header of a demo run (printed before the runs start)."""
-    head = (f"manipdyn track {arm.name}: demo path {duration:g} s, {1 / dt:g} Hz RK4 "
+def track_header(arm, duration: float, dt: float, bandwidth: float, payload: float, reference: str = "") -> str:
+    """The one-line header of a run (printed before the runs start); ``reference`` names the
+    user's path (:func:`~manipdyn.control.reference.read_path`), "" the demo path."""
+    head = (f"manipdyn track {arm.name}: {reference or 'demo path'} {duration:g} s, {1 / dt:g} Hz RK4 "
             f"(torque held over each step), bandwidth {bandwidth:g} rad/s")
     if payload > 0:
         head += (f"; plant carries {payload:g} kg at {list(DEFAULT_PAYLOAD_COM)} m in the last "
@@ -86,6 +96,7 @@ class TrackResult:
     payload: float
     logs: dict = field(default_factory=dict)       # label -> SimulationLog | str ("DIVERGED at t = ...")
     messages: dict = field(default_factory=dict)   # label -> the divergence's full message
+    reference: str = ""                            # the user's path ("path FILE (N samples of q)"), "" the demo
 
     @property
     def final(self) -> float:
@@ -99,7 +110,7 @@ class TrackResult:
 
     def header(self) -> str:
         """One line: the arm, the path, the rate, and the payload the controllers do not know."""
-        return track_header(self.arm, self.duration, self.dt, self.bandwidth, self.payload)
+        return track_header(self.arm, self.duration, self.dt, self.bandwidth, self.payload, self.reference)
 
     def run_text(self, label: str) -> str:
         """The summary of one controller's run (or its divergence)."""
@@ -137,14 +148,14 @@ class TrackResult:
                            "peak_torque": _floats(log.peak_torque())}
         return {"model": model if model is not None else self.arm.name, "name": self.arm.name, "n": self.arm.n,
                 "duration": self.duration, "dt": self.dt, "bandwidth": self.bandwidth, "gamma": self.gamma,
-                "payload": self.payload, "notes": list(notes), "controllers": runs}
+                "payload": self.payload, "path": self.reference or "demo", "notes": list(notes), "controllers": runs}
 
     def plot(self, path: str) -> str | None:
         """Write the figure (all controllers when more than one ran); returns None when written,
         else why not (the only run diverged).  Needs the ``plot`` extra (matplotlib)."""
         from .plots import plot_compare, plot_single
 
-        title = f"{self.arm.name}: demo path, {self.duration:g} s at {1 / self.dt:g} Hz" + \
+        title = f"{self.arm.name}: {self.reference or 'demo path'}, {self.duration:g} s at {1 / self.dt:g} Hz" + \
             (f", +{self.payload:g} kg payload unknown to the controller" if self.payload > 0 else "")
         if len(self.controllers) > 1:
             plot_compare(self.logs, self.arm, title, path)
@@ -157,10 +168,28 @@ class TrackResult:
         return None
 
 
-def track(arm, controllers=("ct",), *, payload: float = 0.0, duration: float = 8.0, dt: float = 1e-3,
+def reference_for(arm, trajectory=None, duration=None):
+    """``(trajectory or None, duration, label)`` of a run: the demo path (``trajectory`` None: built
+    by :func:`track`; ``duration`` default 8 s), or the user's (a CSV file name, read by
+    :func:`~manipdyn.control.reference.read_path`, or a
+    :class:`~manipdyn.control.trajectory.Trajectory`), ``duration`` default its length."""
+    path = trajectory
+    if path is None:
+        return None, (8.0 if duration is None else duration), ""
+    if isinstance(path, (str, os.PathLike)):
+        path = read_path(path, arm)
+    elif not (isinstance(path, Trajectory) and getattr(path, "n", None) == arm.n):
+        raise ModelError(f"trajectory: expected a CSV file of t, q1..q{arm.n} or a Trajectory of {arm.n} joints, "
+                         f"got {path!r:.80}")
+    label = (f"path {path.source} ({path.samples} samples of {path.columns})" if isinstance(path, ReferencePath)
+             else f"path {type(path).__name__}")
+    return path, (path.t_end if duration is None else duration), label
+
+
+def track(arm, controllers=("ct",), *, payload: float = 0.0, duration: float | None = None, dt: float = 1e-3,
           bandwidth: float = DEFAULT_BANDWIDTH, gamma: float = DEFAULT_GAMMA, progress=None,
-          on_run=None) -> TrackResult:
-    """Run the demo path with each controller of ``controllers`` on ``arm``.
+          on_run=None, trajectory=None) -> TrackResult:
+    """Run the demo path (or the user's ``trajectory``) with each controller of ``controllers`` on ``arm``.
 
     Parameters
     ----------
@@ -173,7 +202,8 @@ def track(arm, controllers=("ct",), *, payload: float = 0.0, duration: float = 8
         kg carried by the simulated plant at ``DEFAULT_PAYLOAD_COM`` in the last link's
         frame, unknown to the controllers.
     duration, dt : float
-        s; the run and the control period (RK4 sub-steps as the plant needs).
+        s; the run (default 8 s on the demo path, the path's length on the user's) and the
+        control period (RK4 sub-steps as the plant needs).
     bandwidth : float
         Closed-loop bandwidth of the controllers, rad/s.
     gamma : float
@@ -182,16 +212,22 @@ def track(arm, controllers=("ct",), *, payload: float = 0.0, duration: float = 8
         ``progress(label) -> callback(done, total)``: a progress reporter per run.
     on_run : callable, optional
         Called as ``on_run(result, label)`` after each run (the command line prints there).
+    trajectory : str, os.PathLike or Trajectory, optional
+        The reference to track instead of the demo path: a CSV file of ``t, q1..qn``
+        (:func:`~manipdyn.control.reference.read_path`: times from the first row, positions
+        within the joint limits, or ``excite``'s file with velocities and accelerations), or a
+        :class:`~manipdyn.control.trajectory.Trajectory`.  The arm starts on it.
     """
+    path, duration, reference = reference_for(arm, trajectory, duration)
     check_track_options(duration=duration, dt=dt, payload=payload, bandwidth=bandwidth, gamma=gamma)
+    path = demo_path(arm, duration) if path is None else path
     kinds = list(CONTROLLERS) if controllers == "all" else [str(k).lower() for k in controllers]
     unknown = [k for k in kinds if k not in CONTROLLERS]
     if not kinds or unknown:
         raise ModelError(f"controllers: expected keys of {list(CONTROLLERS)} or 'all', got {list(controllers)!r:.80}")
     plant = with_payload(arm, payload, com=DEFAULT_PAYLOAD_COM) if payload > 0 else arm
-    path = demo_path(arm, duration)
     result = TrackResult(arm, tuple(kinds), float(duration), float(dt), float(bandwidth), float(gamma),
-                         float(payload))
+                         float(payload), reference=reference)
     for kind in kinds:
         ctrl = make_controller(kind, arm, bandwidth, gamma, path=path, dt=dt)
         label = CONTROLLERS[kind]

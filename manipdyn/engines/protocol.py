@@ -124,10 +124,12 @@ class JacobianEngine(Protocol):
     The tool frame is the one :meth:`DynamicsEngine.fkine` gives.  Same shapes on every engine.
     """
 
-    def jacobian(self, q) -> np.ndarray:
+    def jacobian(self, q, frame: str = "world", link=None) -> np.ndarray:
         """Geometric Jacobian of the tool frame: (6, n) or (N, 6, n).  Rows 0-2: linear velocity of
         the tool origin, rows 3-5: angular velocity, both in base-frame axes (Pinocchio's
-        ``LOCAL_WORLD_ALIGNED``); ``[v; w] = J qd``, SI units."""
+        ``LOCAL_WORLD_ALIGNED``), or in the frame's own axes with ``frame="tool"`` (``LOCAL``);
+        ``link=k`` (1..n): link k's frame (:meth:`manipdyn.Arm.link_poses`) instead of the tool's;
+        ``[v; w] = J qd``, SI units."""
         ...
 
     def jacobian_dot(self, q, qd) -> np.ndarray:

@@ -11,7 +11,8 @@ first use, and keeps it:
 * ``arm.lagrange``: the trace-form Lagrange-Euler engine (slow, independent);
 * ``arm.pinocchio``: the Pinocchio engine on the arm's URDF (fast);
 * ``arm.mass_matrix``, ``arm.coriolis_torque``, ``arm.gravity_torque``,
-  ``arm.inverse_dynamics``, ``arm.forward_dynamics``: the fast path.
+  ``arm.inverse_dynamics``, ``arm.forward_dynamics`` (:mod:`manipdyn.model.arm_calls`,
+  with a tool wrench ``f_tool``), ``arm.potential_energy``: the fast path.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from .._support.errors import ModelError, PhysicalConsistencyWarning, warn_notes
 from .kinematics import ChainKinematics, DHKinematics, rot_x, rot_z, trans
 from .drive import arm_drive
 from .arm_calls import ArmCalls, as_poses
+from .reach import ReachCalls
 from .links import ChainJoint, DHLink, as_dh_links, as_gravity, check_name, dh_links_equal, physical_note
 
 __all__ = ["Arm", "Manipulator", "URDFArm", "Convention", "TraceFormData", "register_engine",
@@ -91,7 +93,7 @@ def joint_letters(joint_types) -> str:
 _FAST_PATH = ("mass_matrix", "coriolis_torque", "gravity_torque", "inverse_dynamics", "forward_dynamics")
 
 
-class Arm(ArmCalls):  # jacobian, manipulability, poses, ...: manipdyn.model.arm_calls
+class Arm(ArmCalls, ReachCalls):  # jacobian, inverse_dynamics, poses, ...: .arm_calls; inverse_kinematics: .reach
     """Common behaviour of every arm (DH or URDF).  Do not build directly.
 
     Subclasses set ``name``, ``gravity``, ``source`` and implement
@@ -210,15 +212,6 @@ class Arm(ArmCalls):  # jacobian, manipulability, poses, ...: manipdyn.model.arm
         eng = self._engines.get("pinocchio") or self.engine("pinocchio")
         return eng.gravity_torque(q)
 
-    def inverse_dynamics(self, q, qd, qdd):
-        """tau = D qdd + h + g (+ friction), (n,) or (N, n): Pinocchio's RNEA."""
-        eng = self._engines.get("pinocchio") or self.engine("pinocchio")
-        return eng.inverse_dynamics(q, qd, qdd)
-
-    def forward_dynamics(self, q, qd, tau):
-        """qdd solving D qdd = tau - h - g (- friction), (n,) or (N, n): Pinocchio's ABA."""
-        eng = self._engines.get("pinocchio") or self.engine("pinocchio")
-        return eng.forward_dynamics(q, qd, tau)
     def linearize(self, q, qd, tau, dt=None, engine="pinocchio"): return _SERVICES["linearize"](self, q, qd, tau, dt, engine)
 
     # -- kinematics ---------------------------------------------------------

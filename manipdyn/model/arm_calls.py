@@ -3,9 +3,11 @@
 Layer 1 (model), part of :class:`manipdyn.model.arm.Arm`: named poses
 (``arm.poses["ready"]``, the Toolbox's ``qr``/``qz``), the tool frame's
 geometric Jacobian, its time derivative and manipulability, and the fast path's
-``coriolis_matrix``, ``regressor`` and ``kinetic_energy`` (as ``inverse_dynamics``).
-The model computes none of it: each call goes to an engine (Pinocchio unless
-``engine=`` names another), and both engines answer with the same shapes.
+``coriolis_matrix``, ``regressor``, ``kinetic_energy`` and ``potential_energy``, and
+``inverse_dynamics`` and ``forward_dynamics`` with the wrench ``f_tool`` the environment
+applies to the tool (:mod:`manipdyn.model.reach`).  The model computes none of it: each
+call goes to an engine (Pinocchio unless ``engine=`` names another), and both engines
+answer with the same shapes.
 """
 
 from __future__ import annotations
@@ -15,6 +17,8 @@ from types import MappingProxyType
 import numpy as np
 
 from .._support.errors import ModelError
+from .._support.state import as_state
+from .reach import as_wrench, wrench_torque
 
 __all__ = ["ArmCalls", "as_poses", "MANIPULABILITY_AXES"]
 
@@ -64,15 +68,19 @@ class ArmCalls:
                              "manipdyn.engines.protocol.JacobianEngine); use engine='pinocchio' or 'lagrange'")
         return getattr(eng, method)
 
-    def jacobian(self, q, engine: str = "pinocchio") -> np.ndarray:
+    def jacobian(self, q, engine: str = "pinocchio", *, frame: str = "world", link=None) -> np.ndarray:
         """Geometric Jacobian of the tool frame (the frame ``fkine`` gives): (6, n) or (N, 6, n).
 
-        ``[v; w] = J qd``: rows 0-2 the linear velocity of the tool origin (m/s), rows 3-5
-        the angular velocity (rad/s), both in base-frame axes: Pinocchio's
-        ``LOCAL_WORLD_ALIGNED``, the Toolbox's ``jacob0``.  ``engine="lagrange"`` derives it
+        ``[v; w] = J qd``: rows 0-2 the linear velocity of the frame's origin (m/s), rows 3-5
+        the angular velocity (rad/s).  ``frame="world"``: both in base-frame axes
+        (Pinocchio's ``LOCAL_WORLD_ALIGNED``, the Toolbox's ``jacob0``; note: at the frame's
+        origin, not Pinocchio's ``WORLD`` point at the base origin); ``frame="tool"``: in the
+        frame's own axes (Pinocchio's ``LOCAL``, the Toolbox's ``jacobe``).  ``link=k``
+        (1..n) gives link k's frame instead, ``arm.link_poses(q)[k - 1]`` (DH frame k of a
+        :class:`Manipulator`); its columns after k are zero.  ``engine="lagrange"`` derives it
         from the chapter's ``dT/dq`` (eq. 2.5 to 2.8); ``md.crosscheck`` compares the two.
         """
-        return self._engine_with(engine, "jacobian")(q)
+        return self._engine_with(engine, "jacobian")(q, frame=frame, link=link)
 
     def jacobian_dot(self, q, qd, engine: str = "pinocchio") -> np.ndarray:
         """``dJ/dt`` of :meth:`jacobian` along ``qd``: (6, n) or (N, 6, n).
@@ -110,14 +118,53 @@ class ArmCalls:
         T = self.link_poses(q)[..., k - 1, :, :]
         return T[..., :3, :3] @ p + T[..., :3, 3]          # r = T_k [p, 1] (eq. 2.8)
 
-    # -- the fast path, as inverse_dynamics -----------------------------------
+    # -- the fast path (Pinocchio) ------------------------------------------------
+    def inverse_dynamics(self, q, qd, qdd, f_tool=None):
+        """tau = D qdd + h + g (+ friction) - J^T f_tool, (n,) or (N, n), N m: Pinocchio's RNEA.
+
+        ``f_tool`` (6,) or (N, 6): the wrench ``[force (N); moment (N m)]`` the environment
+        applies to the tool, in base-frame axes at the tool origin (``fkine``'s frame);
+        ``J`` is :meth:`jacobian` (``frame="world"``).  None (the default) costs nothing.
+        """
+        eng = self._engines.get("pinocchio") or self.engine("pinocchio")
+        if f_tool is None:
+            return eng.inverse_dynamics(q, qd, qdd)
+        return eng.inverse_dynamics(q, qd, qdd) - self._wrench_torque(eng, q, f_tool)
+
+    def forward_dynamics(self, q, qd, tau, f_tool=None):
+        """qdd solving D qdd = tau + J^T f_tool - h - g (- friction), (n,) or (N, n): Pinocchio's ABA.
+
+        ``f_tool`` as in :meth:`inverse_dynamics`: the wrench the environment applies to the tool.
+        """
+        eng = self._engines.get("pinocchio") or self.engine("pinocchio")
+        if f_tool is None:
+            return eng.forward_dynamics(q, qd, tau)
+        tau = as_state(tau, "tau", self.n)
+        return eng.forward_dynamics(q, qd, tau + self._wrench_torque(eng, q, f_tool))
+
+    def _wrench_torque(self, eng, q, f_tool):
+        """``J(q)^T f_tool`` (n,) or (N, n) by ``eng``: the joint torques with which a tool wrench acts."""
+        return wrench_torque(eng.jacobian(q), as_wrench(f_tool, as_state(q, "q", self.n)))
+
+    def potential_energy(self, q):
+        """P = -sum_i m_i g^T c_i (zero at the base origin's height): float or (N,), J (Pinocchio).
+
+        ``-dP/dq`` is minus the gravity torque; the trace form's eq. 2.24 answers the same
+        (``arm.lagrange.potential_energy``), and ``md.crosscheck`` compares the two.
+        """
+        return self.engine("pinocchio").potential_energy(q)
+
     def coriolis_matrix(self, q, qd) -> np.ndarray:
         """C(q, qd), (n, n) or (N, n, n), N m s: ``C qd = h``, ``dD/dt - 2C`` skew-symmetric (Pinocchio)."""
         return self.engine("pinocchio").coriolis_matrix(q, qd)
 
     def regressor(self, q, qd, qdd, armature: bool = False, friction: bool = False) -> np.ndarray:
         """Y with ``Y @ arm.parameters(armature, friction) = tau``: (n, p) or (N, n, p) (Pinocchio's
-        ``computeJointTorqueRegressor``; 10 columns per link, then armature and friction columns)."""
+        ``computeJointTorqueRegressor``; 10 columns per link, then armature and friction columns).
+
+        ``friction=True`` is viscous and Coulomb columns (joint side, sharp sign); an arm with
+        another law (the bundled panda's sigmoid) needs ``friction=arm.friction_model``, and
+        ``arm.parameters(friction=True)`` says so rather than leave its friction out."""
         return self.engine("pinocchio").regressor(q, qd, qdd, armature=armature, friction=friction)
 
     def kinetic_energy(self, q, qd):

@@ -21,6 +21,10 @@ Layout, shared by both engines' ``regressor`` methods, by
   the rotor torque ``R^T diag(J_m) R qdd``;
 * with ``friction=True``: ``n`` viscous coefficients (column ``qd_j``) then
   ``n`` Coulomb coefficients (column ``sign(qd_j)``): joint side, sharp sign.
+  :func:`arm_parameters` refuses ``True`` by name for an arm whose law these columns
+  cannot hold (a sigmoid, Stribeck or offset term, motor side, smoothing, asymmetric
+  levels), where ``Y @ pi`` would silently miss the friction: ask for
+  ``friction=arm.friction_model``, the law's own columns.
   ``friction`` may also name the terms: a :class:`manipdyn.model.drive.Friction` (its
   terms, side, smoothing and shapes), a :class:`manipdyn.model.drive.FrictionTerms` or
   term names ("viscous", "coulomb", "asymmetric", "offset"); blocks of n columns
@@ -36,6 +40,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._support.errors import ModelError
 from .friction import friction_spec, law_parameters
 from .inertia import LINK_PARAMETERS, parameters_from_pseudo_inertia, pseudo_inertia_from_parameters
 
@@ -82,8 +87,23 @@ def arm_parameters(arm, armature: bool = False, friction=False) -> np.ndarray:
         parts.append(np.asarray(arm.armature, dtype=np.float64))
     spec = friction_spec(friction, arm.n)
     if spec is not None:
-        parts.append(law_parameters(arm.friction_model, spec, arm.transmission, arm.name or "arm"))
+        law = arm.friction_model
+        if friction is True and law is not None:      # True is the whole law: no term may be left out
+            left = [t for t in law.terms if t not in spec.terms and t != "asymmetric" and _has_term(law, t)]
+            if left:
+                raise ModelError(f"friction: {arm.name or 'the arm'}'s friction law has {' and '.join(left)} "
+                                 "term(s) that friction=True's viscous and Coulomb columns cannot hold (Y @ pi "
+                                 "would miss them); ask for friction=arm.friction_model (its own terms and law) "
+                                 "in both arm.regressor and arm.parameters")
+        parts.append(law_parameters(law, spec, arm.transmission, arm.name or "arm"))
     return np.concatenate(parts)
+
+
+def _has_term(law, term: str) -> bool:
+    """True when the friction law's ``term`` has a nonzero coefficient."""
+    fields = {"viscous": ("viscous",), "coulomb": ("coulomb_pos", "coulomb_neg"), "offset": ("offset",),
+              "stribeck": ("stribeck_level",), "sigmoid": ("sigmoid_A",)}.get(term, ())
+    return any(getattr(law, f, None) is not None and np.any(getattr(law, f)) for f in fields) or not fields
 
 
 def with_extra_columns(Y: np.ndarray, qd: np.ndarray, qdd: np.ndarray, armature: bool,

@@ -28,7 +28,7 @@ import numpy as np
 from ..._support import limits
 from ..._support.limits import nonnegative
 
-__all__ = ["Distributions", "RunDraw", "draw", "run_rng", "DISTRIBUTIONS_HELP"]
+__all__ = ["Distributions", "RunDraw", "draw", "run_rng", "DISTRIBUTIONS_HELP", "effect_on_arm"]
 
 
 @dataclass(frozen=True)
@@ -144,3 +144,48 @@ def draw(dist: Distributions, seed: int, run: int, joint_types, samples: int) ->
     q0 = dist.q0_offset * np.where(prismatic, 0.1, 1.0) * rng.standard_normal(n)
     noise = dist.torque_noise * rng.standard_normal((int(samples), n))
     return RunDraw(int(run), float(mass), com, scale, friction, q0, noise)
+
+
+def effect_on_arm(dist: Distributions, arm, bandwidth: float) -> dict:
+    """What the added friction and the torque noise of ``dist`` do to ``arm`` under the demo gains.
+
+    The distributions are absolute (N m), the same for every arm, so on a light joint they
+    may dwarf the controllers: with ``Kp_j = wn^2 D_jj`` and ``Kd_j = 2 wn D_jj`` at mid-range
+    (:func:`manipdyn.control.controllers.pd_gains`, ``wn = bandwidth``), the largest added
+    Coulomb friction holds joint j ``Fc / Kp_j`` off (rad or m), one standard deviation of
+    torque noise pushes it ``sigma / Kp_j``, and the largest added viscous friction is ``Fv /
+    Kd_j`` times the controller's damping.  Returns, for the joint where each is largest,
+    ``{"coulomb_offset": (value, joint), "noise_offset": ..., "viscous_ratio": ...}`` (joints
+    1-based), and ``"text"``: one line for the report (empty when the three are zero).
+    """
+    from ..controllers import pd_gains
+
+    kp, kd = pd_gains(arm, bandwidth)
+    kp, kd = np.maximum(kp, 1e-300), np.maximum(kd, 1e-300)
+    out = {}
+    for key, value, gain in (("coulomb_offset", dist.friction_coulomb, kp), ("noise_offset", dist.torque_noise, kp),
+                             ("viscous_ratio", dist.friction_viscous, kd)):
+        x = value / gain
+        j = int(np.argmax(x))
+        out[key] = (float(x[j]), j + 1)
+    big = dist.friction_coulomb or dist.torque_noise or dist.friction_viscous
+    c, nz, v = out["coulomb_offset"], out["noise_offset"], out["viscous_ratio"]
+
+    def unit(j):                                  # joint j (1-based): rad, or m for a prismatic joint
+        return "m" if arm.joint_types[j - 1] == "prismatic" else "rad"
+
+    parts = []
+    if dist.friction_coulomb:
+        parts.append(f"added Coulomb friction up to {dist.friction_coulomb:g} N m holds joint {c[1]} up to "
+                     f"{c[0]:.3g} {unit(c[1])} off")
+    if dist.torque_noise:
+        parts.append(f"torque noise of {dist.torque_noise:g} N m pushes joint {nz[1]} {nz[0]:.3g} {unit(nz[1])} "
+                     "per standard deviation")
+    if dist.friction_viscous:
+        parts.append(f"added viscous friction up to {dist.friction_viscous:g} N m s/rad is {v[0]:.3g} times joint "
+                     f"{v[1]}'s damping 2 wn D_jj")
+    out["text"] = "" if not big else (
+        f"what these draws do to {arm.name or 'the arm'} (absolute, not scaled to it) at the demo gains "
+        f"Kp = wn^2 D_jj of {kp.min():.3g} to {kp.max():.3g} N m/rad: {', '.join(parts)}; scale "
+        "--friction-coulomb, --friction-viscous and --torque-noise to the arm where these are large")
+    return out

@@ -18,6 +18,7 @@ import numpy as np
 
 from ..stiffness import SAMPLED_LIMIT
 from .diverged import CAUSES
+from .distributions import effect_on_arm
 from .identified import plant_source
 
 __all__ = ["StudyReport", "METRICS", "PERCENTILES"]
@@ -87,9 +88,14 @@ class StudyReport:
         """Run indices of ``controller``'s worst runs, worst first (replay them with ``study.replay``)."""
         return [w["run"] for w in self.controllers[controller]["worst"]]
 
+    def effect(self) -> dict:
+        """What the study's added friction and torque noise do to its arm (:func:`.distributions.effect_on_arm`)."""
+        s = self.study
+        return effect_on_arm(s.distributions, s.arm, s.bandwidth)
+
     def to_dict(self) -> dict:
         s = self.study
-        return {"runs": s.runs, "seed": s.seed, "study": s.to_dict(),
+        return {"runs": s.runs, "seed": s.seed, "study": s.to_dict(), "distribution_effect": self.effect(),
                 "controllers": self.controllers, "per_run": self.per_run, "timing": self.timing}
 
     def to_json(self, indent: int | None = 2) -> str:
@@ -122,6 +128,8 @@ class StudyReport:
         head = (f"montecarlo {s.model[3]!r}: {s.runs} run{'s' * (s.runs != 1)} x {nc} "
                 f"controller{'s' * (nc != 1)}, seed {s.seed}, "
                 f"demo path {s.duration:g} s at {1 / s.dt:g} Hz\n{plant_source(s)}")
+        effect = self.effect()["text"]
+        head += f"\n{effect}" if effect else ""
         foot = (f"{s.runs * len(s.controllers)} simulations in {t.get('wall_s', 0.0):.1f} s on "
                 f"{t.get('workers', 1)} worker(s) ({t.get('scheduler', '')}); replay a run with "
                 f"study.replay(run, controller)")

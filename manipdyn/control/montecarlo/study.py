@@ -28,7 +28,7 @@ import numpy as np
 from ..controllers import Controller
 from ...check.scale import arm_from_text, model_text
 from .distributions import Distributions, draw
-from .diverged import cause
+from .diverged import cause, runaway
 from .plant import Plant, make_plant
 
 __all__ = ["Study", "RunSetup", "TorqueNoise", "run_chunk", "CONTROLLER_KEYS", "model_text"]
@@ -232,6 +232,11 @@ class Study:
         t = reference_samples(self.steps) * float(self.dt)
         return float(self.dt) * sampled_loop_rate(setup.plant, setup.controller, t, q, qd, qdd)
 
+    def torque_scale(self) -> float:
+        """N m (N): the largest torque of the nominal arm's inverse dynamics on the reference samples
+        (what :func:`.diverged.runaway` measures a run's torques against)."""
+        return _torque_scale(self.model, float(self.duration), float(self.dt))
+
     def replay(self, run: int, controller: str):
         """Simulate run ``run`` of ``controller`` alone: the study's :class:`SimulationLog`.
 
@@ -277,6 +282,12 @@ def _reference_samples(model: tuple, duration: float, dt: float):
     return out
 
 
+@functools.lru_cache(maxsize=8)
+def _torque_scale(model: tuple, duration: float, dt: float) -> float:
+    q, qd, qdd = _reference_samples(model, duration, dt)
+    return float(np.max(np.abs(arm_from_text(*model).inverse_dynamics(q, qd, qdd))))
+
+
 # -- one run, and a chunk of runs ------------------------------------------------------
 def _metrics(log, lim, noise) -> dict:
     """RMS over time of |e| (rad), max |e_i| (rad), max |tau_i| (N m), saturated."""
@@ -303,27 +314,24 @@ def run_one(study: Study, run: int, key: str, cache: dict) -> dict:
     from ..simulate import SimulationDiverged, simulate
 
     setup = study.setup(run, key, cache)
-    ctrl = setup.controller
-    lim = ctrl.tau_max
     try:
         log = simulate(**setup.simulate_kwargs())
         diverged = False
     except SimulationDiverged as exc:
         log, diverged = exc.log, True
-    m = _metrics(log, lim, ctrl.noise if isinstance(ctrl, TorqueNoise) else None)
-    return {"run": int(run), "controller": key, "rms_error": m["rms_error"],
-            "max_error": m["max_error"], "peak_torque": m["peak_torque"],
-            "diverged": diverged, "saturated": m["saturated"], "substeps": int(log.substeps),
-            **_loop(study, setup, diverged)}
+    return _record(study, setup, key, log, diverged)
 
 
-
-
-
-def _loop(study: Study, setup: RunSetup, diverged: bool) -> dict:
-    """``{"sampled_loop": dt |lambda|, "cause": ...}`` of one run (:mod:`.diverged`)."""
+def _record(study: Study, setup: RunSetup, key: str, log, diverged: bool) -> dict:
+    """One ``per_run`` record; a run that finished but ran away (:func:`.diverged.runaway`) is diverged."""
+    ctrl = setup.controller
+    m = _metrics(log, ctrl.tau_max, ctrl.noise if isinstance(ctrl, TorqueNoise) else None)
+    ran_away = not diverged and runaway(log, np.diff(study.arm.qlim, axis=1)[:, 0], study.torque_scale())
     loop = study.sampled_loop(setup)
-    return {"sampled_loop": loop, "cause": cause(loop, diverged)}
+    return {"run": int(setup.plant.draw.run), "controller": key, "rms_error": m["rms_error"],
+            "max_error": m["max_error"], "peak_torque": m["peak_torque"],
+            "diverged": diverged or ran_away, "saturated": m["saturated"], "substeps": int(log.substeps),
+            "sampled_loop": loop, "cause": cause(loop, diverged, ran_away)}
 
 
 def run_many(study: Study, runs, key: str, cache: dict) -> list:
@@ -331,15 +339,8 @@ def run_many(study: Study, runs, key: str, cache: dict) -> list:
     from .lockstep import simulate_lockstep
 
     setups = [study.setup(int(r), key, cache) for r in runs]
-    out = []
-    for setup, (log, diverged) in zip(setups, simulate_lockstep(setups)):
-        ctrl = setup.controller
-        m = _metrics(log, ctrl.tau_max, ctrl.noise if isinstance(ctrl, TorqueNoise) else None)
-        out.append({"run": int(setup.plant.draw.run), "controller": key, "rms_error": m["rms_error"],
-                    "max_error": m["max_error"], "peak_torque": m["peak_torque"],
-                    "diverged": diverged, "saturated": m["saturated"], "substeps": int(log.substeps),
-                    **_loop(study, setup, diverged)})
-    return out
+    return [_record(study, setup, key, log, diverged)
+            for setup, (log, diverged) in zip(setups, simulate_lockstep(setups))]
 
 
 def run_chunk(study: Study, runs) -> dict:

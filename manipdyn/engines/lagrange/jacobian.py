@@ -15,7 +15,10 @@ of the Jacobian is
     J[:3, j] = (Delta_j T)[:3, 3]     (linear velocity of the tool origin, base axes)
     J[3:, j] = vee(Delta_j[:3, :3])   (angular velocity, base axes),
 
-Pinocchio's ``LOCAL_WORLD_ALIGNED``.  Its time derivative follows from
+Pinocchio's ``LOCAL_WORLD_ALIGNED``.  Link ``k``'s Jacobian is the same with
+``T_k`` for ``T`` and zero columns after ``k`` (link ``k`` moves with joints 1..k
+only); ``frame="tool"`` gives the rows in the frame's own axes, ``R^T v`` and
+``R^T w`` (``R`` the frame's rotation, eq. 2.2).  Its time derivative follows from
 ``dDelta_j/dt = [S_{j-1}, Delta_j]`` and ``dT/dt = S_n T`` with
 ``S_m = sum_{k <= m} Delta_k qd_k`` (the same identity as the engine's Coriolis
 matrix): ``d(Delta_j T)/dt = ([S_{j-1}, Delta_j] + Delta_j S_n) T``.
@@ -24,6 +27,8 @@ matrix): ``d(Delta_j T)/dt = ([S_{j-1}, Delta_j] + Delta_j S_n) T``.
 from __future__ import annotations
 
 import numpy as np
+
+from ...model.reach import check_jacobian_frame, check_link
 
 __all__ = ["TraceFormJacobian"]
 
@@ -38,16 +43,19 @@ def _columns(X: np.ndarray, R: np.ndarray) -> np.ndarray:
 class TraceFormJacobian:
     """Mixin of :class:`manipdyn.engines.lagrange.engine.TraceFormEngine`: ``jacobian``, ``jacobian_dot``."""
 
-    def jacobian(self, q) -> np.ndarray:
-        """Geometric Jacobian of the tool frame (``fkine``): (6, n) or (N, 6, n).
+    def jacobian(self, q, frame: str = "world", link=None) -> np.ndarray:
+        """Geometric Jacobian of the tool frame (``fkine``), or of link ``link``: (6, n) or (N, 6, n).
 
-        Rows 0-2: the tool origin's linear velocity per joint rate (m/s per rad/s,
-        or per m/s for a prismatic joint); rows 3-5: the tool's angular velocity
-        (rad/s per joint rate, 0 for a prismatic joint); both in base-frame axes,
-        ``v = J qd`` at the tool origin (Pinocchio's ``LOCAL_WORLD_ALIGNED``).
-        From ``dT/dq_j = Delta_j T`` (module docstring).
+        Rows 0-2: the frame origin's linear velocity per joint rate (m/s per rad/s,
+        or per m/s for a prismatic joint); rows 3-5: the frame's angular velocity
+        (rad/s per joint rate, 0 for a prismatic joint); in base-frame axes
+        (``frame="world"``, Pinocchio's ``LOCAL_WORLD_ALIGNED``) or the frame's own
+        (``frame="tool"``, ``LOCAL``).  ``link`` is 1..n, the frame ``T_k`` of
+        ``link_poses``.  From ``dT/dq_j = Delta_j T`` (module docstring).
         """
-        return self._call(self._k_jacobian, "jacobian", q=q)
+        local = check_jacobian_frame(frame) == "tool"
+        k = None if link is None else check_link(link, self.n)
+        return self._call(lambda qb: self._k_jacobian(qb, local, k), "jacobian", q=q)
 
     def jacobian_dot(self, q, qd) -> np.ndarray:
         """``dJ/dt`` along ``qd`` of :meth:`jacobian`: (6, n) or (N, 6, n), SI per second.
@@ -56,10 +64,16 @@ class TraceFormJacobian:
         """
         return self._call(self._k_jacobian_dot, "jacobian_dot", q=q, qd=qd)
 
-    def _k_jacobian(self, q):
+    def _k_jacobian(self, q, local=False, link=None):
         T, Delta = self._kin.frames(q)
-        Tt = self._kin.tool(T)                                   # (B, 4, 4)
-        return _columns(Delta @ Tt[:, None], Delta)
+        Tt = self._kin.tool(T) if link is None else T[:, link - 1]     # (B, 4, 4)
+        J = _columns(Delta @ Tt[:, None], Delta)
+        if link is not None:
+            J[:, :, link:] = 0.0                                      # dT_k/dq_j = 0 for j > k
+        if local:
+            Rt = np.swapaxes(Tt[:, :3, :3], 1, 2)
+            J = np.concatenate((Rt @ J[:, :3], Rt @ J[:, 3:]), axis=1)
+        return J
 
     def _k_jacobian_dot(self, q, qd):
         T, Delta = self._kin.frames(q)

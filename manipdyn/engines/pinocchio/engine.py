@@ -160,8 +160,10 @@ def pinocchio_engine(arm) -> "PinocchioEngine":
     coupling = None
     if not arm.transmission.is_diagonal:
         coupling = arm.rotor_inertia - np.diag(np.diag(arm.rotor_inertia))
-    return PinocchioEngine(model_for_arm(arm), friction=arm.friction_model, tool_frame=tool,
-                           transmission=arm.transmission, rotor_coupling=coupling)
+    eng = PinocchioEngine(model_for_arm(arm), friction=arm.friction_model, tool_frame=tool,
+                          transmission=arm.transmission, rotor_coupling=coupling)
+    eng.link_offsets = arm.urdf_link_offsets()      # link k's Jacobian at T_k = L_k S_k (.jacobian)
+    return eng
 
 
 def _threads() -> int:

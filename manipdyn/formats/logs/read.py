@@ -26,6 +26,7 @@ Every step adds a line to ``Measurements.notes``.
 from __future__ import annotations
 
 import math
+import numbers
 import os
 
 import numpy as np
@@ -40,7 +41,7 @@ from .rosbag import is_bag, read_joint_states
 from .table import read_table
 from .timebase import uniform_samples
 
-__all__ = ["read_log"]
+__all__ = ["read_log", "as_t_range"]
 
 
 def _deg_factors(deg, n, where):
@@ -106,6 +107,38 @@ def _from_csv(path, n, where, columns, deg, time_scale, drive_args, rate, extra_
     return t, get["q"], get.get("qd"), get.get("qdd"), get["tau"], table.rows, drive, notes, table.sha256, motor
 
 
+def as_t_range(value, name: str = "t_range"):
+    """``value`` as ``(t0, t1)`` seconds (either None), or None: a pair of numbers or None, or the
+    command line's text ``"T0:T1"`` (either side may be empty).  A :class:`ModelError` names
+    ``name`` for anything else (a single number, text that is not a time, inf or NaN, t0 >= t1)."""
+    if value is None:
+        return None
+    expected = (f"{name}: expected (t0, t1) in seconds (either may be None), or the text 'T0:T1' (either side "
+                f"may be empty), got {value!r:.60}")
+    if isinstance(value, str):
+        lo, sep, hi = value.partition(":")
+        if not sep:
+            raise ModelError(expected)
+        try:
+            pair = tuple(None if not x.strip() else float(x) for x in (lo, hi))
+        except ValueError:
+            raise ModelError(expected) from None
+    else:
+        try:
+            pair = tuple(value)
+        except TypeError:
+            raise ModelError(expected) from None
+        if len(pair) != 2 or not all(x is None or (isinstance(x, numbers.Real) and not isinstance(x, (bool, np.bool_)))
+                                     for x in pair):
+            raise ModelError(expected)
+        pair = tuple(None if x is None else float(x) for x in pair)
+    if any(x is not None and not math.isfinite(x) for x in pair):
+        raise ModelError(f"{name}: expected finite times (or None for an open end), got {value!r:.60}")
+    if None not in pair and not pair[0] < pair[1]:
+        raise ModelError(f"{name}: expected t0 < t1, got {value!r:.60}")
+    return pair
+
+
 def _window(t, arrays, t_range, where, notes):
     lo, hi = (None, None) if t_range is None else t_range
     lo = -math.inf if lo is None else float(lo)
@@ -143,7 +176,8 @@ def read_log(path, n: int, *, joint_names=None, columns=None, deg=False, rate=No
     False for none).  ``topic``: the JointState topic of a bag.
     ``transmission``: an object or mapping with ``R`` (n, n), ``motor_offset``
     (n,), ``torque_constant`` (n,); the keyword arrays override it.
-    ``t_range``: ``(t0, t1)`` keeps ``t0 <= t < t1`` s (either may be None),
+    ``t_range``: ``(t0, t1)`` keeps ``t0 <= t < t1`` s (either may be None; the command
+    line's text ``"T0:T1"`` is read the same, :func:`as_t_range`),
     taken after filtering so the window keeps its edges.  ``extra_joints``: a CSV
     whose signals have columns for joints beyond ``n`` (``q8`` for a 7-joint model)
     is refused unless True (they are then ignored, and the note says so).
@@ -159,6 +193,11 @@ def read_log(path, n: int, *, joint_names=None, columns=None, deg=False, rate=No
         raise ModelError(f"{where}: joint_names: expected {n} names, got {len(joint_names)}")
     if not (isinstance(time_scale, (int, float)) and math.isfinite(time_scale) and time_scale > 0):
         raise ModelError(f"{where}: time_scale: expected seconds per unit of t > 0, got {time_scale!r}")
+    t_range = as_t_range(t_range)                       # the command line's 'T0:T1' too
+    for name, v in (("rate", rate), ("resample", resample), ("cutoff", cutoff)):
+        if v is not None and (isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real)
+                              or not (math.isfinite(v) and v > 0)):
+            raise ModelError(f"{name}: expected a frequency in Hz > 0 (a number, or None), got {v!r:.60}")
     if is_bag(path):
         if columns is not None or (deg is not False and deg is not None) or time_scale != 1:
             raise ModelError(f"{where}: columns=, deg= and time_scale= (--columns, --deg, --time-scale) are for "

@@ -46,8 +46,9 @@ def calibrate(model: str = "ur5", repeats: int = 500, noise: float = 0.01, seed:
     prior = load(model)
     truth = true_arm(prior, seed=seed)
     with blas_threads(1):
-        ex = excitation(prior, duration=duration, harmonics=3, rate=rate, iterations=0, seed=seed)
-        held = excitation(prior, duration=duration, harmonics=3, rate=rate, iterations=0, seed=seed + 1)
+        # ramp=0: the series alone, as the published coverage was measured (no robot to start from rest)
+        ex = excitation(prior, duration=duration, harmonics=3, rate=rate, iterations=0, seed=seed, ramp=0)
+        held = excitation(prior, duration=duration, harmonics=3, rate=rate, iterations=0, seed=seed + 1, ramp=0)
         pick = np.linspace(0, len(held.q) - 1, samples).astype(int)
         hq, hqd, hqdd = held.q[pick], held.qd[pick], held.qdd[pick]
         tau0 = truth.inverse_dynamics(ex.q, ex.qd, ex.qdd)

@@ -23,6 +23,19 @@ first scaled about ``q0`` (:func:`_feasible`, with the bounds of
   (default 5 % of the range at each end);
 * ``|qd_j| <= vmax_j`` and ``|qdd_j| <= amax_j``.
 
+From rest to rest (issue 31, item 14): a robot cannot start on the series, which is moving
+at t = 0.  By default the trajectory ramps in and out: ``q(t) = q0 + e(t) (p(t) - q0)`` with
+``p`` the series and ``e`` rising from 0 to 1 over ``ramp`` seconds by the septic smoothstep
+``35 u^4 - 84 u^5 + 70 u^6 - 20 u^7`` (``u = t / ramp``), staying 1 over one period, and falling
+back over ``ramp`` seconds; so it starts and ends at ``q0`` at rest (``qd = qdd = 0``, and no
+jump in the jerk), and position, velocity, acceleration and jerk are continuous (a
+discontinuous jerk would put a kink in qdd that a log's low-pass filter rounds off).  ``q`` stays within the joint limits
+(``e`` in [0, 1]); the ramps' velocities and accelerations (``e' (p - q0) + e qd_p``, ...) are
+bounded at every time like the series' (:func:`_ramp_peaks`), and ``ramp="auto"`` takes
+the shortest of ``period / 4, period / 2, period, 2 period`` under which they hold the
+limits; where none does, the joint's coefficients are scaled down until they hold.
+``ramp=0`` gives the bare periodic series.
+
 The highest harmonic must lie below the Nyquist frequency of the samples
 (``K / duration < rate / 2``), and there must be at least as many equations
 (samples times n) as base parameters; otherwise :class:`ModelError`.
@@ -40,10 +53,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..._support import limits
 from ..._support.errors import ModelError
 from ..estimation.base import base_parameters, check_base
 
-__all__ = ["Excitation", "excitation", "fourier_trajectory", "DEFAULT_VMAX", "DEFAULT_AMAX"]
+__all__ = ["Excitation", "excitation", "fourier_trajectory", "ramped_trajectory", "DEFAULT_VMAX", "DEFAULT_AMAX"]
 
 #: default velocity limit: revolute (rad/s), prismatic (m/s)
 DEFAULT_VMAX = {"revolute": 1.5, "prismatic": 0.3}
@@ -68,6 +82,81 @@ def fourier_trajectory(t, q0, a, b, period: float):
     return q, qd, qdd
 
 
+def _envelope(t, ramp: float, period: float):
+    """``e, e', e''`` (N,) of the ramps at times ``t`` (module docstring)."""
+    T = period + 2.0 * ramp
+    u = np.clip(np.minimum(t, T - t) / ramp, 0.0, 1.0)
+    sgn = np.where(t <= T / 2, 1.0, -1.0)              # falling: d/dt of u is -1 / ramp
+    e = u**4 * (35 - 84 * u + 70 * u**2 - 20 * u**3)
+    inside = (u > 0) & (u < 1)
+    e1 = np.where(inside, 140 * u**3 * (1 - u) ** 3, 0.0) * sgn / ramp
+    e2 = np.where(inside, 420 * u**2 * (1 - u) ** 2 * (1 - 2 * u), 0.0) / ramp**2
+    return e, e1, e2
+
+
+def ramped_trajectory(t, q0, a, b, period: float, ramp: float):
+    """``(q, qd, qdd)`` (N, n) of the series ramped in and out over ``ramp`` s (module docstring);
+    the series itself (:func:`fourier_trajectory`) when ``ramp`` is 0."""
+    q, qd, qdd = fourier_trajectory(t, q0, a, b, period)
+    if not ramp:
+        return q, qd, qdd
+    e, e1, e2 = (x[:, None] for x in _envelope(np.asarray(t, dtype=np.float64), ramp, period))
+    d = q - q0
+    return q0 + e * d, e1 * d + e * qd, e2 * d + 2.0 * e1 * qd + e * qdd
+
+
+#: suprema of |e^(k)| of the smoothstep per unit u, k = 0..4 (35/16; 7.51319 at u = 0.2764,
+#: rounded up; 52.5 at u = 1/2; 840 at both ends)
+_SMOOTHSTEP_SUP = (1.0, 2.1875, 7.5132, 52.5, 840.0)
+
+
+def _ramp_peaks(a, b, period: float, ramp: float, points: int = 4000):
+    """Bounds (n,) on ``max |qd|`` and ``max |qdd|`` over both ramps at every time: the maximum
+    over ``points`` samples of each plus ``h^2 / 8`` times a bound on the second derivative (the
+    third and fourth of q, by Leibniz from the envelope's and the series' suprema), as
+    :func:`_peaks` bounds the series.  (The ramp out is no mirror of the ramp in: it rides
+    the series from ``ramp`` to ``2 ramp``, modulo the period.)"""
+    K = a.shape[-1]
+    wl = 2.0 * math.pi / period * np.arange(1, K + 1)
+    h = np.linspace(0.0, ramp, points)
+    t = np.concatenate((h, ramp + period + h))
+    _, qd, qdd = ramped_trajectory(t, np.zeros(a.shape[0]), a, b, period, ramp)
+    amp = np.hypot(a, b)
+    P = [np.sum(amp * wl ** (k - 1), axis=-1) for k in range(5)]      # sup |d^k (p - q0)|
+    E = [c / ramp**k for k, c in enumerate(_SMOOTHSTEP_SUP)]
+    binom = ((1,), (1, 1), (1, 2, 1), (1, 3, 3, 1), (1, 4, 6, 4, 1))
+    sup = [sum(c * E[k - j] * P[j] for j, c in enumerate(binom[k])) for k in range(5)]   # sup |d^k (q - q0)|
+    gap = (ramp / (points - 1)) ** 2 / 8.0
+    return np.abs(qd).max(axis=0) + gap * sup[3], np.abs(qdd).max(axis=0) + gap * sup[4]
+
+
+def _check_ramp(ramp) -> None:
+    """A :class:`ModelError` naming ``ramp`` unless it is ``"auto"`` or finite seconds >= 0."""
+    if isinstance(ramp, str) and ramp == "auto":
+        return
+    if isinstance(ramp, (bool, np.bool_)) or not isinstance(ramp, numbers.Real) or not (
+            math.isfinite(float(ramp)) and ramp >= 0):
+        raise ModelError(f"ramp: expected seconds >= 0 or 'auto', got {ramp!r:.40}")
+
+
+def _with_ramp(a, b, period: float, ramp, vmax, amax):
+    """``(a, b, ramp)``: the ramp's length (``"auto"``: module docstring) and the coefficients,
+    each joint's scaled down where its ramps would break ``vmax`` or ``amax``."""
+    if isinstance(ramp, str):
+        for T in (period / 4, period / 2, period, 2 * period):
+            v, acc = _ramp_peaks(a, b, period, T)
+            if np.all(v <= vmax) and np.all(acc <= amax):
+                return a, b, T
+        ramp = 2 * period
+    ramp = float(ramp)
+    if ramp == 0:
+        return a, b, 0.0
+    v, acc = _ramp_peaks(a, b, period, ramp)
+    s = np.minimum.reduce([np.ones_like(v), vmax / np.maximum(v, 1e-300), amax / np.maximum(acc, 1e-300)])
+    s = np.where(s < 1.0, s * (1.0 - 1e-9), 1.0)       # strictly inside, after rounding
+    return a * s[:, None], b * s[:, None], ramp
+
+
 @dataclass
 class Excitation:
     """An optimised excitation trajectory.
@@ -88,6 +177,9 @@ class Excitation:
         Of the base regressor stacked over the samples.
     n_base : int
         Number of base parameters.
+    ramp : float
+        Seconds of each ramp (in, and out), 0 for the bare series (module docstring); the
+        samples cover ``ramp + period + ramp`` seconds, at rest at both ends when ``ramp > 0``.
     """
 
     q0: np.ndarray
@@ -100,10 +192,16 @@ class Excitation:
     qdd: np.ndarray
     condition_number: float
     n_base: int
+    ramp: float = 0.0
+
+    @property
+    def duration(self) -> float:
+        """Seconds from start to end: ``ramp + period + ramp``."""
+        return self.period + 2.0 * self.ramp
 
     def sample(self, t):
-        """``(q, qd, qdd)`` at times ``t`` (N,) s."""
-        return fourier_trajectory(t, self.q0, self.a, self.b, self.period)
+        """``(q, qd, qdd)`` at times ``t`` (N,) s: the series, ramped in and out (module docstring)."""
+        return ramped_trajectory(t, self.q0, self.a, self.b, self.period, self.ramp)
 
     def to_csv(self, path) -> None:
         """Write ``t,q1..qn,qd1..qdn,qdd1..qddn`` (SI units), atomically."""
@@ -253,7 +351,7 @@ def _log_cond_and_grad(regressor, base, x, unpack, q0, period, tg):
 def excitation(arm, duration: float = 10.0, harmonics: int = 5, rate: float = 100.0, seed: int = 0,
                vmax=None, amax=None, margin: float = 0.05, armature: bool = False,
                friction: bool = False, iterations: int = 60, grid: int = 120,
-               progress=None, base=None) -> Excitation:
+               progress=None, base=None, ramp="auto") -> Excitation:
     """Optimise a Fourier-series excitation trajectory for ``arm``.
 
     Parameters
@@ -283,6 +381,11 @@ def excitation(arm, duration: float = 10.0, harmonics: int = 5, rate: float = 10
         ``progress(done, total)`` after each iteration.
     base : BaseParameters, optional
         Reuse a :func:`base_parameters` result (same armature/friction flags).
+    ramp : float or "auto"
+        Seconds of the ramp in and of the ramp out, from and to rest at ``q0`` (module
+        docstring); ``"auto"`` (the default) the shortest that keeps ``vmax`` and ``amax``;
+        0 for the bare periodic series (which starts moving).  The samples cover
+        ``ramp + duration + ramp`` seconds.
     """
     from ..._support.deps import require
 
@@ -297,6 +400,12 @@ def excitation(arm, duration: float = 10.0, harmonics: int = 5, rate: float = 10
         if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) or v < 1:
             raise ModelError(f"{name}: expected a positive integer, got {v!r}")
     harmonics, grid = int(harmonics), int(grid)
+    _check_ramp(ramp)
+    longest = (5.0 if isinstance(ramp, str) else 1.0 + 2.0 * float(ramp) / duration) * duration * rate
+    if longest > limits.MAX_EXCITATION_SAMPLES:          # refused before minutes of optimisation
+        raise limits.over_limit("ramp", "the number of samples", f"up to {longest:.0f} with the ramps "
+                                f"({'auto: up to 2 periods each' if isinstance(ramp, str) else f'{ramp:g} s each'})",
+                                "MAX_EXCITATION_SAMPLES")
     n, K = arm.n, int(harmonics)
     vmax, amax, lo, hi = _limits(arm, vmax, amax, margin)
     q0 = 0.5 * (lo + hi)
@@ -330,8 +439,8 @@ def excitation(arm, duration: float = 10.0, harmonics: int = 5, rate: float = 10
         b = x[..., n * K:].reshape(x.shape[:-1] + (n, K))
         return _feasible(q0, a, b, duration, vmax, amax, lo, hi)
 
-    def cond(a, b, t):
-        q, qd, qdd = fourier_trajectory(t, q0, a, b, duration)
+    def cond(a, b, t, ramp):
+        q, qd, qdd = ramped_trajectory(t, q0, a, b, duration, ramp)
         Y = base.regressor(arm.lagrange.regressor(q, qd, qdd, armature=armature, friction=friction))
         s = np.linalg.svd(Y.reshape(-1, base.count), compute_uv=False)
         return s[0] / s[-1] if s[-1] > 0 else np.inf
@@ -359,9 +468,10 @@ def excitation(arm, duration: float = 10.0, harmonics: int = 5, rate: float = 10
                                 options={"maxiter": int(iterations)})
         x = res.x if objective(res.x)[0] <= objective(x0)[0] else x0
     a, b = unpack(x)
+    a, b, ramp = _with_ramp(a, b, duration, ramp, vmax, amax)
     if progress is not None:
         progress(iterations, iterations)
-    t = np.arange(samples) / rate
-    q, qd, qdd = fourier_trajectory(t, q0, a, b, duration)
+    t = np.arange(int(round((duration + 2 * ramp) * rate)) + (1 if ramp else 0)) / rate   # ends at rest
+    q, qd, qdd = ramped_trajectory(t, q0, a, b, duration, ramp)
     return Excitation(q0=q0, a=a, b=b, period=float(duration), t=t, q=q, qd=qd, qdd=qdd,
-                      condition_number=float(cond(a, b, t)), n_base=base.count)
+                      condition_number=float(cond(a, b, t, ramp)), n_base=base.count, ramp=ramp)

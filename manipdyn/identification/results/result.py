@@ -91,7 +91,10 @@ class IdentifyResult:
         base model, :mod:`.basemodel`).  Unless a ``name`` was given to :func:`manipdyn.identify`, the
         arm is named after the file (``arm_id.toml``: ``arm_id``).  Returns the path.
 
-        Raises :class:`ModelError` when the parameters are no physical arm (write ``.json``).
+        When the parameters are no physical arm (``ols`` or ``wls`` may give a ``J_i`` that is not
+        positive semidefinite) and ``path`` is a ``.toml`` or ``.urdf``, the base model is written
+        beside it, ``X.base.json``, and a :class:`ModelError` says so: what ``manipdyn identify
+        -o X.toml`` does too (it writes ``X.base.json`` and exits 1).
         """
         from ..._support.files import atomic_write_text
         from ...model.arm import URDFArm
@@ -110,8 +113,12 @@ class IdentifyResult:
             write_base_model(path, self.fit, prior_text(self.prior), self.provenance, bootstrap=self.bootstrap)
             return path
         if self.arm is None:
+            if not low.endswith((".toml", ".urdf")):
+                raise ModelError(f"path: expected a file name ending in .toml, .urdf or .json, got {path!r}")
+            base = _save_base(self, base_beside(path))
             raise ModelError(f"{path}: the {self.fit.method} parameters are not a physical arm "
-                             f"({self.fit.arm_error or 'a J_i is not >= 0'}); write the base model (.json)")
+                             f"({self.fit.arm_error or 'a J_i is not >= 0'}); the base model is written to {base} "
+                             "instead (validate scores it; method='consistent' gives a physical arm)")
         if isinstance(self.arm, URDFArm) and low.endswith(".urdf"):
             atomic_write_text(path, self.arm.urdf_text)
         elif low.endswith(".toml"):
@@ -214,10 +221,15 @@ class IdentifyResult:
         return self.fit.predict(q, qd, qdd)
 
 
+def base_beside(output) -> str:
+    """``X.base.json`` for ``X.toml`` (or ``X.urdf``): where a fit that is no physical arm is written."""
+    return os.path.splitext(os.fspath(output))[0] + ".base.json"
+
+
 def write_model_files(result: IdentifyResult, output, base_json) -> None:
     """Write what ``identify(output=..., base_json=...)`` asks: the model at ``output`` (or, when
-    the parameters are no physical arm, the base model beside it: ``OUT.base.json``, exit code 1),
-    and the base model at ``base_json``."""
+    the parameters are no physical arm, the base model beside it: ``OUT.base.json``, exit code 1,
+    as :meth:`IdentifyResult.save` does), and the base model at ``base_json``."""
     base_path = base_json
     if output is not None:
         out = os.fspath(output)
@@ -227,7 +239,7 @@ def write_model_files(result: IdentifyResult, output, base_json) -> None:
             result.output = result.save(out)
         else:
             result.exit_code = EXIT_NO_ARM
-            base_path = base_path or os.path.splitext(out)[0] + ".base.json"
+            base_path = base_path or base_beside(out)
     if base_path:
         result.base_model = result.save(base_path) if result.named or output is None else _save_base(result, base_path)
 
