@@ -22,7 +22,7 @@ __all__ = ["MAX_FILE_BYTES", "MAX_MODEL_FILE_BYTES", "MAX_LINKS", "MAX_JOINTS", 
            "MAX_MAGNITUDE", "MAX_DATA_BYTES", "MAX_DATA_FIELD_BYTES", "MAX_HARMONICS", "MAX_EXCITATION_SAMPLES",
            "MAX_RUN_STEPS", "MAX_STUDY_STEPS", "MAX_BANDWIDTH", "MAX_DEMO_DURATION", "MAX_TRAJECTORY_BYTES",
            "MAX_GRID_VALUES", "MAX_FIT_ENTRIES", "MAX_BOOTSTRAP", "MAX_PRIOR_WEIGHT", 
-           "MAX_JSON_DEPTH", "MAX_SIGNAL", "MAX_CODEGEN_OPERATIONS", "codegen_operations", "MIN_TORQUE_PEAK", "MAX_SCHEDULER_WAIT_S", "CLI_RAISE", "over_limit", "check_fit_size", "check_signals", "check_count", "check_magnitude", "check_range", "open_regular"]
+           "MAX_JSON_DEPTH", "MAX_SIGNAL", "MAX_CODEGEN_OPERATIONS", "codegen_operations", "MIN_TORQUE_PEAK", "MAX_SCHEDULER_WAIT_S", "MAX_PEER_MESSAGE_BYTES", "CLI_RAISE", "over_limit", "check_fit_size", "check_signals", "check_count", "check_magnitude", "check_range", "open_regular"]
 
 #: largest URDF or model file read, bytes (16 MiB; real ones are under 1 MiB)
 MAX_FILE_BYTES = 16 * 1024 * 1024
@@ -120,6 +120,10 @@ MAX_JSON_DEPTH = 32
 #: seconds to wait for a Dask scheduler to answer (a port that listens but is not Dask's
 #: never answers the handshake)
 MAX_SCHEDULER_WAIT_S = 10.0
+#: largest first message a Dask scheduler may announce, bytes (its handshake is a few hundred):
+#: the first 8 bytes of another service ("HTTP/1.0") read as a length of some 3e18 bytes,
+#: which Dask would try to allocate
+MAX_PEER_MESSAGE_BYTES = 1024 * 1024
 
 #: most arithmetic operations of an arm's generated C (``md.codegen``, ``manipdyn codegen``,
 #: ``arm.compiled``), estimated from the joint count by :func:`codegen_operations` before any

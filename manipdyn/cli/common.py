@@ -15,7 +15,7 @@ from .._support.errors import ModelError, TipError
 from ..formats.loading import load_with_notes
 
 __all__ = ["check_outputs", "check_plot_target", "check_output_file", "require_numbers", "add_progress_options", "progress_wanted", "EXIT_OK", "EXIT_DISAGREE", "EXIT_USAGE", "EXIT_INTERNAL", "Progress", "output_folder",
-           "urdf_target", "usage_error", "cli_message", "load_arm", "load_all", "is_urdf", "TIP_HELP"]
+           "urdf_target", "usage_error", "one_line", "cli_message", "load_arm", "load_all", "is_urdf", "TIP_HELP"]
 
 #: help of every ``--tip`` option
 TIP_HELP = ("tree URDFs (an arm with a gripper): the link that ends the chain to use; "
@@ -35,9 +35,28 @@ def cli_message(exc) -> str:
     return str(exc)
 
 
+def one_line(text) -> str:
+    """``text`` as one printable line: control characters (newline, ESC, NUL, form feed, ...),
+    bidirectional overrides and other invisible format characters from a name or a path are
+    shown escaped (``\\n``, ``\\x1b``, ``\\u202e``), never sent raw to the terminal."""
+    import unicodedata
+
+    out = []
+    for ch in str(text):
+        if ch == "\t":
+            out.append(" ")
+        elif unicodedata.category(ch) in ("Cc", "Cf", "Zl", "Zp", "Cs"):
+            o = ord(ch)
+            out.append({"\n": "\\n", "\r": "\\r"}.get(ch) or (f"\\x{o:02x}" if o < 0x100 else f"\\u{o:04x}"
+                                                          if o <= 0xFFFF else f"\\U{o:08x}"))
+        else:
+            out.append(ch)
+    return "".join(out)
+
+
 def usage_error(command: str, message: str) -> int:
     """Print ``manipdyn COMMAND: error: MESSAGE`` on stderr and return :data:`EXIT_USAGE`."""
-    print(f"manipdyn {command}: error: {message}", file=sys.stderr)
+    print(f"manipdyn {command}: error: {one_line(message)}", file=sys.stderr)
     return EXIT_USAGE
 
 

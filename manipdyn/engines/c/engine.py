@@ -83,8 +83,9 @@ def library_for(arm, cc: str | None = None, opt: str = "-O2") -> str:
     """
     if opt not in ("-O0", "-O1", "-O2", "-O3", "-Os"):
         raise ModelError(f"opt: expected one of -O0, -O1, -O2, -O3, -Os, got {opt!r:.40}")
-    from .source import GENERATOR_VERSION, generate, model_sha256
+    from .source import GENERATOR_VERSION, check_arm, generate, model_sha256
 
+    check_arm(arm)
     cc = cc or build.require_compiler("the 'c' engine")
     sha = model_sha256(arm)
     key = build.build_key(sha, _version(), GENERATOR_VERSION + opt + _generator_digest(), cc)
