@@ -193,6 +193,9 @@ def identify_torque_constants(arm, runs, *, armature: bool = False, friction=Fal
                              "Give a run with a known payload (RUNS.toml: payload = {mass, com}) or the model's "
                              "[transmission] torque_constant for at least one motor")
         try:
+            if reference is not None and (isinstance(reference, (str, bytes)) or not all(
+                    isinstance(k, (int, np.integer)) and not isinstance(k, bool) for k in reference)):
+                raise TypeError          # 1.9 is no motor number (int() would make it motor 1)
             ref = tuple(range(1, n + 1)) if reference is None else tuple(int(k) for k in reference)
         except (TypeError, ValueError):
             raise ModelError(f"torque_constant_reference: expected motor numbers 1 to {n}, got {reference!r:.60}") from None
