@@ -9,7 +9,7 @@ import os
 
 from .._support.errors import ModelError
 from ..engines.c import codegen
-from ..engines.c.source import codegen_targets
+from ..engines.c.source import check_arm, codegen_targets
 from .common import EXIT_OK, TIP_HELP, check_outputs, load_all
 
 __all__ = ["register", "run"]
@@ -19,7 +19,13 @@ def run(args) -> int:
     (_, arm, _), = load_all([args.model], args.tip)
     # the outputs, checked before the work: never onto the model (a link gen/P.h -> model.toml),
     # never a folder, FIFO or device; the C's size is capped before its graphs are built
-    hpath, cpath = codegen_targets(arm, args.output, prefix=args.prefix)
+    check_arm(arm)
+    try:
+        hpath, cpath = codegen_targets(arm, args.output, prefix=args.prefix)
+    except ModelError as exc:
+        if str(exc).startswith("prefix:"):
+            raise ModelError(f"--{exc}") from None
+        raise ModelError(f"-o {args.output}: {exc}") from None
     if os.path.isdir(args.output):
         check_outputs([("-o", hpath), ("-o", cpath)], inputs=[("the model", args.model)])
     else:
