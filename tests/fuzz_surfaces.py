@@ -156,12 +156,14 @@ def _argv_codegen(case, folder):
 
 def _tamper_cache(case, folder):
     """Build the arm's engine in a private cache under ``folder``, tamper with it: the arm."""
-    from manipdyn.engines.c import build, compiled_engine
+    from manipdyn.engines.c import build
+    from manipdyn.engines.c.engine import library_for
     from manipdyn.model.random_arms import random_arm
 
+    # built, not loaded: truncating a library this process has mapped would SIGBUS the harness
     os.environ[build.CACHE_ENV] = os.path.join(folder, "cache")
     arm = random_arm(21, n=2)
-    lib = compiled_engine(arm, opt="-O0").library
+    lib = library_for(arm, opt="-O0")
     key = os.path.dirname(lib)
     manifest = os.path.join(key, "manifest.json")
     for t in case["tamper"]:
@@ -177,8 +179,11 @@ def _tamper_cache(case, folder):
         elif t == "chmod":
             os.chmod(rng_path(case, (lib, manifest, key)), case["mode"])
         elif t == "manifest-field" and os.path.isfile(manifest):
-            with open(manifest) as f:
-                data = json.load(f)
+            try:
+                with open(manifest, encoding="utf-8") as f:
+                    data = json.load(f)
+            except ValueError:            # already garbage
+                continue
             field = sorted(data)[int(case["at"] * len(data)) % len(data)]
             data[field] = {"n": 3, "p": 33, "size": 1, "sha256": "0" * 64}.get(field, "x")
             with open(manifest, "w") as f:
@@ -189,7 +194,7 @@ def _tamper_cache(case, folder):
             with open(manifest, "wb") as f:
                 f.write(b"\xff\x00{" * 10)
         elif t == "other-arm":
-            other = os.path.dirname(compiled_engine(random_arm(22, n=2 + int(case["at"] * 2)), opt="-O0").library)
+            other = os.path.dirname(library_for(random_arm(22, n=2 + int(case["at"] * 2)), opt="-O0"))
             for name in os.listdir(other):
                 shutil.copyfile(os.path.join(other, name), os.path.join(key, name))
         elif t == "symlink" and os.path.isfile(lib):
@@ -253,7 +258,10 @@ def run_case(kind: str, seed: int, index: int, folder: str) -> tuple[str, str]:
                 warnings.simplefilter("ignore")
                 arm = _tamper_cache(case, case_dir)
                 q = np.linspace(-1.0, 1.0, arm.n)
-                diff = float(np.abs(arm.compiled.inverse_dynamics(q, q, q) - arm.lagrange.inverse_dynamics(q, q, q)).max())
+                from manipdyn.engines.c import compiled_engine
+
+                engine = compiled_engine(arm, opt="-O0")        # the tampered build's key (arm.compiled is -O2)
+                diff = float(np.abs(engine.inverse_dynamics(q, q, q) - arm.lagrange.inverse_dynamics(q, q, q)).max())
         except md.ModelError as exc:
             line = str(exc)
             return (("refused (exit 2, named)", line[:200]) if "\n" not in line and "cache" in line

@@ -161,3 +161,87 @@ def test_plants_from_a_zero_covariance_is_refused_by_name(tmp_path, log, capsys)
                  "--scheduler", "sync"])
     line = err_line(capsys)
     assert code == 2 and "covariance" in line and "no spread" in line, line
+
+
+def test_joint_names_option_is_a_list_not_letters(tmp_path, log, capsys):
+    """Issue 28: "--joint-names in identify and validate is read as a raw string: abcdef becomes
+    joints a to f"."""
+    from manipdyn.cli.logopts import library_options
+    from manipdyn.cli import build_parser as parser
+
+    args = parser().parse_args(["validate", "ur5", str(log), "--joint-names", "a,b,c,d,e,f"])
+    from manipdyn.identification import validate
+
+    assert library_options(args, validate)["joint_names"] == ["a", "b", "c", "d", "e", "f"]
+    with pytest.raises(md.ModelError, match=r"joint_names: expected a list of 6 names"):
+        md.identify("ur5", str(log), method="ols", joint_names="abcdef")
+
+
+def test_a_signal_given_twice_in_columns_is_refused(tmp_path, log, capsys):
+    """Issue 28: "a duplicate key in --columns is accepted" (the later one silently won)."""
+    assert main(["validate", "ur5", str(log), "--columns", "q=q{i},q=x{i}"]) == 2
+    line = err_line(capsys)
+    assert "columns" in line and "'q' given twice" in line, line
+
+
+def test_validate_refuses_degrees_as_identify_does(tmp_path, log, capsys):
+    """Issue 28: "validate ur5 deg.csv scores degrees as radians (RMS 4603 N m) where identify
+    catches them"."""
+    text = log.read_text().splitlines()
+    head = text[0].split(",")
+    qcols = [k for k, h in enumerate(head) if h.startswith("q")]
+    rows = []
+    for row in text[1:]:
+        cells = row.split(",")
+        for k in qcols:
+            cells[k] = repr(float(cells[k]) * 180 / np.pi)
+        rows.append(",".join(cells))
+    deg = tmp_path / "deg.csv"
+    deg.write_text("\n".join([text[0]] + rows) + "\n")
+    assert main(["validate", "ur5", str(deg)]) == 2
+    line = err_line(capsys)
+    assert "outside the model's joint limits" in line and "--deg" in line, line
+    assert main(["validate", "ur5", str(deg), "--deg"]) == 0
+
+
+def test_two_models_of_one_name_keep_a_row_each(tmp_path, log):
+    """Issue 28: "two models with the same name keep one row in validate's per-log table"."""
+    arm = md.load("ur5")
+    heavier = md.load("ur5")
+    a, b = tmp_path / "a" / "ur5.toml", tmp_path / "b" / "ur5.toml"
+    a.parent.mkdir()
+    b.parent.mkdir()
+    md.save(arm, str(a))
+    md.save(heavier, str(b))
+    res = md.validate([str(a), str(b)], str(log))
+    names = [r.model for r in res.results]
+    assert len(set(names)) == 2, names
+
+
+@pytest.mark.parametrize("kt", ["0", "-0.5", "1e59"])
+def test_a_torque_constant_out_of_range_is_refused_by_name(tmp_path, kt):
+    """Issue 26: "a k_t of 0 or 1e59 in the prior ... a negative k_t" (crashed the fit)."""
+    text = md.to_toml(md.load("ur5"))
+    assert "[transmission]" not in text
+    model = tmp_path / "m.toml"
+    model.write_text(text + f"\n[transmission]\ntorque_constant = [{', '.join([kt] * 6)}]\n")
+    with pytest.raises(md.ModelError, match=r"torque_constant.*MAX_TORQUE_CONSTANT"):
+        md.load(str(model))
+
+
+def test_undetermined_torque_constants_are_not_written(tmp_path, capsys):
+    """Issue 28: "the README's own kt/RUNS.toml with default options writes torque_constant =
+    [994632, ..., 1.25e16], with only a note" (a shorter set: 8 s runs)."""
+    from manipdyn.identification.experiments.hardlog import hard_log_set
+
+    paths = hard_log_set(0, tmp_path, duration=8.0)
+    out = tmp_path / "id.toml"
+    code = main(["identify", paths["prior"], "--logs", paths["runs"], "-o", str(out),
+                 "--identify-torque-constants", "--method", "ols"])
+    cap = capsys.readouterr()
+    if code == 2:
+        assert "not determined" in cap.err and "motor(s)" in cap.err, cap.err
+        assert not out.exists()
+    else:     # every motor determined: what is written must be finite and within the limit
+        kt = md.load(str(out)).transmission.torque_constant
+        assert np.all(np.isfinite(kt)) and np.all(kt <= limits.MAX_TORQUE_CONSTANT)

@@ -22,7 +22,7 @@ __all__ = ["MAX_FILE_BYTES", "MAX_MODEL_FILE_BYTES", "MAX_LINKS", "MAX_JOINTS", 
            "MAX_MAGNITUDE", "MAX_DATA_BYTES", "MAX_DATA_FIELD_BYTES", "MAX_HARMONICS", "MAX_EXCITATION_SAMPLES",
            "MAX_RUN_STEPS", "MAX_STUDY_STEPS", "MAX_BANDWIDTH", "MAX_DEMO_DURATION", "MAX_TRAJECTORY_BYTES",
            "MAX_GRID_VALUES", "MAX_FIT_ENTRIES", "MAX_BOOTSTRAP", "MAX_PRIOR_WEIGHT", 
-           "MAX_JSON_DEPTH", "MAX_SIGNAL", "MAX_CODEGEN_OPERATIONS", "codegen_operations", "MIN_TORQUE_PEAK", "MAX_SCHEDULER_WAIT_S", "MAX_PEER_MESSAGE_BYTES", "MAX_RUNS", "MAX_PAYLOAD_MASS", "CLI_RAISE", "over_limit", "check_fit_size", "check_signals", "check_count", "check_magnitude", "check_range", "open_regular"]
+           "MAX_JSON_DEPTH", "MAX_SIGNAL", "MAX_CODEGEN_OPERATIONS", "codegen_operations", "MIN_TORQUE_PEAK", "MAX_SCHEDULER_WAIT_S", "MAX_PEER_MESSAGE_BYTES", "MAX_RUNS", "MAX_PAYLOAD_MASS", "MAX_TORQUE_CONSTANT", "CLI_RAISE", "over_limit", "check_fit_size", "check_signals", "check_count", "check_magnitude", "check_range", "open_regular"]
 
 #: largest URDF or model file read, bytes (16 MiB; real ones are under 1 MiB)
 MAX_FILE_BYTES = 16 * 1024 * 1024
@@ -139,6 +139,9 @@ MAX_RUNS = 1000
 #: heaviest known payload of a run (kg): the heaviest industrial arms carry some 2 t; a
 #: payload of 1e20 kg is a unit error, and its torque swamps every other term of the fit
 MAX_PAYLOAD_MASS = 1e4
+#: largest motor torque constant k_t (N m/A): real motors have some 0.01 to 10; beyond,
+#: currents times k_t overflow the torque-constant fit's squares (1e59 did)
+MAX_TORQUE_CONSTANT = 1e3
 
 #: how to raise a limit for one command-line run (appended to the CLI's messages)
 CLI_RAISE = ("from the shell: python -c \"import sys, manipdyn._support.limits as L; from manipdyn.cli import main; "

@@ -155,6 +155,10 @@ def read_log(path, n: int, *, joint_names=None, columns=None, deg=False, rate=No
     where = os.fspath(path)
     n = int(n)
     drive_args = dict(transmission=transmission, R=R, motor_offset=motor_offset, torque_constant=torque_constant)
+    if joint_names is not None and (not isinstance(joint_names, (list, tuple)) or not all(
+            isinstance(x, str) and x for x in joint_names)):
+        # a string would be read letter by letter: "abcdef" as joints a to f
+        raise ModelError(f"{where}: joint_names: expected a list of {n} names (str), got {joint_names!r:.60}")
     if joint_names is not None and len(joint_names) != n:
         raise ModelError(f"{where}: joint_names: expected {n} names, got {len(joint_names)}")
     if not (isinstance(time_scale, (int, float)) and math.isfinite(time_scale) and time_scale > 0):

@@ -202,6 +202,10 @@ def _spec(raw, i, origin, base) -> LogSpec:
     if columns is not None and not isinstance(columns, (str, dict)):
         raise ModelError(f"{_where(origin, i, 'columns')}: expected 'q=Joint_{{i}},tau=Effort_{{i}}' or a table, "
                          f"got {columns!r:.60}")
+    if columns is not None:             # its patterns checked here, where the key and [[log]] are known
+        from ...formats.logs.columns import column_map
+
+        column_map(columns, where=_where(origin, i, "columns"))
     payload = _payload(raw["payload"], _where(origin, i, "payload")) if "payload" in raw else None
     return LogSpec(path, t_range, rate, columns, payload)
 
