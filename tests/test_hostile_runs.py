@@ -245,3 +245,16 @@ def test_undetermined_torque_constants_are_not_written(tmp_path, capsys):
     else:     # every motor determined: what is written must be finite and within the limit
         kt = md.load(str(out)).transmission.torque_constant
         assert np.all(np.isfinite(kt)) and np.all(kt <= limits.MAX_TORQUE_CONSTANT)
+
+
+def test_a_carried_fitted_range_of_1e308_is_refused_by_name():
+    """Issue 26: "a carried fitted_range of ±1e308" (its bounds, rounded outwards for the model
+    file's [sources], overflowed: OverflowError, exit 3)."""
+    from manipdyn.identification import StateRange
+
+    good = {"q": [[-1.0, 1.0]] * 6, "qd": [[-2.0, 2.0]] * 6, "tau": [[-50.0, 50.0]] * 6}
+    assert "q (rad)" in StateRange.from_dict(good, 6, "fitted_range").to_text()
+    for bound in (1e308, -1e308, 1e10):
+        bad = dict(good, q=[[min(0.0, bound), max(0.0, bound)]] * 6)
+        with pytest.raises(md.ModelError, match=r"^fitted_range: .*MAX_SIGNAL"):
+            StateRange.from_dict(bad, 6, "fitted_range")
