@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -91,6 +91,8 @@ class LogSpec:
     rate: float | None = None
     columns: object = None
     payload: Payload | None = None
+    #: where it was listed (``RUNS.toml: [[log]] 2``), for messages; None when built in Python
+    origin: str | None = field(default=None, compare=False)
 
     def __post_init__(self):
         if not isinstance(self.path, (str, os.PathLike)) or not os.fspath(self.path) or "\x00" in os.fspath(self.path):
@@ -207,7 +209,7 @@ def _spec(raw, i, origin, base) -> LogSpec:
 
         column_map(columns, where=_where(origin, i, "columns"))
     payload = _payload(raw["payload"], _where(origin, i, "payload")) if "payload" in raw else None
-    return LogSpec(path, t_range, rate, columns, payload)
+    return LogSpec(path, t_range, rate, columns, payload, origin=_where(origin, i))
 
 
 def read_runs_file(path) -> list[LogSpec]:
@@ -282,7 +284,12 @@ def read_runs(logs, arm, *, transmission=None, **read_options) -> list[tuple[Mea
         for key in ("t_range", "rate", "columns"):
             if getattr(spec, key) is not None:
                 opts[key] = getattr(spec, key)
-        m = read_log(spec.path, arm.n, transmission=tr, **opts)
+        try:
+            m = read_log(spec.path, arm.n, transmission=tr, **opts)
+        except ModelError as exc:
+            if spec.origin is None:
+                raise
+            raise ModelError(f"{spec.origin}: {exc}") from None      # which [[log]] of which RUNS file
         # the same data twice is not a second experiment: it would shrink the standard deviations
         # by sqrt(2) with nothing learnt (the same file under two names, or one file listed twice)
         key = (m.source_sha256, repr(sorted(opts.items(), key=lambda kv: kv[0])), spec.payload)
