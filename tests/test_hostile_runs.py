@@ -258,3 +258,21 @@ def test_a_carried_fitted_range_of_1e308_is_refused_by_name():
         bad = dict(good, q=[[min(0.0, bound), max(0.0, bound)]] * 6)
         with pytest.raises(md.ModelError, match=r"^fitted_range: .*MAX_SIGNAL"):
             StateRange.from_dict(bad, 6, "fitted_range")
+
+
+def test_a_silent_scheduler_is_not_blamed_on_the_output(tmp_path, log, capsys, monkeypatch):
+    """Issue 28: "a silent scheduler is blamed on -o" ("OUT.toml: cannot write: scheduler ...")."""
+    pytest.importorskip("distributed")
+    import socket
+
+    monkeypatch.setattr(limits, "MAX_SCHEDULER_WAIT_S", 1.0)     # the wait itself is not what is tested
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(4)
+    try:
+        code = main(["identify", "ur5", str(log), "--method", "ols", "-o", str(tmp_path / "o.toml"),
+                     "--bootstrap", "4", "--scheduler", f"tcp://127.0.0.1:{srv.getsockname()[1]}"])
+    finally:
+        srv.close()
+    line = err_line(capsys)
+    assert code == 2 and "--scheduler" in line and "cannot write" not in line, line
