@@ -276,3 +276,21 @@ def test_a_silent_scheduler_is_not_blamed_on_the_output(tmp_path, log, capsys, m
         srv.close()
     line = err_line(capsys)
     assert code == 2 and "--scheduler" in line and "cannot write" not in line, line
+
+
+def test_zero_velocities_from_a_driver_are_not_trusted(tmp_path, capsys):
+    """Issue 28: "zero velocities from a driver are trusted" (a qd column of zeros while q moves)."""
+    arm = md.load("ur5")
+    ex = excitation(arm, duration=4.0, harmonics=3, rate=100.0, iterations=0, seed=2)
+    tau = arm.inverse_dynamics(ex.q, ex.qd, ex.qdd)
+    qd = np.array(ex.qd)
+    qd[:, 2] = 0.0
+    path = tmp_path / "zeros.csv"
+    write_measurements_csv(path, ex.t, ex.q, tau, qd=qd)
+    assert main(["identify", "ur5", str(path), "--method", "ols", "-o", str(tmp_path / "o.toml")]) == 2
+    line = err_line(capsys)
+    assert "qd3" in line and "zero" in line, line
+    # the true velocities are read as they are
+    write_measurements_csv(path, ex.t, ex.q, tau, qd=ex.qd)
+    m = md.identification.read_log(str(path), arm.n)
+    assert m.measured_qd
