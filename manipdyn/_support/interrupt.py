@@ -5,7 +5,9 @@ Layer 0 (support).  The command's own ``main`` turns a Ctrl-C into ``manipdyn: i
 engines, before ``main`` runs: a Ctrl-C there would print the import's traceback (some 30
 lines).  :func:`quiet_interrupt_while_starting`, called first by ``manipdyn/__init__.py``,
 installs a ``sys.excepthook`` that prints the same one line for an uncaught
-``KeyboardInterrupt`` (Python then ends the process by SIGINT, as before), and only when this
+``KeyboardInterrupt`` (Python then ends the process by SIGINT, as before), or for any error
+that follows a Ctrl-C (a C extension being imported may turn the interrupt into an
+``ImportError``: then exit 130), and only when this
 process is the command (``manipdyn ...`` or ``python -m manipdyn ...``): a program that
 imports manipdyn keeps its own hook.
 """
@@ -43,15 +45,29 @@ def quiet_interrupt_while_starting() -> None:
     ``manipdyn: interrupted``, one line (module docstring)."""
     if not is_command_line() or getattr(sys.excepthook, "_manipdyn", False):
         return
+    import signal
+
     previous = sys.excepthook
+    seen = []
+
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+        def on_sigint(signum, frame):
+            # as Python's own handler, remembering it: a C extension being imported may turn the
+            # KeyboardInterrupt into another error (NumPy: "Importing the numpy C-extensions failed")
+            seen.append(signum)
+            raise KeyboardInterrupt
+
+        signal.signal(signal.SIGINT, on_sigint)
 
     def hook(kind, value, tb):
-        if issubclass(kind, KeyboardInterrupt):
+        if issubclass(kind, KeyboardInterrupt) or seen:
             try:
                 sys.stderr.write("manipdyn: interrupted\n")
                 sys.stderr.flush()
             except (OSError, ValueError):
                 pass
+            if not issubclass(kind, KeyboardInterrupt):
+                os._exit(130)        # the error was the interrupt's consequence: exit as an interrupt
             return
         previous(kind, value, tb)
 
