@@ -75,6 +75,8 @@ def test_cli_option_sets_meet_the_contract():
 def test_runs_codegen_and_cache_surfaces_meet_the_contract():
     """A few seeded cases of each new surface (tests/fuzz_surfaces.py; the long run is
     ``python -m tests.fuzz_surfaces --cases 100``): RUNS.toml, codegen, the compiled-engine cache."""
+    import pytest
+
     pytest.importorskip("casadi")
     pytest.importorskip("cvxpy")
     from tests import fuzz_surfaces
