@@ -19,6 +19,10 @@ model and its loaders, the two engines, the cross-check, the applications.
 Importing it imports both engines, which register themselves with the model.
 """
 
+# first: a Ctrl-C while the command imports the rest prints one line (manipdyn._support.interrupt)
+from ._support.interrupt import quiet_interrupt_while_starting as _quiet_interrupt
+
+_quiet_interrupt()
 from ._support.errors import (ModelError, ModelNoteWarning, PhysicalConsistencyWarning, SingularMassMatrixError,
                      StateError, SuspiciousValueWarning, UnreachablePoseError)
 from .model.inertia import LinkInertia

@@ -70,3 +70,19 @@ def test_cli_option_sets_meet_the_contract():
     for kind in ("excite", "montecarlo"):
         c = res["counts"][kind]
         assert c["refused (exit 2, the option named)"] > 0 and c["ran (exit 0, output checked)"] > 0, c
+
+
+def test_runs_codegen_and_cache_surfaces_meet_the_contract():
+    """A few seeded cases of each new surface (tests/fuzz_surfaces.py; the long run is
+    ``python -m tests.fuzz_surfaces --cases 100``): RUNS.toml, codegen, the compiled-engine cache."""
+    import pytest
+
+    pytest.importorskip("casadi")
+    pytest.importorskip("cvxpy")
+    from tests import fuzz_surfaces
+
+    assert [fuzz_surfaces.make_case("cache", 3, i) for i in range(20)] == \
+        [fuzz_surfaces.make_case("cache", 3, i) for i in range(20)]
+    res = fuzz_surfaces.fuzz_surfaces({"runs": 4, "codegen": 4, "cache": 4}, seed=5, jobs=2, timeout=120.0)
+    assert res["cases"] == 12
+    assert not res["failures"], res["failures"]

@@ -42,7 +42,8 @@ import time
 
 from .errors import ModelError
 
-__all__ = ["atomic_write", "atomic_write_text", "sweep_stale_temporaries", "overwrites", "STALE_SECONDS"]
+__all__ = ["atomic_write", "atomic_write_text", "sweep_stale_temporaries", "overwrites", "replaceable",
+           "STALE_SECONDS"]
 
 #: a temporary file is swept only when its process is gone AND it is this old
 STALE_SECONDS = 60.0
@@ -107,6 +108,17 @@ def _target(path: str) -> tuple[str, os.stat_result | None]:
                 else "not a regular file")
         raise OSError(errno.EINVAL, f"refusing to replace {kind}; manipdyn writes regular files only", path)
     return real, st
+
+
+def replaceable(path) -> str:
+    """The file :func:`atomic_write` would replace for ``path`` (a symbolic link's final target),
+    checked before any work: an ``OSError`` naming ``path`` when it is a folder, a device, a FIFO
+    or a socket, or when its folder does not exist."""
+    real, _ = _target(os.fspath(path))
+    folder = os.path.dirname(os.path.abspath(real))
+    if not os.path.isdir(folder):
+        raise FileNotFoundError(errno.ENOENT, "the folder does not exist", os.fspath(path))
+    return real
 
 
 def overwrites(output, source) -> bool:

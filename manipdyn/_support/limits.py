@@ -22,7 +22,7 @@ __all__ = ["MAX_FILE_BYTES", "MAX_MODEL_FILE_BYTES", "MAX_LINKS", "MAX_JOINTS", 
            "MAX_MAGNITUDE", "MAX_DATA_BYTES", "MAX_DATA_FIELD_BYTES", "MAX_HARMONICS", "MAX_EXCITATION_SAMPLES",
            "MAX_RUN_STEPS", "MAX_STUDY_STEPS", "MAX_BANDWIDTH", "MAX_DEMO_DURATION", "MAX_TRAJECTORY_BYTES",
            "MAX_GRID_VALUES", "MAX_FIT_ENTRIES", "MAX_BOOTSTRAP", "MAX_PRIOR_WEIGHT", 
-           "MAX_JSON_DEPTH", "MAX_SIGNAL", "MIN_TORQUE_PEAK", "MAX_SCHEDULER_WAIT_S", "CLI_RAISE", "over_limit", "check_fit_size", "check_signals", "check_count", "check_magnitude", "check_range", "open_regular"]
+           "MAX_JSON_DEPTH", "MAX_SIGNAL", "MAX_CODEGEN_OPERATIONS", "codegen_operations", "MIN_TORQUE_PEAK", "MAX_SCHEDULER_WAIT_S", "MAX_PEER_MESSAGE_BYTES", "MAX_RUNS", "MAX_PAYLOAD_MASS", "MAX_TORQUE_CONSTANT", "CLI_RAISE", "over_limit", "check_fit_size", "check_signals", "check_count", "check_magnitude", "check_range", "open_regular"]
 
 #: largest URDF or model file read, bytes (16 MiB; real ones are under 1 MiB)
 MAX_FILE_BYTES = 16 * 1024 * 1024
@@ -120,6 +120,28 @@ MAX_JSON_DEPTH = 32
 #: seconds to wait for a Dask scheduler to answer (a port that listens but is not Dask's
 #: never answers the handshake)
 MAX_SCHEDULER_WAIT_S = 10.0
+#: largest first message a Dask scheduler may announce, bytes (its handshake is a few hundred):
+#: the first 8 bytes of another service ("HTTP/1.0") read as a length of some 3e18 bytes,
+#: which Dask would try to allocate
+MAX_PEER_MESSAGE_BYTES = 1024 * 1024
+
+#: most arithmetic operations of an arm's generated C (``md.codegen``, ``manipdyn codegen``,
+#: ``arm.compiled``), estimated from the joint count by :func:`codegen_operations` before any
+#: graph is built.  The graphs' build time and the C's size grow with it, and the compiler's
+#: time and memory faster: 3e5 operations is a 20-joint arm (some 20 s to generate, an 8 MB
+#: source); a 30-joint arm (some 7e5) took 50 s and 2.2 GB, a 50-joint one was killed at 4.9 GB
+MAX_CODEGEN_OPERATIONS = 3e5
+
+#: most runs of one identification (``[[log]]`` entries of a RUNS.toml, or logs given):
+#: each is read, filtered and held in memory; 35 000 entries of one small log took 4.4 GB
+#: and over 120 s.  A real campaign has tens of runs
+MAX_RUNS = 1000
+#: heaviest known payload of a run (kg): the heaviest industrial arms carry some 2 t; a
+#: payload of 1e20 kg is a unit error, and its torque swamps every other term of the fit
+MAX_PAYLOAD_MASS = 1e4
+#: largest motor torque constant k_t (N m/A): real motors have some 0.01 to 10; beyond,
+#: currents times k_t overflow the torque-constant fit's squares (1e59 did)
+MAX_TORQUE_CONSTANT = 1e3
 
 #: how to raise a limit for one command-line run (appended to the CLI's messages)
 CLI_RAISE = ("from the shell: python -c \"import sys, manipdyn._support.limits as L; from manipdyn.cli import main; "
@@ -267,3 +289,10 @@ def nonnegative(value, where: str, unit: str = "") -> float:
     if not (math.isfinite(x) and x >= 0):
         raise ModelError(f"{where}: must be finite and >= 0{' ' + unit if unit else ''}, got {value!r:.60}")
     return x
+
+
+def codegen_operations(n: int) -> float:
+    """Estimated arithmetic operations of the generated C of an ``n``-joint arm (all its
+    functions): ``400 n**2.2``, fitted to the counts of random arms with rotors and friction
+    (within 20 % for n = 4 to 20: 7220, 63774 and 295185 operations at n = 4, 10 and 20)."""
+    return 400.0 * float(n) ** 2.2

@@ -250,6 +250,7 @@ def _probe_scheduler(scheduler: str) -> None:
     from .._support import limits
 
     wait = float(limits.MAX_SCHEDULER_WAIT_S)
+    _sniff_handshake(scheduler, wait)
 
     async def ask():
         comm = await connect(scheduler, timeout=wait)
@@ -266,8 +267,53 @@ def _probe_scheduler(scheduler: str) -> None:
     except (asyncio.TimeoutError, TimeoutError):
         raise ConnectionError(f"scheduler {scheduler}: no Dask scheduler answered in {wait:g} s (is it the "
                               "port of a Dask scheduler? manipdyn.limits.MAX_SCHEDULER_WAIT_S sets the wait)") from None
-    except (OSError, ValueError, TypeError, EOFError) as exc:
+    except (OSError, ValueError, TypeError, EOFError, MemoryError, OverflowError) as exc:
         raise ConnectionError(f"scheduler {scheduler}: cannot connect: {exc}") from None
+
+
+def _sniff_handshake(scheduler: str, wait: float) -> None:
+    """Read the first 8 bytes a ``tcp://`` peer sends, before Dask does: a Dask scheduler opens
+    with its handshake, whose first 8 bytes are its length (native uint64, a few hundred bytes).
+    Another service's bytes read as a length of exabytes, which Dask would try to allocate
+    (``MemoryError``); over :data:`manipdyn.limits.MAX_PEER_MESSAGE_BYTES` is a ConnectionError."""
+    import socket
+    import struct
+    from urllib.parse import urlsplit
+
+    from .._support import limits
+
+    parts = urlsplit(scheduler)
+    try:
+        host, port = parts.hostname, parts.port
+    except ValueError:
+        return                      # check_scheduler has said what a bad address is
+    if parts.scheme != "tcp" or not host or port is None:
+        return
+    deadline = time.monotonic() + wait
+    head = b""
+    try:
+        with socket.create_connection((host, port), timeout=wait) as sock:
+            while len(head) < 8:
+                sock.settimeout(max(0.01, deadline - time.monotonic()))
+                chunk = sock.recv(8 - len(head))
+                if not chunk:
+                    raise ConnectionError(f"scheduler {scheduler}: the peer closed the connection without a "
+                                          "Dask handshake (not a Dask scheduler?)")
+                head += chunk
+    except (socket.timeout, TimeoutError):
+        raise ConnectionError(f"scheduler {scheduler}: no Dask scheduler answered in {wait:g} s (is it the "
+                              "port of a Dask scheduler? manipdyn.limits.MAX_SCHEDULER_WAIT_S sets the wait)") from None
+    except ConnectionError:
+        raise
+    except OSError as exc:
+        raise ConnectionError(f"scheduler {scheduler}: cannot connect: {exc.strerror or exc}") from None
+    (size,) = struct.unpack("Q", head)
+    if size > limits.MAX_PEER_MESSAGE_BYTES:
+        shown = head.decode("ascii", "backslashreplace")
+        raise ConnectionError(f"scheduler {scheduler}: the peer's first bytes {shown!r} announce a message of "
+                              f"{size:.3g} bytes, over {limits.MAX_PEER_MESSAGE_BYTES:g} "
+                              "(manipdyn.limits.MAX_PEER_MESSAGE_BYTES): not a Dask scheduler (another service "
+                              "on that port?)")
 
 
 def _wait_for_workers(client, scheduler) -> None:

@@ -22,7 +22,7 @@ import warnings
 from .._support.errors import MissingExtraError, ModelError, SingularMassMatrixError, StateError
 from . import bench, check, codegen, compare, excite, identify, models, montecarlo, synthesize, track, urdf, validate
 from .._support.threads import blas_threads
-from .common import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE
+from .common import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, one_line
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
@@ -37,9 +37,17 @@ def _version() -> str:
     return __version__
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse, with a usage error as one line (the command's name, the error, where the help
+    is) instead of the whole usage block: exit 2, as every usage error."""
+
+    def error(self, message):
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {one_line(message)} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``manipdyn`` argument parser with every subcommand of :data:`COMMANDS`."""
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="manipdyn",
         description="Serial-arm dynamics two independent ways (Pinocchio and the trace-form "
                     "Lagrange-Euler equations), cross-checked.",
@@ -58,12 +66,15 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _joined_negative_values(argv):
-    """``--t-range -5:-1`` as ``--t-range=-5:-1``: argparse takes a value that starts with '-'
-    (and is not a plain negative number) for an option and says "expected one argument"."""
+    """``--t-range -5:-1`` as ``--t-range=-5:-1``, and ``--opt -inf`` as ``--opt=-inf``: argparse
+    takes a value that starts with '-' (and is not a plain negative number) for an option and
+    says "expected one argument" instead of the option's own check of the value."""
     out, k = [], 0
     while k < len(argv):
         a = argv[k]
-        if a in _NEGATIVE_OK and k + 1 < len(argv) and re.fullmatch(r"-[0-9.eE+-]*:[0-9.eE+-]*", argv[k + 1]):
+        nxt = argv[k + 1] if k + 1 < len(argv) else ""
+        if (a in _NEGATIVE_OK and re.fullmatch(r"-[0-9.eE+-]*:[0-9.eE+-]*", nxt)) or (
+                a.startswith("--") and "=" not in a and re.fullmatch(r"-(inf|infinity|nan)", nxt, re.IGNORECASE)):
             out.append(f"{a}={argv[k + 1]}")
             k += 2
         else:
@@ -88,7 +99,7 @@ def main(argv=None) -> int:
     if code not in (EXIT_USAGE, 130):
         shown = set()
         for w in caught:
-            line = " ".join(str(w.message).split())
+            line = one_line(" ".join(str(w.message).split()))
             if line not in shown:
                 shown.add(line)
                 print(f"manipdyn: warning: {w.category.__name__}: {line}", file=sys.stderr)
@@ -116,15 +127,15 @@ def _main(argv) -> int:
         return EXIT_OK
     except MissingExtraError as exc:
         # the message gives the install command, in command-line terms
-        print(f"manipdyn {args.command}: error: {exc.cli_message}", file=sys.stderr)
+        print(f"manipdyn {args.command}: error: {one_line(exc.cli_message)}", file=sys.stderr)
         return EXIT_USAGE
     except (ModelError, StateError, SingularMassMatrixError) as exc:
         # a model problem (a singular mass matrix, dynamics that overflow on the
         # states the command drew, a malformed file): the input's fault, not ours
-        print(f"manipdyn {args.command}: error: {exc}", file=sys.stderr)
+        print(f"manipdyn {args.command}: error: {one_line(exc)}", file=sys.stderr)
         return EXIT_USAGE
     except OSError as exc:
-        print(f"manipdyn {args.command}: error: {exc}", file=sys.stderr)
+        print(f"manipdyn {args.command}: error: {one_line(exc)}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:
         print("manipdyn: interrupted", file=sys.stderr)
@@ -132,7 +143,7 @@ def _main(argv) -> int:
     except Exception as exc:  # never a bare traceback for users
         if args.debug:
             raise
-        print(f"manipdyn {args.command}: internal error: {type(exc).__name__}: {exc} "
+        print(f"manipdyn {args.command}: internal error: {type(exc).__name__}: {one_line(exc)} "
               "(rerun with --debug for the traceback)", file=sys.stderr)
         return EXIT_INTERNAL
 

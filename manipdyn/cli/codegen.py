@@ -5,14 +5,35 @@ Layer 7 (CLI, the top).  A thin shell over :func:`manipdyn.codegen`.
 
 from __future__ import annotations
 
+import os
+
+from .._support.errors import ModelError
 from ..engines.c import codegen
-from .common import EXIT_OK, TIP_HELP, load_all
+from ..engines.c.source import check_arm, codegen_targets
+from .common import EXIT_OK, TIP_HELP, check_outputs, load_all
 
 __all__ = ["register", "run"]
 
 
 def run(args) -> int:
     (_, arm, notes), = load_all([args.model], args.tip)
+    # the outputs, checked before the work: never onto the model (a link gen/P.h -> model.toml),
+    # never a folder, FIFO or device; the C's size is capped before its graphs are built
+    check_arm(arm)
+    try:
+        hpath, cpath = codegen_targets(arm, args.output, prefix=args.prefix)
+    except ModelError as exc:
+        if str(exc).startswith("prefix:"):
+            raise ModelError(f"--{exc}") from None
+        raise ModelError(f"-o {args.output}: {exc}") from None
+    if os.path.isdir(args.output):
+        check_outputs([("-o", hpath), ("-o", cpath)], inputs=[("the model", args.model)])
+    else:
+        parent = os.path.dirname(os.path.abspath(args.output))
+        while not os.path.isdir(parent) and os.path.dirname(parent) != parent:
+            parent = os.path.dirname(parent)
+        if not os.access(parent, os.W_OK | os.X_OK):
+            raise ModelError(f"-o {args.output}: cannot create the folder (no write access to {parent})")
     hpath, cpath, note = codegen(arm, args.output, prefix=args.prefix)
     print(f"wrote {hpath} and {cpath} ({arm.name or 'arm'}, {arm.n} joints){'; ' + note if note else ''}")
     for n in notes:                      # the model's notes, as check and track show them
@@ -29,7 +50,9 @@ def register(sub) -> None:
                                    "allocation, reentrant).  With a C compiler present, the source is "
                                    "test-compiled with -std=c99 -Wall -Wextra -pedantic -Werror.",
                        epilog="Needs CasADi: pip install 'manipdyn[codegen]' (in a source checkout: pip install -e '.[codegen]').  Exit codes: 0 written; "
-                              "2 usage or model error (a model the C cannot express is refused by name).")
+                              "2 usage or model error (a model the C cannot express is refused by name; an arm whose C "
+                              "would exceed manipdyn.limits.MAX_CODEGEN_OPERATIONS; an output that is the model, "
+                              "a folder, FIFO or device; a failed test-compile writes nothing).")
     c.add_argument("model", metavar="MODEL",
                    help="bundled model name, .toml model file, .urdf file, identified model or erd:NAME")
     c.add_argument("-o", "--output", required=True, metavar="DIR", help="folder to write P.h and P.c into")

@@ -15,7 +15,7 @@ from .._support.errors import ModelError, TipError
 from ..formats.loading import load_with_notes
 
 __all__ = ["check_outputs", "check_plot_target", "check_output_file", "require_numbers", "add_progress_options", "progress_wanted", "EXIT_OK", "EXIT_DISAGREE", "EXIT_USAGE", "EXIT_INTERNAL", "Progress", "output_folder",
-           "urdf_target", "usage_error", "cli_message", "load_arm", "load_all", "is_urdf", "TIP_HELP"]
+           "urdf_target", "usage_error", "one_line", "with_runs", "cli_message", "load_arm", "load_all", "is_urdf", "TIP_HELP"]
 
 #: help of every ``--tip`` option
 TIP_HELP = ("tree URDFs (an arm with a gripper): the link that ends the chain to use; "
@@ -35,9 +35,28 @@ def cli_message(exc) -> str:
     return str(exc)
 
 
+def one_line(text) -> str:
+    """``text`` as one printable line: control characters (newline, ESC, NUL, form feed, ...),
+    bidirectional overrides and other invisible format characters from a name or a path are
+    shown escaped (``\\n``, ``\\x1b``, ``\\u202e``), never sent raw to the terminal."""
+    import unicodedata
+
+    out = []
+    for ch in str(text):
+        if ch == "\t":
+            out.append(" ")
+        elif unicodedata.category(ch) in ("Cc", "Cf", "Zl", "Zp", "Cs"):
+            o = ord(ch)
+            out.append({"\n": "\\n", "\r": "\\r"}.get(ch) or (f"\\x{o:02x}" if o < 0x100 else f"\\u{o:04x}"
+                                                          if o <= 0xFFFF else f"\\U{o:08x}"))
+        else:
+            out.append(ch)
+    return "".join(out)
+
+
 def usage_error(command: str, message: str) -> int:
     """Print ``manipdyn COMMAND: error: MESSAGE`` on stderr and return :data:`EXIT_USAGE`."""
-    print(f"manipdyn {command}: error: {message}", file=sys.stderr)
+    print(f"manipdyn {command}: error: {one_line(message)}", file=sys.stderr)
     return EXIT_USAGE
 
 
@@ -178,6 +197,25 @@ def check_plot_target(path: str, option: str = "--plot") -> None:
                          f"{', '.join('.' + k for k in sorted(kinds))} (the extension gives the format)")
 
 
+def with_runs(inputs) -> list:
+    """``inputs`` (``(label, path)`` pairs) and, for each RUNS.toml among them (a ``--logs`` file,
+    or a ``.toml`` data argument), the logs its ``[[log]]`` tables list: outputs must not
+    overwrite those either.  A RUNS file that cannot be read is left to the command (its error
+    names the key)."""
+    out = list(inputs)
+    for label, path in inputs:
+        if (isinstance(path, str) and path.lower().endswith(".toml") and os.path.isfile(path)
+                and (label == "--logs" or label in ("DATA", "LOG"))):
+            from ..identification.inputs.runs import read_runs_file
+
+            try:
+                specs = read_runs_file(path)
+            except ModelError:
+                continue
+            out += [(f"[[log]] {k + 1} of {path}", spec.path) for k, spec in enumerate(specs)]
+    return out
+
+
 def check_outputs(outputs, inputs=(), plots=()) -> None:
     """Check every output of a command before its work starts, in one call.
 
@@ -190,6 +228,7 @@ def check_outputs(outputs, inputs=(), plots=()) -> None:
     """
     from .._support.files import overwrites
 
+    inputs = with_runs(inputs)
     outputs = [(o, p) for o, p in outputs if p is not None]
     for k, (option, path) in enumerate(outputs):
         if not isinstance(path, str) or not path:

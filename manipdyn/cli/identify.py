@@ -105,6 +105,8 @@ def run(args) -> int:
         result = identify(args.model, logs, **opts)
     except ModelError as exc:
         return usage_error("identify", cli_message(exc))
+    except ConnectionError as exc:      # a scheduler that does not answer: not the output's fault
+        return usage_error("identify", f"--scheduler: {exc}")
     except OSError as exc:
         return usage_error("identify", f"{exc.filename or args.output}: cannot write: {exc.strerror or exc}")
     print(json.dumps(result.report(), indent=2, allow_nan=False, default=str) if args.json else result.format())

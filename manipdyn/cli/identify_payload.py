@@ -83,6 +83,8 @@ def run_payload(args) -> int:
     if out is not None:
         try:
             (save if out.lower().endswith(".toml") else write_urdf)(carrying, out)
+        except ConnectionError as exc:      # a scheduler that does not answer: not the output's fault
+            return usage_error("identify", f"--scheduler: {exc}")
         except OSError as exc:
             return usage_error("identify", f"{exc.filename or out}: cannot write: {exc.strerror or exc}")
     if args.json:

@@ -92,5 +92,8 @@ def library_options(args, function) -> dict:
 
     names = inspect.signature(function).parameters
     out = {k: v for k, v in vars(args).items() if k in names and k not in ("prior", "logs", "models")}
-    out["t_range"] = log_options_from_args(args)["t_range"]
+    opts = log_options_from_args(args)
+    out["t_range"] = opts["t_range"]
+    if "joint_names" in out:            # "A,B,C" as the list of names, never the string's letters
+        out["joint_names"] = opts["joint_names"]
     return out

@@ -86,6 +86,8 @@ def run(args) -> int:
             res.plot(args.plot)
     except ModelError as exc:
         return usage_error("validate", cli_message(exc))
+    except ConnectionError as exc:      # a scheduler that does not answer: not the output's fault
+        return usage_error("validate", f"--scheduler: {exc}")
     except OSError as exc:
         return usage_error("validate", f"{exc.filename or args.predictions}: cannot write: {exc.strerror or exc}")
     if args.json:

@@ -70,6 +70,12 @@ def parse_urdf_model(data: dict, origin: str, strict: bool = False):
         raise ModelError(f"{origin}: unknown key(s) {sorted(unknown)} in a model file with 'urdf'; expected some of "
                          f"{sorted(URDF_MODEL_KEYS)} (links and units belong to DH model files)")
     text = _text(data["urdf"], f"{origin}: key 'urdf'")
+    if not text.lstrip("\ufeff \t\r\n").startswith("<"):
+        # the URDF's text itself, never a path: a model file received from someone else must
+        # not make manipdyn open a file of this machine (load_urdf would take a path)
+        raise ModelError(f"{origin}: key 'urdf': expected the URDF text itself (starting with '<'), got "
+                         f"{text!r:.60}; a model file carries its URDF, it never names a file (write one "
+                         "with manipdyn.save(arm, 'FILE.toml') from manipdyn.load('ROBOT.urdf'))")
     tip = _text(data["tip"], f"{origin}: key 'tip'") if "tip" in data else None
     name = _text(data.get("name", ""), f"{origin}: key 'name'") or None
     gravity = _floats(data.get("gravity", [0.0, 0.0, -9.81]), 3, f"{origin}: key 'gravity'")

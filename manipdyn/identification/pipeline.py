@@ -228,6 +228,11 @@ def _identify(prior, logs, o) -> IdentifyResult:
         raise OptionError("{}: expected 0 (no band) or 2 to 100, got " + brace_safe(repr(folds)), "band_folds")
     if o["torque_constant_reference"] is not None and not o["identify_torque_constants"]:
         raise OptionError("{}: only with {}", "torque_constant_reference", "identify_torque_constants")
+    ref = o["torque_constant_reference"]
+    if ref is not None and (isinstance(ref, (str, bytes)) or not hasattr(ref, "__iter__") or not all(
+            isinstance(k, (int, np.integer)) and not isinstance(k, bool) and 1 <= k <= arm.n for k in ref) or not len(ref)):
+        raise OptionError("{}: expected motor numbers 1 to " + f"{arm.n} (integers), got " + brace_safe(f"{ref!r:.60}"),
+                          "torque_constant_reference")
     _check_target(arm, o["output"], o["armature"], o["friction_terms"], prior_label)
     read_options = dict(joint_names=o["joint_names"] if o["joint_names"] is not None else _joint_names(arm),
                         columns=o["columns"], deg=o["deg"], rate=o["rate"], time_scale=o["time_scale"],

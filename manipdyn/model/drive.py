@@ -114,8 +114,14 @@ class Transmission:
         off = np.zeros(n) if motor_offset is None else _vector(motor_offset, n, where, "motor_offset")
         off.setflags(write=False)
         set_(self, "motor_offset", off)
-        set_(self, "torque_constant", None if torque_constant is None
-             else _vector(torque_constant, n, where, "torque_constant"))
+        kt = None if torque_constant is None else _vector(torque_constant, n, where, "torque_constant")
+        if kt is not None and not np.all((kt > 0) & (kt <= limits.MAX_TORQUE_CONSTANT)):
+            # N m/A of a real motor: some 0.01 to 10; 0 makes currents say nothing, a negative one
+            # flips a motor (the gear ratio's sign says that), 1e59 overflows the fit's squares
+            raise ModelError(f"{where}: 'torque_constant' must be > 0 and at most {limits.MAX_TORQUE_CONSTANT:g} N m/A "
+                             f"(manipdyn.limits.MAX_TORQUE_CONSTANT; a motor's direction is the gear ratio's sign), "
+                             f"got {kt.tolist()}")
+        set_(self, "torque_constant", kt)
         Rinv = np.linalg.inv(R)
         Rinv.setflags(write=False)
         set_(self, "_Rinv", Rinv)

@@ -453,6 +453,15 @@ def load_identified(path) -> IdentifiedPlants:
     if not (np.all(np.isfinite(cov)) and np.allclose(cov, cov.T, rtol=1e-9, atol=0)
             and np.all(np.diag(cov) >= 0)):
         raise ModelError(f"{where}: key 'covariance': expected a symmetric matrix with a diagonal >= 0")
+    spread = float(np.sqrt(np.max(np.diag(cov)))) if cov.size else 0.0
+    scale = float(np.max(np.abs(bm.beta))) if np.size(bm.beta) else 0.0
+    if not spread > 1e-12 * max(scale, 1e-300):
+        # nothing to draw from: every plant would be the identified arm, and the metric of the
+        # projection (the covariance's inverse) would be infinite (the solvers' scaling fails)
+        raise ModelError(f"{where}: key 'covariance' ({source}): the largest standard deviation is {spread:.3g}, "
+                         f"zero next to the base parameters (up to {scale:.3g}): there is no spread to draw "
+                         "plants from; run the study on the identified model itself (identify -o OUT.toml, "
+                         "then montecarlo OUT.toml)")
     L, W = _factor(cov)
     return IdentifiedPlants(prior=model_text(arm), source=os.path.basename(where),
                             method=str(bm.data.get("method")), parameters=_tuple(bm.parameters),

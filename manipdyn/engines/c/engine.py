@@ -30,7 +30,8 @@ from ..._support.files import atomic_write_text
 from ..._support.state import as_state, check_result, same_batch
 from ..._support.errors import ModelError, SingularMassMatrixError
 from ...model.friction import Friction, friction_spec
-from . import build
+from . import build, cache
+from .emit import check_prefix
 
 __all__ = ["CompiledEngine", "compiled_engine", "library_for", "ENGINE_PREFIX"]
 
@@ -72,6 +73,9 @@ def library_for(arm, cc: str | None = None, opt: str = "-O2") -> str:
     """Path of the compiled library of ``arm``: from the cache, or generated and built into it.
 
     Thread-safe: threads building several arms generate one at a time and compile in parallel.
+    A cached build is used only after the checks of :mod:`manipdyn.engines.c.cache` (this user's
+    0700 folder, files no one else can write, a manifest naming the model's sha256, n and p and
+    the library's size and sha256); one that fails them is rebuilt, never opened.
 
     ``opt``: the optimisation flag (``-O0`` to ``-O3``).  The results do not depend on it
     (``-std=c99`` keeps GCC from contracting ``a * b + c`` into fused multiply-adds);
@@ -79,29 +83,49 @@ def library_for(arm, cc: str | None = None, opt: str = "-O2") -> str:
     """
     if opt not in ("-O0", "-O1", "-O2", "-O3", "-Os"):
         raise ModelError(f"opt: expected one of -O0, -O1, -O2, -O3, -Os, got {opt!r:.40}")
-    from .source import GENERATOR_VERSION, generate, model_sha256
+    from .source import GENERATOR_VERSION, check_arm, generate, model_sha256
 
+    check_arm(arm)
     cc = cc or build.require_compiler("the 'c' engine")
-    key = build.build_key(model_sha256(arm), _version(), GENERATOR_VERSION + opt + _generator_digest(), cc)
-    folder = os.path.join(build.cache_dir(), "c", key)
-    so = os.path.join(folder, f"lib{ENGINE_PREFIX}.so")
-    if os.path.isfile(so):
-        return so
-    with _GENERATE:
-        gen = generate(arm, ENGINE_PREFIX)
-    os.makedirs(folder, exist_ok=True)
-    atomic_write_text(os.path.join(folder, f"{ENGINE_PREFIX}.h"), gen.header)
-    cpath = os.path.join(folder, f"{ENGINE_PREFIX}.c")
-    atomic_write_text(cpath, gen.source)
-    build.compile_shared(cc, cpath, so, extra=(opt,))
-    return so
+    sha = model_sha256(arm)
+    key = build.build_key(sha, _version(), GENERATOR_VERSION + opt + _generator_digest(), cc)
+    root = cache.private_root()
+    folder = os.path.join(root, key)
+    name = f"lib{ENGINE_PREFIX}.so"
+    expect = {"key": key, "model_sha256": sha, "n": int(arm.n), "p": _columns(arm), "prefix": ENGINE_PREFIX}
+    if cache.valid_build(folder, os.path.join(folder, name), expect):
+        return os.path.join(folder, name)
+
+    def write(tmp):
+        with _GENERATE:
+            gen = generate(arm, ENGINE_PREFIX)
+        atomic_write_text(os.path.join(tmp, f"{ENGINE_PREFIX}.h"), gen.header)
+        cpath = os.path.join(tmp, f"{ENGINE_PREFIX}.c")
+        atomic_write_text(cpath, gen.source)
+        build.compile_shared(cc, cpath, os.path.join(tmp, name), extra=(opt,))
+
+    return cache.install_build(root, folder, name, expect, write)
+
+
+def _columns(arm) -> int:
+    """p, the columns of the C regressor: ``arm.parameters(armature=True, friction=arm.friction_model)``."""
+    law = arm.friction_model
+    return len(arm.parameters(armature=True, friction=law if law is not None else False))
+
+
+def _count(value, name: str) -> int:
+    """``value`` as a positive int, or a ModelError naming ``name``."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise ModelError(f"{name}: expected a positive integer, got {value!r:.60}")
+    return int(value)
 
 
 def compiled_engine(arm, opt: str = "-O2") -> "CompiledEngine":
     """The generated-C engine of ``arm`` (the factory behind ``arm.engine("c")``), built with ``opt``."""
-    law = arm.friction_model
-    p = len(arm.parameters(armature=True, friction=law if law is not None else False))
-    return CompiledEngine(library_for(arm, opt=opt), arm.n, p, transmission=arm.transmission, friction_model=law)
+    from .source import model_sha256
+
+    return CompiledEngine(library_for(arm, opt=opt), arm.n, _columns(arm), transmission=arm.transmission,
+                          friction_model=arm.friction_model, model_sha256=model_sha256(arm))
 
 
 class CompiledEngine:
@@ -118,20 +142,35 @@ class CompiledEngine:
     transmission, friction_model :
         The arm's, for the regressor's friction columns of another law than
         the arm's own (computed by the law's Python code, :meth:`regressor`).
+    model_sha256 : str, optional
+        The arm's :func:`manipdyn.engines.c.model_sha256`: checked against the library's.
+
+    The library is asked for its joint count, regressor columns and model hash
+    (``P_joints``, ``P_parameters``, ``P_model_sha256``) before the first call: a
+    library of another arm is a :class:`ModelError`, never arrays of the wrong size.
+    Loading a library runs its code: load only libraries you built (``arm.compiled``
+    checks its cache before loading, :mod:`manipdyn.engines.c.cache`).
     """
 
     name = "c"
 
     def __init__(self, library: str, n: int, p: int, prefix: str = ENGINE_PREFIX, transmission=None,
-                 friction_model=None):
+                 friction_model=None, model_sha256: str | None = None):
+        if not isinstance(library, (str, os.PathLike)):
+            raise ModelError(f"library: expected the path of a shared library, got {type(library).__name__}")
+        library = os.fspath(library)
         self.library = library
-        self.n, self.p = int(n), int(p)
+        self.n, self.p = _count(n, "n"), _count(p, "p")
+        prefix = check_prefix(prefix)
         self.transmission, self.friction_model = transmission, friction_model
+        if "\x00" in library or not os.path.isfile(library):
+            raise ModelError(f"library: {library!r:.200} is not a file")
         try:
             lib = ctypes.CDLL(os.path.abspath(library))
         except OSError as exc:
             raise ModelError(f"the 'c' engine: cannot load {library!r}: {exc}") from None
         self._lib = lib
+        self._check_library(lib, prefix, model_sha256)
         self._fn = {}
         for name, (nin, _) in _FUNCS.items():
             try:
@@ -143,6 +182,27 @@ class CompiledEngine:
             f.argtypes = [ctypes.c_long] + [ctypes.c_void_p] * (nin + len(_FUNCS[name][1]))
             self._fn[name] = f
         self._sizes = {"n": self.n, "nn": self.n * self.n, "np": self.n * self.p, "16": 16, "1": 1}
+
+    def _check_library(self, lib, prefix: str, sha) -> None:
+        """The library's own n, p and model sha256 against the ones asked for."""
+        try:
+            joints, params, digest = (getattr(lib, f"{prefix}_{x}") for x in ("joints", "parameters",
+                                                                               "model_sha256"))
+        except AttributeError:
+            raise ModelError(f"the 'c' engine: {self.library!r} has no function {prefix}_joints (built by an "
+                             "older generator, or not by manipdyn?): generate it again (md.codegen), so its "
+                             "size can be checked before it is called") from None
+        joints.restype = params.restype = ctypes.c_long
+        joints.argtypes = params.argtypes = digest.argtypes = []
+        digest.restype = ctypes.c_char_p
+        got = (int(joints()), int(params()))
+        if got != (self.n, self.p):
+            raise ModelError(f"the 'c' engine: {self.library!r} was generated for n = {got[0]} joints and "
+                             f"p = {got[1]} regressor columns, not n = {self.n}, p = {self.p}: the library of "
+                             "another arm")
+        if sha is not None and (digest() or b"").decode("ascii", "replace") != sha:
+            raise ModelError(f"the 'c' engine: {self.library!r} was generated for the model sha256 "
+                             f"{(digest() or b'').decode('ascii', 'replace')[:64]}, not this arm's {sha}")
 
     # -- calling the C -----------------------------------------------------------------
     def _call(self, name, *inputs):

@@ -13,20 +13,22 @@ from __future__ import annotations
 
 import hashlib
 import os
+import tempfile
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..._support.files import atomic_write_text
+from ..._support import limits
+from ..._support.files import atomic_write, atomic_write_text, overwrites, replaceable
 from ..._support.errors import ModelError
 from . import build, emit
 from .graph import ArmGraph
 
-__all__ = ["generate", "codegen", "model_sha256", "GeneratedC", "GENERATOR_VERSION", "FUNCTIONS"]
+__all__ = ["generate", "codegen", "codegen_targets", "check_arm", "comment_text", "model_sha256", "GeneratedC", "GENERATOR_VERSION", "FUNCTIONS"]
 
 #: bump when the generated code changes for the same model (the cache key holds it)
-GENERATOR_VERSION = "1"
+GENERATOR_VERSION = "2"
 
 #: the public functions of the header, in the issue's order, then the ones the engine also uses
 FUNCTIONS = ("inverse_dynamics", "mass_matrix", "gravity", "nonlinear_effects", "forward_dynamics",
@@ -93,6 +95,18 @@ class GeneratedC:
     seconds: float = 0.0                             #: time to build the graphs and write the text
 
 
+def comment_text(text: str) -> str:
+    """``text`` made safe inside a C block comment under the strict flags: printable ASCII only
+    (a control character, a bidirectional override or any other non-ASCII character becomes
+    ``\\uXXXX``), no ``*/`` or ``/*`` (the comment would end, or -Wcomment fire) and no ``??``
+    (a trigraph such as ``??/``, which -Wtrigraphs reports)."""
+    out = "".join(ch if 0x20 <= ord(ch) < 0x7F else (f"\\u{ord(ch):04x}" if ord(ch) <= 0xFFFF
+                                                      else f"\\U{ord(ch):08x}") for ch in text)
+    while "*/" in out or "/*" in out or "??" in out:
+        out = out.replace("*/", "* /").replace("/*", "/ *").replace("??", "? ?")
+    return out
+
+
 def _header_comment(arm, g: ArmGraph, prefix: str, sha: str) -> str:
     law = arm.friction_model
     names = ", ".join(g.param_names)
@@ -111,12 +125,13 @@ def _header_comment(arm, g: ArmGraph, prefix: str, sha: str) -> str:
         f"f is the friction law ({law!r}), offsets included;" if law is not None else "f = 0 (no friction law);",
         "nonlinear_effects = tau(q, qd, 0) = c + g + f; gravity = g alone.",
         "Derivatives: d[i*n + m] = d out_i / d in_m.  forward_dynamics solves M qdd = tau - h (LDL^T).",
+        f"{prefix}_joints(), {prefix}_parameters(), {prefix}_model_sha256(): what this file was generated for.",
         f"regressor: Y (n x {g.p}) with Y pi = tau, pi = arm.parameters(armature=True, friction=arm.friction_model):",
         f"  {names}",
     ]
     out = ["/*"]
     for ln in lines:
-        ln = ln.replace("*/", "* /")
+        ln = comment_text(ln)
         while len(ln) > 100 and ln.rfind(", ", 0, 100) > 4:
             cut = ln.rfind(", ", 0, 100) + 1
             out.append(" * " + ln[:cut].rstrip())
@@ -128,6 +143,7 @@ def _header_comment(arm, g: ArmGraph, prefix: str, sha: str) -> str:
 def generate(arm, prefix: str | None = None, derivatives: bool = True) -> GeneratedC:
     """The C of ``arm``: header and source text (module docstring).  Needs CasADi."""
     t0 = time.perf_counter()
+    check_arm(arm)
     prefix = emit.check_prefix(emit.c_identifier(arm.name) if prefix is None else prefix)
     g = ArmGraph(arm)
     ca = g.ca
@@ -142,6 +158,12 @@ def generate(arm, prefix: str | None = None, derivatives: bool = True) -> Genera
         decls += [d, bd]
         defs += [body, bbody]
         flops[name] = nf
+    # what the file was generated for, asked by the engine before its first call (CompiledEngine)
+    decls += [f"long {prefix}_joints(void);", f"long {prefix}_parameters(void);",
+              f"const char *{prefix}_model_sha256(void);"]
+    defs += [f"long {prefix}_joints(void)\n{{\n    return {g.n};\n}}\n",
+             f"long {prefix}_parameters(void)\n{{\n    return {g.p};\n}}\n",
+             f"const char *{prefix}_model_sha256(void)\n{{\n    return \"{sha}\";\n}}\n"]
     header = (comment + f"#ifndef {guard}\n#define {guard}\n\n"
               f"#define {prefix}_NQ {g.n}\n#define {prefix}_NP {g.p}\n\n"
               "#ifdef __cplusplus\nextern \"C\" {\n#endif\n\n"
@@ -151,27 +173,62 @@ def generate(arm, prefix: str | None = None, derivatives: bool = True) -> Genera
     return GeneratedC(prefix, header, source, g.n, g.p, sha, flops, time.perf_counter() - t0)
 
 
+def check_arm(arm) -> None:
+    """Refuse, before any graph is built, what is not an arm and an arm whose C would be too
+    large (:data:`manipdyn.limits.MAX_CODEGEN_OPERATIONS`, estimated from its joint count)."""
+    from ...model.arm import Arm
+
+    if not isinstance(arm, Arm):
+        raise ModelError(f"arm: expected a manipdyn arm (md.load('panda'), md.Manipulator, md.load('ROBOT.urdf')), "
+                         f"got {type(arm).__name__}")
+    ops = limits.codegen_operations(arm.n)
+    if ops > limits.MAX_CODEGEN_OPERATIONS:
+        raise ModelError(f"{arm.name or 'arm'}: the generated C of {arm.n} joints would hold some {ops:.3g} "
+                         f"operations, over the limit of {limits.MAX_CODEGEN_OPERATIONS:g} "
+                         "(manipdyn.limits.MAX_CODEGEN_OPERATIONS: building and compiling it takes minutes and "
+                         "gigabytes); for a trusted arm, raise it: manipdyn.limits.MAX_CODEGEN_OPERATIONS = ...")
+
+
+def codegen_targets(arm, dir, prefix: str | None = None) -> tuple[str, str]:
+    """``(dir/P.h, dir/P.c)`` for ``arm``, checked before any work: ``dir`` a folder or
+    creatable, each file absent or a regular file (a symbolic link's target), never the
+    same file twice.  A :class:`ModelError` names what is wrong."""
+    check_arm(arm)
+    if not isinstance(dir, (str, os.PathLike)):
+        raise ModelError(f"dir: expected a folder path, got {type(dir).__name__}")
+    dir = os.fspath(dir)
+    if not dir or "\x00" in dir:
+        raise ModelError(f"dir: expected a folder path, got {dir!r:.80}")
+    if os.path.exists(dir) and not os.path.isdir(dir):
+        raise ModelError(f"dir: {dir!r} exists and is not a folder")
+    prefix = emit.check_prefix(emit.c_identifier(arm.name) if prefix is None else prefix)
+    paths = (os.path.join(dir, prefix + ".h"), os.path.join(dir, prefix + ".c"))
+    if os.path.isdir(dir):
+        for path in paths:
+            try:
+                replaceable(path)
+            except OSError as exc:
+                raise ModelError(f"{path}: {exc.strerror or exc}; nothing was written") from None
+        if overwrites(*paths):
+            raise ModelError(f"{paths[1]}: the same file as {paths[0]} (a link); nothing was written")
+    return paths
+
+
 def codegen(arm, dir, prefix: str | None = None, compile_check: bool = True):
     """Write ``dir/P.h`` and ``dir/P.c`` for ``arm`` (P = ``prefix``, default the arm's name
     made a C identifier) and return ``(header path, source path, note)``.
 
-    The files are written atomically; ``dir`` is created if missing.  With a
-    C compiler on the machine (``$CC``, ``cc`` or ``gcc``) and ``compile_check``,
-    the source is compiled once with ``-std=c99 -Wall -Wextra -pedantic
-    -Werror`` (a failure raises); without one, ``note`` says it could not be
-    test-compiled.  Needs CasADi (``pip install 'manipdyn[codegen]'``).
+    Both targets are checked first (:func:`codegen_targets`: a folder, FIFO or device in
+    their place is refused before any work) and the arm's size too (:func:`check_arm`).  With
+    a C compiler on the machine (``$CC``, ``cc`` or ``gcc``) and ``compile_check``, the source
+    is compiled with ``-std=c99 -Wall -Wextra -pedantic -Werror`` in a temporary folder
+    before anything is written (a failure raises and writes nothing); without one, ``note``
+    says it could not be test-compiled.  Then both files are written atomically; if the
+    second cannot be, the first is put back as it was.  ``dir`` is created if missing.
+    Needs CasADi (``pip install 'manipdyn[codegen]'``).
     """
-    if not isinstance(dir, (str, os.PathLike)):
-        raise ModelError(f"dir: expected a folder path, got {type(dir).__name__}")
-    dir = os.fspath(dir)
-    if os.path.exists(dir) and not os.path.isdir(dir):
-        raise ModelError(f"dir: {dir!r} exists and is not a folder")
+    hpath, cpath = codegen_targets(arm, dir, prefix)
     gen = generate(arm, prefix)
-    os.makedirs(dir, exist_ok=True)
-    hpath = os.path.join(dir, gen.prefix + ".h")
-    cpath = os.path.join(dir, gen.prefix + ".c")
-    atomic_write_text(hpath, gen.header)
-    atomic_write_text(cpath, gen.source)
     note = ""
     if compile_check:
         cc = build.find_compiler()
@@ -179,6 +236,29 @@ def codegen(arm, dir, prefix: str | None = None, compile_check: bool = True):
             note = ("no C compiler found ($CC, cc or gcc): the files are written but could not be "
                     "test-compiled")
         else:
-            build.check_compiles(cc, cpath)
+            with tempfile.TemporaryDirectory(prefix="manipdyn-codegen-") as tmp:
+                with open(os.path.join(tmp, gen.prefix + ".h"), "w", encoding="utf-8") as f:
+                    f.write(gen.header)
+                with open(os.path.join(tmp, gen.prefix + ".c"), "w", encoding="utf-8") as f:
+                    f.write(gen.source)
+                build.check_compiles(cc, os.path.join(tmp, gen.prefix + ".c"))
             note = f"test-compiled with {os.path.basename(cc)} {' '.join(build.STRICT_FLAGS)}"
+    os.makedirs(os.fspath(dir), exist_ok=True)
+    hpath, cpath = codegen_targets(arm, dir, prefix)      # again: the folder may be new
+    old = None
+    if os.path.isfile(hpath):
+        with open(hpath, "rb") as f:
+            old = f.read()
+    atomic_write_text(hpath, gen.header)
+    try:
+        atomic_write_text(cpath, gen.source)
+    except BaseException:
+        if old is None:
+            try:
+                os.unlink(replaceable(hpath))
+            except OSError:
+                pass
+        else:
+            atomic_write(hpath, lambda fh: fh.write(old), binary=True)
+        raise
     return hpath, cpath, note

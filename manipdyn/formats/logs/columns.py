@@ -131,6 +131,9 @@ def column_map(columns=None, where: str = "columns") -> ColumnMap:
             if not eq or not key.strip() or not value.strip():
                 raise ModelError(f"{where}: expected items signal=pattern separated by commas, e.g. "
                                  f"'q=Joint_{{i}},tau=Effort_{{i}}'; got {part!r}")
+            if key.strip() in items:        # the later one would silently win
+                raise ModelError(f"{where}: signal {key.strip()!r} given twice ({items[key.strip()]!r} and "
+                                 f"{value.strip()!r}); give each signal once")
             items[key.strip()] = value.strip()
     elif isinstance(columns, Mapping):
         items = {str(k): str(v) for k, v in columns.items()}

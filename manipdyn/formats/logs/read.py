@@ -189,6 +189,10 @@ def read_log(path, n: int, *, joint_names=None, columns=None, deg=False, rate=No
     where = os.fspath(path)
     n = int(n)
     drive_args = dict(transmission=transmission, R=R, motor_offset=motor_offset, torque_constant=torque_constant)
+    if joint_names is not None and (not isinstance(joint_names, (list, tuple)) or not all(
+            isinstance(x, str) and x for x in joint_names)):
+        # a string would be read letter by letter: "abcdef" as joints a to f
+        raise ModelError(f"{where}: joint_names: expected a list of {n} names (str), got {joint_names!r:.60}")
     if joint_names is not None and len(joint_names) != n:
         raise ModelError(f"{where}: joint_names: expected {n} names, got {len(joint_names)}")
     if not (isinstance(time_scale, (int, float)) and math.isfinite(time_scale) and time_scale > 0):
@@ -217,6 +221,8 @@ def read_log(path, n: int, *, joint_names=None, columns=None, deg=False, rate=No
     q, tau = split[0], split[-1]
     qd = split[1] if qd is not None else None
     qdd = split[-2] if qdd is not None else None
+    if qd is not None:
+        _check_measured_velocity(q, qd, t, where)
     fc, D, derived, measured_qd, noise = None, 1, True, qd is not None, None
     if qd is not None and qdd is not None:
         derived = False
@@ -246,3 +252,19 @@ def read_log(path, n: int, *, joint_names=None, columns=None, deg=False, rate=No
     return Measurements(t, q, qd, qdd, tau, derived=derived, notes=notes, rate=fs / D, cutoff=fc, decimation=D,
                         qd_motor=None if drive is None else drive.motor_rates(qd), measured_qd=measured_qd,
                         source=where, source_sha256=sha, qd_noise=noise, motor_signals=motor)
+
+
+def _check_measured_velocity(q, qd, t, where) -> None:
+    """Refuse a measured velocity column that is zero (or a thousand times too small) while its
+    position moves: a driver that does not report velocities writes zeros, and trusting them
+    leaves the fit without viscous friction or Coriolis torques.  Compared with dq/dt in RMS."""
+    if len(t) < 3:
+        return
+    rate = np.gradient(q, t, axis=0)
+    for j in range(q.shape[1]):
+        want = float(np.sqrt(np.mean(rate[:, j] ** 2)))
+        got = float(np.sqrt(np.mean(qd[:, j] ** 2)))
+        if want > 1e-6 and got < 1e-3 * want:
+            raise ModelError(f"{where}: column qd{j + 1}: the measured velocity is {'zero' if got == 0 else f'{got:.3g} RMS'} "
+                             f"while q{j + 1} moves at {want:.3g} RMS (its derivative): a driver that does not report "
+                             "velocities? Leave the qd columns out of the log so qd is derived from q")

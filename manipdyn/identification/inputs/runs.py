@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -50,6 +50,14 @@ class Payload:
     mass: float
     com: tuple
     inertia: tuple = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+
+    def __post_init__(self):
+        """Checked as RUNS.toml's payload is: a mass in (0, MAX_PAYLOAD_MASS] kg, a com within
+        MAX_LENGTH m, inertia entries within MAX_INERTIA kg m^2 (:mod:`manipdyn.limits`)."""
+        object.__setattr__(self, "mass", _number(self.mass, "Payload: mass", positive=True))
+        object.__setattr__(self, "com", _numbers(self.com, 3, "Payload: com"))
+        object.__setattr__(self, "inertia", _numbers(self.inertia, 6, "Payload: inertia"))
+        _payload_ranges(self, "Payload")
 
     def parameters(self) -> np.ndarray:
         """``[m, m c, I_xx, I_xy, I_yy, I_xz, I_yz, I_zz]`` (10,), tensor about the tool frame's origin."""
@@ -83,6 +91,27 @@ class LogSpec:
     rate: float | None = None
     columns: object = None
     payload: Payload | None = None
+    #: where it was listed (``RUNS.toml: [[log]] 2``), for messages; None when built in Python
+    origin: str | None = field(default=None, compare=False)
+
+    def __post_init__(self):
+        if not isinstance(self.path, (str, os.PathLike)) or not os.fspath(self.path) or "\x00" in os.fspath(self.path):
+            raise ModelError(f"LogSpec: path: expected a file name (without NUL), got {self.path!r:.60}")
+        object.__setattr__(self, "path", os.fspath(self.path))
+        if self.t_range is not None:
+            t = _numbers(list(self.t_range) if isinstance(self.t_range, (tuple, list)) else self.t_range, 2,
+                         "LogSpec: t_range")
+            if not t[0] < t[1]:
+                raise ModelError(f"LogSpec: t_range: expected (t0, t1) with t0 < t1, got {t}")
+            object.__setattr__(self, "t_range", t)
+        if self.rate is not None:
+            object.__setattr__(self, "rate", _number(self.rate, "LogSpec: rate", positive=True))
+        if self.columns is not None and not isinstance(self.columns, (str, dict)):
+            raise ModelError(f"LogSpec: columns: expected 'q=Joint_{{i}},tau=Effort_{{i}}' or a dict, got "
+                             f"{type(self.columns).__name__}")
+        if self.payload is not None and not isinstance(self.payload, Payload):
+            raise ModelError(f"LogSpec: payload: expected a Payload(mass, com, inertia) or None, got "
+                             f"{type(self.payload).__name__}")
 
 
 def _where(origin, i, key=None):
@@ -90,17 +119,38 @@ def _where(origin, i, key=None):
 
 
 def _number(value, where, positive=False):
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ModelError(f"{where}: expected a finite number, got {value!r:.60}")
-    if positive and not value > 0:
-        raise ModelError(f"{where}: expected a number > 0, got {value!r}")
-    return float(value)
+    try:
+        x = float(value)
+    except OverflowError:      # an integer of hundreds of digits
+        raise ModelError(f"{where}: expected a finite number, got an integer of {len(str(abs(int(value))))} "
+                         "digits (beyond the float range)") from None
+    if not math.isfinite(x):
+        raise ModelError(f"{where}: expected a finite number, got {value!r:.60}")
+    if positive and not x > 0:
+        raise ModelError(f"{where}: expected a number > 0, got {value!r:.60}")
+    return x
 
 
 def _numbers(value, k, where):
+    if isinstance(value, tuple):
+        value = list(value)
     if not isinstance(value, list) or len(value) != k:
         raise ModelError(f"{where}: expected a list of {k} numbers, got {value!r:.80}")
     return tuple(_number(v, where) for v in value)
+
+
+def _payload_ranges(p: "Payload", where: str) -> None:
+    """A payload's numbers within the limits of real loads (:mod:`manipdyn.limits`)."""
+    from ..._support import limits
+
+    if p.mass > limits.MAX_PAYLOAD_MASS:
+        raise ModelError(f"{where}.mass: {p.mass:g} kg, over the limit of {limits.MAX_PAYLOAD_MASS:g} kg "
+                         "(manipdyn.limits.MAX_PAYLOAD_MASS; the heaviest industrial arms carry some 2 t): "
+                         "not in kg? Raise the limit for a trusted load")
+    limits.check_range(p.com, where, "com", "length")
+    limits.check_range(p.inertia, where, "inertia", "inertia")
 
 
 def _payload(raw, where) -> Payload:
@@ -115,7 +165,10 @@ def _payload(raw, where) -> Payload:
     mass = _number(raw["mass"], f"{where}.mass", positive=True)
     com = _numbers(raw["com"], 3, f"{where}.com")
     inertia = _numbers(raw.get("inertia", [0.0] * 6), 6, f"{where}.inertia")
-    p = Payload(mass, com, inertia)
+    try:
+        p = Payload(mass, com, inertia)
+    except ModelError as exc:
+        raise ModelError(str(exc).replace("Payload", where, 1)) from None
     try:
         J = p.parameters()
         from ...model.inertia import pseudo_inertia_from_parameters
@@ -138,8 +191,8 @@ def _spec(raw, i, origin, base) -> LogSpec:
     if "path" not in raw:
         raise ModelError(f"{_where(origin, i, 'path')}: missing (the log file, relative to the RUNS file or absolute)")
     path = raw["path"]
-    if not isinstance(path, str) or not path:
-        raise ModelError(f"{_where(origin, i, 'path')}: expected a file name, got {path!r:.60}")
+    if not isinstance(path, str) or not path or "\x00" in path:
+        raise ModelError(f"{_where(origin, i, 'path')}: expected a file name (without NUL), got {path!r:.60}")
     path = path if os.path.isabs(path) else os.path.join(base, path)
     t_range = None
     if "t_range" in raw:
@@ -151,8 +204,12 @@ def _spec(raw, i, origin, base) -> LogSpec:
     if columns is not None and not isinstance(columns, (str, dict)):
         raise ModelError(f"{_where(origin, i, 'columns')}: expected 'q=Joint_{{i}},tau=Effort_{{i}}' or a table, "
                          f"got {columns!r:.60}")
+    if columns is not None:             # its patterns checked here, where the key and [[log]] are known
+        from ...formats.logs.columns import column_map
+
+        column_map(columns, where=_where(origin, i, "columns"))
     payload = _payload(raw["payload"], _where(origin, i, "payload")) if "payload" in raw else None
-    return LogSpec(path, t_range, rate, columns, payload)
+    return LogSpec(path, t_range, rate, columns, payload, origin=_where(origin, i))
 
 
 def read_runs_file(path) -> list[LogSpec]:
@@ -176,6 +233,7 @@ def read_runs_file(path) -> list[LogSpec]:
     runs = data.get("log")
     if not isinstance(runs, list) or not runs:
         raise ModelError(f"{where}: no [[log]] table (each names one log: path = \"run1.csv\")")
+    limits.check_count(len(runs), where, "the number of [[log]] entries", "MAX_RUNS")
     base = os.path.dirname(os.path.abspath(where))
     return [_spec(raw, i, where, base) for i, raw in enumerate(runs)]
 
@@ -185,6 +243,9 @@ def as_log_specs(logs) -> list:
     (expanded), a LogSpec, Measurements, or a sequence of these."""
     if isinstance(logs, (str, os.PathLike, LogSpec, Measurements)):
         logs = [logs]
+    if not isinstance(logs, (list, tuple)):
+        raise ModelError(f"logs: expected a file name, a RUNS.toml, a LogSpec, Measurements or a list of these, "
+                         f"got {type(logs).__name__}")
     out = []
     for x in logs:
         if isinstance(x, (LogSpec, Measurements)):
@@ -210,8 +271,12 @@ def read_runs(logs, arm, *, transmission=None, **read_options) -> list[tuple[Mea
     from ...formats.logs.read import read_log
 
     tr = arm.transmission if transmission is None else transmission
-    out = []
-    for spec in as_log_specs(logs):
+    out, seen = [], {}
+    specs = as_log_specs(logs)
+    from ..._support import limits
+
+    limits.check_count(len(specs), "logs", "the number of runs", "MAX_RUNS")
+    for k, spec in enumerate(specs):
         if isinstance(spec, Measurements):
             out.append((spec, None))
             continue
@@ -219,7 +284,22 @@ def read_runs(logs, arm, *, transmission=None, **read_options) -> list[tuple[Mea
         for key in ("t_range", "rate", "columns"):
             if getattr(spec, key) is not None:
                 opts[key] = getattr(spec, key)
-        out.append((read_log(spec.path, arm.n, transmission=tr, **opts), spec.payload))
+        try:
+            m = read_log(spec.path, arm.n, transmission=tr, **opts)
+        except ModelError as exc:
+            if spec.origin is None:
+                raise
+            raise ModelError(f"{spec.origin}: {exc}") from None      # which [[log]] of which RUNS file
+        # the same data twice is not a second experiment: it would shrink the standard deviations
+        # by sqrt(2) with nothing learnt (the same file under two names, or one file listed twice)
+        key = (m.source_sha256, repr(sorted(opts.items(), key=lambda kv: kv[0])), spec.payload)
+        if m.source_sha256 is not None and key in seen:
+            raise ModelError(f"logs: run {k + 1} ({spec.path}) is the same data as run {seen[key] + 1} "
+                             f"({specs[seen[key]].path}): same sha256 {m.source_sha256[:16]}..., same window and "
+                             "options; a run counted twice shrinks every standard deviation by sqrt(2). List "
+                             "each run once (a different t_range of one file is a different run)")
+        seen.setdefault(key, k)
+        out.append((m, spec.payload))
     return out
 
 

@@ -193,6 +193,9 @@ def identify_torque_constants(arm, runs, *, armature: bool = False, friction=Fal
                              "Give a run with a known payload (RUNS.toml: payload = {mass, com}) or the model's "
                              "[transmission] torque_constant for at least one motor")
         try:
+            if reference is not None and (isinstance(reference, (str, bytes)) or not all(
+                    isinstance(k, (int, np.integer)) and not isinstance(k, bool) for k in reference)):
+                raise TypeError          # 1.9 is no motor number (int() would make it motor 1)
             ref = tuple(range(1, n + 1)) if reference is None else tuple(int(k) for k in reference)
         except (TypeError, ValueError):
             raise ModelError(f"torque_constant_reference: expected motor numbers 1 to {n}, got {reference!r:.60}") from None
@@ -201,6 +204,18 @@ def identify_torque_constants(arm, runs, *, armature: bool = False, friction=Fal
     elif reference is not None:
         notes.append("the scale comes from the payload run(s); torque_constant_reference is not used")
     base = base_parameters(arm, armature=armature, friction=friction)
+    try:
+        return _estimate(arm, runs, base, armature, friction, has_payload, kt_model, ref, notes)
+    except (np.linalg.LinAlgError, FloatingPointError) as exc:
+        # zero or constant currents, a payload too light to load any motor: no k_t to find
+        raise ModelError(f"identify_torque_constants: the runs do not determine the torque constants ({exc}); "
+                         "are the current columns all zero or constant, or the payload too light to load the "
+                         "motors?") from None
+
+
+def _estimate(arm, runs, base, armature, friction, has_payload, kt_model, ref, notes) -> TorqueConstants:
+    """The estimate of :func:`identify_torque_constants` once its arguments are checked."""
+    n = arm.n
     blocks = _blocks(arm, runs, base, armature, friction)
     D = np.sqrt(sum(np.sum(Ym**2, axis=(0, 1)) for Ym, _, _ in blocks))
     D = np.where(D > 0, D, 1.0)                            # equilibrated columns
@@ -226,7 +241,14 @@ def identify_torque_constants(arm, runs, *, armature: bool = False, friction=Fal
     lost = _undetermined(Rs, a, free, s2)
     if lost:
         std[lost] = np.inf
-        keep = "the model's k_t kept" if kt_model is not None else "the value is arbitrary"
+        if kt_model is None:
+            # an arbitrary number (1e16 did) must not be written into a model as if it were measured
+            raise ModelError(f"identify_torque_constants: motor(s) {[m + 1 for m in lost]}: k_t is not determined by "
+                             f"these runs (a {100 * PROFILE_STEP:g} % change, with the other parameters refitted, "
+                             "moves the residual by less than one standard deviation); add a run with a known "
+                             "payload that loads those motors, or give the model's [transmission] torque_constant "
+                             "(then kept for them)")
+        keep = "the model's k_t kept"
         notes.append(f"motor(s) {[m + 1 for m in lost]}: k_t not determined by these runs (a {100 * PROFILE_STEP:g} % "
                      f"change, with the other parameters refitted, moves the residual by less than one standard "
                      f"deviation: that motor's torque is its own friction and rotor inertia, which scale with "

@@ -157,6 +157,11 @@ def validate(models, logs, *, tip=None, columns=None, deg: bool = False, rate=No
         loaded = [load_scored_model(m, tip) for m in models]
         if not loaded:
             raise ModelError("models: no model given")
+        seen: dict = {}
+        for k, (m, label) in enumerate(loaded):     # two models of one name keep a row each
+            seen[label] = seen.get(label, 0) + 1
+            if seen[label] > 1:
+                loaded[k] = (m, f"{label} ({seen[label]})")
         first = loaded[0][0]
         arm = getattr(first, "prior", None) or getattr(first, "arm", None) or first
         if predictions is not None:
@@ -168,7 +173,10 @@ def validate(models, logs, *, tip=None, columns=None, deg: bool = False, rate=No
                          columns=columns, deg=deg, rate=rate, time_scale=time_scale, resample=resample,
                          cutoff=cutoff, decimate=False if no_decimate else None, topic=topic, t_range=t_range,
                          extra_joints=extra_joints)
+        from ..inputs.options import check_limits
+
         for data, payload in runs:
+            check_limits(data, arm, deg)     # degrees read as radians are refused here too, as identify does
             if payload is not None:
                 data.tau = data.tau - payload.torque(arm, data.q, data.qd, data.qdd)
                 data.notes.append(f"payload: the known payload's torque ({payload.mass:g} kg at the tool frame) "

@@ -39,6 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..._support import limits
 from ..._support.errors import ModelError
 
 __all__ = ["StateRange", "Extrapolation", "fitted_range", "FLAG_FRACTION", "FLAG_MARGIN", "QUANTITIES"]
@@ -73,6 +74,10 @@ class StateRange:
             if shape != (n, 2) or not np.all(np.isfinite(a)) or np.any(a[:, 0] > a[:, 1]):
                 raise ModelError(f"fitted range: {k}: expected {max(n, 0)} finite [min, max] pairs with "
                                  f"min <= max, got shape {shape}")
+            if a.size and not float(np.max(np.abs(a))) <= limits.MAX_SIGNAL:
+                # no fit saw a state beyond what a log may hold (1e308 overflowed its rounding)
+                raise ModelError(f"fitted range: {k}: a bound of magnitude {float(np.max(np.abs(a))):.3g}, over "
+                                 f"{limits.MAX_SIGNAL:g} (manipdyn.limits.MAX_SIGNAL, the largest logged signal)")
             a.setflags(write=False)
             object.__setattr__(self, k, a)
 
