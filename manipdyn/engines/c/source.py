@@ -26,11 +26,11 @@ from .graph import ArmGraph
 __all__ = ["generate", "codegen", "model_sha256", "GeneratedC", "GENERATOR_VERSION", "FUNCTIONS"]
 
 #: bump when the generated code changes for the same model (the cache key holds it)
-GENERATOR_VERSION = "1"
+GENERATOR_VERSION = "2"
 
 #: the public functions of the header, in the issue's order, then the ones the engine also uses
 FUNCTIONS = ("inverse_dynamics", "mass_matrix", "gravity", "nonlinear_effects", "forward_dynamics",
-             "inverse_dynamics_derivatives", "regressor", "coriolis", "friction", "tool_pose",
+             "inverse_dynamics_derivatives", "forward_dynamics_derivatives", "regressor", "coriolis", "friction", "tool_pose",
              "potential_energy", "gravity_derivative", "friction_derivative", "coriolis_matrix")
 
 
