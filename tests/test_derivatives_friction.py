@@ -135,3 +135,11 @@ def test_bundled_panda_single_state_derivatives_match_the_trace_form():
                + arm.lagrange.forward_dynamics_derivatives(q[k], qd[k], tau[k]))
         for x, y in zip(got, ref):
             assert _rel(x, y) <= TOLERANCE, _rel(x, y)
+
+
+@pytest.mark.parametrize("name", LAWS)
+def test_the_jacobian_alone_is_the_jacobian_of_the_call(name):
+    law = _laws(np.random.default_rng(0))[name]
+    plan = SingleStateFriction(law, _transmission(True))
+    for qd in np.random.default_rng(5).normal(size=(4, N)) * [[0.01], [0.1], [1.0], [10.0]]:
+        np.testing.assert_array_equal(plan.jacobian(qd), plan(qd)[1])

@@ -147,3 +147,20 @@ class SingleStateFriction:
             F.append(f + off)
             D.append(d)
         return np.array(F), np.array(D)
+
+    def jacobian(self, qd: np.ndarray) -> np.ndarray:
+        """``dF/dqd`` alone at one plain (n,) velocity, as ``J`` of :meth:`__call__` (same numbers)."""
+        if self.floats is None:
+            return self(qd)[1]
+        D = []
+        eps = self.eps
+        for x, (fv, fc, _, sg) in zip(qd.tolist(), self.floats):
+            d = fv
+            if fc is not None and eps:
+                t = math.tanh(x / eps)
+                d += fc * ((1.0 - t * t) / eps)
+            if sg is not None:
+                t = math.tanh(sg[0] * x + sg[1])
+                d += sg[4] * (1.0 - t * t)
+            D.append(d)
+        return np.array(D)

@@ -114,7 +114,11 @@ class PinocchioDerivatives:
     def _add_friction_jacobian(self, dv, qd) -> None:
         """``dv += dF/dqd`` in place for one plain state (the law's or the links' table)."""
         if self._law is not None:
-            J = self._law_one(qd)[1]
+            plan = self.__dict__.get("_law_plan")
+            if plan is None:
+                self._law_one(qd)
+                plan = self._law_plan
+            J = plan.jacobian(qd)
             if J.ndim == 1:
                 dv.flat[::self.n + 1] += J
             else:
