@@ -143,3 +143,27 @@ def test_the_jacobian_alone_is_the_jacobian_of_the_call(name):
     plan = SingleStateFriction(law, _transmission(True))
     for qd in np.random.default_rng(5).normal(size=(4, N)) * [[0.01], [0.1], [1.0], [10.0]]:
         np.testing.assert_array_equal(plan.jacobian(qd), plan(qd)[1])
+
+
+def test_the_benchmarks_print_a_target_and_a_verdict_per_row():
+    """benchmarks/bench_derivatives.py and fast_path_guards.py (issue 34): each row carries its
+    target and a verdict; no time is asserted, only that the verdict follows the numbers."""
+    import sys
+    from pathlib import Path
+
+    root = str(Path(__file__).resolve().parents[1])
+    if root not in sys.path:
+        sys.path.insert(0, root)
+    from benchmarks import bench_derivatives as bd
+    from benchmarks import fast_path_guards as fg
+
+    r = bd.measure("panda", batch=3, rounds=1, target_s=0.0002)
+    assert r["friction"] and r["inv"]["target"] == r["fwd"]["target"] == bd.TARGET_FRICTION
+    assert r["grav"]["target"] == bd.TARGET_FAST
+    for k in ("inv", "fwd", "grav"):
+        assert r[k]["verdict"] == bd.verdict(r[k])
+    assert bd.verdict({"ratio": 1.9, "best_ratio": 1.8, "target": 2.0}) == "ok"
+    assert bd.verdict({"ratio": 2.1, "best_ratio": 1.9, "target": 2.0}) == "ok (best)"
+    assert bd.verdict({"ratio": 2.1, "best_ratio": 2.05, "target": 2.0}) == "OVER"
+    assert fg.verdict(1.4, 1.3, 1.2) == "ok" and fg.verdict(1.6, 1.45, 1.2) == "ok (best)"
+    assert fg.verdict(1.6, 1.55, 1.2) == "OVER" and fg.verdict(1.7, 1.6, 1.55) == "floor"

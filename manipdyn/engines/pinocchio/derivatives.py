@@ -120,11 +120,11 @@ class PinocchioDerivatives:
                 plan = self._law_plan
             J = plan.jacobian(qd)
             if J.ndim == 1:
-                dv.flat[::self.n + 1] += J
+                dv.reshape(-1)[::self.n + 1] += J          # the diagonal, in place (a view: dv is contiguous)
             else:
                 dv += J
         elif self.friction is not None:
-            dv.flat[::self.n + 1] += self.friction[0]
+            dv.reshape(-1)[::self.n + 1] += self.friction[0]
 
     # -- public API ---------------------------------------------------------------------
     def inverse_dynamics_derivatives(self, q, qd, qdd):
