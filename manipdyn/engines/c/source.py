@@ -110,7 +110,8 @@ def _header_comment(arm, g: ArmGraph, prefix: str, sha: str) -> str:
         "tau = M(q) qdd + c(q, qd) + g(q) + f(qd): M includes the rotors R^T diag(Jm) R;",
         f"f is the friction law ({law!r}), offsets included;" if law is not None else "f = 0 (no friction law);",
         "nonlinear_effects = tau(q, qd, 0) = c + g + f; gravity = g alone.",
-        "Derivatives: d[i*n + m] = d out_i / d in_m.  forward_dynamics solves M qdd = tau - h (LDL^T).",
+        "Derivatives: d[i*n + m] = d out_i / d in_m.  forward_dynamics solves M qdd = tau - h (LDL^T);",
+        "forward_dynamics_derivatives: dqdd_dq, dqdd_dqd = -M^-1 dtau/dx at that qdd, dqdd_dtau = M^-1.",
         f"regressor: Y (n x {g.p}) with Y pi = tau, pi = arm.parameters(armature=True, friction=arm.friction_model):",
         f"  {names}",
     ]
