@@ -395,7 +395,7 @@ class ArmGraph:
             ("potential_energy", [("q", q)], [V([self.potential(num)])]),
         ]
         if derivatives:
-            dtau_dq, dtau_dqd = ca.jacobian(tau, q), ca.jacobian(tau, qd)
+            dtau_dq, dtau_dqd = _jacobian_rows(ca, tau, q, qd)
             # forward dynamics' derivatives: d qdd/dx = -M^-1 d tau/dx at qdd = FD(q, qd, tau), d qdd/d tau = M^-1
             at_fd = ca.Function("dtau", [q, qd, qdd], [dtau_dq, dtau_dqd])(q, qd, V(qdd_fd))
             Minv = _ldlt_inverse(factor)
@@ -415,6 +415,20 @@ class ArmGraph:
                 ("coriolis_matrix", [("q", q), ("qd", qd)], [ca.vec(_christoffel(ca, M, q, qd).T)]),
             ]
         return out
+
+
+def _jacobian_rows(ca, f, *xs):
+    """``[d f / d x for x in xs]`` (each len(f) x len(x)) by reverse mode, one adjoint sweep per
+    output row: on an RNEA (n outputs, 2n inputs) the generated code has a quarter fewer
+    operations than ``casadi.jacobian``'s choice (Panda: 7.4k against 9.7k for dtau/dq, dtau/dqd)."""
+    x = ca.vertcat(*xs)
+    m = f.shape[0]
+    rows = ca.vertcat(*[ca.jtimes(f, x, ca.DM.eye(m)[:, i], True).T for i in range(m)])
+    out, start = [], 0
+    for xi in xs:
+        out.append(rows[:, start:start + xi.shape[0]])
+        start += xi.shape[0]
+    return out
 
 
 def _ldlt_factor(M):

@@ -185,7 +185,7 @@ class PinocchioDerivatives:
                     r = _aba_d(m, d, q, qd, tau if fr is None else tau - (fr[0] * qd + fr[1] * np.sign(qd)))
                 a, b, c = r[0].copy(), r[1].copy(), r[2].copy()
                 # a singular D gives a non-finite Minv: the general path then explains
-                if _isfinite(sum(c.ravel().tolist())):
+                if _isfinite(_add(c.reshape(-1))):
                     if law is not None:
                         b -= c * J if J.ndim == 1 else c @ J
                     elif fr is not None:
