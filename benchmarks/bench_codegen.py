@@ -41,7 +41,10 @@ Rows: ``-O2`` for both sides, and the generated C rebuilt with ``-O3
 -march=native`` (``--no-native`` skips it) against the same Pinocchio binaries:
 Pinocchio is compiled with ``-O2`` only (:data:`PIN_OPT`, which says why).
 Goals (issue 26): generated / Pinocchio <= 0.5 for RNEA, <= 0.5 for CRBA, <= 0.7
-for ABA, <= 0.5 for the RNEA derivatives (moonshot 0.3 for RNEA).  The
+for ABA, <= 0.5 for the RNEA derivatives (moonshot 0.3 for RNEA); issue 34:
+<= 0.5 for the ABA derivatives (``P_forward_dynamics_derivatives`` against
+``computeABADerivatives``: ddq_dq, ddq_dv, Minv).  An arm with a friction law
+(the bundled Panda) is timed on its rigid bodies (Pinocchio's C++ knows no law).  The
 verdict is taken against the faster of the two Pinocchio builds.  Nothing is
 asserted about time: a missed goal is reported, not an error.
 
@@ -74,17 +77,25 @@ HERE = Path(__file__).resolve().parent
 C_DIR = HERE / "c"
 CACHE = HERE / "results" / "runs" / "cache"
 
-OPS = ("inverse_dynamics", "mass_matrix", "forward_dynamics", "inverse_dynamics_derivatives")
+OPS = ("inverse_dynamics", "mass_matrix", "forward_dynamics", "inverse_dynamics_derivatives",
+       "forward_dynamics_derivatives")
 PIN_NAMES = {"inverse_dynamics": "rnea", "mass_matrix": "crba", "forward_dynamics": "aba",
-             "inverse_dynamics_derivatives": "computeRNEADerivatives"}
+             "inverse_dynamics_derivatives": "computeRNEADerivatives",
+             "forward_dynamics_derivatives": "computeABADerivatives"}
 #: the printed table's row names
 LABELS = {"inverse_dynamics": "RNEA (inverse_dynamics)", "mass_matrix": "CRBA (mass_matrix)",
-          "forward_dynamics": "ABA (forward_dynamics)", "inverse_dynamics_derivatives": "RNEA derivatives"}
-GOALS = {"inverse_dynamics": 0.5, "mass_matrix": 0.5, "forward_dynamics": 0.7, "inverse_dynamics_derivatives": 0.5}
+          "forward_dynamics": "ABA (forward_dynamics)", "inverse_dynamics_derivatives": "RNEA derivatives",
+          "forward_dynamics_derivatives": "ABA derivatives"}
+GOALS = {"inverse_dynamics": 0.5, "mass_matrix": 0.5, "forward_dynamics": 0.7, "inverse_dynamics_derivatives": 0.5,
+         "forward_dynamics_derivatives": 0.5}
 MOONSHOTS = {"inverse_dynamics": 0.3}
 #: relative agreement required of the answers (the cross-check's measure); forward
 #: dynamics gets the cross-check's own tolerance, since D^-1 x loses digits with cond(D)
-REL_TOL = {"tau": 1e-10, "M": 1e-10, "qdd": TOLERANCE, "dtau_dq": 1e-10, "dtau_dqd": 1e-10}
+REL_TOL = {"tau": 1e-10, "M": 1e-10, "qdd": TOLERANCE, "dtau_dq": 1e-10, "dtau_dqd": 1e-10,
+           "ddq_dq": TOLERANCE, "ddq_dv": TOLERANCE, "Minv": TOLERANCE}
+#: the lines of one state in a driver's DUMP file: (key, shape as multiples of n)
+DUMP_ROWS = (("tau", 1), ("M", 2), ("qdd", 1), ("dtau_dq", 2), ("dtau_dqd", 2), ("ddq_dq", 2), ("ddq_dv", 2),
+             ("Minv", 2))
 #: the generated C's flags, one row each
 OPT_ROWS = {"O2": ("-O2",), "O3-native": ("-O3", "-march=native")}
 #: Pinocchio's flags, every row.  Not -march=native: the URDF parser is the wheel's
@@ -263,9 +274,14 @@ def pin_version() -> str:
 # states, answers, runs
 # ---------------------------------------------------------------------------
 def load_arm(name):
+    """The arm ``name``, on its rigid bodies (Pinocchio's C++ knows no friction law: a bundled
+    arm that carries one, the Panda, is timed without it, on both sides)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", md.PhysicalConsistencyWarning)
-        return md.load(name)
+        arm = md.load(name)
+        if arm.friction_model is not None and isinstance(arm, md.Manipulator) and arm.transmission.is_diagonal:
+            arm = md.Manipulator(arm.links, arm.convention, gravity=arm.gravity, name=arm.name)
+        return arm
 
 
 def pinocchio_urdf(arm) -> str:
@@ -302,21 +318,23 @@ def write_states(path: Path, arm, count: int, seed: int):
 
 
 def read_dump(path: Path, n: int, count: int) -> dict:
-    """A driver's DUMP file: dict of (count, ...) arrays tau, M, qdd, dtau_dq, dtau_dqd."""
+    """A driver's DUMP file: dict of (count, ...) arrays, the keys of :data:`DUMP_ROWS`."""
     rows = [np.array(line.split(), dtype=float) for line in path.read_text().splitlines()]
-    if len(rows) != 5 * count:
-        raise RuntimeError(f"{path}: {len(rows)} lines, expected {5 * count}")
-    take = lambda k, shape: np.array([rows[5 * i + k] for i in range(count)]).reshape(count, *shape)  # noqa: E731
-    return {"tau": take(0, (n,)), "M": take(1, (n, n)), "qdd": take(2, (n,)),
-            "dtau_dq": take(3, (n, n)), "dtau_dqd": take(4, (n, n))}
+    per = len(DUMP_ROWS)
+    if len(rows) != per * count:
+        raise RuntimeError(f"{path}: {len(rows)} lines, expected {per * count}")
+    take = lambda k, shape: np.array([rows[per * i + k] for i in range(count)]).reshape(count, *shape)  # noqa: E731
+    return {key: take(k, (n,) * dims) for k, (key, dims) in enumerate(DUMP_ROWS)}
 
 
 def python_answers(arm, q, qd, qdd, tau) -> dict:
     """manipdyn's Pinocchio engine on the same states (the check of the C++ driver's model)."""
     P = arm.pinocchio
     dq, dqd = P.inverse_dynamics_derivatives(q, qd, qdd)
+    a, b, c = P.forward_dynamics_derivatives(q, qd, tau)
     return {"tau": P.inverse_dynamics(q, qd, qdd), "M": P.mass_matrix(q),
-            "qdd": P.forward_dynamics(q, qd, tau), "dtau_dq": dq, "dtau_dqd": dqd}
+            "qdd": P.forward_dynamics(q, qd, tau), "dtau_dq": dq, "dtau_dqd": dqd,
+            "ddq_dq": a, "ddq_dv": b, "Minv": c}
 
 
 def rel_errors(got: dict, ref: dict) -> dict:

@@ -11,7 +11,10 @@ per-round ratios):
    float64 state, against the raw Pinocchio call on the same model and data
    (``pin.computeRNEADerivatives`` ...).  The raw call returns views of
    ``pin.Data``; manipdyn copies them (the next call would overwrite them), so
-   the copies are part of the measured overhead.  Target: ratio <= 1.5.
+   the copies are part of the measured overhead.  Target: ratio <= 1.5; with a
+   friction law (the bundled Panda carries Gaz et al.'s sigmoid law) the RNEA
+   and ABA derivatives <= 2.0 (issue 34: the law's derivative is part of the
+   call; raw Pinocchio times the rigid bodies alone).
    The floor (issue 27, item 27) is timed in the same rounds: a Python function that
    calls the raw function and copies its answers, nothing else, the least any API
    returning caller-owned arrays costs.  ``floor`` is its ratio to raw Pinocchio,
@@ -22,7 +25,10 @@ per-round ratios):
    of ``--batch`` states, divided by the batch size, against raw Pinocchio's
    per-call derivatives.  Target: <= 10x (moonshot 5x).
 
-The arms are used as bundled (rotors included; no bundled arm has friction).
+The arms are used as bundled (rotors included; the Panda with its friction law).
+Each row prints its target and a verdict: ``ok`` when the median per-round
+ratio meets the target, ``ok (best)`` when only the ratio of the best rounds
+does (on a loaded machine the steadier estimate), ``OVER`` otherwise.
 Inputs are drawn before the timed region, and both engines' answers are
 compared (to the cross-check's 1e-9) before anything is timed, so a fast wrong
 answer never counts.  Nothing is asserted about time: compare with earlier runs.
@@ -44,6 +50,8 @@ from manipdyn.model.random_arms import random_state
 from .timing import blas_config, interleaved, paired_ratio
 
 TARGET_FAST = 1.5
+#: the RNEA and ABA derivatives of an arm with a friction law (issue 34)
+TARGET_FRICTION = 2.0
 TARGET_BATCH = 10.0
 MOONSHOT_BATCH = 5.0
 DEFAULT_ARMS = ("puma560", "ur5", "ur10", "panda")
@@ -112,7 +120,7 @@ def measure(name: str, batch: int = 1000, rounds: int = 15, target_s: float = 0.
     }
     scale = {k: batch for k in fns if k.endswith("_batch")}
     s = interleaved(fns, rounds, target_s, per_call_scale=scale)
-    out = {"arm": name, "n": arm.n, "batch": batch}
+    out = {"arm": name, "n": arm.n, "batch": batch, "friction": arm.friction_model is not None}
     for k in ("inv", "fwd", "grav"):
         out[k] = {"manipdyn_us": s[k].median * 1e6, "raw_us": s[k + "_raw"].median * 1e6,
                   "ratio": paired_ratio(s[k], s[k + "_raw"]),
@@ -121,7 +129,16 @@ def measure(name: str, batch: int = 1000, rounds: int = 15, target_s: float = 0.
                   "checks_over_floor": _best(s[k], s[k + "_floor"]),
                   "trace_per_state_us": s[k + "_trace_batch"].median * 1e6,
                   "trace_ratio": paired_ratio(s[k + "_trace_batch"], s[k + "_raw"])}
+        out[k]["target"] = TARGET_FRICTION if (out["friction"] and k != "grav") else TARGET_FAST
+        out[k]["verdict"] = verdict(out[k])
     return out
+
+
+def verdict(row: dict) -> str:
+    """``ok``, ``ok (best)`` or ``OVER`` against the row's target (module docstring)."""
+    if row["ratio"] <= row["target"]:
+        return "ok"
+    return "ok (best)" if row["best_ratio"] <= row["target"] else "OVER"
 
 
 def main(argv=None) -> int:
@@ -135,17 +152,18 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     pools = blas_config()
     print(f"BLAS/OpenMP pools: {format_pools(pools) or 'none loaded'}; batch {args.batch}; "
-          f"targets: fast path <= {TARGET_FAST}x raw Pinocchio, trace form per state <= {TARGET_BATCH}x "
+          f"targets: fast path <= {TARGET_FAST}x raw Pinocchio ({TARGET_FRICTION}x for the RNEA and ABA "
+          f"derivatives of an arm with a friction law), trace form per state <= {TARGET_BATCH}x "
           f"(moonshot {MOONSHOT_BATCH}x)")
     print(f"{'arm':9s} {'derivative':9s} {'manipdyn us':>11s} {'raw pin us':>10s} {'ratio':>6s} {'best':>6s} "
-          f"{'floor':>6s} {'checks':>6s}  {'trace us/state':>14s} {'trace/raw':>9s}")
+          f"{'floor':>6s} {'checks':>6s}  {'trace us/state':>14s} {'trace/raw':>9s} {'target':>6s}  verdict")
     for name in args.arms:
         r = measure(name, args.batch, args.rounds, args.target_s)
         for k, label in (("inv", "RNEA"), ("fwd", "ABA"), ("grav", "gravity")):
             x = r[k]
             print(f"{name:9s} {label:9s} {x['manipdyn_us']:11.2f} {x['raw_us']:10.2f} {x['ratio']:6.2f} "
                   f"{x['best_ratio']:6.2f} {x['floor_ratio']:6.2f} {x['checks_over_floor']:6.2f}  "
-                  f"{x['trace_per_state_us']:14.2f} {x['trace_ratio']:9.2f}")
+                  f"{x['trace_per_state_us']:14.2f} {x['trace_ratio']:9.2f} {x['target']:6.2f}  {x['verdict']}")
         sys.stdout.flush()
     return 0
 

@@ -91,15 +91,23 @@ def measure(arm_name: str = "ur5", blocks: int = 201, calls: int = 200) -> list[
         return f
 
     one, three = (fwd1, guard1, finite1), (fwd3, guard3, finite3)
-    cases = [("inverse_dynamics / rnea", lambda: P.inverse_dynamics(q, qd, qdd), rnea, three, (q, qd, qdd)),
-             ("mass_matrix / crba", lambda: P.mass_matrix(q), crba, one, (q,)),
-             ("gravity_torque / computeGeneralizedGravity", lambda: P.gravity_torque(q), grav, one, (q,)),
-             ("forward_dynamics / aba", lambda: P.forward_dynamics(q, qd, qdd), aba, three, (q, qd, qdd))]
+    U = P.unchecked
+    cases = [("inverse_dynamics / rnea", lambda: P.inverse_dynamics(q, qd, qdd), rnea, three, (q, qd, qdd),
+              lambda: U.inverse_dynamics(q, qd, qdd)),
+             ("mass_matrix / crba", lambda: P.mass_matrix(q), crba, one, (q,), lambda: U.mass_matrix(q)),
+             ("gravity_torque / computeGeneralizedGravity", lambda: P.gravity_torque(q), grav, one, (q,),
+              lambda: U.gravity_torque(q)),
+             ("forward_dynamics / aba", lambda: P.forward_dynamics(q, qd, qdd), aba, three, (q, qd, qdd),
+              lambda: U.forward_dynamics(q, qd, qdd)),
+             # the arm's own methods (issue 34): one more Python frame than the engine's
+             ("arm.inverse_dynamics / rnea", lambda: arm.inverse_dynamics(q, qd, qdd), rnea, three, (q, qd, qdd),
+              lambda: U.inverse_dynamics(q, qd, qdd)),
+             ("arm.mass_matrix / crba", lambda: arm.mass_matrix(q), crba, one, (q,), lambda: U.mass_matrix(q))]
     out = []
-    for label, f, call, makers, x in cases:
+    for label, f, call, makers, x, unchecked in cases:
         fl, gu, fi = (mk(call) for mk in makers)
         cands = {"checked": f, "raw": lambda call=call, x=x: call(m, d, *x), "floor": lambda fl=fl, x=x: fl(*x),
-                 "guard": lambda gu=gu, x=x: gu(*x), "finite": lambda fi=fi, x=x: fi(*x)}
+                 "guard": lambda gu=gu, x=x: gu(*x), "finite": lambda fi=fi, x=x: fi(*x), "unchecked": unchecked}
         for _ in range(calls):
             for g in cands.values():
                 g()
@@ -116,7 +124,7 @@ def measure(arm_name: str = "ur5", blocks: int = 201, calls: int = 200) -> list[
 
         out.append((label, statistics.median(a / b for a, b in zip(t["checked"], raw)), min(t["checked"]) * 1e6,
                     min(raw) * 1e6, ratio("checked"), ratio("floor"), ratio("checked", "floor"),
-                    ratio("guard", "floor"), ratio("finite", "floor")))
+                    ratio("guard", "floor"), ratio("finite", "floor"), ratio("unchecked")))
     return out
 
 
@@ -130,16 +138,34 @@ def main(argv=None) -> int:
     blas = pools if isinstance(pools, str) else [(i.get("internal_api"), i.get("num_threads")) for i in pools]
     print(f"arm {args.arm}; BLAS/OpenMP pools: {blas or 'none loaded'}")
     print(f"{'manipdyn call / raw Pinocchio':45s} {'median ratio':>12s} {'best us':>9s} {'raw us':>8s} "
-          f"{'best ratio':>10s} {'floor':>6s} {'checks':>7s} {'guard':>6s} {'finite':>6s}")
-    for label, r, a, b, br, fl, ch, gu, fi in measure(args.arm, args.blocks, args.calls):
-        print(f"{label:45s} {r:12.3f} {a:9.3f} {b:8.3f} {br:10.3f} {fl:6.3f} {ch:7.3f} {gu:6.3f} {fi:6.3f}")
+          f"{'best ratio':>10s} {'floor':>6s} {'checks':>7s} {'guard':>6s} {'finite':>6s} {'unchecked':>9s}  verdict")
+    for label, r, a, b, br, fl, ch, gu, fi, un in measure(args.arm, args.blocks, args.calls):
+        print(f"{label:45s} {r:12.3f} {a:9.3f} {b:8.3f} {br:10.3f} {fl:6.3f} {ch:7.3f} {gu:6.3f} {fi:6.3f} "
+              f"{un:9.3f}  {verdict(r, br, fl)}")
     print("median ratio: of per-block ratios; best ratio: of the best blocks (what an uninterrupted block "
           "costs; on a shared machine the steadier of the two); floor, checks, guard, finite: best blocks too")
     print("floor: a Python function that only forwards to the raw call, over the raw call (the least "
           "any Python-level API adds); checks: manipdyn's call over that floor; guard, finite: the floor "
           "plus only the dtype/shape guard, or only the finiteness test, over the floor (the two checks "
           "the fast path must make, issue 11)")
+    print(f"unchecked: engine.unchecked's call (no checks at all) over raw Pinocchio, best blocks; verdict against "
+          f"the goal {GOAL}x (issue 34): ok, ok (best) when only the best blocks meet it, 'floor' when the "
+          "floor itself is over the goal (then no checked Python call can meet it: use engine.unchecked), "
+          "else OVER")
     return 0
+
+
+#: the checked single-state calls' goal over raw Pinocchio (issue 34)
+GOAL = 1.5
+
+
+def verdict(median_ratio: float, best_ratio: float, floor_ratio: float) -> str:
+    """``ok`` / ``ok (best)`` / ``floor`` / ``OVER`` of one row against :data:`GOAL` (see main's legend)."""
+    if median_ratio <= GOAL:
+        return "ok"
+    if best_ratio <= GOAL:
+        return "ok (best)"
+    return "floor" if floor_ratio > GOAL else "OVER"
 
 
 if __name__ == "__main__":

@@ -35,6 +35,8 @@ void pend_nonlinear_effects(const double *q, const double *qd, double *h);
 void pend_forward_dynamics(const double *q, const double *qd, const double *tau, double *qdd);
 void pend_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd,
                                        double *dtau_dq, double *dtau_dqd);
+void pend_forward_dynamics_derivatives(const double *q, const double *qd, const double *tau,
+                                       double *dqdd_dq, double *dqdd_dqd, double *dqdd_dtau);
 void pend_regressor(const double *q, const double *qd, const double *qdd, double *Y);
 #endif
 """
@@ -52,6 +54,9 @@ void pend_forward_dynamics(const double *q, const double *qd, const double *tau,
 void pend_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd,
                                        double *dq, double *dqd)
 { (void)qd; (void)qdd; dq[0] = -MGL * sin(q[0]); dqd[0] = 0.0; }
+void pend_forward_dynamics_derivatives(const double *q, const double *qd, const double *tau,
+                                       double *a, double *b, double *c)
+{ (void)qd; (void)tau; a[0] = MGL * sin(q[0]) / D0; b[0] = 0.0; c[0] = 1.0 / D0; }
 void pend_regressor(const double *q, const double *qd, const double *qdd, double *Y)
 { (void)qd; Y[0] = qdd[0]; Y[1] = cos(q[0]); }
 """
@@ -62,7 +67,8 @@ def _pendulum_answers(q, qd, qdd, tau, mass=1.0):
     k = len(q)
     return {"tau": d0 * qdd + mgl * np.cos(q), "M": np.full((k, 1, 1), d0),
             "qdd": (tau - mgl * np.cos(q)) / d0, "dtau_dq": (-mgl * np.sin(q)).reshape(k, 1, 1),
-            "dtau_dqd": np.zeros((k, 1, 1))}
+            "dtau_dqd": np.zeros((k, 1, 1)), "ddq_dq": (mgl * np.sin(q) / d0).reshape(k, 1, 1),
+            "ddq_dv": np.zeros((k, 1, 1)), "Minv": np.full((k, 1, 1), 1.0 / d0)}
 
 
 @pytest.fixture

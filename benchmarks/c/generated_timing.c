@@ -7,8 +7,8 @@
  * MDPREFIX is the prefix given to codegen (the header is DIR/MDPREFIX.h unless
  * -DMDHEADER='"file.h"' says otherwise); the functions are reached by token
  * pasting, MDPREFIX ## _inverse_dynamics and so on.  It times
- * P_inverse_dynamics, P_mass_matrix, P_forward_dynamics and
- * P_inverse_dynamics_derivatives on the states of STATES (format and output:
+ * P_inverse_dynamics, P_mass_matrix, P_forward_dynamics,
+ * P_inverse_dynamics_derivatives and P_forward_dynamics_derivatives on the states of STATES (format and output:
  * states_io.h), the same file pinocchio_timing.cpp reads, with the same
  * rounds, rotation and blocks.  With DUMP, the answers for every state are
  * written there first, in the same layout as pinocchio_timing.cpp's.
@@ -35,7 +35,7 @@ int main(int argc, char **argv)
 {
     int rounds, passes, r, j, op, p, i;
     md_states s;
-    double *out, *out2, *samples[MD_NOPS];
+    double *out, *out2, *out3, *samples[MD_NOPS];
     volatile double sink = 0.0; /* keeps every call's result alive */
     if (argc != 4 && argc != 5) {
         fprintf(stderr, "usage: %s STATES ROUNDS PASSES [DUMP]\n", argv[0]);
@@ -46,6 +46,7 @@ int main(int argc, char **argv)
     if (s.n != NQ) md_die("the states file's n differs from the generated header's _NQ", argv[1]);
     out = md_alloc((size_t)NQ * NQ);
     out2 = md_alloc((size_t)NQ * NQ);
+    out3 = md_alloc((size_t)NQ * NQ);
 
     if (argc == 5) {
         FILE *f = fopen(argv[4], "w");
@@ -61,6 +62,10 @@ int main(int argc, char **argv)
             MD_FN(_inverse_dynamics_derivatives)(s.q + o, s.qd + o, s.qdd + o, out, out2);
             md_write_row(f, out, NQ * NQ);
             md_write_row(f, out2, NQ * NQ);
+            MD_FN(_forward_dynamics_derivatives)(s.q + o, s.qd + o, s.tau + o, out, out2, out3);
+            md_write_row(f, out, NQ * NQ);
+            md_write_row(f, out2, NQ * NQ);
+            md_write_row(f, out3, NQ * NQ);
         }
         if (fclose(f) != 0) md_die("cannot write", argv[4]);
     }
@@ -80,7 +85,8 @@ int main(int argc, char **argv)
                     case 0: MD_FN(_inverse_dynamics)(s.q + o, s.qd + o, s.qdd + o, out); break;
                     case 1: MD_FN(_mass_matrix)(s.q + o, out); break;
                     case 2: MD_FN(_forward_dynamics)(s.q + o, s.qd + o, s.tau + o, out); break;
-                    default: MD_FN(_inverse_dynamics_derivatives)(s.q + o, s.qd + o, s.qdd + o, out, out2);
+                    case 3: MD_FN(_inverse_dynamics_derivatives)(s.q + o, s.qd + o, s.qdd + o, out, out2); break;
+                    default: MD_FN(_forward_dynamics_derivatives)(s.q + o, s.qd + o, s.tau + o, out, out2, out3);
                     }
                     acc += out[0];
                 }

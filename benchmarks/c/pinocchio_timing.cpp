@@ -5,13 +5,14 @@
 //
 // Loads URDF with pinocchio::urdf::buildModel, sets the model's gravity and
 // armature from the states file (URDF carries neither), and times
-// pinocchio::rnea, crba, aba and computeRNEADerivatives on the states of
+// pinocchio::rnea, crba, aba, computeRNEADerivatives and computeABADerivatives on the states of
 // STATES (format: states_io.h), every input drawn beforehand by the Python
 // side, so that this driver and generated_timing.c time the same inputs.
 // Each round times the four calls in a rotated order; ROUNDS rounds; one
 // sample is PASSES sweeps over all states.  With DUMP, the answers for every
 // state are written there first (tau, M with its lower triangle filled from
-// the upper one that crba computes, qdd, dtau/dq, dtau/dqd; row-major, one
+// the upper one that crba computes, qdd, dtau/dq, dtau/dqd, ddq_dq, ddq_dv, Minv (both
+// triangles); row-major, one
 // line each), for the correctness check.
 //
 // Built by benchmarks/bench_codegen.py (its PINOCCHIO_FLAGS say which flags,
@@ -19,6 +20,7 @@
 // aba and computeRNEADerivatives run the code instantiated inside the wheel's
 // libpinocchio_default.so (Pinocchio as shipped, its own build flags); without
 // it, every algorithm is instantiated here, with this compilation's flags.
+#include <pinocchio/algorithm/aba-derivatives.hpp>
 #include <pinocchio/algorithm/aba.hpp>
 #include <pinocchio/algorithm/crba.hpp>
 #include <pinocchio/algorithm/rnea-derivatives.hpp>
@@ -94,6 +96,11 @@ int main(int argc, char ** argv)
       pinocchio::computeRNEADerivatives(model, data, q(i), qd(i), qdd(i));
       write_matrix(f, data.dtau_dq);
       write_matrix(f, data.dtau_dv);
+      pinocchio::computeABADerivatives(model, data, q(i), qd(i), tau(i));
+      data.Minv.triangularView<Eigen::StrictlyLower>() = data.Minv.transpose().triangularView<Eigen::StrictlyLower>();
+      write_matrix(f, data.ddq_dq);
+      write_matrix(f, data.ddq_dv);
+      write_matrix(f, data.Minv);
     }
     if (std::fclose(f) != 0)
       md_die("cannot write", argv[5]);
@@ -123,9 +130,13 @@ int main(int argc, char ** argv)
           case 2:
             acc += pinocchio::aba(model, data, q(i), qd(i), tau(i))[0];
             break;
-          default:
+          case 3:
             pinocchio::computeRNEADerivatives(model, data, q(i), qd(i), qdd(i));
             acc += data.dtau_dq(0, 0);
+            break;
+          default:
+            pinocchio::computeABADerivatives(model, data, q(i), qd(i), tau(i));
+            acc += data.ddq_dq(0, 0);
           }
       ns[op] = (md_now_ns() - t0) / ((double)passes * k);
       sink = sink + acc;

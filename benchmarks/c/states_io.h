@@ -29,9 +29,10 @@
 #include <string.h>
 #include <time.h>
 
-#define MD_NOPS 4
+#define MD_NOPS 5
 static const char *const md_op_names[MD_NOPS] = {
-    "inverse_dynamics", "mass_matrix", "forward_dynamics", "inverse_dynamics_derivatives"};
+    "inverse_dynamics", "mass_matrix", "forward_dynamics", "inverse_dynamics_derivatives",
+    "forward_dynamics_derivatives"};
 
 typedef struct {
     int n, count;

@@ -12,9 +12,13 @@ this term.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-__all__ = ["friction_jacobian"]
+from .._support.errors import ModelError
+
+__all__ = ["friction_jacobian", "SingleStateFriction"]
 
 
 def friction_jacobian(law, table, qd, n: int, transmission=None):
@@ -32,3 +36,131 @@ def friction_jacobian(law, table, qd, n: int, transmission=None):
     if table is None:
         return None
     return np.zeros(np.shape(qd) + (n,)) + np.diag(table[0])
+
+
+class SingleStateFriction:
+    """The friction law's torque and derivative at ONE velocity, for the engines' fast paths.
+
+    Built once per engine from a frozen :class:`manipdyn.Friction` and the
+    transmission; :meth:`__call__` takes a plain ``(n,)`` float64 ``qd`` and
+    returns ``(F, J)``: the joint torque ``F`` (n,), N m, and ``dF/dqd`` as ``J``,
+    either its diagonal (n,) (a joint-side law: ``dF/dqd = diag(J)``) or the
+    full (n, n) (motor side: ``R^T diag(f') R``).
+
+    The laws it writes out itself (viscous, smooth or sharp symmetric Coulomb
+    without a deadband, offsets, Gaz's sigmoid) cost a handful of vector
+    operations prepared at construction: a joint-side law in one loop over
+    Python floats (the sigmoid as ``(1 + tanh(x / 2)) / 2``: within a few ulp
+    of the law's numbers), a motor-side law in the law's own array operations
+    and order (the same bits); any other law (asymmetric, Stribeck, with a
+    deadband) answers through :meth:`Friction.torque` and
+    :meth:`Friction.derivative`.
+    """
+
+    def __init__(self, law, transmission=None):
+        self.law, self.transmission = law, transmission
+        self.n = n = law.n
+        self.R = None
+        if law.side != "joint":
+            if transmission is None or transmission.n != n:
+                raise ModelError("friction: a motor-side law needs the transmission of its "
+                                 f"{n} motors (qd_m = R qd)")
+            self.R = np.asarray(transmission.R, dtype=np.float64)
+        terms = set(law.terms)
+        self.general = bool(terms - {"viscous", "coulomb", "offset", "sigmoid"}) or bool(law.deadband)
+        z = np.zeros(n)
+        self.fv = z + law.viscous if law.viscous is not None else None
+        self.fc = z + law.coulomb if law.coulomb is not None else None
+        self.eps = float(law.smoothing)
+        self.off = z + law.offset if law.offset is not None else None
+        if law.sigmoid_A is not None:
+            A, al, p3 = (z + x for x in (law.sigmoid_A, law.sigmoid_alpha, law.sigmoid_p3))
+            s0 = np.exp(-np.logaddexp(0.0, -(al * p3)))          # the logistic at v = 0 (the law's zero)
+            self.sig = (al, p3, A, s0, A * al)
+        else:
+            self.sig = None
+        self.RT = None if self.R is None else self.R.T.copy()
+        # a joint-side law: one loop over Python floats, cheaper than a dozen ufuncs on (n,) arrays;
+        # the sigmoid as (1 + tanh(x / 2)) / 2 (no overflow), so within a few ulp of the law's numbers
+        self.floats = None
+        if not self.general and self.R is None:
+            sg = self.sig
+            self.floats = [(float(self.fv[k]) if self.fv is not None else 0.0,
+                            float(self.fc[k]) if self.fc is not None else None,
+                            float(self.off[k]) if self.off is not None else 0.0,
+                            None if sg is None else (0.5 * float(sg[0][k]), 0.5 * float(sg[0][k] * sg[1][k]),
+                                                     0.5 * float(sg[2][k]), float(sg[2][k] * (0.5 - sg[3][k])),
+                                                     0.25 * float(sg[4][k])))
+                           for k in range(n)]
+
+    def __call__(self, qd: np.ndarray):
+        if self.general:
+            law, tr = self.law, self.transmission
+            F, J = law.torque(qd, tr), law.derivative(qd, tr)
+            return F, (J if self.R is not None else J.diagonal().copy())
+        if self.floats is not None:
+            return self._joint_side(qd)
+        R = self.R
+        v = qd if R is None else qd @ self.RT
+        # the law's own operations in its own order (Friction.torque, Friction.derivative): the same bits
+        f = np.zeros(self.n)
+        d = np.zeros(self.n)
+        if self.fv is not None:
+            f = f + self.fv * v
+            d = d + self.fv
+        if self.fc is not None:
+            if self.eps:
+                t = np.tanh(v / self.eps)
+                f = f + self.fc * t
+                d = d + self.fc * ((1.0 - t ** 2) / self.eps)
+            else:
+                f = f + self.fc * np.sign(v)                     # the sharp sign: derivative 0
+        if self.sig is not None:
+            al, p3, A, s0, Aal = self.sig
+            s = np.exp(-np.logaddexp(0.0, -(al * (v + p3))))    # the logistic, without overflow
+            f = f + A * (s - s0)
+            d = d + Aal * s * (1.0 - s)
+        if R is not None:
+            f = f @ R
+            d = (self.RT * d) @ R                                # R^T diag(d) R
+        if self.off is not None:
+            f = f + self.off
+        return f, d
+
+    def _joint_side(self, qd):
+        F, D = [], []
+        eps = self.eps
+        for x, (fv, fc, off, sg) in zip(qd.tolist(), self.floats):
+            f, d = (fv * x if fv else 0.0), fv
+            if fc is not None:
+                if eps:
+                    t = math.tanh(x / eps)
+                    f += fc * t
+                    d += fc * ((1.0 - t * t) / eps)
+                else:
+                    f += fc * (1.0 if x > 0.0 else (-1.0 if x < 0.0 else 0.0 * x))
+            if sg is not None:
+                h, hp, A2, c0, c1 = sg
+                t = math.tanh(h * x + hp)                # logistic(a (x + p3)) = (1 + t) / 2
+                f += A2 * t + c0
+                d += c1 * (1.0 - t * t)
+            F.append(f + off)
+            D.append(d)
+        return np.array(F), np.array(D)
+
+    def jacobian(self, qd: np.ndarray) -> np.ndarray:
+        """``dF/dqd`` alone at one plain (n,) velocity, as ``J`` of :meth:`__call__` (same numbers)."""
+        if self.floats is None:
+            return self(qd)[1]
+        D = []
+        eps = self.eps
+        for x, (fv, fc, _, sg) in zip(qd.tolist(), self.floats):
+            d = fv
+            if fc is not None and eps:
+                t = math.tanh(x / eps)
+                d += fc * ((1.0 - t * t) / eps)
+            if sg is not None:
+                t = math.tanh(sg[0] * x + sg[1])
+                d += sg[4] * (1.0 - t * t)
+            D.append(d)
+        return np.array(D)

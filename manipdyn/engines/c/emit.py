@@ -34,6 +34,7 @@ OUTPUTS = {
     "nonlinear_effects": (("h", "n"),),
     "forward_dynamics": (("qdd", "n"),),
     "inverse_dynamics_derivatives": (("dtau_dq", "nn"), ("dtau_dqd", "nn")),
+    "forward_dynamics_derivatives": (("dqdd_dq", "nn"), ("dqdd_dqd", "nn"), ("dqdd_dtau", "nn")),
     "regressor": (("Y", "np"),),
     "coriolis": (("c", "n"),),
     "friction": (("f", "n"),),

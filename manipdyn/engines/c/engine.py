@@ -8,10 +8,10 @@ behind ``arm.engine("c")``) looks the arm's build up in the cache
 
 What the C computes: D, h (Coriolis alone), g, the friction law, tau, forward
 dynamics (LDL^T of D), the tool pose, the potential energy, the regressor,
-dtau/dq and dtau/dqd, dg/dq, dF/dqd and the Christoffel Coriolis matrix.  What
+dtau/dq and dtau/dqd, the forward dynamics' derivatives (dqdd/dq, dqdd/dqd,
+D^-1), dg/dq, dF/dqd and the Christoffel Coriolis matrix.  What
 is derived here in Python from those (said in each docstring): the kinetic
-energy ``qd^T D qd / 2``, the forward-dynamics derivatives ``-D^-1 dtau`` and
-``D^-1``, and regressor friction columns other than the arm's own law's.
+energy ``qd^T D qd / 2`` and regressor friction columns other than the arm's own law's.
 
 Batches of states (N, n) run in one C loop (the ``*_batch`` functions), and
 ctypes releases the GIL during each call: two threads may call one engine at
@@ -45,7 +45,8 @@ _FUNCS = {
     # name: (inputs, output sizes as multiples of (n, n*n, n*p, 16, 1))
     "inverse_dynamics": (3, ("n",)), "mass_matrix": (1, ("nn",)), "gravity": (1, ("n",)),
     "nonlinear_effects": (2, ("n",)), "forward_dynamics": (3, ("n",)),
-    "inverse_dynamics_derivatives": (3, ("nn", "nn")), "regressor": (3, ("np",)), "coriolis": (2, ("n",)),
+    "inverse_dynamics_derivatives": (3, ("nn", "nn")),
+    "forward_dynamics_derivatives": (3, ("nn", "nn", "nn")), "regressor": (3, ("np",)), "coriolis": (2, ("n",)),
     "friction": (1, ("n",)), "tool_pose": (1, ("16",)), "potential_energy": (1, ("1",)),
     "gravity_derivative": (1, ("nn",)), "friction_derivative": (1, ("nn",)), "coriolis_matrix": (2, ("nn",)),
 }
@@ -332,17 +333,20 @@ class CompiledEngine:
                 check_result(self._square(b), "inverse_dynamics_derivatives", q=q, qd=qd, qdd=qdd))
 
     def forward_dynamics_derivatives(self, q, qd, tau) -> tuple:
-        """``(dqdd_dq, dqdd_dqd, dqdd_dtau)``, each (n, n) or (N, n, n).  Derived here from the
-        C's forward dynamics, D and dtau: ``-D^-1 dtau/dq``, ``-D^-1 dtau/dqd``, ``D^-1``."""
+        """``(dqdd_dq, dqdd_dqd, dqdd_dtau)``, each (n, n) or (N, n, n), ``[i, m] = d qdd_i / d x_m``
+        (C: ``P_forward_dynamics_derivatives``: ``-D^-1 dtau/dx`` at the forward dynamics' qdd,
+        and ``D^-1`` from the LDL^T of D; rotors and the friction law included).
+
+        A singular D raises :class:`SingularMassMatrixError`."""
         q, qd, tau = self._states((q, "q"), (qd, "qd"), (tau, "tau"))
-        qdd = self.forward_dynamics(q, qd, tau)
-        dq, dqd = self.inverse_dynamics_derivatives(q, qd, qdd)
-        D = self.mass_matrix(q)
-        try:
-            Dinv = np.linalg.inv(D)
-        except np.linalg.LinAlgError:
-            raise SingularMassMatrixError.for_mass_matrix(D if D.ndim == 3 else D[None]) from None
-        return -Dinv @ dq, -Dinv @ dqd, Dinv
+        out = self._call("forward_dynamics_derivatives", q, qd, tau)
+        if not np.isfinite(np.add.reduce(out[2].reshape(-1))):
+            D = self.mass_matrix(q if q.ndim == 2 else q[None])
+            w = np.linalg.eigvalsh(D)
+            if np.any(w[:, 0] <= 1e-12 * np.maximum(1.0, np.abs(w[:, -1]))):
+                raise SingularMassMatrixError.for_mass_matrix(D)
+        return tuple(check_result(self._square(x), "forward_dynamics_derivatives", q=q, qd=qd, tau=tau)
+                     for x in out)
 
     def gravity_derivative(self, q) -> np.ndarray:
         """``dg/dq``: (n, n) or (N, n, n), N m/rad (C: the Jacobian of the generated g)."""

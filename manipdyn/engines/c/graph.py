@@ -381,7 +381,8 @@ class ArmGraph:
         for i in range(n):
             for j in range(n):
                 M[i, j] = Mx[i][j]
-        qdd_fd = _ldlt_solve(Mx, [tau_in[k] - nle[k] for k in range(n)])
+        factor = _ldlt_factor(Mx)
+        qdd_fd = _ldlt_solve(Mx, [tau_in[k] - nle[k] for k in range(n)], factor)
         out = [
             ("inverse_dynamics", [("q", q), ("qd", qd), ("qdd", qdd)], [tau]),
             ("mass_matrix", [("q", q)], [rowmajor(Mx)]),
@@ -394,12 +395,20 @@ class ArmGraph:
             ("potential_energy", [("q", q)], [V([self.potential(num)])]),
         ]
         if derivatives:
+            dtau_dq, dtau_dqd = _jacobian_rows(ca, tau, q, qd)
+            # forward dynamics' derivatives: d qdd/dx = -M^-1 d tau/dx at qdd = FD(q, qd, tau), d qdd/d tau = M^-1
+            at_fd = ca.Function("dtau", [q, qd, qdd], [dtau_dq, dtau_dqd])(q, qd, V(qdd_fd))
+            Minv = _ldlt_inverse(factor)
+            fdd = [rowmajor([[-sum(Minv[i][k] * J[k, m] for k in range(n)) for m in range(n)] for i in range(n)])
+                   for J in at_fd]
             sym_tau = V([a + b + c for a, b, c in zip(self.rnea(self.pi_sym, qd, qdd),
                                                        self.rotor_torque(self.pi_sym, qdd),
                                                        self.friction(self.pi_sym, qd))])
             out += [
                 ("inverse_dynamics_derivatives", [("q", q), ("qd", qd), ("qdd", qdd)],
-                 [ca.vec(ca.jacobian(tau, q).T), ca.vec(ca.jacobian(tau, qd).T)]),
+                 [ca.vec(dtau_dq.T), ca.vec(dtau_dqd.T)]),
+                ("forward_dynamics_derivatives", [("q", q), ("qd", qd), ("tau", tau_in)],
+                 fdd + [rowmajor(Minv)]),
                 ("regressor", [("q", q), ("qd", qd), ("qdd", qdd)], [ca.vec(ca.jacobian(sym_tau, self.pi_sym).T)]),
                 ("gravity_derivative", [("q", q)], [ca.vec(ca.jacobian(grav, q).T)]),
                 ("friction_derivative", [("qd", qd)], [ca.vec(ca.jacobian(V(fr), qd).T)]),
@@ -408,9 +417,23 @@ class ArmGraph:
         return out
 
 
-def _ldlt_solve(M, b):
-    """x with ``M x = b`` by an unrolled LDL^T of the symmetric n x n ``M`` (nested lists of SX)."""
-    n = len(b)
+def _jacobian_rows(ca, f, *xs):
+    """``[d f / d x for x in xs]`` (each len(f) x len(x)) by reverse mode, one adjoint sweep per
+    output row: on an RNEA (n outputs, 2n inputs) the generated code has a quarter fewer
+    operations than ``casadi.jacobian``'s choice (Panda: 7.4k against 9.7k for dtau/dq, dtau/dqd)."""
+    x = ca.vertcat(*xs)
+    m = f.shape[0]
+    rows = ca.vertcat(*[ca.jtimes(f, x, ca.DM.eye(m)[:, i], True).T for i in range(m)])
+    out, start = [], 0
+    for xi in xs:
+        out.append(rows[:, start:start + xi.shape[0]])
+        start += xi.shape[0]
+    return out
+
+
+def _ldlt_factor(M):
+    """``(L, d)`` with ``M = L diag(d) L^T`` (L unit lower triangular) of the symmetric n x n ``M``."""
+    n = len(M)
     L = [[0.0] * n for _ in range(n)]
     d = [None] * n
     for j in range(n):
@@ -423,6 +446,13 @@ def _ldlt_solve(M, b):
             for k in range(j):
                 s = s - L[i][k] * L[j][k] * d[k]
             L[i][j] = s / dj
+    return L, d
+
+
+def _ldlt_solve(M, b, factor=None):
+    """x with ``M x = b`` by an unrolled LDL^T of the symmetric n x n ``M`` (nested lists of SX)."""
+    n = len(b)
+    L, d = factor if factor is not None else _ldlt_factor(M)
     y = list(b)
     for i in range(n):
         for k in range(i):
@@ -432,6 +462,29 @@ def _ldlt_solve(M, b):
         for k in range(i + 1, n):
             x[i] = x[i] - L[k][i] * x[k]
     return x
+
+
+def _ldlt_inverse(factor):
+    """``M^-1 = L^-T diag(1/d) L^-1`` from ``M``'s LDL^T factor, both triangles (nested lists)."""
+    L, d = factor
+    n = len(d)
+    # W = L^-1, unit lower triangular: W[i][j] = -sum_{j <= k < i} L[i][k] W[k][j]
+    W = [[1.0 if i == j else 0.0 for j in range(n)] for i in range(n)]
+    for j in range(n):
+        for i in range(j + 1, n):
+            s = -L[i][j]
+            for k in range(j + 1, i):
+                s = s - L[i][k] * W[k][j]
+            W[i][j] = s
+    inv_d = [1.0 / x for x in d]
+    out = [[None] * n for _ in range(n)]
+    for i in range(n):
+        for j in range(i, n):
+            s = W[j][i] * inv_d[j]                             # W[j][j] = 1
+            for k in range(j + 1, n):
+                s = s + W[k][i] * W[k][j] * inv_d[k]
+            out[i][j] = out[j][i] = s
+    return out
 
 
 def _christoffel(ca, M, q, qd):

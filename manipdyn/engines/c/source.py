@@ -32,7 +32,7 @@ GENERATOR_VERSION = "2"
 
 #: the public functions of the header, in the issue's order, then the ones the engine also uses
 FUNCTIONS = ("inverse_dynamics", "mass_matrix", "gravity", "nonlinear_effects", "forward_dynamics",
-             "inverse_dynamics_derivatives", "regressor", "coriolis", "friction", "tool_pose",
+             "inverse_dynamics_derivatives", "forward_dynamics_derivatives", "regressor", "coriolis", "friction", "tool_pose",
              "potential_energy", "gravity_derivative", "friction_derivative", "coriolis_matrix")
 
 
@@ -124,7 +124,8 @@ def _header_comment(arm, g: ArmGraph, prefix: str, sha: str) -> str:
         "tau = M(q) qdd + c(q, qd) + g(q) + f(qd): M includes the rotors R^T diag(Jm) R;",
         f"f is the friction law ({law!r}), offsets included;" if law is not None else "f = 0 (no friction law);",
         "nonlinear_effects = tau(q, qd, 0) = c + g + f; gravity = g alone.",
-        "Derivatives: d[i*n + m] = d out_i / d in_m.  forward_dynamics solves M qdd = tau - h (LDL^T).",
+        "Derivatives: d[i*n + m] = d out_i / d in_m.  forward_dynamics solves M qdd = tau - h (LDL^T);",
+        "forward_dynamics_derivatives: dqdd_dq, dqdd_dqd = -M^-1 dtau/dx at that qdd, dqdd_dtau = M^-1.",
         f"{prefix}_joints(), {prefix}_parameters(), {prefix}_model_sha256(): what this file was generated for.",
         f"regressor: Y (n x {g.p}) with Y pi = tau, pi = arm.parameters(armature=True, friction=arm.friction_model):",
         f"  {names}",

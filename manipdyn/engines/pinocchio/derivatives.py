@@ -31,7 +31,7 @@ import pinocchio as pin
 
 from ..._support.state import as_state, check_result, same_batch
 from ..._support.errors import SingularMassMatrixError
-from ...model.friction_jacobian import friction_jacobian
+from ...model.friction_jacobian import SingleStateFriction, friction_jacobian
 
 __all__ = ["PinocchioDerivatives"]
 
@@ -103,6 +103,29 @@ class PinocchioDerivatives:
         J = self._friction_jacobian(qd)
         return np.zeros(qd.shape + (self.n,)) if J is None else J
 
+    def _law_one(self, qd):
+        """``(F, J)`` of the friction law at one plain (n,) velocity (:class:`SingleStateFriction`,
+        built on first use: the law is frozen): J is dF/dqd's diagonal (n,) or the full (n, n)."""
+        plan = self.__dict__.get("_law_plan")
+        if plan is None:
+            plan = self._law_plan = SingleStateFriction(self._law, self.transmission)
+        return plan(qd)
+
+    def _add_friction_jacobian(self, dv, qd) -> None:
+        """``dv += dF/dqd`` in place for one plain state (the law's or the links' table)."""
+        if self._law is not None:
+            plan = self.__dict__.get("_law_plan")
+            if plan is None:
+                self._law_one(qd)
+                plan = self._law_plan
+            J = plan.jacobian(qd)
+            if J.ndim == 1:
+                dv.reshape(-1)[::self.n + 1] += J          # the diagonal, in place (a view: dv is contiguous)
+            else:
+                dv += J
+        elif self.friction is not None:
+            dv.reshape(-1)[::self.n + 1] += self.friction[0]
+
     # -- public API ---------------------------------------------------------------------
     def inverse_dynamics_derivatives(self, q, qd, qdd):
         """``(dtau_dq, dtau_dqd)`` by ``pin.computeRNEADerivatives``: each (n, n) or (N, n, n).
@@ -119,8 +142,7 @@ class PinocchioDerivatives:
             try:
                 r = _rnea_d(m, d, q, qd, qdd)
                 dq, dv = r[0].copy(), r[1].copy()
-                if self.friction is not None or self._law is not None:    # a law too (Gaz's sigmoid)
-                    dv += self._friction_jacobian(qd)
+                self._add_friction_jacobian(dv, qd)
                 return dq, dv
             except (TypeError, ValueError, RuntimeError):
                 pass
@@ -133,7 +155,9 @@ class PinocchioDerivatives:
         for k in range(len(qb)):
             r = _rnea_d(m, d, qb[k], vb[k], ab[k])
             dq[k], dv[k] = r[0], r[1]
-        if self.friction is not None or self._law is not None:
+        if single:                      # one state: the shortcut's friction numbers, whatever the input's form
+            self._add_friction_jacobian(dv[0], vb[0])
+        elif self.friction is not None or self._law is not None:
             dv += self._friction_jacobian(vb)
         names = {"q": q, "qd": qd, "qdd": qdd}
         out = (dq[0], dv[0]) if single else (dq, dv)
@@ -142,22 +166,30 @@ class PinocchioDerivatives:
     def forward_dynamics_derivatives(self, q, qd, tau):
         """``(dqdd_dq, dqdd_dqd, dqdd_dtau)`` by ``pin.computeABADerivatives``: each (n, n) or (N, n, n).
 
-        ABA runs on ``tau - F(qd)``; ``dqdd_dqd = ddq_dv - D^-1 dF/dqd``;
-        ``dqdd_dtau = D^-1`` (``Minv``, rotors included).  Raises
+        ABA runs on ``tau - F(qd)`` (any friction law: F depends on qd alone);
+        ``dqdd_dqd = ddq_dv - D^-1 dF/dqd``; ``dqdd_dtau = D^-1`` (``Minv``,
+        rotors included).  Coupled rotors (which ABA does not know) take
+        ``-D^-1 dtau/dx`` with the full D.  Raises
         :class:`~manipdyn.SingularMassMatrixError` when D(q) is singular.
         """
         m, d = self.model, self.data
-        fr = self.friction
-        if self.drive_extras:
+        if self._O is not None:
             return self._forward_derivatives_drive(q, qd, tau)
+        law, fr = self._law, self.friction
         if _plain(q, qd, tau):
             try:
-                r = _aba_d(m, d, q, qd, tau if fr is None else tau - (fr[0] * qd + fr[1] * np.sign(qd)))
+                if law is not None:
+                    F, J = self._law_one(qd)
+                    r = _aba_d(m, d, q, qd, tau - F)
+                else:
+                    r = _aba_d(m, d, q, qd, tau if fr is None else tau - (fr[0] * qd + fr[1] * np.sign(qd)))
                 a, b, c = r[0].copy(), r[1].copy(), r[2].copy()
                 # a singular D gives a non-finite Minv: the general path then explains
-                if _isfinite(sum(c.ravel().tolist())):
-                    if fr is not None:
-                        b -= c @ self._friction_jacobian(qd)
+                if _isfinite(_add(c.reshape(-1))):
+                    if law is not None:
+                        b -= c * J if J.ndim == 1 else c @ J
+                    elif fr is not None:
+                        b -= c * fr[0]
                     return a, b, c
             except (TypeError, ValueError, RuntimeError):
                 pass
@@ -165,8 +197,12 @@ class PinocchioDerivatives:
         same_batch((q, "q"), (qd, "qd"), (tau, "tau"))
         single = q.ndim == 1
         qb, vb, tb = (x[None] if single else x for x in (q, qd, tau))
-        if fr is not None:
-            tb = tb - (fr[0] * vb + fr[1] * np.sign(vb))
+        J = None
+        if single and law is not None:        # one state: the shortcut's friction numbers
+            F, J = self._law_one(vb[0])
+            tb = tb - F
+        elif law is not None or fr is not None:
+            tb = tb - self._friction(vb)
         out = np.empty((3, len(qb), self.n, self.n))
         for k in range(len(qb)):
             r = _aba_d(m, d, qb[k], vb[k], tb[k])
@@ -176,14 +212,16 @@ class PinocchioDerivatives:
             w = np.linalg.eigvalsh(D)
             if np.any(w[:, 0] <= 1e-12 * np.maximum(1.0, np.abs(w[:, -1]))):
                 raise SingularMassMatrixError.for_mass_matrix(D)
-        if fr is not None:
+        if J is not None:
+            out[1, 0] -= out[2, 0] * J if J.ndim == 1 else out[2, 0] @ J
+        elif law is not None or fr is not None:
             out[1] -= out[2] @ self._friction_jacobian(vb)
         names = {"q": q, "qd": qd, "tau": tau}
         return tuple(check_result(x[0] if single else x, "forward_dynamics_derivatives", **names)
                      for x in out)
 
     def _forward_derivatives_drive(self, q, qd, tau):
-        """Forward derivatives with coupled rotors or a friction law (ABA knows neither).
+        """Forward derivatives with coupled rotors (ABA knows only the diagonal armature).
 
         ``qdd = D^-1 (tau - h - g - F)`` with the full ``D`` (CRBA plus the rotor coupling), so
         ``dqdd/dx = -D^-1 dtau/dx`` at ``(q, qd, qdd)`` for x = q, qd, and ``dqdd/dtau = D^-1``.
