@@ -4,7 +4,8 @@ Layer: the package top: wires the engines into the model and exports the public 
 
 * ``arm.lagrange``: the trace-form Lagrange-Euler engine of chapter II;
 * ``arm.pinocchio``: Pinocchio's RNEA/CRBA/ABA on the arm's URDF;
-* :func:`crosscheck`: proof that the two agree.
+* ``arm.engine("mujoco")``: MuJoCo on the arm's MJCF (:func:`to_mjcf`; the ``mujoco`` extra);
+* :func:`crosscheck`: proof that the engines agree.
 
 Quick start::
 
@@ -76,12 +77,9 @@ def _mujoco_engine(arm):
 register_engine("lagrange", trace_form_engine)
 register_engine("pinocchio", _pinocchio_engine)
 register_engine("c", _c_engine)
-# MuJoCo only where the ``mujoco`` extra is installed (found without importing it: import stays cheap)
-import importlib.util as _importlib_util
-
-if _importlib_util.find_spec("mujoco") is not None:
-    register_engine("mujoco", _mujoco_engine)
-del _importlib_util
+# MuJoCo: served where the ``mujoco`` extra is installed (imported on first use, so ``import manipdyn``
+# stays cheap); without it, arm.engine("mujoco") raises MissingExtraError with the install command
+register_engine("mujoco", _mujoco_engine)
 # ``arm.compiled``, beside ``arm.lagrange`` and ``arm.pinocchio``: wired here, as the engine is
 Arm.compiled = property(lambda arm: arm.engine("c"),
                         doc="The generated-C engine (``arm.engine('c')``): the arm's C, compiled on first use "

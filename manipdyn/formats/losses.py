@@ -17,8 +17,9 @@ viscous            ``damping`` (joint side only)              ``damping``, motor
 coulomb            ``friction`` (joint side only)             ``frictionloss`` (a soft constraint
                                                               in MuJoCo, not a sign function)
 asymmetric         dropped                                    ``frictionloss`` = mean level
-offset, stribeck,  dropped                                    dropped
-sigmoid
+sigmoid (Gaz)      dropped                                    ``frictionloss`` = ``A / 2``, the mean
+                                                              of its saturation levels
+offset, stribeck   dropped                                    dropped
 smoothing,         dropped (the sign is sharp)                dropped (the constraint's softness
 deadband                                                      plays their part)
 =================  ========================================  ====================================
@@ -95,6 +96,9 @@ def friction_held(arm, target: str):
     # MJCF: damping (reflected or on a tendon) and frictionloss hold viscous and a symmetric level
     if law.asymmetric:
         coulomb = 0.5 * (law.coulomb_pos + law.coulomb_neg)
+    if law.sigmoid_A is not None:    # Gaz's sigmoid saturates at A (1 - l0) and -A l0: their mean is A / 2
+        half = np.where(law.sigmoid_A > 0, 0.5 * law.sigmoid_A, 0.0)
+        coulomb = half if coulomb is None else coulomb + half
     held = Friction(viscous=viscous if viscous is not None else z, coulomb=coulomb if coulomb is not None else z,
                     smoothing=law.smoothing, deadband=law.deadband, side=law.side)
     side = "" if law.side == "joint" else " (motor side: reflected through R, tendons for coupled rows)"
@@ -104,6 +108,8 @@ def friction_held(arm, target: str):
             "coulomb": f"Coulomb as frictionloss{side}, a soft constraint in MuJoCo, not a sign function "
                        f"(the law's smoothing {law.smoothing:g} and deadband {law.deadband:g} are not held)",
             "asymmetric": "asymmetric Coulomb as frictionloss at the mean of its two levels",
+            "sigmoid": "Gaz's sigmoid as frictionloss A/2, the mean of its two saturation levels A (1 - l0) and "
+                       "A l0 (l0 = logistic(alpha p3)); its offset and smooth slope are not held",
         }.get(t, f"{t} dropped (MJCF has no such term)"))
     return held, words
 
