@@ -3,7 +3,7 @@
 Layer 7 (CLI, the top).
 
     manipdyn track MODEL [--controller pd|pdg|ct|adaptive|lqr] [--payload KG]
-                         [--duration S] [--plot out.png] [--compare]
+                         [--duration S] [--plot out.png] [--compare] [--simulator mujoco]
 
 The controller is built on the arm as described (MODEL); with ``--payload``
 the simulated plant carries an extra mass on its last link that the
@@ -39,12 +39,21 @@ def run(args) -> int:
         say()
         say(result.run_text(label))
 
-    say(track_header(arm, args.duration, args.dt, args.bandwidth, args.payload))
+    say(track_header(arm, args.duration, args.dt, args.bandwidth, args.payload, args.simulator))
+    if args.simulator == "mujoco":
+        from ..engines.mujoco import mujoco_module
+        from ..formats.mjcf import mjcf_losses
+
+        mujoco_module()                     # the extra's install command, before any work
+        for line in mjcf_losses(arm):
+            if not line.startswith("link "):     # refused inertias: the simulator sets them exactly
+                say(f"  MuJoCo's plant does not hold: {line}")
     for n in notes:
         say(f"  note: {n}")
     result = track(arm, "all" if args.compare else (args.controller,), payload=args.payload,
                    duration=args.duration, dt=args.dt, bandwidth=args.bandwidth, gamma=args.gamma,
-                   progress=lambda label: Progress(label, show, unit="steps"), on_run=printed)
+                   progress=lambda label: Progress(label, show, unit="steps"), on_run=printed,
+                   simulator=args.simulator)
     if args.compare:
         say()
         say(result.compare_table())
@@ -83,6 +92,9 @@ def register(subparsers) -> None:
     p.add_argument("--plot", metavar="OUT.png", default=None,
                    help=f"write a figure (needs matplotlib: {PLOT_INSTALL})")
     p.add_argument("--compare", action="store_true", help="run all five controllers and compare them")
+    p.add_argument("--simulator", choices=("manipdyn", "mujoco"), default="manipdyn",
+                   help="who steps the plant: manipdyn's RK4 (default) or MuJoCo's RK4 on the arm's MJCF, the "
+                        "controller's torque as the actuators' control each period (needs the mujoco extra)")
     p.add_argument("--json", action="store_true", help="print one JSON document instead of tables")
     add_progress_options(p, "a progress bar per run")
     p.set_defaults(func=run)

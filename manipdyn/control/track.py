@@ -55,9 +55,11 @@ def check_track_options(*, duration: float, dt: float, payload: float, bandwidth
         raise ModelError(f"{prefix}gamma: must be >= 0, got {gamma}")
 
 
-def track_header(arm, duration: float, dt: float, bandwidth: float, payload: float) -> str:
+def track_header(arm, duration: float, dt: float, bandwidth: float, payload: float,
+                 simulator: str = "manipdyn") -> str:
     """The one-line header of a demo run (printed before the runs start)."""
-    head = (f"manipdyn track {arm.name}: demo path {duration:g} s, {1 / dt:g} Hz RK4 "
+    who = "MuJoCo's RK4 on the arm's MJCF, the torque as the actuators' control" if simulator == "mujoco" else "RK4"
+    head = (f"manipdyn track {arm.name}: demo path {duration:g} s, {1 / dt:g} Hz {who} "
             f"(torque held over each step), bandwidth {bandwidth:g} rad/s")
     if payload > 0:
         head += (f"; plant carries {payload:g} kg at {list(DEFAULT_PAYLOAD_COM)} m in the last "
@@ -86,6 +88,7 @@ class TrackResult:
     payload: float
     logs: dict = field(default_factory=dict)       # label -> SimulationLog | str ("DIVERGED at t = ...")
     messages: dict = field(default_factory=dict)   # label -> the divergence's full message
+    simulator: str = "manipdyn"                     # who stepped the plant ("manipdyn" or "mujoco")
 
     @property
     def final(self) -> float:
@@ -99,7 +102,7 @@ class TrackResult:
 
     def header(self) -> str:
         """One line: the arm, the path, the rate, and the payload the controllers do not know."""
-        return track_header(self.arm, self.duration, self.dt, self.bandwidth, self.payload)
+        return track_header(self.arm, self.duration, self.dt, self.bandwidth, self.payload, self.simulator)
 
     def run_text(self, label: str) -> str:
         """The summary of one controller's run (or its divergence)."""
@@ -137,7 +140,7 @@ class TrackResult:
                            "peak_torque": _floats(log.peak_torque())}
         return {"model": model if model is not None else self.arm.name, "name": self.arm.name, "n": self.arm.n,
                 "duration": self.duration, "dt": self.dt, "bandwidth": self.bandwidth, "gamma": self.gamma,
-                "payload": self.payload, "notes": list(notes), "controllers": runs}
+                "payload": self.payload, "simulator": self.simulator, "notes": list(notes), "controllers": runs}
 
     def plot(self, path: str) -> str | None:
         """Write the figure (all controllers when more than one ran); returns None when written,
@@ -145,6 +148,7 @@ class TrackResult:
         from .plots import plot_compare, plot_single
 
         title = f"{self.arm.name}: demo path, {self.duration:g} s at {1 / self.dt:g} Hz" + \
+            (" in MuJoCo" if self.simulator == "mujoco" else "") + \
             (f", +{self.payload:g} kg payload unknown to the controller" if self.payload > 0 else "")
         if len(self.controllers) > 1:
             plot_compare(self.logs, self.arm, title, path)
@@ -159,7 +163,7 @@ class TrackResult:
 
 def track(arm, controllers=("ct",), *, payload: float = 0.0, duration: float = 8.0, dt: float = 1e-3,
           bandwidth: float = DEFAULT_BANDWIDTH, gamma: float = DEFAULT_GAMMA, progress=None,
-          on_run=None) -> TrackResult:
+          on_run=None, simulator: str = "manipdyn") -> TrackResult:
     """Run the demo path with each controller of ``controllers`` on ``arm``.
 
     Parameters
@@ -182,21 +186,27 @@ def track(arm, controllers=("ct",), *, payload: float = 0.0, duration: float = 8
         ``progress(label) -> callback(done, total)``: a progress reporter per run.
     on_run : callable, optional
         Called as ``on_run(result, label)`` after each run (the command line prints there).
+    simulator : "manipdyn" | "mujoco"
+        Who steps the plant (:func:`~manipdyn.control.simulate.simulate`): manipdyn's RK4, or
+        MuJoCo's RK4 on the plant's MJCF with the controller's torque as the actuators' control
+        each period (the ``mujoco`` extra); same report and figure.
     """
     check_track_options(duration=duration, dt=dt, payload=payload, bandwidth=bandwidth, gamma=gamma)
     kinds = list(CONTROLLERS) if controllers == "all" else [str(k).lower() for k in controllers]
     unknown = [k for k in kinds if k not in CONTROLLERS]
     if not kinds or unknown:
         raise ModelError(f"controllers: expected keys of {list(CONTROLLERS)} or 'all', got {list(controllers)!r:.80}")
+    if simulator not in ("manipdyn", "mujoco"):
+        raise ModelError(f"simulator: expected 'manipdyn' or 'mujoco', got {simulator!r:.40}")
     plant = with_payload(arm, payload, com=DEFAULT_PAYLOAD_COM) if payload > 0 else arm
     path = demo_path(arm, duration)
     result = TrackResult(arm, tuple(kinds), float(duration), float(dt), float(bandwidth), float(gamma),
-                         float(payload))
+                         float(payload), simulator=simulator)
     for kind in kinds:
         ctrl = make_controller(kind, arm, bandwidth, gamma, path=path, dt=dt)
         label = CONTROLLERS[kind]
         try:
-            result.logs[label] = simulate(arm, ctrl, path, duration, dt=dt, plant=plant,
+            result.logs[label] = simulate(arm, ctrl, path, duration, dt=dt, plant=plant, simulator=simulator,
                                           progress=progress(label[:16]) if progress else None)
         except SimulationDiverged as exc:
             result.logs[label] = f"DIVERGED at t = {exc.t:.3g} s"

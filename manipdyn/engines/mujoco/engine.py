@@ -123,6 +123,10 @@ class MujocoEngine:
             m.body_inertia[k + 1] = w
             self.notes.append(f"mujoco: link {lname!r} is no physical body ({why}); MuJoCo's compiler refuses it, "
                               "so the engine compiled a stand-in and set the model's exact inertia in the compiled model")
+        self._file_model = mj.MjModel.from_xml_string(text)   # constraints as the file has them (simulation)
+        for field in ("body_mass", "body_ipos", "body_iquat", "body_inertia"):
+            getattr(self._file_model, field)[:] = getattr(m, field)
+        mj.mj_setConst(self._file_model, mj.MjData(self._file_model))
         m.opt.disableflags |= int(mj.mjtDisableBit.mjDSBL_CONSTRAINT)
         m.opt.enableflags |= int(mj.mjtEnableBit.mjENBL_ENERGY)
         m0 = mj.MjModel.from_xml_string(text)          # the same model without gravity: h alone
@@ -153,6 +157,26 @@ class MujocoEngine:
                     f"mujoco: friction other than viscous ({', '.join(t for t in law.terms if t != 'viscous')}) is "
                     "a constraint (frictionloss) or not held in MuJoCo; the engine adds manipdyn's law for it to tau "
                     f"and qdd (up to {float(self.foreign_friction.max()):.3g} N m), so that part is not compared")
+
+    def simulation_model(self, timestep: float, integrator: str = "RK4"):
+        """``(mujoco, model)``: a fresh copy of the compiled MJCF as a MuJoCo user has it (joint
+        limits and frictionloss active; exact inertias where the compiler refused the file's), with
+        ``opt.timestep`` (s) and ``opt.integrator`` (a ``mjtIntegrator`` name without ``mjINT_``:
+        ``"RK4"``, ``"EULER"``, ``"IMPLICIT"``, ``"IMPLICITFAST"``) set."""
+        import copy
+
+        mj = self._mj
+        names = {"RK4": mj.mjtIntegrator.mjINT_RK4, "EULER": mj.mjtIntegrator.mjINT_EULER,
+                 "IMPLICIT": mj.mjtIntegrator.mjINT_IMPLICIT, "IMPLICITFAST": mj.mjtIntegrator.mjINT_IMPLICITFAST}
+        key = str(integrator).upper()
+        if key not in names:
+            raise ModelError(f"integrator: expected one of {', '.join(names)}, got {integrator!r:.40}")
+        if not (isinstance(timestep, (int, float)) and timestep > 0):
+            raise ModelError(f"timestep: expected a positive number of seconds, got {timestep!r:.40}")
+        m = copy.deepcopy(self._file_model)
+        m.opt.timestep = float(timestep)
+        m.opt.integrator = int(names[key])
+        return mj, m
 
     # -- MuJoCo data, one per thread ----------------------------------------------------
     def _data(self, zero_gravity=False):
