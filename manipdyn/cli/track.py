@@ -21,12 +21,14 @@ import sys
 from ..control.demo import CONTROLLERS, DEFAULT_BANDWIDTH, DEFAULT_GAMMA
 from ..control.track import check_track_options, track, track_header
 from .._support.figures import PLOT_INSTALL
-from .common import TIP_HELP, Progress, add_progress_options, check_outputs, load_arm, progress_wanted
+from .common import TIP_HELP, Progress, add_progress_options, check_outputs, load_arm, progress_wanted, usage_error
 
 __all__ = ["register", "run"]
 
 
 def run(args) -> int:
+    if args.simulator != "mujoco" and args.mujoco_plant != "file":
+        return usage_error("track", "--mujoco-plant: only with --simulator mujoco")
     check_track_options(duration=args.duration, dt=args.dt, payload=args.payload, bandwidth=args.bandwidth,
                         gamma=args.gamma, prefix="--")
     # fail before a long run, not after it
@@ -46,14 +48,14 @@ def run(args) -> int:
 
         mujoco_module()                     # the extra's install command, before any work
         for line in mjcf_losses(arm):
-            if not line.startswith("link "):     # refused inertias: the simulator sets them exactly
+            if not line.startswith("link ") and args.mujoco_plant == "file":   # refused inertias: set exactly
                 say(f"  MuJoCo's plant does not hold: {line}")
     for n in notes:
         say(f"  note: {n}")
     result = track(arm, "all" if args.compare else (args.controller,), payload=args.payload,
                    duration=args.duration, dt=args.dt, bandwidth=args.bandwidth, gamma=args.gamma,
                    progress=lambda label: Progress(label, show, unit="steps"), on_run=printed,
-                   simulator=args.simulator)
+                   simulator=args.simulator, mujoco_plant=args.mujoco_plant)
     if args.compare:
         say()
         say(result.compare_table())
@@ -95,6 +97,10 @@ def register(subparsers) -> None:
     p.add_argument("--simulator", choices=("manipdyn", "mujoco"), default="manipdyn",
                    help="who steps the plant: manipdyn's RK4 (default) or MuJoCo's RK4 on the arm's MJCF, the "
                         "controller's torque as the actuators' control each period (needs the mujoco extra)")
+    p.add_argument("--mujoco-plant", choices=("file", "model"), default="file",
+                   help="with --simulator mujoco: 'file' (default) the MJCF as MuJoCo loads it (limits and "
+                        "frictionloss are MuJoCo's constraints; friction terms MJCF cannot hold are absent), or "
+                        "'model' the same plant as manipdyn's own run (constraints off, the whole friction law)")
     p.add_argument("--json", action="store_true", help="print one JSON document instead of tables")
     add_progress_options(p, "a progress bar per run")
     p.set_defaults(func=run)

@@ -9,17 +9,34 @@ and is held while MuJoCo takes ``substeps`` steps of ``dt / substeps``: the same
 hold, the same sub-steps and, with the default ``integrator="RK4"``, the same classical
 Runge-Kutta scheme as manipdyn's own loop (:mod:`manipdyn.control.simulate`), so that the two
 runs differ only by how each evaluates the dynamics (``mj_forward`` against Pinocchio's ABA,
-equal to about 1e-13: ``manipdyn check ARM --engines pinocchio,mujoco``) and by what MJCF does
-not hold of the friction law (:func:`manipdyn.formats.losses.format_losses`).
+equal to about 1e-13: ``manipdyn check ARM --engines pinocchio,mujoco``) and, with the default
+plant, by what MJCF does not hold (:func:`manipdyn.formats.losses.format_losses`).
+
+Two plants (``mujoco_plant``):
+
+* ``"file"`` (default): the MJCF as MuJoCo loads it: joint limits and ``frictionloss`` are
+  MuJoCo's soft constraints, and the friction terms MJCF cannot hold are absent;
+* ``"model"``: the same plant as manipdyn's own simulation: constraints off, and the arm's
+  friction law beyond MuJoCo's damping (:meth:`MujocoEngine.friction_beyond_damping`) applied at
+  every evaluation of the dynamics, Runge-Kutta stages included, through MuJoCo's passive-force
+  callback (``mjcb_passive``).  That callback is global to the process, so such runs take a
+  lock: one at a time per process.
 """
 
 from __future__ import annotations
+
+import threading
 
 import numpy as np
 
 from .controllers import Controller
 
-__all__ = ["integrate_mujoco", "SIMULATORS", "INTEGRATOR"]
+__all__ = ["integrate_mujoco", "SIMULATORS", "INTEGRATOR", "MUJOCO_PLANTS"]
+
+#: the MuJoCo plants (module docstring)
+MUJOCO_PLANTS = ("file", "model")
+#: MuJoCo's passive-force callback is one per process
+_CALLBACK = threading.Lock()
 
 #: the simulators a closed-loop run can use
 SIMULATORS = ("manipdyn", "mujoco")
@@ -27,12 +44,36 @@ SIMULATORS = ("manipdyn", "mujoco")
 INTEGRATOR = "RK4"
 
 
-def integrate_mujoco(log, watch, plant, controller, trajectory, q, qd, progress, integrator: str = INTEGRATOR) -> None:
-    """The loop of :func:`manipdyn.control.simulate.simulate` with MuJoCo stepping ``plant``;
-    fills ``log`` in place (``log.substeps`` MuJoCo steps per control period)."""
+def integrate_mujoco(log, watch, plant, controller, trajectory, q, qd, progress, mujoco_plant: str = "file",
+                     integrator: str = INTEGRATOR) -> None:
+    """The loop of :func:`manipdyn.control.simulate.simulate` with MuJoCo stepping ``plant``
+    (``mujoco_plant``: module docstring); fills ``log`` in place (``log.substeps`` MuJoCo steps
+    per control period)."""
+    if mujoco_plant not in MUJOCO_PLANTS:
+        raise ValueError(f"mujoco_plant: expected 'file' or 'model', got {mujoco_plant!r:.40}")
+    engine = plant.engine("mujoco")
+    mj, model = engine.simulation_model(log.dt / log.substeps, integrator)
+    if mujoco_plant == "file" or plant.friction_model is None:
+        if mujoco_plant == "model":
+            model.opt.disableflags |= int(mj.mjtDisableBit.mjDSBL_CONSTRAINT)
+        _loop(mj, model, log, watch, controller, trajectory, q, qd, progress)
+        return
+    model.opt.disableflags |= int(mj.mjtDisableBit.mjDSBL_CONSTRAINT)
+    beyond = engine.friction_beyond_damping
+
+    def passive(m, d):                    # the law beyond damping, at every evaluation
+        d.qfrc_passive[:] -= beyond(d.qvel)
+    with _CALLBACK:
+        mj.set_mjcb_passive(passive)
+        try:
+            _loop(mj, model, log, watch, controller, trajectory, q, qd, progress)
+        finally:
+            mj.set_mjcb_passive(None)
+
+
+def _loop(mj, model, log, watch, controller, trajectory, q, qd, progress) -> None:
     Q, V, TAU, dt, N, n = log.q, log.qd, log.tau, log.dt, watch.N, len(q)
     m_sub = log.substeps
-    mj, model = plant.engine("mujoco").simulation_model(dt / m_sub, integrator)
     d = mj.MjData(model)
     d.qpos[:], d.qvel[:] = q, qd
     mj.mj_forward(model, d)

@@ -178,7 +178,7 @@ def _name(x) -> str:
 def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, plant=None,
              q0=None, qd0=None, max_position: float = DEFAULT_MAX_POSITION,
              max_velocity: float = DEFAULT_MAX_VELOCITY, progress=None, substeps=None,
-             simulator: str = "manipdyn") -> SimulationLog:
+             simulator: str = "manipdyn", mujoco_plant: str = "file") -> SimulationLog:
     """Simulate ``controller`` tracking ``trajectory`` on ``plant`` (default ``arm``).
 
     Parameters
@@ -212,6 +212,9 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
         Who steps the plant: manipdyn's RK4 on the plant's forward dynamics (default), or
         MuJoCo's RK4 on the plant's MJCF with the torque as the actuators' control
         (:mod:`manipdyn.control.mjsim`; the ``mujoco`` extra).
+    mujoco_plant : "file" | "model"
+        With MuJoCo: the MJCF as MuJoCo loads it (limits and frictionloss as constraints), or
+        the same plant as manipdyn's own run (constraints off, the whole friction law applied).
 
     Returns
     -------
@@ -254,7 +257,7 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
         from .mjsim import integrate_mujoco
 
         log.plant += " (MuJoCo)"
-        integrate_mujoco(log, watch, plant, controller, trajectory, q, qd, progress)
+        integrate_mujoco(log, watch, plant, controller, trajectory, q, qd, progress, mujoco_plant)
     else:
         _integrate(log, watch, plant, controller, trajectory, q, qd, progress)
     log.wall_time = time.perf_counter() - t_wall

@@ -89,6 +89,7 @@ class TrackResult:
     logs: dict = field(default_factory=dict)       # label -> SimulationLog | str ("DIVERGED at t = ...")
     messages: dict = field(default_factory=dict)   # label -> the divergence's full message
     simulator: str = "manipdyn"                     # who stepped the plant ("manipdyn" or "mujoco")
+    mujoco_plant: str = "file"                      # MuJoCo's plant (manipdyn.control.mjsim)
 
     @property
     def final(self) -> float:
@@ -140,7 +141,8 @@ class TrackResult:
                            "peak_torque": _floats(log.peak_torque())}
         return {"model": model if model is not None else self.arm.name, "name": self.arm.name, "n": self.arm.n,
                 "duration": self.duration, "dt": self.dt, "bandwidth": self.bandwidth, "gamma": self.gamma,
-                "payload": self.payload, "simulator": self.simulator, "notes": list(notes), "controllers": runs}
+                "payload": self.payload, "simulator": self.simulator,
+                **({"mujoco_plant": self.mujoco_plant} if self.simulator == "mujoco" else {}), "notes": list(notes), "controllers": runs}
 
     def plot(self, path: str) -> str | None:
         """Write the figure (all controllers when more than one ran); returns None when written,
@@ -163,7 +165,7 @@ class TrackResult:
 
 def track(arm, controllers=("ct",), *, payload: float = 0.0, duration: float = 8.0, dt: float = 1e-3,
           bandwidth: float = DEFAULT_BANDWIDTH, gamma: float = DEFAULT_GAMMA, progress=None,
-          on_run=None, simulator: str = "manipdyn") -> TrackResult:
+          on_run=None, simulator: str = "manipdyn", mujoco_plant: str = "file") -> TrackResult:
     """Run the demo path with each controller of ``controllers`` on ``arm``.
 
     Parameters
@@ -190,6 +192,9 @@ def track(arm, controllers=("ct",), *, payload: float = 0.0, duration: float = 8
         Who steps the plant (:func:`~manipdyn.control.simulate.simulate`): manipdyn's RK4, or
         MuJoCo's RK4 on the plant's MJCF with the controller's torque as the actuators' control
         each period (the ``mujoco`` extra); same report and figure.
+    mujoco_plant : "file" | "model"
+        MuJoCo's plant (:mod:`manipdyn.control.mjsim`): the MJCF as MuJoCo loads it (default), or
+        the same plant as manipdyn's own run (constraints off, the whole friction law applied).
     """
     check_track_options(duration=duration, dt=dt, payload=payload, bandwidth=bandwidth, gamma=gamma)
     kinds = list(CONTROLLERS) if controllers == "all" else [str(k).lower() for k in controllers]
@@ -198,15 +203,18 @@ def track(arm, controllers=("ct",), *, payload: float = 0.0, duration: float = 8
         raise ModelError(f"controllers: expected keys of {list(CONTROLLERS)} or 'all', got {list(controllers)!r:.80}")
     if simulator not in ("manipdyn", "mujoco"):
         raise ModelError(f"simulator: expected 'manipdyn' or 'mujoco', got {simulator!r:.40}")
+    if mujoco_plant not in ("file", "model"):
+        raise ModelError(f"mujoco_plant: expected 'file' or 'model', got {mujoco_plant!r:.40}")
     plant = with_payload(arm, payload, com=DEFAULT_PAYLOAD_COM) if payload > 0 else arm
     path = demo_path(arm, duration)
     result = TrackResult(arm, tuple(kinds), float(duration), float(dt), float(bandwidth), float(gamma),
-                         float(payload), simulator=simulator)
+                         float(payload), simulator=simulator, mujoco_plant=mujoco_plant)
     for kind in kinds:
         ctrl = make_controller(kind, arm, bandwidth, gamma, path=path, dt=dt)
         label = CONTROLLERS[kind]
         try:
             result.logs[label] = simulate(arm, ctrl, path, duration, dt=dt, plant=plant, simulator=simulator,
+                                          mujoco_plant=mujoco_plant,
                                           progress=progress(label[:16]) if progress else None)
         except SimulationDiverged as exc:
             result.logs[label] = f"DIVERGED at t = {exc.t:.3g} s"

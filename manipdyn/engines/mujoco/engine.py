@@ -198,8 +198,10 @@ class MujocoEngine:
             return fn(*arrs)
         return np.array([fn(*rows) for rows in zip(*arrs)]) if len(arrs[0]) else np.empty((0,))
 
-    def _foreign_torque(self, qd):
-        """Friction torque manipdyn's law adds beyond MuJoCo's damping: (n,) or (N, n)."""
+    def friction_beyond_damping(self, qd):
+        """The friction torque of the arm's law beyond what MuJoCo computes as passive damping
+        (Coulomb, and the terms MJCF cannot hold): (n,) or (N, n), N m (N); what this engine adds
+        to ``tau`` (and the MuJoCo simulator of the whole model, :mod:`manipdyn.control.mjsim`)."""
         if self._foreign is None:
             return np.zeros_like(qd)
         return (self._law.torque(qd, self._transmission)
@@ -256,7 +258,7 @@ class MujocoEngine:
             self._mj.mj_fwdPosition(m, d)
             self._mj.mj_fwdVelocity(m, d)
             return -d.qfrc_passive.copy()
-        out = self._each(one, qd).reshape(qd.shape) + self._foreign_torque(qd)
+        out = self._each(one, qd).reshape(qd.shape) + self.friction_beyond_damping(qd)
         return check_result(out, "friction_torque", qd=qd)
 
     def dynamics_terms(self, q, qd) -> tuple:
@@ -273,14 +275,14 @@ class MujocoEngine:
             d.qpos[:], d.qvel[:], d.qacc[:] = qi, qdi, qddi
             self._mj.mj_inverse(m, d)
             return d.qfrc_inverse.copy()
-        out = self._each(one, q, qd, qdd).reshape(q.shape) + self._foreign_torque(qd)
+        out = self._each(one, q, qd, qdd).reshape(q.shape) + self.friction_beyond_damping(qd)
         return check_result(out, "inverse_dynamics", q=q, qd=qd, qdd=qdd)
 
     def forward_dynamics(self, q, qd, tau) -> np.ndarray:
         """qdd solving D qdd = tau - h - g - friction: (n,) or (N, n) (``mj_forward``'s ``qacc``
         with ``tau`` less manipdyn's part of the friction as ``qfrc_applied``)."""
         q, qd, tau = self._states((q, "q"), (qd, "qd"), (tau, "tau"))
-        applied = tau - self._foreign_torque(qd)
+        applied = tau - self.friction_beyond_damping(qd)
 
         def one(qi, qdi, ti):
             m, d = self._data()
