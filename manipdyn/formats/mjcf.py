@@ -128,9 +128,9 @@ def _drive(arm):
             tendons.append((f"motor{k + 1}", coefs, float(Jm[k]), float(Fv[k]) if motor_side else 0.0,
                             float(Fc[k]) if motor_side else 0.0))
             continue
-        armature[k] += R[k, k] ** 2 * Jm[k]
+        armature[k] += arm.armature[k]               # R_kk^2 Jm_k, as the model computes it
         if motor_side:
-            damping[k] += R[k, k] ** 2 * Fv[k]
+            damping[k] += R[k, k] * R[k, k] * Fv[k]
             loss[k] += abs(R[k, k]) * Fc[k]
     # the rotor inertia the file holds is R^T diag(Jm) R: checked against the model's own
     held_rotor = np.diag(armature)
