@@ -194,7 +194,7 @@ def test_the_panda_urdf_says_what_it_loses():
     text = (ROOT / "urdf" / "panda.urdf").read_text()
     head = _comment(text)
     assert "9.80665" in head and "not expressible in URDF" in head
-    assert "sigmoid dropped" in head
+    assert "sigmoid on the joint side: dropped" in head
     assert "PLACEHOLDERS" in head
     for line in urdf_losses(arm):          # the file holds the same account the command prints
         assert line in head

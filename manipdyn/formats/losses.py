@@ -11,10 +11,10 @@ What each format holds of the friction law (:class:`manipdyn.Friction`, the join
 =================  ========================================  ====================================
 term               URDF ``<dynamics damping friction>``       MJCF
 =================  ========================================  ====================================
-viscous            ``damping`` (joint side only)              ``damping``, motor side reflected
+viscous            ``damping`` (the links' own, joint side)   ``damping``, motor side reflected
                                                               (``R_kk^2 Fv``), coupled rows as
                                                               ``<tendon><fixed damping>``
-coulomb            ``friction`` (joint side only)             ``frictionloss`` (a soft constraint
+coulomb            ``friction`` (the links' own, joint side)  ``frictionloss`` (a soft constraint
                                                               in MuJoCo, not a sign function)
 asymmetric         dropped                                    ``frictionloss`` = mean level
 sigmoid (Gaz)      dropped                                    ``frictionloss`` = ``A / 2``, the mean
@@ -77,22 +77,18 @@ def friction_held(arm, target: str):
     z = np.zeros(law.n)
     viscous = law.viscous
     coulomb = law.coulomb
-    if target == "urdf":
-        vc = law.viscous_coulomb()
-        if vc is not None:   # the links' kind: joint side, sharp sign, viscous and Coulomb
+    if target == "urdf":          # what the URDF writer puts into <dynamics>: the links' friction
+        joints, _tool = arm.chain()
+        fv = np.array([j.friction_viscous for j in joints], dtype=np.float64)
+        fc = np.array([j.friction_coulomb for j in joints], dtype=np.float64)
+        if not (np.any(fv) or np.any(fc)):
+            return None, [f"{', '.join(law.terms)} on the {law.side} side: dropped (URDF's <dynamics> "
+                          "holds only the links' joint-side viscous and Coulomb friction)"]
+        held = Friction(viscous=fv, coulomb=fc, smoothing=0.0)
+        if held == law:
             return law, ["viscous and Coulomb friction as <dynamics damping friction>"]
-        if law.side != "joint":
-            words.append("a motor-side law (URDF's <dynamics> is joint side): every term dropped")
-            return None, words
-        held = Friction(viscous=viscous if viscous is not None else z,
-                        coulomb=coulomb if coulomb is not None else z, smoothing=law.smoothing,
-                        deadband=law.deadband)
-        for t in law.terms:
-            words.append({"viscous": "viscous as <dynamics damping>",
-                          "coulomb": "Coulomb as <dynamics friction> (sharp sign: the smoothing "
-                                     f"{law.smoothing:g} and deadband {law.deadband:g} are not held)"}.get(
-                t, f"{t} dropped"))
-        return held, words
+        return held, ["the links' viscous and Coulomb friction as <dynamics damping friction>; the rest of "
+                      f"the law ({', '.join(law.terms)}, {law.side} side) dropped"]
     # MJCF: damping (reflected or on a tendon) and frictionloss hold viscous and a symmetric level
     if law.asymmetric:
         coulomb = 0.5 * (law.coulomb_pos + law.coulomb_neg)

@@ -16,8 +16,7 @@ without ``qlim``).
 
 Rotor inertia (armature) has no element in URDF; it is kept in the model
 file and given to Pinocchio as ``model.armature``.  Viscous and Coulomb
-friction go into ``<dynamics damping=... friction=...>`` (a joint-side law's viscous
-and symmetric Coulomb levels).  What URDF cannot hold (gravity, rotor inertia, friction
+friction of the links go into ``<dynamics damping=... friction=...>``.  What URDF cannot hold (gravity, rotor inertia, friction
 terms, non-physical inertias MuJoCo refuses) is said in the opening comment, from the
 account shared with the MJCF writer (:func:`manipdyn.formats.losses.format_losses`).
 """
@@ -26,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..losses import format_losses, friction_held
+from ..losses import format_losses
 
 __all__ = ["arm_to_urdf", "limit_provenance", "urdf_losses", "xml_comment", "round_off_text", "DEFAULT_EFFORT",
            "DEFAULT_VELOCITY", "TOOL_LINK"]
@@ -125,7 +124,6 @@ def arm_to_urdf(arm) -> str:
     from lxml import etree
 
     joints, tool = arm.chain()
-    held = friction_held(arm, "urdf")[0] if arm.friction_model is not None else None
     links = [yourdfpy.Link(name="base_link")]
     ujoints = []
     parent = "base_link"
@@ -152,12 +150,8 @@ def arm_to_urdf(arm) -> str:
             upper=None if hi is None else _f(hi),
         )
         dyn = None
-        k = len(ujoints)
-        fv, fc = (j.friction_viscous, j.friction_coulomb) if held is None else (
-            _f(held.viscous[k]) if held.viscous is not None else 0.0,
-            _f(held.coulomb[k]) if held.coulomb is not None else 0.0)
-        if fv or fc:
-            dyn = yourdfpy.Dynamics(damping=_f(fv), friction=_f(fc))
+        if j.friction_viscous or j.friction_coulomb:
+            dyn = yourdfpy.Dynamics(damping=_f(j.friction_viscous), friction=_f(j.friction_coulomb))
         ujoints.append(yourdfpy.Joint(
             name=j.name, type=j.joint, parent=parent, child=lname,
             origin=np.array(j.origin, dtype=np.float64),
