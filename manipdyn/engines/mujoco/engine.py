@@ -36,7 +36,7 @@ import numpy as np
 
 from ..._support.errors import ModelError, SingularMassMatrixError
 from ..._support.state import as_state, check_result, same_batch
-from ...formats.losses import friction_held, nonphysical_inertias
+from ...formats.losses import friction_difference, friction_held, nonphysical_inertias
 from ...formats.mjcf import TOOL_SITE, arm_to_mjcf, quaternion
 from ...model.friction import Friction
 from .deps import mujoco_module
@@ -149,7 +149,6 @@ class MujocoEngine:
             fv = held.viscous if held is not None and held.viscous is not None else np.zeros(self.n)
             self._damping_law = Friction(viscous=fv, side=law.side, smoothing=0.0)
             self._law = law
-            from ...formats.losses import friction_difference
             self.foreign_friction = friction_difference(arm, self._damping_law)
             if np.any(self.foreign_friction):
                 self._foreign = law
