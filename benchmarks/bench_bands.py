@@ -7,7 +7,7 @@ Run, with OpenBLAS's tuning variables unset in that command alone::
 1. **Synthetic, the right model.**  For k = 0 .. seeds-1: a UR5 excitation (10 s, 100 Hz,
    seed 2k+1) with its exact torques plus coloured noise (AR(1), 0.5 between neighbours,
    about 1 % of each joint's peak torque) is fitted (``wls``) and its band calibrated by
-   blocked hold-outs (:func:`manipdyn.identification.bands.calibrate_band`); the band is scored
+   blocked hold-outs (:func:`manipdyn.identification.uncertainty.bands.calibrate_band`); the band is scored
    on another excitation (seed 2k+2) of the same arm and noise.  The set-up of
    ``tests/test_bands.py``, through the library instead of the CLI (the CLI's figures match to
    within a sample or two per joint).  Target: 93 to 97 % pooled.
@@ -30,7 +30,7 @@ import numpy as np
 
 import manipdyn as md
 from manipdyn.identification import excitation, fit, read_log
-from manipdyn.identification.bands import calibrate_band
+from manipdyn.identification.uncertainty.bands import calibrate_band
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "realdata" / "panda_gaz2019" / "panda_as_logged.csv"
 SIGMA = np.array([0.06, 0.5, 0.15, 0.02, 0.004, 0.001])    # N m per joint, as tests/test_bands.py

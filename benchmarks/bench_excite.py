@@ -37,7 +37,7 @@ import numpy as np
 import manipdyn as md
 from benchmarks.timing import blas_config, publish
 from manipdyn.identification import base_parameters, excitation
-from manipdyn.identification import trajectory as _trajectory
+from manipdyn.identification.experiments import trajectory as _trajectory
 
 #: manipdyn/cli/excite.py's defaults
 CLI_DEFAULTS = dict(duration=10.0, harmonics=5, rate=100.0, seed=0, iterations=60)

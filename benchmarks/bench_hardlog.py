@@ -4,7 +4,7 @@ Run, with OpenBLAS's tuning variables unset in that command alone::
 
     env -u OPENBLAS_CORETYPE -u OPENBLAS_L2_SIZE python -m benchmarks.bench_hardlog
 
-Per seed (``--seeds``), :func:`manipdyn.identification.hardlog.hard_log` writes a
+Per seed (``--seeds``), :func:`manipdyn.identification.experiments.hardlog.hard_log` writes a
 40 s log of a UR5-like arm with a coupled wrist, a negative gear ratio, rotor
 inertias, currents with torque constants, motor-side viscous, asymmetric
 Coulomb and Stribeck friction, joint offsets, 16-bit motor encoders, jittered,
@@ -40,8 +40,8 @@ from benchmarks.bench_identification import environment
 from benchmarks.timing import publish, seeded_runs
 from manipdyn.model.friction import Friction
 from manipdyn.identification import read_log
-from manipdyn.identification.hardlog import SMOOTHING, hard_log, recovered
-from manipdyn.identification.varpro import fit_friction_shapes
+from manipdyn.identification.experiments.hardlog import SMOOTHING, hard_log, recovered
+from manipdyn.identification.estimation.varpro import fit_friction_shapes
 
 
 

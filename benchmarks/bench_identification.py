@@ -39,7 +39,7 @@ import numpy as np
 import manipdyn as md
 from benchmarks.timing import blas_config, interleaved, paired_ratio, write_atomic, write_run
 from manipdyn.identification import excitation, fit
-from manipdyn.identification.demo import measure, true_arm
+from manipdyn.identification.experiments.demo import measure, true_arm
 
 RESULTS = Path(__file__).resolve().parent / "results"
 REFERENCE = RESULTS / "identification_reference.json"

@@ -95,7 +95,7 @@ STAGES = 1 + len(SWEEP) + 4 + 1
 def run(path: Path, progress=None) -> dict:
     """The figures of the module docstring; ``progress(k, STAGES, what)`` is called as stage k starts."""
     from manipdyn.identification import read_log
-    from manipdyn.identification.selection import choose_prior_weight
+    from manipdyn.identification.estimation.selection import choose_prior_weight
 
     stage = iter(range(1, STAGES + 1))
 

@@ -4,7 +4,7 @@
 
 The log is synthetic: the bundled Panda driven by a sum of sines (seeded), with Coulomb and
 viscous friction and white torque noise, 200 Hz.  The blocked cross-validation of
-:func:`manipdyn.identification.selection.choose_prior_weight` (5 weights x 5 folds) is timed
+:func:`manipdyn.identification.estimation.selection.choose_prior_weight` (5 weights x 5 folds) is timed
 in CPU seconds of this process (all its threads: the algorithm's cost) and in wall seconds
 (what a user waits on this machine).  Measured while writing it: 72 s CPU before the folds
 shared their base parameters, regressor and QR factors, 22 s after.  The test suite checks
@@ -43,7 +43,7 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--samples", type=int, default=5000, help="samples of the log (default 5000)")
     args = p.parse_args(argv)
-    from manipdyn.identification.selection import choose_prior_weight
+    from manipdyn.identification.estimation.selection import choose_prior_weight
 
     arm, q, qd, qdd, tau = panda_log(args.samples)
     cpu, wall = time.process_time(), time.perf_counter()

@@ -4,7 +4,7 @@ Run, with OpenBLAS's tuning variables unset in that command alone::
 
     env -u OPENBLAS_CORETYPE -u OPENBLAS_L2_SIZE python -m benchmarks.bench_torque_constants
 
-Per seed (``--seeds``), :func:`manipdyn.identification.hardlog.hard_log_set` writes two
+Per seed (``--seeds``), :func:`manipdyn.identification.experiments.hardlog.hard_log_set` writes two
 30 s current logs of the hard log's arm (coupled wrist, a negative gear ratio, rotor
 inertias, motor-side viscous, asymmetric Coulomb and Stribeck friction, offsets, 16-bit
 encoders, jittered, dropped and duplicated stamps, 1 % torque noise): one bare, one carrying
@@ -34,7 +34,7 @@ import numpy as np
 import manipdyn as md
 from benchmarks.bench_identification import environment
 from benchmarks.timing import publish, seeded_runs
-from manipdyn.identification.hardlog import SMOOTHING, hard_log_set
+from manipdyn.identification.experiments.hardlog import SMOOTHING, hard_log_set
 
 #: the README's options for the hard log (motor-side law, Stribeck shapes by variable projection)
 OPTIONS = dict(identify_torque_constants=True, armature=True, friction_terms="viscous,asymmetric,offset,stribeck",

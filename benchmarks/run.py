@@ -9,7 +9,9 @@ Every run writes ``results.json`` and ``results.md`` (atomically) and
 ``--out DIR``.  The committed reference results,
 ``benchmarks/results/reference.json`` and ``reference.md``, change only with
 ``--publish`` (a full run).  ``--strict`` (or ``--check-targets``) makes a missed target exit 1.
-See benchmarks/README.md for what is measured and the targets.
+See benchmarks/README.md for what is measured and the targets.  This module runs the sections and
+writes the results; the checks are :mod:`benchmarks.checks`, the scaling study :mod:`benchmarks.scaling`,
+the targets and their verdicts :mod:`benchmarks.targets`.
 
 Every answer is checked before it is timed: the fast path (Pinocchio), raw
 Pinocchio, the trace-form engine, and the Robotics Toolbox are compared with
@@ -36,24 +38,31 @@ from dataclasses import dataclass
 import numpy as np
 
 import manipdyn as md
-from manipdyn._support.files import atomic_write, atomic_write_text
+from manipdyn._support.files import atomic_write_text
 
 from . import arm_set as bench_arms_mod
 from . import report, rtb_adapter
-from .cases import ARGS, IMPL_LABEL, IMPLS, OPS
-from .referee import Referee
-from .timing import blas_config, interleaved, loop_overhead, paired_ratio, profile_top
+from .cases import ARGS, IMPLS, OPS
+from .checks import implementations, log, loud, run_checks, states
+from .scaling import SCALING_SERIES, run_scaling  # noqa: F401  (SCALING_SERIES: the series a run reports)
+from .targets import TARGETS, evaluate_targets  # noqa: F401  (TARGETS: the targets a run is held to)
+from .timing import blas_config, interleaved, loop_overhead, paired_ratio
 
 SCHEMA = "manipdyn-bench/1"
+
+
 HERE = os.path.dirname(os.path.abspath(__file__))
+
+
 RESULTS = os.path.join(HERE, "results")
+
+
 #: where runs go by default: one folder per run, ignored by git
 RUNS = os.path.join(RESULTS, "runs")
+
+
 #: the published reference results (committed; rewritten only by --publish)
 REFERENCE = ("reference.json", "reference.md")
-
-#: relative tolerance against the energy referee (which is exact to ~1e-10)
-TOL = 1e-6
 
 
 @dataclass
@@ -78,23 +87,14 @@ FULL = Config(mode="full", check_states=3, rounds=21, target_s=4e-3, lagrange_ba
               batch_rounds=5, threads=(1, 2),
               scaling_n=(2, 3, 4, 6, 8, 12, 16, 20, 24), scaling_rounds=9, scaling_target_s=2e-3,
               scaling_batch=1000, profile_calls=20_000)
+
+
 SMOKE = Config(mode="smoke", check_states=1, rounds=3, target_s=2e-4, lagrange_batch=16,
                batch_sizes=((500, ("inverse_dynamics", "forward_dynamics")),), batch_rounds=2, threads=(1, 2),
                scaling_n=(2, 3, 4), scaling_rounds=3, scaling_target_s=2e-4,
                scaling_batch=8, profile_calls=200)
 
 
-def log(msg=""):
-    print(msg, flush=True)
-
-
-def loud(msg):
-    print("!!! " + msg, file=sys.stderr, flush=True)
-
-
-# ---------------------------------------------------------------------------
-# machine
-# ---------------------------------------------------------------------------
 def machine_info():
     import pinocchio as pin
 
@@ -145,260 +145,6 @@ def machine_info():
     }
 
 
-# ---------------------------------------------------------------------------
-# implementations
-# ---------------------------------------------------------------------------
-def raw_pinocchio(arm):
-    """The five operations (and D+h+g) straight on ``arm.pinocchio.model``."""
-    import pinocchio as pin
-
-    m = arm.pinocchio.model
-    d = m.createData()
-    m0 = m.copy()
-    m0.gravity.linear = np.zeros(3)
-    d0 = m0.createData()
-    z = np.zeros(m.nv)
-
-    def terms(q, qd):
-        return pin.crba(m, d, q), pin.rnea(m0, d0, q, qd, z), pin.computeGeneralizedGravity(m, d, q)
-
-    # partials, not lambdas: timing partial(f, *args) then calls Pinocchio with no Python frame
-    return {
-        "mass_matrix": functools.partial(pin.crba, m, d),
-        "coriolis_torque": lambda q, qd: pin.rnea(m0, d0, q, qd, z),
-        "gravity_torque": functools.partial(pin.computeGeneralizedGravity, m, d),
-        "inverse_dynamics": functools.partial(pin.rnea, m, d),
-        "forward_dynamics": functools.partial(pin.aba, m, d),
-        "dynamics_terms": terms,
-    }
-
-
-def implementations(arm, robot):
-    """dict impl -> dict op -> callable (one state; lagrange_batch takes batches)."""
-    L = arm.lagrange
-    out = {
-        "manipdyn": {
-            "mass_matrix": arm.mass_matrix, "coriolis_torque": arm.coriolis_torque,
-            "gravity_torque": arm.gravity_torque, "inverse_dynamics": arm.inverse_dynamics,
-            "forward_dynamics": arm.forward_dynamics, "dynamics_terms": arm.pinocchio.dynamics_terms,
-        },
-        "pinocchio": raw_pinocchio(arm),
-        "lagrange": {op: getattr(L, op) for op in OPS},
-        "lagrange_batch": {op: getattr(L, op) for op in OPS},
-    }
-    if robot is not None:
-        r = rtb_adapter.calls(robot)
-        r["dynamics_terms"] = lambda q, qd, _r=r: (_r["mass_matrix"](q), _r["coriolis_torque"](q, qd),
-                                                    _r["gravity_torque"](q))
-        out["rtb"] = r
-        out["rtb_Cqd"] = {"coriolis_torque": rtb_adapter.coriolis_matrix_route(robot)}
-    return out
-
-
-def states(arm, rng, size):
-    """q within the joint limits; qd, qdd in [-1, 1]; tau in [-5, 5]."""
-    shape = (size, arm.n)
-    return {
-        "q": arm.random_state(rng, size),
-        "qd": rng.uniform(-1.0, 1.0, shape),
-        "qdd": rng.uniform(-1.0, 1.0, shape),
-        "tau": rng.uniform(-5.0, 5.0, shape),
-    }
-
-
-def _flat(x):
-    if isinstance(x, tuple):
-        return np.concatenate([np.asarray(v, dtype=float).ravel() for v in x])
-    return np.asarray(x, dtype=float).ravel()
-
-
-# ---------------------------------------------------------------------------
-# 1. checks
-# ---------------------------------------------------------------------------
-def _referee_values(ref, st):
-    q, qd, qdd = st["q"], st["qd"], st["qdd"]
-    D = ref.mass_matrix(q)
-    h = ref.coriolis_torque(q, qd)
-    g = ref.gravity_torque(q)
-    return {"D": D, "h": h, "g": g,
-            "mass_matrix": D, "coriolis_torque": h, "gravity_torque": g,
-            "inverse_dynamics": D @ qdd + h + g, "dynamics_terms": (D, h, g)}
-
-
-def _error(op, value, refv, st):
-    """(relative, absolute) error of one answer against the referee (NaN counts as inf)."""
-    rel, ab = _error_raw(op, value, refv, st)
-    return (rel if math.isfinite(rel) else math.inf), (ab if math.isfinite(ab) else math.inf)
-
-
-def _error_raw(op, value, refv, st):
-    if op == "forward_dynamics":
-        # judged in torque space, so an ill-conditioned D does not blur the verdict
-        qdd = np.asarray(value, dtype=float)
-        rhs = st["tau"] - refv["h"] - refv["g"]
-        res = refv["D"] @ qdd - rhs
-        scale = max(np.abs(rhs).max(), np.abs(refv["D"] @ qdd).max(), 1e-9)
-        return float(np.abs(res).max() / scale), float(np.abs(res).max())
-    a, b = _flat(value), _flat(refv[op])
-    if a.shape != b.shape:
-        return math.inf, math.inf
-    diff = float(np.abs(a - b).max())
-    return diff / max(float(np.abs(b).max()), 1e-9), diff
-
-
-def check_arm(arm, robot, cfg, rng, timed=True):
-    """Compare every implementation with the referee at ``cfg.check_states`` states.
-
-    Returns ``(rows, wrong, answers, per_state, refs)``: one row dict per
-    (implementation, operation), the set of (impl, op) that gave a wrong
-    answer (or raised), the answers themselves, the states and the referee's
-    values (for the disagreement report).
-    """
-    ref = Referee(arm)
-    S = states(arm, rng, cfg.check_states)
-    per_state = [{k: v[i] for k, v in S.items()} for i in range(cfg.check_states)]
-    refs = [_referee_values(ref, st) for st in per_state]
-    impls = implementations(arm, robot)
-    if not timed:  # probe arms: the two manipdyn engines and the Toolbox only
-        impls = {k: v for k, v in impls.items() if k in ("manipdyn", "lagrange", "rtb")}
-    rows, wrong = [], set()
-    answers = {}
-    for impl, fns in impls.items():
-        for op, f in fns.items():
-            try:
-                if impl == "lagrange_batch":
-                    out = f(*(S[a] for a in ARGS[op]))
-                    vals = [tuple(x[i] for x in out) if isinstance(out, tuple) else out[i]
-                            for i in range(cfg.check_states)]
-                else:
-                    vals = [f(*(st[a] for a in ARGS[op])) for st in per_state]
-                    vals = [tuple(np.array(x) for x in v) if isinstance(v, tuple) else np.array(v) for v in vals]
-                errs = [_error(op, v, rv, st) for v, rv, st in zip(vals, refs, per_state)]
-                rel = max(e[0] for e in errs)
-                ab = max(e[1] for e in errs)
-                err_msg = None
-            except Exception as exc:  # a crash is a wrong answer too
-                vals, rel, ab, err_msg = None, math.inf, math.inf, f"{type(exc).__name__}: {exc}"
-            ok = rel <= TOL
-            answers[(impl, op)] = vals
-            rows.append({"arm": arm.name, "impl": impl, "op": op, "states": cfg.check_states,
-                         "max_rel_err": _num(rel), "max_abs_err": _num(ab), "ok": bool(ok),
-                         **({"error": err_msg} if err_msg else {})})
-            if not ok:
-                wrong.add((impl, op))
-    return rows, wrong, answers, per_state, refs
-
-
-def _num(x):
-    x = float(x)
-    return x if math.isfinite(x) else None
-
-
-def _max_diff(a_vals, b_vals):
-    if a_vals is None or b_vals is None:
-        return None, None
-    ab = max(float(np.abs(_flat(a) - _flat(b)).max()) for a, b in zip(a_vals, b_vals))
-    sc = max(float(np.abs(_flat(b)).max()) for b in b_vals)
-    return ab, ab / max(sc, 1e-9)
-
-
-def disagreements_for(arm, robot, rows, answers, per_state, refs):
-    """One entry per (arm, op) where the Toolbox disagrees with the referee."""
-    out = []
-    by = {(r["impl"], r["op"]): r for r in rows}
-    for op in OPS:
-        r = by.get(("rtb", op))
-        if r is None or r["ok"]:
-            continue
-        fast, trace = by.get(("manipdyn", op)), by.get(("lagrange", op))
-        d_fast = _max_diff(answers.get(("rtb", op)), answers.get(("manipdyn", op)))
-        d_trace = _max_diff(answers.get(("rtb", op)), answers.get(("lagrange", op)))
-        entry = {
-            "arm": arm.name, "convention": arm.convention,
-            "joints": "".join("R" if t == "revolute" else "P" for t in arm.joint_types),
-            "gravity": [round(float(v), 4) for v in arm.gravity], "op": op,
-            "rtb_vs_referee_rel": r["max_rel_err"], "rtb_vs_referee_abs": r["max_abs_err"],
-            "rtb_vs_manipdyn_abs": _num(d_fast[0]) if d_fast[0] is not None else None,
-            "rtb_vs_manipdyn_rel": _num(d_fast[1]) if d_fast[1] is not None else None,
-            "rtb_vs_trace_abs": _num(d_trace[0]) if d_trace[0] is not None else None,
-            "manipdyn_vs_referee_rel": fast["max_rel_err"] if fast else None,
-            "trace_vs_referee_rel": trace["max_rel_err"] if trace else None,
-        }
-        if fast and trace and fast["ok"] and trace["ok"]:
-            entry["verdict"] = ("Toolbox wrong: manipdyn's fast path, its trace form and the "
-                                "energy referee agree")
-        else:
-            entry["verdict"] = "manipdyn disagrees with the referee too: investigate"
-        if op in ("inverse_dynamics", "gravity_torque"):
-            # is it the C extension? the Toolbox's own pure-Python RNE is a second opinion
-            try:
-                f = rtb_adapter.rne_python(robot)
-                errs = []
-                for st, rv in zip(per_state, refs):
-                    if op == "inverse_dynamics":
-                        v = f(st["q"], st["qd"], st["qdd"])
-                    else:
-                        z = np.zeros(arm.n)
-                        v = f(st["q"], z, z)
-                    errs.append(_error(op, np.asarray(v), rv, st)[0])
-                entry["rtb_rne_python_vs_referee_rel"] = _num(max(errs))
-                if max(errs) <= TOL:
-                    entry["verdict"] += ("; the Toolbox's own pure-Python rne_python agrees with them, "
-                                         "so the fault is in its C extension (frne, ne.c)")
-            except Exception as exc:
-                entry["rtb_rne_python"] = f"{type(exc).__name__}: {exc}"
-        out.append(entry)
-    return out
-
-
-def _wrong_side(arm, q, qd, qdd, fast, slow) -> str:
-    """Which of the fast path and the trace form answered wrong: the one farther from the
-    energy referee (benchmarks/referee.py), given their ``(tau, D)`` at one state."""
-    try:
-        ref = Referee(arm)
-        tau, D = np.asarray(ref.inverse_dynamics(q, qd, qdd)), np.asarray(ref.mass_matrix(q))
-
-        def dist(pair):
-            return max(np.abs(pair[0] - tau).max() / max(np.abs(tau).max(), 1e-9),
-                       np.abs(pair[1] - D).max() / max(np.abs(D).max(), 1e-9))
-        return "manipdyn fast path" if dist(fast) > dist(slow) else "manipdyn trace form"
-    except Exception as exc:  # the referee itself failed: say so rather than guess
-        return f"fast path or trace form: the referee failed ({type(exc).__name__}: {exc})"
-
-
-def run_checks(bench, probes, robots, cfg, rng):
-    log("== 1. answers checked against the energy referee (benchmarks/referee.py)")
-    rows, wrong, disagreements = [], {}, []
-    for arm, timed in [(a, True) for a in bench] + [(a, False) for a in probes]:
-        robot = robots.get(arm.name)
-        r, w, answers, per_state, refs = check_arm(arm, robot, cfg, rng, timed=timed)
-        rows += r
-        wrong[arm.name] = w
-        for impl, op in sorted(w):
-            row = next(x for x in r if x["impl"] == impl and x["op"] == op)
-            why = row.get("error") or f"max relative error {row['max_rel_err']:.2e} vs referee"
-            if impl.startswith("rtb"):
-                loud(f"WRONG ANSWER (Toolbox) {arm.name} {op}: {why}" + ("; row aborted" if timed else ""))
-            else:
-                loud(f"WRONG ANSWER ({IMPL_LABEL[impl]}) {arm.name} {op}: {why}; row aborted")
-        if robot is not None:
-            disagreements += disagreements_for(arm, robot, r, answers, per_state, refs)
-        n_ok = sum(x["ok"] for x in r)
-        log(f"   {arm.name:<14} {n_ok}/{len(r)} answers agree with the referee"
-            + ("" if timed else "  (probe arm: checked, not timed)"))
-    manipdyn_ok = all(x["ok"] for x in rows if not x["impl"].startswith("rtb"))
-    model_notes = {}
-    for arm in bench:
-        diffs = rtb_adapter.bundled_model_differences(arm)
-        if diffs is not None:
-            model_notes[arm.name] = diffs
-    return {"tolerance_rel": TOL, "passed": bool(manipdyn_ok), "results": rows,
-            "rtb_disagreements": disagreements, "rtb_bundled_model_differences": model_notes}, wrong
-
-
-# ---------------------------------------------------------------------------
-# 2. per-call times
-# ---------------------------------------------------------------------------
 def run_per_call(bench, robots, wrong, cfg, rng):
     log("== 2. per-call times (interleaved rounds; median [IQR], microseconds)")
     rows, ratios, aborted = [], [], []
@@ -437,9 +183,6 @@ def run_per_call(bench, robots, wrong, cfg, rng):
     return rows, ratios, aborted
 
 
-# ---------------------------------------------------------------------------
-# 3. batch throughput
-# ---------------------------------------------------------------------------
 def _set_threads(engine, k):
     """Set ``num_threads``; work around a pool created smaller (manipdyn bug, see README)."""
     engine.num_threads = k
@@ -528,234 +271,6 @@ def _batch_one(pin, arm, N, ops, cfg, rng):
     return rows, ratios
 
 
-# ---------------------------------------------------------------------------
-# 4. scaling with n
-# ---------------------------------------------------------------------------
-SCALING_SERIES = {
-    "pinocchio rnea": "raw pin.rnea, one state",
-    "pinocchio crba": "raw pin.crba, one state",
-    "pinocchio D+h+g": "raw crba + rnea(g=0) + gravity, one state",
-    "manipdyn inverse_dynamics": "fast path, one state",
-    "manipdyn mass_matrix": "fast path, one state",
-    "trace D+h+g per state": "trace form dynamics_terms, per state in a batch",
-    "trace inverse_dynamics": "trace form, one state",
-}
-
-
-def run_scaling(cfg, rng, out_dir, plot=True):
-    log(f"== 4. scaling with the number of joints, n = {list(cfg.scaling_n)} (seeded random chains)")
-    series = {k: [] for k in SCALING_SERIES}
-    ns, problems = [], []
-    for n in cfg.scaling_n:
-        arm = bench_arms_mod.random_chain(n, seed=1000 + n)
-        raw = raw_pinocchio(arm)
-        L = arm.lagrange
-        one = {k: v[0] for k, v in states(arm, rng, 1).items()}
-        Bs = states(arm, rng, cfg.scaling_batch)
-        q, qd, qdd = one["q"], one["qd"], one["qdd"]
-        # check before timing: fast path vs trace form
-        a, b = arm.inverse_dynamics(q, qd, qdd), L.inverse_dynamics(q, qd, qdd)
-        Da, Db = arm.mass_matrix(q), L.mass_matrix(q)
-        err = max(np.abs(a - b).max() / max(np.abs(b).max(), 1e-9), np.abs(Da - Db).max() / np.abs(Db).max())
-        if not err <= 1e-8:
-            wrong = _wrong_side(arm, q, qd, qdd, (a, Da), (b, Db))
-            loud(f"WRONG ANSWER ({wrong}) scaling n={n}: the fast path (Pinocchio) and the trace form "
-                 f"differ by {err:.2e} relative; size skipped")
-            problems.append({"n": n, "rel_diff": _num(err)})
-            continue
-        P = functools.partial
-        fns = {
-            "pinocchio rnea": P(raw["inverse_dynamics"], q, qd, qdd),
-            "pinocchio crba": P(raw["mass_matrix"], q),
-            "pinocchio D+h+g": P(raw["dynamics_terms"], q, qd),
-            "manipdyn inverse_dynamics": P(arm.inverse_dynamics, q, qd, qdd),
-            "manipdyn mass_matrix": P(arm.mass_matrix, q),
-            "trace D+h+g per state": P(L.dynamics_terms, Bs["q"], Bs["qd"]),
-            "trace inverse_dynamics": P(L.inverse_dynamics, q, qd, qdd),
-        }
-        res = interleaved(fns, cfg.scaling_rounds, cfg.scaling_target_s,
-                          per_call_scale={"trace D+h+g per state": cfg.scaling_batch})
-        ns.append(n)
-        for k in series:
-            series[k].append(res[k].median)
-        log(f"   n={n:<3} " + "  ".join(f"{k.split()[0][:5]}/{k.split()[1][:9]}={res[k].median * 1e6:.1f}"
-                                       for k in series))
-    exps = {}
-    nn = np.array(ns, dtype=float)
-    for k, ts in series.items():
-        t = np.array(ts)
-        e = {}
-        if len(nn) >= 2:
-            e["all"] = float(np.polyfit(np.log(nn), np.log(t), 1)[0])
-            e["all_range"] = [int(nn.min()), int(nn.max())]
-        tail = nn >= 8
-        if tail.sum() >= 2:
-            e["tail"] = float(np.polyfit(np.log(nn[tail]), np.log(t[tail]), 1)[0])
-            e["tail_range"] = [int(nn[tail].min()), int(nn[tail].max())]
-        exps[k] = e
-    out = {"n": ns, "median_s": series, "labels": SCALING_SERIES, "exponents": exps,
-           "batch": cfg.scaling_batch, "problems": problems, "plot": None}
-    if plot:
-        out["plot"], out["plot_skipped"] = _plot(ns, series, exps, out_dir)
-    else:
-        out["plot_skipped"] = "--no-plot"
-    if out.get("plot_skipped"):
-        log(f"   plot skipped: {out['plot_skipped']}")
-    return out
-
-
-def _plot(ns, series, exps, out_dir):
-    try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except Exception as exc:
-        return None, f"matplotlib not installed ({type(exc).__name__}); pip install -e '.[bench]' for the plot"
-    if len(ns) < 2:
-        return None, "fewer than two sizes"
-    fig, ax = plt.subplots(figsize=(10, 5))
-    for k, ts in series.items():
-        e = exps[k].get("tail", exps[k].get("all"))
-        ax.loglog(ns, np.array(ts) * 1e6, "o-", label=f"{k}  (~n^{e:.2f})", ms=4)
-    ax.set_xlabel("number of joints n")
-    ax.set_ylabel("time per state (microseconds)")
-    ax.set_title("manipdyn: cost vs number of joints (random DH chains)")
-    ax.set_xticks(ns)
-    ax.set_xticklabels([str(n) for n in ns])
-    ax.grid(True, which="both", alpha=0.3)
-    # the legend beside the axes, never over a line (the curves span the whole height)
-    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0,
-              title="per state, fitted slope", title_fontsize=8)
-    fig.tight_layout()
-    path = os.path.join(out_dir, "scaling.png")
-    try:
-        atomic_write(path, lambda fh: fig.savefig(fh, format="png", dpi=110), binary=True)
-    finally:
-        plt.close(fig)
-    return "scaling.png", None  # relative to the results folder: no machine paths in results
-
-
-# ---------------------------------------------------------------------------
-# 5. targets
-# ---------------------------------------------------------------------------
-TARGETS = [
-    {"id": "T1", "what": "fast-path inverse dynamics per call vs raw pin.rnea", "kind": "max", "limit": 1.5,
-     "op": "inverse_dynamics", "num": "manipdyn", "den": "pinocchio", "unit": "x slower"},
-    {"id": "T2", "what": "fast-path mass matrix per call vs raw pin.crba", "kind": "max", "limit": 1.5,
-     "op": "mass_matrix", "num": "manipdyn", "den": "pinocchio", "unit": "x slower"},
-    {"id": "T3", "what": "fast path vs the Toolbox's rne (inverse dynamics)", "kind": "min", "limit": 7.0,
-     "op": "inverse_dynamics", "num": "rtb", "den": "manipdyn", "unit": "x faster"},
-    {"id": "T4", "what": "fast path vs the Toolbox's inertia() (mass matrix)", "kind": "min", "limit": 20.0,
-     "op": "mass_matrix", "num": "rtb", "den": "manipdyn", "unit": "x faster"},
-    {"id": "T5", "what": "batch inverse dynamics (default threads) vs a Python loop over pin.rnea",
-     "kind": "min", "limit": 2.0, "op": "inverse_dynamics", "unit": "x the throughput"},
-    {"id": "T6", "what": "trace-form batch D+h+g per state vs Pinocchio's per-call D+h+g",
-     "kind": "max", "limit": 4.0, "op": "dynamics_terms", "num": "lagrange_batch", "den": "pinocchio",
-     "unit": "x slower"},
-]
-
-#: what the profile has shown when these targets were missed, and what would close them
-#: (written from the profiles in benchmarks/README.md; shown only when a target is missed)
-ANALYSIS = {
-    "T1": ("The fast path already calls pin.rnea first and checks only its answer "
-           "(math.isfinite(sum(tau.tolist())), ~0.35 us; every input reaches tau in RNEA), after "
-           "three ndim tests; what is left is that test, the Python method call and the attribute "
-           "lookups, ~0.6-1 us around a ~1.5-2.5 us rnea.  It is the floor of a checked call from "
-           "Python: closing the rest means dropping the NaN/inf guarantee (callers who want that "
-           "can call pin.rnea on arm.pinocchio.model/data directly) or moving the check into C."),
-    "T2": ("Same floor with one argument around a ~1 us crba: the test must stay on q, not on "
-           "the result, because D does not depend on q1 and Pinocchio's CRBA returns a finite D "
-           "for a NaN in q1.  ~0.6 us of test, call and lookups on ~1.1 us is ~1.55x; only "
-           "dropping the NaN/inf guarantee or a C-level check closes it."),
-    "T3": ("The Toolbox's rne is ~20-35 us per call (its C extension plus Python argument "
-           "handling); 7x needs the fast path at <= ~3-5 us, i.e. the T1 fix (a prototype at ~2.3 us "
-           "gives ~12x)."),
-    "T4": ("Borderline: inertia() is one C rne call over n unit accelerations plus Python "
-           "handling (~75-100 us) against the fast path's ~4 us; the T2 fix (~1.6 us) gives ~50x."),
-    "T5": ("Compare the manipdyn_kt rows with pinocchio_kt (the same rneaInParallel call, no "
-           "wrapper).  The wrapper's cost is as_state's finiteness test: ndarray.dot over the whole "
-           "(N, n) array goes to OpenBLAS's *threaded* ddot above 10,000 elements (~1,700 states of "
-           "a 6-joint arm); on a loaded 2-core machine that costs milliseconds per call, three times "
-           "per call, and leaves an OpenBLAS thread spinning against Pinocchio's OpenMP workers.  "
-           "With OPENBLAS_NUM_THREADS=1 the manipdyn and raw rows coincide (README).  What closes "
-           "it: a never-threaded test for batches (math.isfinite(np.add.reduce(flat)), ~0.7 ms for "
-           "600k elements).  Past that the ratio is bounded by Pinocchio's per-state time in "
-           "rneaInParallel against ~3-4 us per Python-level call: ~2x at 1 thread, 3-4x at 2 "
-           "threads on an idle 2-core machine; 2 threads on small batches (a few thousand states) "
-           "can be slower than 1 on a loaded one."),
-    "T6": ("The trace form's batch cost is numpy's batched 4x4 matmuls (frames, W = T J T^T, the "
-           "Delta-products of D and h); fewer temporaries (in-place matmul into preallocated "
-           "buffers) would close it."),
-}
-
-
-def evaluate_targets(per_call_ratios, batch_ratios, rtb_reason, cfg, bench, rng, profile=True):
-    out = []
-    for t in TARGETS:
-        res = {k: t[k] for k in ("id", "what", "kind", "limit", "unit")}
-        if t["id"] == "T5":
-            N = cfg.batch_sizes[0][0]
-            res["N"] = N
-            per_arm = {r["arm"]: r["speedup_vs_loop"] for r in batch_ratios
-                       if r["op"] == t["op"] and r["default_threads"] and r["N"] == N}
-            res["by_threads"] = {f"{r['arm']}/{r['threads']}t": r["speedup_vs_loop"] for r in batch_ratios
-                                 if r["op"] == t["op"] and r["N"] == N}
-        else:
-            per_arm = {r["arm"]: r["ratio"] for r in per_call_ratios
-                       if r["op"] == t["op"] and r["num"] == t["num"] and r["den"] == t["den"]}
-        if not per_arm:
-            res["status"] = "skipped"
-            res["reason"] = rtb_reason if t.get("num") == "rtb" and rtb_reason else "not measured"
-            out.append(res)
-            continue
-        res["measured"] = per_arm
-        if t["kind"] == "max":
-            worst_arm = max(per_arm, key=per_arm.get)
-            ok = all(v <= t["limit"] for v in per_arm.values())
-        else:
-            worst_arm = min(per_arm, key=per_arm.get)
-            ok = all(v >= t["limit"] for v in per_arm.values())
-        res["worst_arm"] = worst_arm
-        res["worst"] = per_arm[worst_arm]
-        res["status"] = "pass" if ok else "MISS"
-        if not ok:
-            w = per_arm[worst_arm]
-            if t["kind"] == "max":
-                res["miss_by"] = f"{w / t['limit']:.2f}x over the limit ({w:.2f} vs <= {t['limit']})"
-            else:
-                res["miss_by"] = f"{t['limit'] / w:.2f}x short ({w:.2f} vs >= {t['limit']})"
-            res["analysis"] = ANALYSIS.get(t["id"])
-            if profile:
-                arm = next(a for a in bench if a.name == worst_arm)
-                res["profile"] = _profile_for(t["id"], arm, cfg, rng)
-        out.append(res)
-    return out
-
-
-def _profile_for(tid, arm, cfg, rng):
-    one = {k: v[0] for k, v in states(arm, rng, 1).items()}
-    q, qd, qdd = one["q"], one["qd"], one["qdd"]
-    calls = cfg.profile_calls
-    if tid in ("T1", "T3"):
-        what, fn = "arm.inverse_dynamics(q, qd, qdd), one state", lambda: arm.inverse_dynamics(q, qd, qdd)
-    elif tid in ("T2", "T4"):
-        what, fn = "arm.mass_matrix(q), one state", lambda: arm.mass_matrix(q)
-    elif tid == "T5":
-        S = states(arm, rng, min(cfg.batch_sizes[0][0], 20_000))
-        what, fn = f"arm.inverse_dynamics on a batch of {len(S['q'])}", lambda: arm.inverse_dynamics(
-            S["q"], S["qd"], S["qdd"])
-        calls = 5
-    else:
-        S = states(arm, rng, cfg.lagrange_batch)
-        what, fn = f"arm.lagrange.dynamics_terms on a batch of {cfg.lagrange_batch}", \
-            lambda: arm.lagrange.dynamics_terms(S["q"], S["qd"])
-        calls = max(3, calls // 1000)
-    return {"arm": arm.name, "profiled": what, "calls": calls, "top": profile_top(fn, calls)}
-
-
-# ---------------------------------------------------------------------------
-# main
-# ---------------------------------------------------------------------------
 def parse_args(argv):
     p = argparse.ArgumentParser(prog="python -m benchmarks.run", description=__doc__.split("\n\n")[0])
     p.add_argument("--smoke", action="store_true", help="a few seconds, tiny sizes (checks the code runs)")

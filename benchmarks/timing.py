@@ -16,6 +16,8 @@ import cProfile
 import io
 import math
 import pstats
+import sys
+import time
 import timeit
 
 import numpy as np
@@ -203,7 +205,8 @@ def seeded_runs(prog: str, doc: str, label: str, run_seed, argv=None):
 
     Parses ``--seeds`` (default 0 1 2), ``--out`` and ``--no-write``, then calls
     ``run_seed(seed, folder)`` for each seed with a fresh folder in one temporary
-    directory.  Returns ``(args, runs)``.
+    directory, saying on stderr which seed runs and how long each took (a seed takes
+    tens of seconds; ``--quiet`` says nothing).  Returns ``(args, runs)``.
     """
     import argparse
     import os
@@ -214,7 +217,15 @@ def seeded_runs(prog: str, doc: str, label: str, run_seed, argv=None):
     p.add_argument("--out", default=None, metavar="DIR",
                    help=f"folder of results.json (default benchmarks/results/runs/<UTC time>-{label})")
     p.add_argument("--no-write", action="store_true", help="print only")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     args = p.parse_args(argv)
+    say = (lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
+    t0 = time.perf_counter()
+    runs = []
     with tempfile.TemporaryDirectory() as tmp:
-        runs = [run_seed(seed, os.path.join(tmp, f"seed{seed}")) for seed in args.seeds]
+        for k, seed in enumerate(args.seeds, start=1):
+            say(f"[{time.perf_counter() - t0:6.1f} s] {label}: seed {seed} ({k}/{len(args.seeds)}) ...")
+            t1 = time.perf_counter()
+            runs.append(run_seed(seed, os.path.join(tmp, f"seed{seed}")))
+            say(f"[{time.perf_counter() - t0:6.1f} s] {label}: seed {seed} done in {time.perf_counter() - t1:.1f} s")
     return args, runs

@@ -17,8 +17,8 @@ from manipdyn._support.errors import ModelError
 pytest.importorskip("cvxpy", reason="identification needs the identify extra (cvxpy)")
 from manipdyn.cli import main  # noqa: E402
 from manipdyn.identification import excitation, write_measurements_csv  # noqa: E402
-from manipdyn.identification.bands import PredictionBand, conformal_half_width  # noqa: E402
-from manipdyn.identification.coverage import StateRange, fitted_range  # noqa: E402
+from manipdyn.identification.uncertainty.bands import PredictionBand, conformal_half_width  # noqa: E402
+from manipdyn.identification.uncertainty.coverage import StateRange, fitted_range  # noqa: E402
 
 #: the noise level per joint of the synthetic UR5, N m: about 1 % of each joint's peak torque
 #: along these excitations (joint 6 carries almost no torque: its noise alone)
@@ -214,7 +214,7 @@ def test_records_refuse_what_they_cannot_read():
 def test_too_little_data_for_the_blocks_gives_no_band_and_says_so():
     """fit_record leaves the band out (the model still gets its fitted range) and notes why."""
     from manipdyn.formats.logs.measurements import Measurements
-    from manipdyn.identification.provenance import fit_record
+    from manipdyn.identification.results.provenance import fit_record
 
     arm = md.load("ur5")
     ex = excitation(arm, duration=0.9, harmonics=3, rate=100.0, iterations=0, seed=7)
@@ -227,7 +227,7 @@ def test_too_little_data_for_the_blocks_gives_no_band_and_says_so():
 
 def test_refits_keep_the_runs_apart():
     """Stacked runs: each refit is told the sample counts of what it keeps of each run."""
-    from manipdyn.identification.bands import _blocks, _kept_segments
+    from manipdyn.identification.uncertainty.bands import _blocks, _kept_segments
 
     edges = _blocks(100, 5)
     test = np.zeros(100, dtype=bool)
@@ -260,7 +260,7 @@ def test_the_pipelines_carry_the_band_and_write_the_predictions(tmp_path, monkey
     band from K blocked hold-outs of the stacked runs in the provenance, each refit told the sample
     counts it keeps of each run; ``md.validate(predictions=...)`` writes the CSV the CLI writes,
     refusing several models and a path that is a log."""
-    from manipdyn.identification import estimation
+    from manipdyn.identification.estimation import fitting as estimation
 
     arm = md.load("ur5")
     a, b = tmp_path / "a.csv", tmp_path / "b.csv"
@@ -277,7 +277,7 @@ def test_the_pipelines_carry_the_band_and_write_the_predictions(tmp_path, monkey
     monkeypatch.undo()
     band = PredictionBand.from_dict(r.provenance["prediction_band"], 6, "provenance")
     assert band.folds == 3 and band.samples == 2000
-    from manipdyn.identification.bands import _blocks
+    from manipdyn.identification.uncertainty.bands import _blocks
 
     assert calls[0] == (2000, [1000, 1000])             # the fit itself, then one refit per block
     edges = _blocks(2000, 3)

@@ -81,3 +81,17 @@ def test_manipdyn_bench_runs_the_suite_with_the_blas_variables_unset(tmp_path):
                         "--keep-blas-env"], cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
     assert json.loads((tmp_path / "results.json").read_text())["machine"]["OPENBLAS_CORETYPE"] == "Haswell"
+
+
+def test_seeded_benchmarks_say_which_seed_runs(capsys):
+    """bench_hardlog and bench_torque_constants run tens of seconds a seed: the shared loop says on
+    stderr which seed runs and how long it took (issue 31 item 15), and ``--quiet`` says nothing."""
+    from benchmarks.timing import seeded_runs
+
+    args, runs = seeded_runs("bench", "doc", "demo", lambda seed, folder: {"seed": seed}, ["--seeds", "4", "7"])
+    err = capsys.readouterr().err
+    assert runs == [{"seed": 4}, {"seed": 7}]
+    assert "demo: seed 4 (1/2) ..." in err and "demo: seed 7 (2/2) ..." in err
+    assert err.count("done in") == 2
+    seeded_runs("bench", "doc", "demo", lambda seed, folder: {}, ["--seeds", "1", "--quiet"])
+    assert capsys.readouterr().err == ""

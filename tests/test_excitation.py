@@ -11,7 +11,7 @@ import pytest
 
 import manipdyn as md
 from manipdyn.identification import base_parameters, excitation
-from manipdyn.identification import trajectory as tr
+from manipdyn.identification.experiments import trajectory as tr
 
 
 def _load(name):

@@ -10,7 +10,8 @@ import manipdyn as md
 from manipdyn._support.errors import ModelError
 
 pytest.importorskip("cvxpy", reason="identification needs the identify extra (cvxpy)")
-from manipdyn.identification import estimation, excitation, fit  # noqa: E402
+from manipdyn.identification import excitation, fit  # noqa: E402
+from manipdyn.identification.estimation import fitting as estimation  # noqa: E402
 
 
 @pytest.fixture(scope="module")

@@ -11,9 +11,9 @@ import pytest
 import manipdyn as md
 from manipdyn.model.friction import Friction
 from manipdyn.identification import read_log
-from manipdyn.identification.hardlog import SMOOTHING, hard_log, recovered
-from manipdyn.identification.trajectory import fourier_trajectory
-from manipdyn.identification.varpro import fit_friction_shapes
+from manipdyn.identification.experiments.hardlog import SMOOTHING, hard_log, recovered
+from manipdyn.identification.experiments.trajectory import fourier_trajectory
+from manipdyn.identification.estimation.varpro import fit_friction_shapes
 
 
 def _ur5():

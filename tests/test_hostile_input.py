@@ -414,7 +414,7 @@ def test_negative_t_range_is_accepted(logs, capsys):
 def test_model_warning_is_one_line_after_the_command(logs, capsys, monkeypatch):
     import warnings
 
-    import manipdyn.identification.validation as validation
+    import manipdyn.identification.results.validation as validation
 
     real = validation.validate
 

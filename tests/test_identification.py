@@ -21,11 +21,11 @@ from manipdyn._support.errors import ModelError
 from manipdyn.model import random_arms as arms
 from manipdyn.identification import (Bounds, MissingExtraError, base_parameters, excitation, fit,
                                      read_measurements, write_measurements_csv)
-from manipdyn.identification.base import stacked_regressor
+from manipdyn.identification.estimation.base import stacked_regressor
 from manipdyn.formats.logs.data import derivatives
-from manipdyn.identification.demo import measure, true_arm
-from manipdyn.identification.estimation import link_min_eigenvalues
-from manipdyn.identification.trajectory import Excitation, fourier_trajectory
+from manipdyn.identification.experiments.demo import measure, true_arm
+from manipdyn.identification.estimation.fitting import link_min_eigenvalues
+from manipdyn.identification.experiments.trajectory import Excitation, fourier_trajectory
 
 
 def _load(name):
@@ -167,7 +167,7 @@ def experiment():
     rng = np.random.default_rng(0)
     kw = dict(duration=10.0, harmonics=5, rate=200.0, friction=True)
     # the optimiser's random start (iterations=0): limits hold, cond ~ 90; the
-    # demo optimises further (python -m manipdyn.identification.demo)
+    # demo optimises further (python -m manipdyn.identification.experiments.demo)
     train = excitation(prior, seed=0, iterations=0, **kw)
     held = excitation(prior, seed=1, iterations=0, **kw)
     data, _, peak = measure(truth, train, rng)

@@ -67,7 +67,7 @@ def test_coupled_motor_side_log_fits_its_friction_at_the_motors_and_says_so(tmp_
 
 
 def test_friction_side_choice_on_diagonal_and_link_side_drives():
-    from manipdyn.identification.choices import friction_side
+    from manipdyn.identification.inputs.choices import friction_side
     from manipdyn.formats.logs.measurements import Measurements
 
     z = np.zeros((3, 2))
@@ -144,9 +144,9 @@ def test_prior_weight_auto_computes_what_the_folds_share_once(monkeypatch):
     """Cross-validating 5 weights x 5 folds used to rebuild the base parameters (a pivoted QR at random
     states), the regressor of every fold's data and its QRs over the samples in each of the 25 fits.
     Now once each; and the folds' fits give what fits on the same samples give."""
-    import manipdyn.identification.base as base_mod
-    import manipdyn.identification.estimation as est_mod
-    from manipdyn.identification.selection import choose_prior_weight
+    import manipdyn.identification.estimation.base as base_mod
+    import manipdyn.identification.estimation.fitting as est_mod
+    from manipdyn.identification.estimation.selection import choose_prior_weight
 
     arm, q, qd, qdd, tau = _panda_log(N=600)
     calls = {"base": 0, "regressor": 0}
@@ -175,7 +175,7 @@ def test_prior_weight_auto_computes_what_the_folds_share_once(monkeypatch):
 def test_block_factors_stack_into_the_fit_of_all_the_samples():
     """What the folds rely on: a fit from the stacked factors of two blocks is the fit of all samples."""
     from manipdyn.identification import base_parameters, fit
-    from manipdyn.identification.estimation import joint_factors, known_torque
+    from manipdyn.identification.estimation.fitting import joint_factors, known_torque
 
     arm, q, qd, qdd, tau = _panda_log(N=1000, rate=50.0)          # 20 s of motion
     base = base_parameters(arm, friction=True)

@@ -15,10 +15,10 @@ from manipdyn.cli import main
 
 pytest.importorskip("cvxpy", reason="identification needs the identify extra (cvxpy)")
 from manipdyn.identification import excitation, fit  # noqa: E402
-from manipdyn.identification.basemodel import prior_text, write_base_model  # noqa: E402
-from manipdyn.identification.demo import true_arm  # noqa: E402
-from manipdyn.identification.estimation import link_min_eigenvalues  # noqa: E402
-from manipdyn.identification.model import arm_with_parameters  # noqa: E402
+from manipdyn.identification.results.basemodel import prior_text, write_base_model  # noqa: E402
+from manipdyn.identification.experiments.demo import true_arm  # noqa: E402
+from manipdyn.identification.estimation.fitting import link_min_eigenvalues  # noqa: E402
+from manipdyn.identification.estimation.model import arm_with_parameters  # noqa: E402
 
 DURATION = 0.5   # s simulated per run: short, the runs are not what is tested here
 

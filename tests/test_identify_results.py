@@ -13,7 +13,7 @@ from manipdyn._support.errors import ModelError
 
 pytest.importorskip("cvxpy", reason="identification needs the identify extra (cvxpy)")
 from manipdyn.identification import Bounds, excitation, fit, write_measurements_csv  # noqa: E402
-from manipdyn.identification.basemodel import load_base_model  # noqa: E402
+from manipdyn.identification.results.basemodel import load_base_model  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -146,7 +146,7 @@ def test_cli_base_model_when_no_physical_arm_then_validate(tmp_path, capsys, ur5
 
 def test_identified_model_says_where_it_came_from(tmp_path, capsys, ur5_motion):
     from manipdyn.cli import main
-    from manipdyn.identification.provenance import file_sha256
+    from manipdyn.identification.results.provenance import file_sha256
 
     data = _noisy_log(tmp_path, ur5_motion, 1)
     out = tmp_path / "ident.toml"
@@ -176,7 +176,7 @@ def test_prior_weight_chosen_by_blocked_cross_validation():
     """When the prior is the truth and the data are noisy (5 % of each joint's peak torque), a pull
     towards the prior predicts unseen blocks better than the data alone: cross-validation inside
     the fit window must prefer a positive weight, and its table must say so."""
-    from manipdyn.identification.selection import choose_prior_weight
+    from manipdyn.identification.estimation.selection import choose_prior_weight
 
     arm = md.load("ur5")
     ex = excitation(arm, duration=6.0, harmonics=3, rate=50.0, iterations=0)

@@ -111,7 +111,7 @@ def test_a_change_the_chain_link_cannot_hold_moves_the_lumped_inertials():
     """wrist_3 lumps the fixed 'tool' link.  Given 0.5 kg on the tool, an identified wrist body
     0.3 kg lighter cannot be written as a change of wrist_3's own 0.19 kg: wrist_3 then carries
     the whole identified body and the tool's inertial is removed (a comment says where it went)."""
-    from manipdyn.identification.model import arm_with_parameters
+    from manipdyn.identification.estimation.model import arm_with_parameters
     from manipdyn.model.parameters import arm_parameters
 
     root = etree.fromstring(UR5.read_bytes())

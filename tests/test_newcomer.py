@@ -385,7 +385,7 @@ def test_item7_cli_runs_commands_on_one_blas_thread(monkeypatch):
 
 def test_item7_demo_shows_progress(capsys):
     pytest.importorskip("cvxpy", reason="the demo needs the identify extra")
-    from manipdyn.identification.demo import run_demo
+    from manipdyn.identification.experiments.demo import run_demo
 
     run_demo("ur5", iterations=1, progress=True)
     err = capsys.readouterr().err
@@ -446,11 +446,31 @@ def test_item5_synthesize_is_exact_without_noise_and_names_bad_rows(tmp_path):
     header = "t," + ",".join(f"{p}{i}" for p in ("q", "qd", "qdd") for i in range(1, 7))
     rows = [",".join(["0"] * 19), ",".join(["0.01"] * 18 + ["x"])]
     (tmp_path / "t.csv").write_text(header + "\n" + "\n".join(rows) + "\n")
-    with pytest.raises(ModelError, match=r"row 3, column 'qdd6'"):
+    with pytest.raises(ModelError, match=r"row 3, column 19 \('qdd6'\)"):
         read_trajectory(tmp_path / "t.csv", 6)
     with pytest.raises(ModelError, match="expected the header"):
         read_trajectory(tmp_path / "t.csv", 7)
     assert main(["synthesize", "ur5", "/dev/zero", "-o", str(tmp_path / "d.csv")]) == 2
+
+
+def test_a_trajectory_of_positions_alone_is_read_with_derivatives_false(tmp_path):
+    """The one trajectory reader (formats/logs/trajectory.py, on the log reader's CSV parser) reads
+    ``t,q1..qn`` when asked for positions alone, and refuses it where derivatives are needed."""
+    import numpy as np
+
+    from manipdyn._support.errors import ModelError
+    from manipdyn.formats.logs import read_trajectory
+
+    f = tmp_path / "path.csv"
+    f.write_text("t,q1,q2\n0,0.1,0.2\n0.5,0.3,0.4\n1.0,0.5,0.6\n")
+    traj = read_trajectory(f, 2, derivatives=False)
+    assert np.array_equal(traj.t, [0, 0.5, 1.0]) and np.array_equal(traj.q[:, 1], [0.2, 0.4, 0.6])
+    assert traj.qd is None and traj.qdd is None
+    with pytest.raises(ModelError, match="expected the header t,q1,q2,qd1,qd2,qdd1,qdd2"):
+        read_trajectory(f, 2)
+    f.write_text("t,q1,q2\n0,0.1,0.2\n0,0.3,0.4\n")
+    with pytest.raises(ModelError, match=r"column 't' must increase strictly \(row 3\)"):
+        read_trajectory(f, 2, derivatives=False)
 
 
 # -- item 4: the README's Monte-Carlo snippet runs as a script -------------------------------------
@@ -581,13 +601,13 @@ def test_item14_scaling_legend_off_the_lines(tmp_path, monkeypatch):
     root = Path(__file__).resolve().parents[1]
     if str(root) not in sys.path:
         sys.path.insert(0, str(root))
-    from benchmarks import run as bench_run
+    from benchmarks import scaling as bench_scaling
     import matplotlib.pyplot as plt
 
     figs = []
     monkeypatch.setattr(plt, "close", lambda fig=None: figs.append(fig))
     ref = json.loads((root / "benchmarks" / "results" / "reference.json").read_text())["scaling"]
-    bench_run._plot(ref["n"], ref["median_s"], ref["exponents"], str(tmp_path))
+    bench_scaling.plot_scaling(ref["n"], ref["median_s"], ref["exponents"], str(tmp_path))
     (fig,) = figs
     assert not _legend_overlaps(fig)
 

@@ -146,7 +146,7 @@ def test_item7_bench_panda_says_each_stage(monkeypatch, tmp_path, capsys):
     """The benchmark takes minutes: it says each stage as it starts, on stderr, before its result."""
     import benchmarks.bench_panda as bp
     import manipdyn.identification as ident
-    import manipdyn.identification.selection as sel
+    import manipdyn.identification.estimation.selection as sel
 
     class Log:
         def __init__(self, t):
@@ -461,7 +461,7 @@ def test_item11_arm_answers_coriolis_matrix_regressor_kinetic_energy():
 
 # -- item 13: the calibration study's --help describes every option ------------------------------
 def test_item13_calibration_help_describes_every_option(capsys):
-    from manipdyn.identification.calibration import build_parser
+    from manipdyn.identification.experiments.calibration import build_parser
 
     parser = build_parser()
     options = [a for a in parser._actions if a.dest != "help"]
@@ -515,7 +515,7 @@ def _texts(fig):
 
 
 def test_item15_validation_residual_says_measured_minus_predicted(captured_figures):
-    from manipdyn.identification import validation
+    from manipdyn.identification.results import validation
 
     t = np.linspace(0, 1, 50)
     meas = np.column_stack([np.sin(t), np.cos(t)])
@@ -527,7 +527,7 @@ def test_item15_validation_residual_says_measured_minus_predicted(captured_figur
 
 
 def test_item15_base_model_figure_is_named_by_its_file(monkeypatch):
-    import manipdyn.identification.basemodel as bm
+    import manipdyn.identification.results.basemodel as bm
     from manipdyn.cli import validate as cli_validate
 
     class Base:

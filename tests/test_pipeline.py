@@ -15,7 +15,7 @@ from manipdyn.cli import main
 
 pytest.importorskip("cvxpy", reason="identification needs the identify extra (cvxpy)")
 from manipdyn.identification import excitation, write_measurements_csv  # noqa: E402
-from manipdyn.identification.runs import Payload, read_runs_file  # noqa: E402
+from manipdyn.identification.inputs.runs import Payload, read_runs_file  # noqa: E402
 
 UR5 = Path(__file__).resolve().parent.parent / "urdf" / "ur5.urdf"
 PAYLOAD = Payload(1.5, (0.03, -0.02, 0.06), (0.004, 0.005, 0.003, 0.0, 0.0, 0.0))
@@ -155,7 +155,7 @@ def test_torque_constants_within_two_percent_on_the_hard_log_set(tmp_path):
     """Item 2's target on a seeded synthetic set built from the hard log (one run with a known
     payload): every motor's k_t within 2 % (benchmarks/bench_torque_constants.py measures
     3 seeds); without a payload and without the model's k_t, refused with the reason."""
-    from manipdyn.identification.hardlog import SMOOTHING, hard_log_set
+    from manipdyn.identification.experiments.hardlog import SMOOTHING, hard_log_set
 
     s = hard_log_set(0, tmp_path, duration=20.0)
     OPTIONS = dict(identify_torque_constants=True, armature=True, friction_terms="viscous,asymmetric,offset,stribeck",
@@ -206,7 +206,7 @@ def test_a_urdf_arm_with_rotor_inertias_round_trips_through_a_model_file(tmp_pat
 def test_the_library_names_its_keywords_and_the_command_line_its_flags(tmp_path):
     """One check of each option, before any log is read: the API's message names the keyword,
     the CLI's the flag (OptionError.cli_message)."""
-    from manipdyn.identification.options import OptionError
+    from manipdyn.identification.inputs.options import OptionError
 
     log = tmp_path / "never_read.csv"
     for kw, api, cli in (({"method": "wls", "mass_bound": 0.2}, "mass_bound: only with method consistent",

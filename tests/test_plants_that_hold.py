@@ -16,10 +16,10 @@ from manipdyn.cli import main
 
 pytest.importorskip("cvxpy", reason="identification needs the identify extra (cvxpy)")
 from manipdyn.identification import excitation, fit, write_measurements_csv  # noqa: E402
-from manipdyn.identification.basemodel import prior_text, write_base_model  # noqa: E402
-from manipdyn.identification.demo import true_arm  # noqa: E402
-from manipdyn.identification.estimation import link_min_eigenvalues  # noqa: E402
-from manipdyn.identification.sdp import EPS, project_physical  # noqa: E402
+from manipdyn.identification.results.basemodel import prior_text, write_base_model  # noqa: E402
+from manipdyn.identification.experiments.demo import true_arm  # noqa: E402
+from manipdyn.identification.estimation.fitting import link_min_eigenvalues  # noqa: E402
+from manipdyn.identification.estimation.sdp import EPS, project_physical  # noqa: E402
 
 #: the real logs beside the project (../shared/realdata), or where MANIPDYN_REALDATA says
 REALDATA = os.environ.get("MANIPDYN_REALDATA", str(Path(__file__).resolve().parents[1].parent / "shared" / "realdata"))

@@ -22,7 +22,7 @@ from hypothesis import strategies as st
 
 import manipdyn as md
 from manipdyn.model import random_arms as arms
-from manipdyn.identification.model import arm_with_parameters
+from manipdyn.identification.estimation.model import arm_with_parameters
 from manipdyn.model.parameters import arm_parameters, parameter_names
 
 TOL = 1e-9

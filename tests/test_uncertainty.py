@@ -12,7 +12,7 @@ pytest.importorskip("cvxpy", reason="identification needs the identify extra (cv
 from scipy.stats import chi2  # noqa: E402  (scipy comes with the identify extra)
 
 from manipdyn.identification import base_parameters, excitation, fit, format_report  # noqa: E402
-from manipdyn.identification.demo import true_arm  # noqa: E402
+from manipdyn.identification.experiments.demo import true_arm  # noqa: E402
 from manipdyn.model.parameters import arm_parameters  # noqa: E402
 
 DRAWS = 40          # seeded noise draws of the calibration test
@@ -103,7 +103,7 @@ def test_block_bootstrap_matches_wls_on_white_noise_and_widens_on_correlated(per
     ratio 1.18).  AR(1) noise with phi = 0.9 (correlated over ~10 samples): the wls covariance,
     which assumes white noise, is too optimistic by up to sqrt((1 + phi) / (1 - phi)) = 4.4 in the
     slowly varying directions, and the block bootstrap sees it (measured median ratio 4.7)."""
-    from manipdyn.identification.bootstrap import bootstrap
+    from manipdyn.identification.uncertainty.bootstrap import bootstrap
 
     prior, ex, tau0, sigma, base, _ = perturbed_ur5
     rng = np.random.default_rng(5)
@@ -122,7 +122,7 @@ def test_block_bootstrap_matches_wls_on_white_noise_and_widens_on_correlated(per
 
 
 def test_block_indices_are_blocks_seeded_per_replicate():
-    from manipdyn.identification.bootstrap import block_indices
+    from manipdyn.identification.uncertainty.bootstrap import block_indices
 
     idx = block_indices(100, 7, seed=3, replicate=5)
     assert idx.shape == (100,) and idx.min() >= 0 and idx.max() < 100
@@ -135,7 +135,7 @@ def test_block_indices_are_blocks_seeded_per_replicate():
 
 
 def test_bootstrap_argument_errors(perturbed_ur5):
-    from manipdyn.identification.bootstrap import bootstrap
+    from manipdyn.identification.uncertainty.bootstrap import bootstrap
 
     prior, ex, tau0, *_ = perturbed_ur5
     data = (ex.q, ex.qd, ex.qdd, tau0)
@@ -156,7 +156,7 @@ def test_bootstrap_is_bit_identical_here_on_a_local_cluster_and_on_a_dask_schedu
     pytest.importorskip("distributed", reason="the scale extra (dask[distributed]) is not installed")
     from dask_cluster import dask_cluster
 
-    from manipdyn.identification.bootstrap import bootstrap
+    from manipdyn.identification.uncertainty.bootstrap import bootstrap
 
     prior, ex, tau0, sigma, *_ = perturbed_ur5
     tau = tau0 + sigma * np.random.default_rng(7).standard_normal(tau0.shape)
@@ -174,11 +174,11 @@ def test_bootstrap_is_bit_identical_here_on_a_local_cluster_and_on_a_dask_schedu
 
 
 def test_calibration_study_base_parameters_and_held_out_predictions():
-    """The calibration study (manipdyn.identification.calibration) on 40 repeats: nominal 95 %
+    """The calibration study (manipdyn.identification.experiments.calibration) on 40 repeats: nominal 95 %
     intervals of the base parameters and of held-out torque predictions hold the truth 92 to 98 %
     of the time (40 x 48 and 40 x 200 x 6 correlated intervals; 500 repeats measured 94.9 % and
     94.9 %, see the module).  Guards the prediction-band formula sqrt(y_b^T C y_b)."""
-    from manipdyn.identification.calibration import calibrate
+    from manipdyn.identification.experiments.calibration import calibrate
 
     fig = calibrate("ur5", repeats=40)
     assert 0.92 <= fig["base_coverage_95"] <= 0.98, fig

@@ -23,7 +23,7 @@ __all__ = ["register", "run"]
 
 def register(subparsers) -> None:
     """Add ``manipdyn excite`` to the command line."""
-    from ..identification.trajectory import DEFAULT_AMAX, DEFAULT_VMAX
+    from ..identification.experiments.trajectory import DEFAULT_AMAX, DEFAULT_VMAX
 
     p = subparsers.add_parser(
         "excite", help="design an excitation trajectory for identification",

@@ -22,8 +22,8 @@ __all__ = ["register", "run"]
 def run(args) -> int:
     from ..formats.logs.data import write_measurements_csv
     from ..model.arm import Manipulator
-    from ..identification.demo import true_arm
-    from ..identification.synthesize import read_trajectory, synthesize
+    from ..identification.experiments.demo import true_arm
+    from ..identification.experiments.synthesize import read_trajectory, synthesize
 
     if not (args.noise >= 0 and args.noise < float("inf")):
         raise ModelError(f"--noise: expected a finite fraction >= 0 of each joint's peak torque, got {args.noise}")

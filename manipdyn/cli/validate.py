@@ -51,8 +51,8 @@ def register(subparsers) -> None:
 
 
 def load_model(spec: str, tip=None):
-    """``(model, label)`` of one MODEL argument (:func:`manipdyn.identification.scoring.load_scored_model`)."""
-    from ..identification.scoring import load_scored_model
+    """``(model, label)`` of one MODEL argument (:func:`manipdyn.identification.results.scoring.load_scored_model`)."""
+    from ..identification.results.scoring import load_scored_model
 
     return load_scored_model(spec, tip)
 

@@ -30,25 +30,25 @@ Needs the ``identify`` extra (scipy, cvxpy, clarabel, scs):
 """
 
 from .._support.deps import INSTALL, MissingExtraError
-from .bands import PredictionBand, calibrate_band
-from .base import BaseParameters, base_parameters
-from .coverage import StateRange, fitted_range
-from .bootstrap import BootstrapResult, bootstrap
+from .uncertainty.bands import PredictionBand, calibrate_band
+from .estimation.base import BaseParameters, base_parameters
+from .uncertainty.coverage import StateRange, fitted_range
+from .uncertainty.bootstrap import BootstrapResult, bootstrap
 from ..formats.logs.data import Measurements, read_measurements, write_measurements_csv
-from .estimation import METHODS, FitResult, fit
-from .hardlog import HardLog, hard_log
+from .estimation.fitting import METHODS, FitResult, fit
+from .experiments.hardlog import HardLog, hard_log
 from ..formats.logs.read import read_log
-from .payload import PayloadResult, identify_payload
-from .report import format_report
-from .sdp import Bounds
-from .synthesize import Trajectory, read_trajectory, synthesize
-from .trajectory import Excitation, excitation
-from .varpro import fit_friction_shapes
+from .payload.fit import PayloadResult, identify_payload
+from .estimation.report import format_report
+from .estimation.sdp import Bounds
+from .experiments.synthesize import Trajectory, read_trajectory, synthesize
+from .experiments.trajectory import Excitation, excitation
+from .estimation.varpro import fit_friction_shapes
 from .pipeline import identify
-from .result import IdentifyResult
-from .runs import LogSpec, Payload, read_runs_file
-from .scoring import Validation, validate
-from .torque_constants import TorqueConstants, identify_torque_constants
+from .results.result import IdentifyResult
+from .inputs.runs import LogSpec, Payload, read_runs_file
+from .results.scoring import Validation, validate
+from .payload.torque_constants import TorqueConstants, identify_torque_constants
 
 __all__ = ["BaseParameters", "BootstrapResult", "Bounds", "Excitation", "FitResult", "INSTALL", "METHODS",
            "Measurements", "MissingExtraError", "PayloadResult", "base_parameters", "bootstrap", "excitation", "fit",

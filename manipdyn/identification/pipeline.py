@@ -42,8 +42,8 @@ import numpy as np
 from .._support.threads import blas_threads as _blas
 from .._support import limits
 from .._support.errors import ModelError
-from .options import OptionError
-from .result import IdentifyResult, write_model_files
+from .inputs.options import OptionError
+from .results.result import IdentifyResult, write_model_files
 
 __all__ = ["identify", "IdentifyResult"]
 
@@ -110,7 +110,7 @@ def _with_transmission(arm, transmission):
 def _torque_constants(arm, runs, friction, armature, reference):
     """Step 3: ``(arm with k_t, runs with rescaled torques, TorqueConstants)``."""
     from ..model.drive import Transmission
-    from .torque_constants import CURRENT_NOTE, identify_torque_constants
+    from .payload.torque_constants import CURRENT_NOTE, identify_torque_constants
 
     for data, _ in runs:
         if not any(CURRENT_NOTE in note for note in data.notes):
@@ -129,8 +129,8 @@ def _torque_constants(arm, runs, friction, armature, reference):
 
 def _read(arm, logs, read_options, deg, unit_gains):
     from ..model.drive import Transmission
-    from .options import check_limits
-    from .runs import read_runs
+    from .inputs.options import check_limits
+    from .inputs.runs import read_runs
 
     tr = arm.transmission
     if unit_gains:        # currents read as they are: tau = R^T i, the gains come later
@@ -143,7 +143,7 @@ def _read(arm, logs, read_options, deg, unit_gains):
 
 def _known_payloads(arm, runs):
     """Step 4: one Measurements of every run, each payload's torque subtracted."""
-    from .runs import stack
+    from .inputs.runs import stack
 
     parts = []
     for data, payload in runs:
@@ -203,9 +203,9 @@ def identify(prior, logs, *, method: str = "consistent", tip=None, friction: boo
 
 
 def _identify(prior, logs, o) -> IdentifyResult:
-    from .estimation import METHODS, fit
-    from .options import brace_safe, bounds_option, friction_option, prior_weight_option
-    from .provenance import fit_record, model_metadata, provenance
+    from .estimation.fitting import METHODS, fit
+    from .inputs.options import brace_safe, bounds_option, friction_option, prior_weight_option
+    from .results.provenance import fit_record, model_metadata, provenance
 
     if o["method"] not in METHODS:
         raise OptionError("{}: expected one of " + ", ".join(METHODS) + ", got " + brace_safe(repr(o["method"])), "method")
@@ -233,8 +233,8 @@ def _identify(prior, logs, o) -> IdentifyResult:
     runs = _read(arm, logs, read_options, o["deg"], o["identify_torque_constants"])
     side, smoothing, law_notes = o["friction_side"], o["smoothing"], []
     if o["friction"] or o["friction_terms"] is not None:    # the side and smoothing not given: from the log
-        from .choices import choose_friction_options
-        from .runs import stack
+        from .inputs.choices import choose_friction_options
+        from .inputs.runs import stack
 
         side, smoothing, law_notes = choose_friction_options(arm.transmission, stack([d for d, _ in runs]), side,
                                                              smoothing, smoothed=o["friction_terms"] is not None)
@@ -247,10 +247,10 @@ def _identify(prior, logs, o) -> IdentifyResult:
     data = _known_payloads(arm, runs)
     shapes = None
     from ..model.friction import Friction
-    from .options import SHAPED
+    from .inputs.options import SHAPED
 
     if isinstance(law, Friction) and set(law.terms) & set(SHAPED):
-        from .varpro import fit_shapes
+        from .estimation.varpro import fit_shapes
 
         law, shapes = fit_shapes(arm, data, law, armature=o["armature"])
         if tc is not None:         # the gains again, with the fitted shapes
@@ -259,7 +259,7 @@ def _identify(prior, logs, o) -> IdentifyResult:
             data = _known_payloads(arm, runs)
     selection = None
     if weight == "auto":
-        from .selection import choose_prior_weight
+        from .estimation.selection import choose_prior_weight
 
         weight, selection = choose_prior_weight(arm, data.q, data.qd, data.qdd, data.tau, friction=law,
                                                 armature=o["armature"], bounds=bounds)
@@ -293,9 +293,9 @@ def _identify(prior, logs, o) -> IdentifyResult:
                          torque_constants=tc, payload_logs=payload_logs, logs_label=_label(logs))
     out.rename(name)
     if boot:
-        from .bootstrap import bootstrap
+        from .uncertainty.bootstrap import bootstrap
 
-        from .bootstrap import bootstrap_summary
+        from .uncertainty.bootstrap import bootstrap_summary
 
         bs = bootstrap(arm, data, boot, scheduler=o["scheduler"], method=o["method"], friction=law,
                        armature=o["armature"], bounds=bounds, prior_weight=weight)

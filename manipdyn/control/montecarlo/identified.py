@@ -3,7 +3,7 @@
 Layer 6 (control: montecarlo).
 
 ``manipdyn identify ... --base-json F.json`` (or ``-o F.json``) writes a base model
-(:mod:`manipdyn.identification.basemodel`): the prior, the identified base parameters
+(:mod:`manipdyn.identification.results.basemodel`): the prior, the identified base parameters
 ``beta_hat`` with their covariance ``C`` (``wls`` and ``consistent``; a file with
 standard deviations only is read as a diagonal ``C``; with ``identify --bootstrap N``
 the file also carries the block bootstrap's covariance, which is used instead: it
@@ -282,8 +282,8 @@ class IdentifiedPlants:
 def _violations(plants: IdentifiedPlants, pi: np.ndarray) -> tuple[bool, bool]:
     """``(inertia, drive)``: some ``J_i`` has an eigenvalue below ``EPS / 2``; some armature or
     friction coefficient (not an offset) is below 0."""
-    from ...identification.estimation import link_min_eigenvalues
-    from ...identification.sdp import EPS
+    from ...identification.estimation.fitting import link_min_eigenvalues
+    from ...identification.estimation.sdp import EPS
 
     n = len(plants.parameters) - len(plants.nonnegative)
     n //= 10
@@ -298,7 +298,7 @@ def _projector(plants: IdentifiedPlants):
     """The cone program of the module docstring's step 3, compiled once per process:
     ``(problem, x, target, start)`` with ``target = W beta`` and ``start = pi0`` its parameters."""
     from ..._support.deps import require
-    from ...identification.sdp import EPS
+    from ...identification.estimation.sdp import EPS
     from ...model.parameters import PARAMETER_BASIS
 
     cp = require("cvxpy", "plants drawn from an identification")
@@ -345,7 +345,7 @@ def _solve(problem, what: str) -> None:
 @functools.lru_cache(maxsize=4096)
 def _draw(plants: IdentifiedPlants, seed: int, run: int) -> dict:
     """:meth:`IdentifiedPlants.draw_details` (cached per process: the report and the plant both ask)."""
-    from ...identification.sdp import EPS, project_physical
+    from ...identification.estimation.sdp import EPS, project_physical
 
     _, pi0 = plants.draw_base(seed, run)
     inertia, drive = _violations(plants, pi0)
@@ -398,9 +398,9 @@ def load_identified(path) -> IdentifiedPlants:
     do not match the prior's (the file was edited or written by another version).
     """
     from ...model.arm import Manipulator
-    from ...identification.base import base_parameters
-    from ...identification.basemodel import load_base_model
-    from ...identification.estimation import nonnegative_extras
+    from ...identification.estimation.base import base_parameters
+    from ...identification.results.basemodel import load_base_model
+    from ...identification.estimation.fitting import nonnegative_extras
     from ...model.parameters import parameter_names
     from ...check.scale import model_text
 

@@ -23,7 +23,7 @@ The cut-off of the low-pass filter is chosen from the data
 * 99.99 %, not 99.9 %: the last 0.1 % of the velocity's power is where a
   motion turns through v = 0, and friction (a smoothed sign, a Stribeck
   dip) changes fastest there.  Measured on the hard log
-  (:mod:`~manipdyn.identification.hardlog`, seed 0): at 99.9 % (5.85 Hz) a
+  (:mod:`~manipdyn.identification.experiments.hardlog`, seed 0): at 99.9 % (5.85 Hz) a
   motor's Stribeck level came out 8.8 % low, 23 of its standard deviations;
   at 99.99 % (8.85 Hz) every rotor and friction parameter is within 5 %.
   On the Panda log and on smooth motions the two agree (the 2 Hz floor);

@@ -5,7 +5,11 @@ Layer 2 (formats: logs).
 
 from __future__ import annotations
 
-__all__ = ["Measurements"]
+import numpy as np
+
+from ..._support.errors import ModelError
+
+__all__ = ["Measurements", "segment_edges"]
 
 
 class Measurements:
@@ -52,3 +56,16 @@ class Measurements:
     def __repr__(self) -> str:
         rate = "" if self.rate is None else f", {self.rate:.6g} Hz"
         return f"<Measurements {len(self)} samples of {self.n} joints{rate}>"
+
+
+def segment_edges(segments, N: int) -> np.ndarray:
+    """``[0, N_1, N_1 + N_2, ..., N]`` from the runs' sample counts (``Measurements.segments``; None: one run)."""
+    if segments is None:
+        return np.array([0, N])
+    try:
+        counts = np.array([int(k) for k in segments])
+    except (TypeError, ValueError):
+        raise ModelError(f"segments: expected the runs' sample counts, got {segments!r:.80}") from None
+    if counts.size == 0 or np.any(counts < 1) or counts.sum() != N:
+        raise ModelError(f"segments: expected sample counts >= 1 adding up to the {N} samples, got {counts.tolist()}")
+    return np.concatenate([[0], np.cumsum(counts)])

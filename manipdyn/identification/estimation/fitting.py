@@ -1,0 +1,500 @@
+"""Estimation of the inertial parameters from joint data: ``fit``.
+
+Layer 5 (identification).
+
+Model: ``tau = Y(q, qd, qdd) pi + e`` with the regressor of
+:meth:`TraceFormEngine.regressor` and the layout of :mod:`manipdyn.model.parameters`.
+Only the base parameters ``beta = K pi`` (:mod:`.base`) are identifiable:
+``tau = Y_b beta + e``.  Methods:
+
+* ``ols``: ordinary least squares on beta;
+* ``wls``: weighted least squares, each joint's rows divided by its noise
+  level ``sigma_j``, estimated from OLS residuals the way Gautier does it:
+  joint j's equations alone, ``tau_j = Y_b,j beta``, are solved by OLS
+  over the ``r_j`` base parameters that appear in them, and
+  ``sigma_j^2 = ||rho_j||^2 / (N - r_j)``.  (The residuals of the pooled
+  OLS fit would not do: that fit is dominated by the large proximal torques
+  and leaves misfit, not noise, in the small wrist torques.)  A noise level
+  below ``1e-6`` of the largest joint's RMS torque is raised to that floor
+  (exact data then weigh the joints equally);
+* ``consistent``: the same weighted objective over the full parameters
+  subject to ``J_i >= 0`` for every link (:mod:`.sdp`).
+
+The returned arm has full parameters reproducing the identified beta; among
+those, the closest to the prior (least squares; for ``consistent`` with
+``J_i >= 0``).  What is not identified (armature without ``armature=True``,
+friction without ``friction=True``) keeps the prior's values, and its torque
+is subtracted from the measurements before the fit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..._support.state import state_array
+from ..._support.errors import ModelError, StateError
+from ..._support import limits
+from ..._support.limits import check_fit_size
+from ...model.inertia import pseudo_inertia_from_parameters
+from ...model.parameters import arm_parameters, parameter_count
+from .model import arm_with_parameters
+from .base import BaseParameters, base_parameters, check_base
+from .sdp import Bounds, consistent_fit
+from ...formats.logs.measurements import segment_edges
+from .covariance import base_covariance
+
+__all__ = ["fit", "FitResult", "METHODS", "link_min_eigenvalues", "known_torque", "joint_noise"]
+
+METHODS = ("ols", "wls", "consistent")
+
+#: largest condition number of the stacked base regressor that ``ols`` and ``wls`` accept.
+#: Above it the data do not excite every base parameter: float64 leaves fewer than 6
+#: significant digits in the worst-determined direction and the estimate there is noise
+#: (zero or constant motion, a column scaled by 1e30).
+MAX_CONDITION = 1e10
+#: the same for ``consistent``, whose constraints (J_i >= 0 and the plausibility bounds)
+#: still pin down what the data leave open, up to where float64 has ~2 digits left.
+#: Both are module attributes: raise them only for data you know to be exact.
+MAX_CONDITION_CONSISTENT = 1e14
+
+
+def link_min_eigenvalues(pi, n: int) -> np.ndarray:
+    """Smallest eigenvalue of each link's pseudo-inertia J_i (n,) from full parameters (p,)."""
+    J = pseudo_inertia_from_parameters(np.asarray(pi)[:10 * n].reshape(n, 10))
+    return np.linalg.eigvalsh(J)[:, 0]
+
+
+@dataclass
+class FitResult:
+    """Result of :func:`fit`.
+
+    Attributes
+    ----------
+    arm : manipdyn.Manipulator or None
+        The identified arm (None when its parameters cannot be written, e.g.
+        a negative mass from ``ols``; ``arm_error`` says why).
+    parameters : (p,)
+        Full parameter vector (layout of :mod:`manipdyn.model.parameters`).
+    base : BaseParameters
+    beta : (r,)
+        Identified base parameters.
+    residuals : (N, n)
+        Measured minus predicted torque on the fit data, N m or N.
+    sigma : (n,)
+        Per-joint noise level from each joint's own OLS residuals (N m or N).
+    method : str
+    condition_number : float
+        Of the base regressor stacked over the data.
+    consistent : bool
+        Every link's J_i >= 0 (smallest eigenvalue >= 0).
+    covariance : (r, r) or None
+        Covariance of ``beta`` for ``wls`` and ``consistent`` (:mod:`.uncertainty`);
+        None for ``ols``.
+    report : dict
+        The figures of ``manipdyn identify --json``.  For ``consistent`` also
+        ``relative_residual`` and ``least_squares_relative_residual`` (norm of the weighted
+        residual over the weighted torque's, for this fit and the unconstrained optimum),
+        ``stopped_short`` (the solver stopped before the best physical fit) and ``fit_notes``
+        (why the fit leaves more than least squares: the constraints it sits on, or the solver).
+    """
+
+    arm: object
+    parameters: np.ndarray
+    base: BaseParameters
+    beta: np.ndarray
+    residuals: np.ndarray
+    sigma: np.ndarray
+    method: str
+    condition_number: float
+    consistent: bool
+    prior: object = None
+    arm_error: str | None = None
+    covariance: np.ndarray | None = None     # (r, r) of beta, wls and consistent (.uncertainty)
+    report: dict = field(default_factory=dict)
+
+    @property
+    def n(self) -> int:
+        return self.prior.n
+
+    @property
+    def name(self) -> str:
+        return f"{self.method} fit"
+
+    def inverse_dynamics(self, q, qd, qdd) -> np.ndarray:
+        """:meth:`predict`, under the name every model has (so a fit can be scored by
+        :func:`manipdyn.identification.results.validation.validate`)."""
+        return self.predict(q, qd, qdd)
+
+    def predict(self, q, qd, qdd) -> np.ndarray:
+        """Torques of the identified model, (N, n) or (n,): ``Y_b beta`` plus the prior's
+        armature and friction torques where those were not identified."""
+        b = self.base
+        Y = self.prior.lagrange.regressor(q, qd, qdd, armature=b.armature, friction=b.friction)
+        return b.regressor(Y) @ self.beta + known_torque(self.prior, qd, qdd, b.armature, b.friction)
+
+
+def known_torque(prior, qd, qdd, armature, friction):
+    """Prior torques outside the fitted parameters (rotor inertia, friction), (..., n).
+
+    Shared by :meth:`FitResult.predict`, :func:`fit` (subtracted from the measurements) and
+    :meth:`manipdyn.identification.results.basemodel.BaseModel.inverse_dynamics`."""
+    out = np.zeros(np.shape(qd))
+    if not armature:
+        out = out + np.asarray(qdd) @ np.asarray(prior.rotor_inertia)   # R^T diag(Jm) R, symmetric
+    if (friction is False or friction is None) and prior.friction_model is not None:
+        out = out + prior.lagrange.friction_torque(qd)
+    return out
+
+
+def nonnegative_extras(names, n: int):
+    """Which extra parameters (after the 10 n link ones) are constrained >= 0: all but offsets."""
+    return np.array([not nm.endswith(".offset") for nm in names[10 * n:]], dtype=bool)
+
+
+def _reduce(A, y):
+    """``(R, c, rho0)`` with ``||A b - y||^2 = ||R b - c||^2 + rho0^2`` for every b.
+
+    One QR of ``[A | y]`` (R only, no Q): R (r, r), c (r,), rho0 the part of y
+    outside A's column space.  Cheaper than lstsq or SVD on the tall A.
+    """
+    r = A.shape[1]
+    Ra = np.linalg.qr(np.column_stack([A, y]), mode="r")
+    rho0 = abs(float(Ra[r, r])) if Ra.shape[0] > r else 0.0
+    return Ra[:r, :r], Ra[:r, r], rho0
+
+
+def joint_factors(Yb, y) -> np.ndarray:
+    """Each joint's triangular factor of ``[Yb[:, j, :] | y[:, j]]``, (n, r + 1, r + 1).
+
+    ``||Yb[:, j] b - y[:, j]||^2 = ||F_j [b; -1]||^2`` for every b, so every least-squares
+    problem :func:`fit` solves (each joint's own, the stacked one, the weighted one) is a small
+    problem on these factors: one QR per joint over the samples, none over all joints' rows
+    stacked.  Factors of consecutive blocks of samples stack (``joint_factors`` of the stacked
+    blocks' factors), which is how :mod:`.selection` builds each fold's data.
+    """
+    Yb, y = np.asarray(Yb, dtype=np.float64), np.asarray(y, dtype=np.float64)
+    N, n, r = Yb.shape
+    out = np.zeros((n, r + 1, r + 1))
+    for j in range(n):
+        Ra = np.linalg.qr(np.column_stack([Yb[:, j, :], y[:, j]]), mode="r")
+        out[j, :Ra.shape[0]] = Ra
+    return out
+
+
+def _stack_factors(blocks) -> np.ndarray:
+    """One factor per joint (n, r + 1, r + 1) of several blocks' factors stacked (one small QR each)."""
+    rest, F = np.concatenate(blocks, axis=1), np.zeros_like(blocks[0])
+    for j in range(F.shape[0]):
+        Rj = np.linalg.qr(rest[j], mode="r")
+        F[j, :Rj.shape[0]] = Rj
+    return F
+
+
+def _stacked(F, w=None):
+    """``(R, c, rho0)`` of :func:`_reduce` for the rows of every joint stacked (each weighted by ``w_j``),
+    from the joints' factors ``F`` (n, r + 1, r + 1)."""
+    r = F.shape[-1] - 1
+    w = np.ones(F.shape[0]) if w is None else np.asarray(w, dtype=np.float64)
+    Ra = np.linalg.qr((F * w[:, None, None]).reshape(-1, r + 1), mode="r")
+    return Ra[:r, :r], Ra[:r, r], abs(float(Ra[r, r]))
+
+
+def _noise_from_factors(F, N: int) -> np.ndarray:
+    """:func:`joint_noise` from the joints' factors ``F`` (:func:`joint_factors`) of ``N`` samples."""
+    n, r = F.shape[0], F.shape[-1] - 1
+    sigma = np.empty(n)
+    for j in range(n):
+        A, b = F[j, :, :r], F[j, :, r]
+        norms = np.linalg.norm(A, axis=0)                   # Q is orthogonal: the columns' norms
+        A = A[:, norms > 1e-12 * max(norms.max(), 1e-300)]
+        sol, _, rank, _ = np.linalg.lstsq(A, b, rcond=None)
+        sigma[j] = np.sqrt(np.sum((A @ sol - b) ** 2) / max(1, N - rank))
+    return sigma
+
+
+def joint_noise(Yb, y) -> np.ndarray:
+    """Per-joint noise level ``sigma_j`` (n,) from each joint's own OLS fit (module docstring):
+    ``Yb`` (N, n, p) the regressor, ``y`` (N, n) the torques it should explain."""
+    N, n, _ = Yb.shape
+    sigma = np.empty(n)
+    for j in range(n):
+        A = Yb[:, j, :]
+        norms = np.linalg.norm(A, axis=0)
+        A = A[:, norms > 1e-12 * max(norms.max(), 1e-300)]
+        R, c, rho0 = _reduce(A, y[:, j])
+        sol, _, rank, _ = np.linalg.lstsq(R, c, rcond=None)
+        sigma[j] = np.sqrt((np.sum((R @ sol - c) ** 2) + rho0**2) / max(1, N - rank))
+    return sigma
+
+
+def _check(q, qd, qdd, tau, n):
+    """The four data arrays as native float64 (N, n), validated as the dynamics calls do
+    (:func:`manipdyn._support.state.state_array`: bool, complex, object, string, datetime and masked
+    entries refused, other byte orders and integer dtypes converted), or a :class:`ModelError`."""
+    arrays = []
+    for name, x in (("q", q), ("qd", qd), ("qdd", qdd), ("tau", tau)):
+        try:
+            a = state_array(x, name, n)
+        except StateError as exc:
+            raise ModelError(str(exc).replace(f"shape ({n},) or (N, {n})", f"shape (N, {n})")) from None
+        if a.ndim != 2 or a.shape[1] != n:
+            raise ModelError(f"{name}: expected shape (N, {n}), got {a.shape}")
+        bad = ~np.isfinite(a)
+        if bad.any():
+            i, j = (int(k) for k in np.argwhere(bad)[0])
+            raise ModelError(f"{name}: must be finite; row {i}, column {j} is {float(a[i, j])!r}")
+        arrays.append(a)
+    if len({a.shape[0] for a in arrays}) != 1:
+        raise ModelError(f"q, qd, qdd, tau: expected the same number of samples, got "
+                         f"{[a.shape[0] for a in arrays]}")
+    return arrays
+
+
+def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armature: bool = False,
+        bounds: Bounds | str | None = "plausible", base: BaseParameters | None = None,
+        name: str | None = None, prior_weight: float = 0.0, metadata=None, regressor=None,
+        factors=None, *, segments=None) -> FitResult:
+    """Identify ``arm``'s parameters from samples (module docstring).
+
+    Parameters
+    ----------
+    arm : manipdyn.Manipulator
+        Kinematics and prior (its parameters are the starting point of the
+        full-parameter choice; their values do not bias beta).
+    q, qd, qdd, tau : (N, n)
+        Joint positions, velocities, accelerations and torques (SI), validated as the
+        dynamics validate states (:func:`manipdyn._support.state.state_array`: bool, complex, object,
+        string, datetime and masked entries are refused, other byte orders and integer
+        dtypes converted); a :class:`ModelError` names the argument and, for a NaN or inf,
+        its row and column.
+    method : "ols" | "wls" | "consistent"
+    friction : bool or friction spec
+        ``True``: viscous and Coulomb friction (sharp sign, joint side); or which friction
+        terms to identify, as the regressor's ``friction=`` takes them
+        (:func:`manipdyn.model.friction.friction_spec`): term names such as
+        ``("viscous", "coulomb", "offset")``, a :class:`manipdyn.FrictionTerms` (side,
+        smoothing ``tanh(v / v_s)``), or a :class:`manipdyn.Friction` whose nonlinear
+        shapes (Stribeck, sigmoid) are held fixed.  In ``consistent`` every coefficient is
+        constrained >= 0 except the offsets.
+    armature : bool
+        Identify the motors' reflected rotor inertias.
+    bounds : Bounds, "plausible" or None
+        Extra constraints of ``consistent`` (mass ranges, COM boxes, total mass).  The
+        default ``"plausible"`` is :meth:`Bounds.plausible` around the prior (each link's
+        mass within +-50 % of the prior's, its COM within 0.1 m of the prior's per
+        axis, the total mass within 25 %); None leaves only ``J_i >= 0``.  The bounds that
+        the answer sits on are listed in ``report["active_bounds"]``.  Ignored (no error)
+        for ``ols``/``wls`` when left at the default.
+    prior_weight : float
+        ``consistent`` only: weight of the entropic pull of each body towards the prior's
+        (:func:`manipdyn.identification.estimation.sdp.consistent_fit`); 0 (the default) fits the
+        data alone.
+    metadata : (source, sources, description), optional
+        Citation of the identified arm (:func:`.provenance.model_metadata`); default: the
+        prior's.
+    base : BaseParameters, optional
+        Reuse a :func:`base_parameters` result of this arm with the same armature/friction
+        flags (checked on the numbers: :func:`.base.check_base`; another arm's is refused).
+    name : str, optional
+        Name of the identified arm.
+    regressor : (N, n, p) array, optional
+        ``arm.lagrange.regressor(q, qd, qdd, armature=armature, friction=friction)`` when the
+        caller already has it (cross-validation slices one regressor into folds:
+        :mod:`.selection`); its shape is checked, its numbers are trusted.
+    factors : (n, r + 1, r + 1) array, optional
+        :func:`joint_factors` of these samples' base regressor and torques (less the known
+        torques), when the caller has them (cross-validation stacks them from blocks).
+    segments : sequence of int, optional
+        The runs' sample counts (:func:`.runs.stack`): each run's joints weighed by their noise in
+        it (``report["noise_sigma_per_run"]``; ``sigma`` their RMS); not with ``factors``.
+    """
+    if method not in METHODS:
+        raise ModelError(f"method: expected one of {', '.join(METHODS)}, got {method!r}")
+    if isinstance(bounds, str):
+        if bounds != "plausible":
+            raise ModelError(f"bounds: expected a Bounds, 'plausible' or None, got {bounds!r}")
+        bounds = Bounds.plausible(arm) if method == "consistent" else None
+    if bounds is not None and not isinstance(bounds, Bounds):
+        raise ModelError(f"bounds: expected a Bounds, 'plausible' or None, got {type(bounds).__name__}")
+    if bounds is not None and method != "consistent":
+        raise ModelError("bounds: only the 'consistent' method takes bounds")
+    if bounds is not None:
+        bounds.check(arm.n)
+    if not (0.0 <= float(prior_weight) <= limits.MAX_PRIOR_WEIGHT):
+        raise ModelError(f"prior_weight: expected a number in [0, {limits.MAX_PRIOR_WEIGHT:g}] "
+                         f"(manipdyn.limits.MAX_PRIOR_WEIGHT), got {prior_weight}")
+    if prior_weight and method != "consistent":
+        raise ModelError("prior_weight: only the 'consistent' method takes a prior weight")
+    n = arm.n
+    q, qd, qdd, tau = _check(q, qd, qdd, tau, n)
+    # no MAX_SIGNAL cap: logs are capped where read; the fit is unit-independent (test_fit_scaling)
+    if not np.any(tau):
+        raise ModelError("tau: every torque of every joint is 0; a logged torque is never exactly 0 "
+                         "throughout (a missing column, or the wrong one?)")
+    if base is None:
+        base = base_parameters(arm, armature=armature, friction=friction)
+    else:
+        check_base(base, arm, armature, friction)
+    N, r = len(q), base.count
+    check_fit_size(N, n, len(base.names))
+    if N * n < r:
+        raise ModelError(f"data: {N} samples give {N * n} equations for {r} base parameters")
+    if regressor is None:
+        regressor = arm.lagrange.regressor(q, qd, qdd, armature=armature, friction=friction)
+    elif np.shape(regressor) != (N, n, len(base.names)):
+        raise ModelError(f"regressor: expected shape ({N}, {n}, {len(base.names)}) (the samples' full "
+                         f"regressor), got {np.shape(regressor)}")
+    Yb = base.regressor(regressor)
+    y = tau - known_torque(arm, qd, qdd, armature, friction)
+    edges = segment_edges(segments, N)
+    if segments is not None and factors is not None:
+        raise ModelError("factors, segments: give one (factors hold no run boundaries)")
+    runs = [joint_factors(Yb[a:b], y[a:b]) for a, b in zip(edges[:-1], edges[1:])] if len(edges) > 2 else None
+    if runs is not None:         # each run's factors: its own noise levels, then its weights
+        factors = _stack_factors(runs)
+    elif factors is None:
+        factors = joint_factors(Yb, y)
+    elif np.shape(factors) != (n, r + 1, r + 1):
+        raise ModelError(f"factors: expected shape ({n}, {r + 1}, {r + 1}), got {np.shape(factors)}")
+    R0, c0, _ = _stacked(factors)
+    s = np.linalg.svd(R0, compute_uv=False)              # the singular values of the stacked Y_b
+    cond = float(s[0] / s[-1]) if s[-1] > 0 else float("inf")
+    limit = MAX_CONDITION_CONSISTENT if method == "consistent" else MAX_CONDITION
+    if not cond <= limit:
+        raise ModelError(f"data: the base regressor's condition number is {cond:.3g}, over the {method} "
+                         f"threshold {limit:.0e}: the motion does not excite every base parameter (is q "
+                         f"constant, or a column scaled wrongly?); use an excitation trajectory "
+                         f"(manipdyn excite)")
+    counts = np.diff(edges)
+    sigmas = (np.array([_noise_from_factors(F, int(k)) for F, k in zip(runs, counts)]) if runs is not None
+              else _noise_from_factors(factors, N)[None, :])
+    # noise below 1e-6 of the largest joint's RMS torque is rounding, not noise:
+    # flooring it keeps the weights (and the semidefinite program) well scaled
+    # on exact data, where every sigma_j would otherwise be ~1e-12 and arbitrary
+    floor = 1e-6 * max(float(np.sqrt(np.mean(y**2, axis=0)).max()), 1e-300)
+    sigmas = np.maximum(sigmas, floor)
+    sigma = sigmas[0] if runs is None else np.sqrt(counts @ sigmas**2 / N)
+    try:
+        prior = arm_parameters(arm, armature, friction)
+    except ModelError:   # the prior's friction law is not of the asked-for kind: start from none
+        prior = np.concatenate([arm_parameters(arm, armature, False),
+                                np.zeros(len(base.names) - parameter_count(n, armature, False))])
+
+    cov = None
+    if method == "ols":
+        beta = np.linalg.lstsq(R0, c0, rcond=None)[0]
+        pi = base.full_closest_to(beta, prior)
+        solver = "lstsq"
+    else:
+        w = 1.0 / sigma
+        if runs is None:
+            R, c, rho_w = _stacked(factors, w)
+        else:                    # each run's joints by their noise in that run
+            w = np.repeat(1.0 / sigmas, counts, axis=0)                       # (N, n)
+            R, c, rho_w = _stacked(_stack_factors([F * (1.0 / s)[:, None, None] for F, s in zip(runs, sigmas)]))
+        cov = base_covariance(R)     # rows have unit variance after weighting (.uncertainty)
+        if method == "wls":
+            beta = np.linalg.lstsq(R, c, rcond=None)[0]
+            pi = base.full_closest_to(beta, prior)
+            solver = "lstsq"
+        else:
+            try:
+                pi, solver = consistent_fit(R, c, base.K, n, prior, extra=len(base.names) > 10 * n,
+                                            bounds=bounds, nonnegative=nonnegative_extras(base.names, n),
+                                            prior_weight=float(prior_weight), rows=N * n)
+                if bounds is not None and not bounds.satisfied(pi, n, rtol=1e-6):
+                    raise ModelError("consistent fit: the answer does not satisfy the bounds (the solver "
+                                     "cannot resolve them at the data's scale)")
+            except ModelError as exc:
+                raise ModelError(f"{exc}{_scale_hint(R, c, base.K, prior, bounds)}") from None
+            beta = base.from_full(pi)
+    residuals = y - Yb @ beta
+    eig = link_min_eigenvalues(pi, n)
+    consistent = bool(np.all(eig >= 0.0))
+    out_arm, err = None, None
+    try:
+        import warnings
+
+        from ..._support.errors import PhysicalConsistencyWarning
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", PhysicalConsistencyWarning)
+            out_arm = arm_with_parameters(arm, pi, armature=armature, friction=friction,
+                                          name=name if name is not None else arm.name,
+                                          metadata=metadata)
+    except ModelError as exc:
+        err = str(exc)
+    result = FitResult(arm=out_arm, parameters=pi, base=base, beta=beta, residuals=residuals,
+                       sigma=sigma, method=method, condition_number=cond, consistent=consistent,
+                       prior=arm, arm_error=err, covariance=cov)
+    from .report import build_report
+
+    result.report = build_report(result, solver=solver, samples=N, cov=cov, min_eigenvalues=eig)
+    result.report["active_bounds"] = bounds.active(pi, n) if bounds is not None else []
+    result.report["prior_weight"] = float(prior_weight)
+    result.report.update({"noise_sigma_per_run": sigmas.tolist()} if runs is not None else {})
+    if method == "consistent":
+        result.report.update(_shortfall(R, c, rho_w, y * w, residuals * w, pi, n, base, bounds, solver,
+                                        result.report["active_bounds"]))
+    return result
+
+
+def _scale_hint(R, c, K, prior, bounds) -> str:
+    """A clause naming the measured torque's ratio to the prior's when bounds are in play and
+    the ratio is far from 1 (torques in other units, a wrong prior), else ''."""
+    tp = float(np.linalg.norm(R @ (K @ prior)))
+    ratio = float(np.linalg.norm(c)) / tp if tp > 0 else float("inf")
+    if bounds is None or 0.1 <= ratio <= 10:
+        return ""
+    return (f"; the measured torques are {ratio:.3g} times the prior's, far outside the plausibility "
+            f"bounds around it: are the torques in the prior's units (N m, N)? Otherwise drop the "
+            f"bounds (bounds=None, --no-bounds)")
+
+
+#: relative growth of the weighted residual over least squares' that :func:`_shortfall` explains
+SHORTFALL_RTOL = 1e-2
+#: and the absolute floor (of the weighted torque's norm) below which it is rounding
+SHORTFALL_ATOL = 1e-6
+
+
+def _shortfall(R, c, rho0, yw, ew, pi, n, base, bounds, solver, active_bounds) -> dict:
+    """How much more of the (weighted) torque the consistent fit leaves than least squares,
+    and why: the constraints it sits on, or a solver that stopped short.
+
+    Returns ``relative_residual`` (``||e_w|| / ||tau_w||``, weighted rows),
+    ``least_squares_relative_residual`` (the same for the unconstrained optimum),
+    ``stopped_short`` (bool) and ``fit_notes`` (sentences, empty when the two agree).
+    """
+    norm = max(float(np.linalg.norm(yw)), 1e-300)
+    rel = float(np.linalg.norm(ew)) / norm
+    beta_ls = np.linalg.lstsq(R, c, rcond=None)[0]
+    ls = float(np.sqrt(np.sum((R @ beta_ls - c) ** 2) + rho0**2)) / norm
+    out = {"relative_residual": rel, "least_squares_relative_residual": ls, "stopped_short": False,
+           "fit_notes": []}
+    inaccurate = "inaccurate" in str(solver)
+    J = pseudo_inertia_from_parameters(np.asarray(pi)[:10 * n].reshape(n, 10))
+    ev = np.linalg.eigvalsh(J)
+    at_psd = [i + 1 for i in range(n) if ev[i, 0] <= 1e-6 * max(float(ev[i, -1]), 1e-300)]
+    extra = np.asarray(pi)[10 * n:][nonnegative_extras(base.names, n)] if len(pi) > 10 * n else np.zeros(0)
+    at_zero = int(np.sum(extra <= 1e-9 * max(float(np.abs(pi).max()), 1e-300)))
+    reasons = ([f"J_i >= 0 of link(s) {', '.join(map(str, at_psd))}"] if at_psd else []) \
+        + ([f"{at_zero} armature/friction coefficient(s) at 0"] if at_zero else []) + list(active_bounds)
+    if bounds is not None and not bounds.satisfied(pi, n, rtol=1e-6):
+        out["fit_notes"].append("the answer is outside its bounds: the data and the bounds disagree beyond "
+                                "what the solver can resolve (are the torques in other units than the "
+                                "prior's masses?); widen or drop the bounds")
+        reasons.append("the bounds")
+    if rel <= ls * (1 + SHORTFALL_RTOL) + SHORTFALL_ATOL and not inaccurate:
+        return out
+    head = (f"the consistent fit leaves {rel:.3g} of the weighted torque unexplained where least squares "
+            f"leaves {ls:.3g}")
+    if reasons and not inaccurate:
+        out["fit_notes"].append(f"{head}: the constraints it sits on cost that ({'; '.join(reasons)})")
+    else:
+        out["stopped_short"] = True
+        why = "the solver reported an inaccurate answer" if inaccurate else "no constraint is active"
+        out["fit_notes"].append(f"{head}, and {why}: the solver ({solver}) stopped short of the best "
+                                "physical fit; this answer is not it")
+    return out

@@ -1,0 +1,69 @@
+"""Several models scored on the same data, side by side: ``validate MODEL_A MODEL_B ... DATA``.
+
+Layer 5 (identification).
+
+Each model is scored by :func:`.validation.validate` on the same samples; the table puts
+their held-out RMS per joint in columns and marks the best per joint (the smallest RMS,
+``*``).  The band's coverage and the extrapolation flags are each model's own (each model
+carries its own fitted range and band).  The JSON form keeps every model's full scores
+and adds ``best`` per joint (the model's index and label).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..._support.errors import ModelError
+
+__all__ = ["best_per_joint", "format_side_by_side", "side_by_side_dict"]
+
+
+def best_per_joint(results) -> np.ndarray:
+    """Index (n,) of the result with the smallest RMS on each joint (the first of equals)."""
+    if not results:
+        raise ModelError("results: expected at least one validation result")
+    n = len(results[0].rms)
+    if any(len(r.rms) != n or len(r.t) != len(results[0].t) for r in results):
+        raise ModelError("results: the models were not scored on the same data (joints or samples differ)")
+    rms = np.array([np.where(np.isfinite(r.rms), r.rms, np.inf) for r in results])
+    return np.argmin(rms, axis=0)
+
+
+def _labels(results) -> list[str]:
+    labels = [r.model for r in results]
+    return [f"{lab} [{k + 1}]" if labels.count(lab) > 1 else lab for k, lab in enumerate(labels)]
+
+
+def format_side_by_side(results, unit: str = "N m") -> str:
+    """One table: RMS per joint (rows) and model (columns), the best per joint marked ``*``; then each
+    model's band coverage and extrapolation lines."""
+    best = best_per_joint(results)
+    labels = _labels(results)
+    width = max(12, *(len(lab) + 2 for lab in labels))
+    n = len(results[0].rms)
+    lines = [f"{len(results)} models on {len(results[0].t)} samples: RMS error ({unit}), * = best on the joint",
+             "joint " + "".join(f"{lab:>{width}}" for lab in labels)]
+    for j in range(n):
+        cells = [f"{r.rms[j]:.4g}" + ("*" if best[j] == k else " ") for k, r in enumerate(results)]
+        lines.append(f"{j + 1:>5} " + "".join(f"{c:>{width}}" for c in cells))
+    lines.append("best  " + ", ".join(f"j{j + 1}: {labels[best[j]]}" for j in range(n)))
+    for lab, r in zip(labels, results):
+        extra = []
+        if r.coverage is not None:
+            extra.append(f"  95 % band ({r.band_method}) holds: " + ", ".join(
+                f"j{j + 1} {100 * c:.1f} %" for j, c in enumerate(r.coverage))
+                + f"; pooled {100 * r.pooled_coverage:.1f} %")
+        if r.extrapolation is not None:
+            extra.append("  " + r.extrapolation.summary())
+        extra += [f"  note: {x}" for x in r.notes]
+        if extra:
+            lines += [f"{lab}:"] + extra
+    return "\n".join(lines)
+
+
+def side_by_side_dict(results) -> dict:
+    """JSON-ready: ``{"models": [each model's scores], "best": [{"joint", "model", "index"}, ...]}``."""
+    best = best_per_joint(results)
+    labels = _labels(results)
+    return {"models": [r.to_dict() for r in results],
+            "best": [{"joint": j + 1, "model": labels[k], "index": int(k)} for j, k in enumerate(best)]}

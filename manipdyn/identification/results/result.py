@@ -1,0 +1,231 @@
+"""What :func:`manipdyn.identify` returns: the fit, its story, and how to write and score it.
+
+Layer 5 (identification).
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..._support.errors import ModelError
+
+__all__ = ["IdentifyResult", "write_model_files", "EXIT_OK", "EXIT_NO_ARM"]
+
+#: :attr:`IdentifyResult.exit_code` values (``manipdyn identify`` exits with them)
+EXIT_OK, EXIT_NO_ARM = 0, 1
+
+
+@dataclass
+class IdentifyResult:
+    """The result of :func:`manipdyn.identify`.
+
+    Attributes
+    ----------
+    fit : FitResult
+        The estimate (:func:`.fit`): ``fit.arm`` (None when the parameters are no physical
+        arm, ``fit.arm_error`` says why), ``fit.base``, ``fit.beta``, ``fit.covariance``.
+    arm : manipdyn.Arm or None
+        The identified arm, named :attr:`name`, its provenance in its citation.
+    prior : manipdyn.Arm
+        The prior (with the identified torque constants in its transmission, if asked).
+    data : Measurements
+        The fit data, the runs stacked (``data.segments``: their sample counts).
+    provenance : dict
+        :func:`.provenance.provenance` of the fit.
+    torque_constants : TorqueConstants or None
+        ``k_t`` per motor with standard deviations, when identified.
+    output, base_model : str or None
+        What :meth:`save` or ``identify(output=...)`` wrote.
+    exit_code : int
+        0 a model written (or nothing asked), 1 only the base model could be written.
+    """
+
+    fit: object
+    prior: object
+    prior_label: str
+    data: object
+    friction: object
+    armature: bool
+    provenance: dict
+    metadata: tuple
+    name: str
+    named: bool = False
+    report_dict: dict = field(default_factory=dict)
+    selection: list | None = None
+    shapes: dict | None = None
+    torque_constants: object = None
+    payload_logs: list = field(default_factory=list)
+    bootstrap: dict | None = None
+    arm: object = None
+    output: str | None = None
+    base_model: str | None = None
+    exit_code: int = EXIT_OK
+    logs_label: str = ""
+
+    def rename(self, name: str) -> None:
+        """Name the identified arm ``name`` (its citation stays the fit's provenance)."""
+        from ..estimation.model import arm_with_parameters
+
+        self.name = name
+        if self.fit.arm is None:
+            self.arm = None
+            return
+        import warnings
+
+        from ..._support.errors import PhysicalConsistencyWarning
+
+        with warnings.catch_warnings():      # as fit() builds it: the prior's own notes were given at load
+            warnings.simplefilter("ignore", PhysicalConsistencyWarning)
+            self.arm = arm_with_parameters(self.prior, self.fit.parameters, armature=self.armature,
+                                           friction=self.friction, name=name, metadata=self.metadata)
+        self.fit.arm = self.arm
+
+    def save(self, path) -> str:
+        """Write the identified model to ``path``: ``.toml`` (a model file), ``.urdf`` (a URDF
+        prior's text with the identified ``<inertial>``s, or a DH arm as URDF) or ``.json`` (the
+        base model, :mod:`.basemodel`).  Unless a ``name`` was given to :func:`identify`, the
+        arm is named after the file (``arm_id.toml``: ``arm_id``).  Returns the path.
+
+        Raises :class:`ModelError` when the parameters are no physical arm (write ``.json``).
+        """
+        from ..._support.files import atomic_write_text
+        from ...model.arm import URDFArm
+        from ...formats.save import save, write_urdf
+        from .basemodel import prior_text, write_base_model
+
+        path = os.fspath(path)
+        low = path.lower()
+        if not self.named:
+            stem = os.path.splitext(os.path.basename(path))[0]
+            stem = stem[:-5] if stem.endswith(".base") else stem
+            if stem and stem != self.name:
+                self.rename(stem)
+        if low.endswith(".json"):
+            self.fit.report["name"] = self.name
+            write_base_model(path, self.fit, prior_text(self.prior), self.provenance, bootstrap=self.bootstrap)
+            return path
+        if self.arm is None:
+            raise ModelError(f"{path}: the {self.fit.method} parameters are not a physical arm "
+                             f"({self.fit.arm_error or 'a J_i is not >= 0'}); write the base model (.json)")
+        if isinstance(self.arm, URDFArm) and low.endswith(".urdf"):
+            atomic_write_text(path, self.arm.urdf_text)
+        elif low.endswith(".toml"):
+            save(self.arm, path)
+        elif low.endswith(".urdf"):
+            write_urdf(self.arm, path)
+        else:
+            raise ModelError(f"path: expected a file name ending in .toml, .urdf or .json, got {path!r}")
+        return path
+
+    def report(self) -> dict:
+        """The figures ``manipdyn identify --json`` prints (JSON-ready)."""
+        rep = dict(self.report_dict)
+        if self.selection is not None:
+            rep["prior_weight_selection"] = self.selection
+        if self.bootstrap is not None:
+            rep["bootstrap"] = {k: v for k, v in self.bootstrap.items() if k != "covariance"}   # in the base model
+        if self.shapes is not None:
+            rep["friction_shapes"] = self.shapes
+        if self.torque_constants is not None:
+            rep["torque_constants"] = self.torque_constants.as_dict()
+        rep.update({"model": self.prior_label, "data": self.logs_label or self.provenance["data"], "name": self.name,
+                    "output": self.output, "base_model": self.base_model,
+                    "derived_derivatives": self.data.derived, "provenance": self.provenance,
+                    "runs": [{"log": os.path.basename(str(s)), "samples": int(k)}
+                             for s, k in zip(self.data.sources, self.data.segments)],
+                    "payload_logs": list(self.payload_logs), "data_notes": list(self.data.notes)})
+        return rep
+
+    def format(self) -> str:
+        """The text ``manipdyn identify`` prints."""
+        from ..estimation.report import format_report
+
+        rep = self.report()
+        lines = [f"data: {note}" for note in rep["data_notes"]]
+        lines.append(format_report(rep))
+        lines += [f"note: {note}" for note in rep.get("fit_notes", [])]
+        if rep.get("active_bounds"):
+            lines.append("active bounds (the fit sits on them; --no-bounds or wider bounds to free it):")
+            lines += [f"  {b}" for b in rep["active_bounds"]]
+        if self.selection is not None:
+            lines.append("prior weight by 5-fold blocked cross-validation (score: mean log RMS over the joints of "
+                         "the held-out blocks, lower is better): " + ", ".join(
+                             f"{row['prior_weight']:g} (score {row['score']:.4f})" for row in self.selection)
+                         + f" -> {rep['prior_weight']:g}")
+        sh = self.shapes
+        if sh is not None:
+            lines.append("friction shapes by variable projection (" + ("converged" if sh["converged"] else
+                         "NOT converged: " + sh["message"]) + f", {sh['evaluations']} evaluations): "
+                         + "; ".join(f"{k} " + " ".join(f"{x:.4g}" for x in v) for k, v in sh["fitted"].items()))
+            if sh["at_bound"]:
+                lines.append(f"  at the search's bound (not determined by the data?): {', '.join(sh['at_bound'])}")
+            if sh.get("undetermined"):
+                lines.append(f"  not determined by the data (the residual does not change with them over the log's "
+                             f"speeds; another start?): {', '.join(sh['undetermined'])}")
+        tc = self.torque_constants
+        if tc is not None:
+            where = "the known payload" if tc.scale == "payload" else f"the model's k_t of motor(s) {list(tc.reference)}"
+            lines.append(f"torque constants, N m/A (scale from {where}): " + ", ".join(
+                f"k{j + 1} {v:.5g} +- {s:.2g}" for j, (v, s) in enumerate(zip(tc.values, tc.std))))
+            lines += [f"  {note}" for note in tc.notes]
+        if self.bootstrap is not None:
+            from ..uncertainty.bootstrap import format_bootstrap
+
+            lines.append(format_bootstrap(self.bootstrap, rep["base_parameters"]))
+        band = self.provenance.get("prediction_band")
+        if band:
+            lines.append(f"95 % prediction band from {band['folds']} blocked hold-outs of the fit data (validate "
+                         "scores it on new data): +- " + ", ".join(f"{x:.3g}" for x in band["half_width"]))
+        if self.output:
+            lines.append(f"wrote {self.output}")
+        if self.base_model:
+            lines.append(f"wrote {self.base_model} (base model: {rep['n_base']} base parameters with their "
+                         f"standard deviations; score it with manipdyn validate)")
+        return "\n".join(lines)
+
+    def score(self, logs, **options):
+        """:func:`manipdyn.identification.validate` of the identified model on ``logs`` (the
+        base model when the parameters are no physical arm)."""
+        from .scoring import validate
+
+        return validate(self if self.arm is None else self.arm, logs, **options)
+
+    # scored as a model: the base model's prediction (the fit's) when there is no arm
+    @property
+    def n(self) -> int:
+        return self.prior.n
+
+    def inverse_dynamics(self, q, qd, qdd) -> np.ndarray:
+        """The fit's torque prediction (N, n), N m: ``Y_b beta`` plus the prior's known terms."""
+        return self.fit.predict(q, qd, qdd)
+
+
+def write_model_files(result: IdentifyResult, output, base_json) -> None:
+    """Write what ``identify(output=..., base_json=...)`` asks: the model at ``output`` (or, when
+    the parameters are no physical arm, the base model beside it: ``OUT.base.json``, exit code 1),
+    and the base model at ``base_json``."""
+    base_path = base_json
+    if output is not None:
+        out = os.fspath(output)
+        if out.lower().endswith(".json"):
+            base_path = out
+        elif result.arm is not None:
+            result.output = result.save(out)
+        else:
+            result.exit_code = EXIT_NO_ARM
+            base_path = base_path or os.path.splitext(out)[0] + ".base.json"
+    if base_path:
+        result.base_model = result.save(base_path) if result.named or output is None else _save_base(result, base_path)
+
+
+def _save_base(result, path):
+    """The base model at ``path`` without renaming the arm after it (it is named after ``output``)."""
+    from .basemodel import prior_text, write_base_model
+
+    result.fit.report["name"] = result.name
+    write_base_model(os.fspath(path), result.fit, prior_text(result.prior), result.provenance,
+                     bootstrap=result.bootstrap)
+    return os.fspath(path)
