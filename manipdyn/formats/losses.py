@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._support.errors import ModelError
 from ..model.friction import Friction
 
 __all__ = ["format_losses", "friction_held", "friction_difference", "nonphysical_inertias",
@@ -160,7 +161,7 @@ def format_losses(arm, target: str) -> list:
     """One line per thing of ``arm`` the ``target`` format (``"urdf"`` or ``"mjcf"``) does not hold
     as it is, with the size of the difference where it is a number (module docstring)."""
     if target not in TARGETS:
-        raise ValueError(f"target: expected one of {', '.join(TARGETS)}, got {target!r}")
+        raise ModelError(f"target: expected one of {', '.join(TARGETS)}, got {target!r:.40}")
     lines = []
     g = np.asarray(arm.gravity, dtype=np.float64)
     if target == "urdf" and not np.array_equal(g, URDF_GRAVITY):
