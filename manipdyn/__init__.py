@@ -4,7 +4,8 @@ Layer: the package top: wires the engines into the model and exports the public 
 
 * ``arm.lagrange``: the trace-form Lagrange-Euler engine of chapter II;
 * ``arm.pinocchio``: Pinocchio's RNEA/CRBA/ABA on the arm's URDF;
-* :func:`crosscheck`: proof that the two agree.
+* ``arm.engine("mujoco")``: MuJoCo on the arm's MJCF (:func:`to_mjcf`; the ``mujoco`` extra);
+* :func:`crosscheck`: proof that the engines agree.
 
 Quick start::
 
@@ -32,7 +33,7 @@ from .model.drive import Transmission
 from .model.friction import Friction, FrictionTerms
 from .model.arm import Arm, Convention, Manipulator, URDFArm
 from .formats.loading import load, load_with_notes, models
-from .formats.save import save, to_toml, to_urdf, write_urdf
+from .formats.save import save, to_mjcf, to_toml, to_urdf, write_mjcf, write_urdf
 from .engines.protocol import DynamicsEngine, JacobianEngine
 from .model.arm import register_engine
 from .engines.lagrange.engine import trace_form_engine
@@ -69,10 +70,20 @@ def codegen(arm, dir, prefix=None):
     return _codegen(arm, dir, prefix)
 
 
+def _mujoco_engine(arm):
+    # MuJoCo on the arm's own MJCF (md.to_mjcf), imported on first use
+    from .engines.mujoco import mujoco_engine
+
+    return mujoco_engine(arm)
+
+
 # The engines plug into the model here, at the top of the package.
 register_engine("lagrange", trace_form_engine)
 register_engine("pinocchio", _pinocchio_engine)
 register_engine("c", _c_engine)
+# MuJoCo: served where the ``mujoco`` extra is installed (imported on first use, so ``import manipdyn``
+# stays cheap); without it, arm.engine("mujoco") raises MissingExtraError with the install command
+register_engine("mujoco", _mujoco_engine)
 # ``arm.compiled``, beside ``arm.lagrange`` and ``arm.pinocchio``: wired here, as the engine is
 Arm.compiled = property(lambda arm: arm.engine("c"),
                         doc="The generated-C engine (``arm.engine('c')``): the arm's C, compiled on first use "
@@ -101,7 +112,7 @@ __all__ = ["Transmission", "Friction", "FrictionTerms",
     "Arm", "ChainJoint", "Convention", "CompareReport", "CrosscheckReport", "DHLink", "DynamicsEngine", "JacobianEngine",
     "LinkInertia", "Manipulator", "ModelError", "ModelNoteWarning", "PhysicalConsistencyWarning", "SingularMassMatrixError",
     "StateError", "SuspiciousValueWarning", "URDFArm", "UnreachablePoseError", "codegen", "compare", "crosscheck", "linearize", "load", "load_with_notes", "models", "save",
-    "simulate", "identify", "validate", "to_toml", "to_urdf", "transform_inverse", "write_urdf",
+    "simulate", "identify", "validate", "to_mjcf", "to_toml", "to_urdf", "transform_inverse", "write_mjcf", "write_urdf",
 ]
 
 

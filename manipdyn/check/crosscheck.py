@@ -35,20 +35,17 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..model.arm import register_service
+from ..engines.protocol import DynamicsEngine, not_offered  # noqa: F401  (DynamicsEngine: the annotations)
 from .quantities import OPTIONAL_QUANTITIES, QUANTITIES, TOOL_WRENCH, engine_results as _engine_results
 from .._support.errors import ModelError, SingularMassMatrixError, StateError
 from .scale import arm_from_text, chunks, local_cores, map_chunks, model_text
+from .conditioning import MAX_COND, TOLERANCE, qdd_not_comparable
 
 __all__ = ["crosscheck", "CrosscheckReport", "QuantityError", "TOLERANCE", "draw_states", "DEFAULT_ENGINES",
-           "as_engines", "QUANTITIES", "TOOL_WRENCH"]
+           "as_engines", "QUANTITIES", "TOOL_WRENCH", "not_offered"]
 
-TOLERANCE = 1e-9
 #: the engines compared by default: the referee (the trace form) and Pinocchio
 DEFAULT_ENGINES = ("lagrange", "pinocchio")
-#: largest cond(D) at which forward dynamics is compared: solving with D loses
-#: about log10(cond D) of float64's 16 digits, so 1e7 leaves 1e-9 (observed: the
-#: bundled arms <= 2.4e4, Tiago cut at its arm 4.7e6 with qdd error 1.3e-10)
-MAX_COND = 1e7
 #: most states one cross-check draws (3 arrays of samples x n doubles are held)
 MAX_SAMPLES = 10_000_000
 
@@ -195,51 +192,6 @@ def _compare(name, abs_err, scale, states, tol=TOLERANCE) -> QuantityError:
 CHUNK_DOUBLES = 2_000_000
 
 
-def qdd_not_comparable(D, dD, dh, dg, qdd) -> str:
-    """Why forward dynamics cannot be compared to :data:`TOLERANCE` at these states, or "".
-
-    ``D`` (B, n, n) is the reference mass matrix; ``dD``, ``dh``, ``dg`` the
-    other engine's differences from the reference (each within TOLERANCE);
-    ``qdd`` (B, n) the accelerations.  Forward dynamics solves ``D qdd = tau
-    - h - g``: to first order the engines' qdd then differ by up to
-    ``(|dD| |qdd| + |dh| + |dg|) / lambda_min(D)`` (max-norms), even with two
-    exact solvers.  When that exceeds TOLERANCE (relative to ``max(1,
-    |qdd|)``), a disagreement in qdd would say nothing about the solvers, so
-    qdd is not compared and the reason is reported:
-
-    * D not positive definite (a physically impossible inertia: no physical
-      forward dynamics, and ABA and a linear solve then differ);
-    * D numerically singular (a joint that moves no mass);
-    * cond(D) over :data:`MAX_COND`, or the first-order bound above over
-      TOLERANCE (float64 cannot give qdd to TOLERANCE at these states).
-    """
-    w = np.linalg.eigvalsh(D)                       # ascending, (B, n)
-    hi = np.maximum(np.abs(w).max(axis=1), 1e-300)
-    lo = w[:, 0]
-    if np.any(lo < -1e-12 * hi):
-        return (f"the mass matrix D(q) is not positive definite (eigenvalue {float(lo.min()):.3g}): some "
-                "link's inertia is physically impossible, and forward dynamics has no physical meaning "
-                "(ABA and a linear solve then differ); see the physical-consistency warnings")
-    singular = lo <= 1e-15 * hi                     # numerically singular (or a zero row)
-    if np.any(singular):
-        return str(SingularMassMatrixError.for_mass_matrix(D[singular]))
-    cond = hi / lo
-    if np.any(~(cond <= MAX_COND)):
-        return (f"the mass matrix D(q) is ill-conditioned (cond(D) = {float(np.max(cond)):.3g} > "
-                f"{MAX_COND:g}): float64 cannot give the forward dynamics to {TOLERANCE:g}; check the "
-                "model's inertias")
-    B = len(D)
-    amax = np.abs(qdd).reshape(B, -1).max(axis=1)
-    spread = (np.abs(dD).reshape(B, -1).max(axis=1) * amax + np.abs(dh).reshape(B, -1).max(axis=1)
-              + np.abs(dg).reshape(B, -1).max(axis=1)) / lo / np.maximum(1.0, amax)
-    if np.any(~(spread <= TOLERANCE)):
-        return (f"the engines' D, h, g agree (within {TOLERANCE:g}) but forward dynamics divides their "
-                f"differences by lambda_min(D) = {float(lo[np.argmax(spread)]):.3g}: the qdd can differ by "
-                f"{float(np.max(spread)):.3g} relative, beyond {TOLERANCE:g}, whatever the solvers (lengths "
-                "or joint ranges far from the arm's scale?)")
-    return ""
-
-
 def as_engines(engines) -> tuple:
     """``engines`` (names, or one comma-separated string) as a tuple of at least two distinct
     names, or a :class:`ModelError` naming the argument (unknown names fail when built)."""
@@ -330,6 +282,7 @@ def _crosscheck_states(arm, samples, seed, chunk, progress, first, stop,
     q, qd, qdd = draw_states(arm, samples, seed, first, stop)
     samples_all, samples = samples, stop - first
     eng = {name: arm.engine(name) for name in engines}
+    offered_not = {name: not_offered(E) for name, E in eng.items()}
     pairs = _pairs(engines)
     parts: dict[str, list] = {}
     skipped: dict[str, str] = {}
@@ -376,15 +329,21 @@ def _crosscheck_states(arm, samples, seed, chunk, progress, first, stop,
                     skipped[kq] = f"{kq} not compared: {exc}"
                     parts.pop(kq, None)
             for key in ("fk", "K", "P", "C", "Y", "dtau_dq", "dtau_dqd", "dg_dq"):
-                add(key + sfx, A[key], B[key])
+                if key in A and key in B:
+                    add(key + sfx, A[key], B[key])
             for key, method in OPTIONAL_QUANTITIES.items():
-                lacking = [n for n, R in ((a, A), (b, B)) if key not in R]
+                lacking = [n for n, R in ((a, A), (b, B)) if key not in R and key not in offered_not[n]]
+                if any(key in offered_not[n] for n in (a, b)):
+                    continue                         # said in the engine's note
                 for n in lacking:      # one note per engine, however many pairs it is in
                     optional_notes[n] = (f"{', '.join(OPTIONAL_QUANTITIES)} not compared where engine {n} takes "
                                          f"part: it offers no {', '.join(dict.fromkeys(OPTIONAL_QUANTITIES.values()))} "
                                          "(optional)")
                 if not lacking:
                     add(key + sfx, A[key], B[key])
+            lacks = [n for n in (a, b) if "dqdd_dq" in offered_not[n]]
+            if lacks:
+                continue
             if kq in skipped:      # the same conditioning limits D^-1 dtau (and a singular D has none)
                 for key in ("dqdd_dq" + sfx, "dqdd_dqd" + sfx):
                     skipped.setdefault(key, skipped[kq].replace(
@@ -397,9 +356,15 @@ def _crosscheck_states(arm, samples, seed, chunk, progress, first, stop,
             progress(sl.stop, samples)
 
     states = {"q": q, "qd": qd, "qdd": qdd}
+    engine_notes = []
+    for name, E in eng.items():
+        engine_notes += list(getattr(E, "notes", None) or ())
+        if offered_not[name]:
+            engine_notes.append(f"not compared where engine {name} takes part (it does not compute them): "
+                                + "; ".join(f"{k}: {why}" for k, why in offered_not[name].items()))
     report = CrosscheckReport(arm=arm.name or "arm", n=arm.n, samples=int(samples_all), seed=int(seed),
                               notes=list(getattr(arm, "notes", ())) + list(dict.fromkeys(skipped.values()))
-                              + list(optional_notes.values()),
+                              + list(optional_notes.values()) + engine_notes,
                               not_compared=dict(skipped), engines=tuple(engines))
     for key, (ra, rb) in parts.items():
         report.quantities[key] = _compare(key, np.concatenate(ra), np.concatenate(rb), states)

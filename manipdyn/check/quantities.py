@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..engines.protocol import DynamicsEngine
+from ..engines.protocol import DynamicsEngine, not_offered
 from ..model.reach import wrench_torque
 
 __all__ = ["QUANTITIES", "OPTIONAL_QUANTITIES", "TOOL_WRENCH", "engine_results"]
@@ -61,12 +61,18 @@ def engine_results(E: DynamicsEngine, qs, qds, qdds, referee: bool) -> dict:
         D, h, g = E.dynamics_terms(qs, qds)
     else:
         D, h, g = E.mass_matrix(qs), E.coriolis_torque(qs, qds), E.gravity_torque(qs)
+    skip = not_offered(E)       # what the engine does not compute (MuJoCo's C, Y, derivatives): left out, with a note
     r = {"D": D, "h": h, "g": g, "tau": E.inverse_dynamics(qs, qds, qdds), "fk": E.fkine(qs),
-         "K": E.kinetic_energy(qs, qds)[:, None], "P": np.asarray(E.potential_energy(qs))[:, None],
-         "C": E.coriolis_matrix(qs, qds), "Y": E.regressor(qs, qds, qdds)}
-    r["dtau_dq"], r["dtau_dqd"] = E.inverse_dynamics_derivatives(qs, qds, qdds)
-    r["dg_dq"] = E.gravity_derivative(qs)
+         "K": E.kinetic_energy(qs, qds)[:, None], "P": np.asarray(E.potential_energy(qs))[:, None]}
+    if "C" not in skip:
+        r["C"] = E.coriolis_matrix(qs, qds)
+    if "Y" not in skip:
+        r["Y"] = E.regressor(qs, qds, qdds)
+    if "dtau_dq" not in skip:
+        r["dtau_dq"], r["dtau_dqd"] = E.inverse_dynamics_derivatives(qs, qds, qdds)
+    if "dg_dq" not in skip:
+        r["dg_dq"] = E.gravity_derivative(qs)
     for key, method in OPTIONAL_QUANTITIES.items():      # only where the engine has them
-        if callable(getattr(E, method, None)):
+        if key not in skip and callable(getattr(E, method, None)):
             r[key] = _OPTIONAL_CALLS[key](E, qs, qds, qdds)
     return r

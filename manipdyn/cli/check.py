@@ -129,8 +129,9 @@ def register(sub) -> None:
                    help="with --scheduler local (implied): worker processes (default one per core)")
     c.add_argument("--engines", default=None, metavar="E1,E2[,...]",
                    help="the engines to compare, the referee first, e.g. lagrange,pinocchio,c (the "
-                        "generated C: needs a C compiler, and CasADi on the first build of an arm); "
-                        "default lagrange,pinocchio")
+                        "generated C: needs a C compiler, and CasADi on the first build of an arm), "
+                        "or pinocchio,mujoco (MuJoCo on the arm's MJCF: the mujoco extra; what MuJoCo does "
+                        "not compute is left out with a note); default lagrange,pinocchio")
     c.add_argument("--timing-calls", type=int, default=200,
                    help="calls per engine for the per-call timing (0 to skip; default 200)")
     add_progress_options(c)

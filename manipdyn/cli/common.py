@@ -82,17 +82,17 @@ class Progress:
         sys.stderr.flush()
 
 
-def urdf_target(outdir: str, arm, seen: dict, option: str, inputs=()) -> str:
-    """``outdir/<name>.urdf`` for an arm, with the name made a safe file name.
+def urdf_target(outdir: str, arm, seen: dict, option: str, inputs=(), ext: str = "urdf") -> str:
+    """``outdir/<name>.urdf`` (``.<ext>``) for an arm, with the name made a safe file name.
 
     Refuses two arms that would write the same file, and a file that is one of
     ``inputs`` (the model files read: :func:`check_outputs`).
     """
     stem = re.sub(r"[^A-Za-z0-9_.-]+", "_", arm.name or "arm").strip("._") or "arm"
     if stem in seen:
-        raise ModelError(f"{option}: {seen[stem]!r} and {arm.name!r} would both be written to {stem}.urdf")
+        raise ModelError(f"{option}: {seen[stem]!r} and {arm.name!r} would both be written to {stem}.{ext}")
     seen[stem] = arm.name
-    path = os.path.join(outdir, f"{stem}.urdf")
+    path = os.path.join(outdir, f"{stem}.{ext}")
     check_outputs([(option, path)], [("MODEL_OR_FILE", s) for s in inputs])
     return path
 

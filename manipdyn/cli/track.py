@@ -3,7 +3,7 @@
 Layer 7 (CLI, the top).
 
     manipdyn track MODEL [--controller pd|pdg|ct|adaptive|lqr] [--payload KG]
-                         [--duration S] [--trajectory FILE.csv] [--plot out.png] [--compare]
+                         [--duration S] [--trajectory FILE.csv] [--plot out.png] [--compare] [--simulator mujoco]
 
 The controller is built on the arm as described (MODEL); with ``--payload``
 the simulated plant carries an extra mass on its last link that the
@@ -21,12 +21,14 @@ import sys
 from ..control.demo import CONTROLLERS, DEFAULT_BANDWIDTH, DEFAULT_GAMMA
 from ..control.track import check_track_options, reference_for, track, track_header
 from .._support.figures import PLOT_INSTALL
-from .common import TIP_HELP, Progress, add_progress_options, check_outputs, load_arm, progress_wanted
+from .common import TIP_HELP, Progress, add_progress_options, check_outputs, load_arm, progress_wanted, usage_error
 
 __all__ = ["register", "run"]
 
 
 def run(args) -> int:
+    if args.simulator != "mujoco" and args.mujoco_plant != "file":
+        return usage_error("track", "--mujoco-plant: only with --simulator mujoco")
     check_track_options(duration=args.duration, dt=args.dt, payload=args.payload, bandwidth=args.bandwidth,
                         gamma=args.gamma, prefix="--")
     # fail before a long run, not after it
@@ -44,12 +46,21 @@ def run(args) -> int:
         say()
         say(result.run_text(label))
 
-    say(track_header(arm, duration, args.dt, args.bandwidth, args.payload, reference))
+    say(track_header(arm, duration, args.dt, args.bandwidth, args.payload, reference, args.simulator))
+    if args.simulator == "mujoco":
+        from ..engines.mujoco import mujoco_module
+        from ..formats.mjcf import mjcf_losses
+
+        mujoco_module()                     # the extra's install command, before any work
+        for line in mjcf_losses(arm):
+            if not line.startswith("link ") and args.mujoco_plant == "file":   # refused inertias: set exactly
+                say(f"  MuJoCo's plant does not hold: {line}")
     for n in notes:
         say(f"  note: {n}")
     result = track(arm, "all" if args.compare else (args.controller,), payload=args.payload,
                    duration=duration, dt=args.dt, bandwidth=args.bandwidth, gamma=args.gamma,
-                   progress=lambda label: Progress(label, show, unit="steps"), on_run=printed, trajectory=path)
+                   progress=lambda label: Progress(label, show, unit="steps"), on_run=printed, trajectory=path,
+                   simulator=args.simulator, mujoco_plant=args.mujoco_plant)
     if args.compare:
         say()
         say(result.compare_table())
@@ -94,6 +105,13 @@ def register(subparsers) -> None:
     p.add_argument("--plot", metavar="OUT.png", default=None,
                    help=f"write a figure (needs matplotlib: {PLOT_INSTALL})")
     p.add_argument("--compare", action="store_true", help="run all five controllers and compare them")
+    p.add_argument("--simulator", choices=("manipdyn", "mujoco"), default="manipdyn",
+                   help="who steps the plant: manipdyn's RK4 (default) or MuJoCo's RK4 on the arm's MJCF, the "
+                        "controller's torque as the actuators' control each period (needs the mujoco extra)")
+    p.add_argument("--mujoco-plant", choices=("file", "model"), default="file",
+                   help="with --simulator mujoco: 'file' (default) the MJCF as MuJoCo loads it (limits and "
+                        "frictionloss are MuJoCo's constraints; friction terms MJCF cannot hold are absent), or "
+                        "'model' the same plant as manipdyn's own run (constraints off, the whole friction law)")
     p.add_argument("--json", action="store_true", help="print one JSON document instead of tables")
     add_progress_options(p, "a progress bar per run")
     p.set_defaults(func=run)

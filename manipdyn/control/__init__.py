@@ -1,7 +1,8 @@
 """Path-tracking control on top of manipdyn's dynamics (the thesis' subject).
 
 Layer 6 (control).  Holds ``montecarlo/`` (robustness studies of these controllers, whose
-plants may come from an identification) and ``track`` (the demo run).  May import: everything below it
+plants may come from an identification), ``track`` (the demo run) and ``mjsim`` (MuJoCo stepping
+the plant instead of manipdyn's RK4: ``simulate(..., simulator="mujoco")``).  May import: everything below it
 (``identification``, ``check``, ``engines``, ``formats``, ``model``, ``_support``).
 
 * trajectories (:mod:`.trajectory`): :class:`Quintic`, :class:`ViaPoints`,

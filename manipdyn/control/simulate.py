@@ -177,7 +177,8 @@ def _name(x) -> str:
 
 def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, plant=None,
              q0=None, qd0=None, max_position: float = DEFAULT_MAX_POSITION,
-             max_velocity: float = DEFAULT_MAX_VELOCITY, progress=None, substeps=None) -> SimulationLog:
+             max_velocity: float = DEFAULT_MAX_VELOCITY, progress=None, substeps=None,
+             simulator: str = "manipdyn", mujoco_plant: str = "file") -> SimulationLog:
     """Simulate ``controller`` tracking ``trajectory`` on ``plant`` (default ``arm``).
 
     Parameters
@@ -207,6 +208,13 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
     substeps : int, optional
         Runge-Kutta steps per control period; default as many as the plant needs
         along the reference (:func:`manipdyn.control.stiffness.rk4_substeps`).
+    simulator : "manipdyn" | "mujoco"
+        Who steps the plant: manipdyn's RK4 on the plant's forward dynamics (default), or
+        MuJoCo's RK4 on the plant's MJCF with the torque as the actuators' control
+        (:mod:`manipdyn.control.mjsim`; the ``mujoco`` extra).
+    mujoco_plant : "file" | "model"
+        With MuJoCo: the MJCF as MuJoCo loads it (limits and frictionloss as constraints), or
+        the same plant as manipdyn's own run (constraints off, the whole friction law applied).
 
     Returns
     -------
@@ -218,6 +226,8 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
         When the state leaves the bounds or anything becomes non-finite.
     """
     t_wall = time.perf_counter()
+    if simulator not in ("manipdyn", "mujoco"):
+        raise ValueError(f"simulator: expected 'manipdyn' or 'mujoco', got {simulator!r:.40}")
     plant = arm if plant is None else plant
     trajectory, duration, dt, N = _check_arguments(arm, controller, trajectory, duration, dt, plant)
     n = arm.n
@@ -243,7 +253,13 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
                         np.empty((N + 1, n)), dt, _name(controller), plant.name or "plant",
                         tuple(plant.joint_types), substeps=int(substeps))
     watch = _Divergence(log, plant, N, dt, max_position, max_velocity)
-    _integrate(log, watch, plant, controller, trajectory, q, qd, progress)
+    if simulator == "mujoco":
+        from .mjsim import integrate_mujoco
+
+        log.plant += " (MuJoCo)"
+        integrate_mujoco(log, watch, plant, controller, trajectory, q, qd, progress, mujoco_plant)
+    else:
+        _integrate(log, watch, plant, controller, trajectory, q, qd, progress)
     log.wall_time = time.perf_counter() - t_wall
     return log
 

@@ -64,10 +64,13 @@ def check_track_options(*, duration: float | None, dt: float, payload: float, ba
         raise ModelError(f"{prefix}gamma: must be >= 0, got {gamma}")
 
 
-def track_header(arm, duration: float, dt: float, bandwidth: float, payload: float, reference: str = "") -> str:
+def track_header(arm, duration: float, dt: float, bandwidth: float, payload: float, reference: str = "",
+                 simulator: str = "manipdyn") -> str:
     """The one-line header of a run (printed before the runs start); ``reference`` names the
-    user's path (:func:`~manipdyn.control.reference.read_path`), "" the demo path."""
-    head = (f"manipdyn track {arm.name}: {reference or 'demo path'} {duration:g} s, {1 / dt:g} Hz RK4 "
+    user's path (:func:`~manipdyn.control.reference.read_path`), "" the demo path; ``simulator``
+    who steps the plant."""
+    who = "MuJoCo's RK4 on the arm's MJCF, the torque as the actuators' control" if simulator == "mujoco" else "RK4"
+    head = (f"manipdyn track {arm.name}: {reference or 'demo path'} {duration:g} s, {1 / dt:g} Hz {who} "
             f"(torque held over each step), bandwidth {bandwidth:g} rad/s")
     if payload > 0:
         head += (f"; plant carries {payload:g} kg at {list(DEFAULT_PAYLOAD_COM)} m in the last "
@@ -97,6 +100,8 @@ class TrackResult:
     logs: dict = field(default_factory=dict)       # label -> SimulationLog | str ("DIVERGED at t = ...")
     messages: dict = field(default_factory=dict)   # label -> the divergence's full message
     reference: str = ""                            # the user's path ("path FILE (N samples of q)"), "" the demo
+    simulator: str = "manipdyn"                     # who stepped the plant ("manipdyn" or "mujoco")
+    mujoco_plant: str = "file"                      # MuJoCo's plant (manipdyn.control.mjsim)
 
     @property
     def final(self) -> float:
@@ -110,7 +115,8 @@ class TrackResult:
 
     def header(self) -> str:
         """One line: the arm, the path, the rate, and the payload the controllers do not know."""
-        return track_header(self.arm, self.duration, self.dt, self.bandwidth, self.payload, self.reference)
+        return track_header(self.arm, self.duration, self.dt, self.bandwidth, self.payload, self.reference,
+                            self.simulator)
 
     def run_text(self, label: str) -> str:
         """The summary of one controller's run (or its divergence)."""
@@ -148,7 +154,8 @@ class TrackResult:
                            "peak_torque": _floats(log.peak_torque())}
         return {"model": model if model is not None else self.arm.name, "name": self.arm.name, "n": self.arm.n,
                 "duration": self.duration, "dt": self.dt, "bandwidth": self.bandwidth, "gamma": self.gamma,
-                "payload": self.payload, "path": self.reference or "demo", "notes": list(notes), "controllers": runs}
+                "payload": self.payload, "path": self.reference or "demo", "simulator": self.simulator,
+                **({"mujoco_plant": self.mujoco_plant} if self.simulator == "mujoco" else {}), "notes": list(notes), "controllers": runs}
 
     def plot(self, path: str) -> str | None:
         """Write the figure (all controllers when more than one ran); returns None when written,
@@ -156,6 +163,7 @@ class TrackResult:
         from .plots import plot_compare, plot_single
 
         title = f"{self.arm.name}: {self.reference or 'demo path'}, {self.duration:g} s at {1 / self.dt:g} Hz" + \
+            (" in MuJoCo" if self.simulator == "mujoco" else "") + \
             (f", +{self.payload:g} kg payload unknown to the controller" if self.payload > 0 else "")
         if len(self.controllers) > 1:
             plot_compare(self.logs, self.arm, title, path)
@@ -188,7 +196,7 @@ def reference_for(arm, trajectory=None, duration=None):
 
 def track(arm, controllers=("ct",), *, payload: float = 0.0, duration: float | None = None, dt: float = 1e-3,
           bandwidth: float = DEFAULT_BANDWIDTH, gamma: float = DEFAULT_GAMMA, progress=None,
-          on_run=None, trajectory=None) -> TrackResult:
+          on_run=None, trajectory=None, simulator: str = "manipdyn", mujoco_plant: str = "file") -> TrackResult:
     """Run the demo path (or the user's ``trajectory``) with each controller of ``controllers`` on ``arm``.
 
     Parameters
@@ -217,6 +225,13 @@ def track(arm, controllers=("ct",), *, payload: float = 0.0, duration: float | N
         (:func:`~manipdyn.control.reference.read_path`: times from the first row, positions
         within the joint limits, or ``excite``'s file with velocities and accelerations), or a
         :class:`~manipdyn.control.trajectory.Trajectory`.  The arm starts on it.
+    simulator : "manipdyn" | "mujoco"
+        Who steps the plant (:func:`~manipdyn.control.simulate.simulate`): manipdyn's RK4, or
+        MuJoCo's RK4 on the plant's MJCF with the controller's torque as the actuators' control
+        each period (the ``mujoco`` extra); same report and figure.
+    mujoco_plant : "file" | "model"
+        MuJoCo's plant (:mod:`manipdyn.control.mjsim`): the MJCF as MuJoCo loads it (default), or
+        the same plant as manipdyn's own run (constraints off, the whole friction law applied).
     """
     path, duration, reference = reference_for(arm, trajectory, duration)
     check_track_options(duration=duration, dt=dt, payload=payload, bandwidth=bandwidth, gamma=gamma)
@@ -225,14 +240,19 @@ def track(arm, controllers=("ct",), *, payload: float = 0.0, duration: float | N
     unknown = [k for k in kinds if k not in CONTROLLERS]
     if not kinds or unknown:
         raise ModelError(f"controllers: expected keys of {list(CONTROLLERS)} or 'all', got {list(controllers)!r:.80}")
+    if simulator not in ("manipdyn", "mujoco"):
+        raise ModelError(f"simulator: expected 'manipdyn' or 'mujoco', got {simulator!r:.40}")
+    if mujoco_plant not in ("file", "model"):
+        raise ModelError(f"mujoco_plant: expected 'file' or 'model', got {mujoco_plant!r:.40}")
     plant = with_payload(arm, payload, com=DEFAULT_PAYLOAD_COM) if payload > 0 else arm
     result = TrackResult(arm, tuple(kinds), float(duration), float(dt), float(bandwidth), float(gamma),
-                         float(payload), reference=reference)
+                         float(payload), reference=reference, simulator=simulator, mujoco_plant=mujoco_plant)
     for kind in kinds:
         ctrl = make_controller(kind, arm, bandwidth, gamma, path=path, dt=dt)
         label = CONTROLLERS[kind]
         try:
-            result.logs[label] = simulate(arm, ctrl, path, duration, dt=dt, plant=plant,
+            result.logs[label] = simulate(arm, ctrl, path, duration, dt=dt, plant=plant, simulator=simulator,
+                                          mujoco_plant=mujoco_plant,
                                           progress=progress(label[:16]) if progress else None)
         except SimulationDiverged as exc:
             result.logs[label] = f"DIVERGED at t = {exc.t:.3g} s"

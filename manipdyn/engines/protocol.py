@@ -18,7 +18,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["DynamicsEngine", "ENGINE_METHODS", "OPTIONAL_ENGINE_METHODS", "JacobianEngine"]
+__all__ = ["DynamicsEngine", "ENGINE_METHODS", "OPTIONAL_ENGINE_METHODS", "JacobianEngine", "not_offered"]
 
 #: the methods of :class:`DynamicsEngine`, in one place for tests and tools
 ENGINE_METHODS = ("mass_matrix", "coriolis_torque", "gravity_torque", "friction_torque",
@@ -135,3 +135,11 @@ class JacobianEngine(Protocol):
     def jacobian_dot(self, q, qd) -> np.ndarray:
         """``dJ/dt`` along ``qd``: (6, n) or (N, 6, n); the tool's acceleration is ``J qdd + Jdot qd``."""
         ...
+
+
+def not_offered(E) -> dict:
+    """The cross-check's quantities (``"C"``, ``"Y"``, ``"dtau_dq"`` ...) engine ``E`` does not
+    compute, and why: its optional attribute ``not_offered`` (a dict), e.g. MuJoCo's Christoffel
+    matrix and regressor.  :func:`manipdyn.crosscheck` leaves them out with a note, never
+    compares them loosely, and does not count them as a failed condition."""
+    return dict(getattr(E, "not_offered", None) or {})

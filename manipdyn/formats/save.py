@@ -1,4 +1,4 @@
-"""Writing arms to files: model files (TOML) and URDF, always atomically.
+"""Writing arms to files: model files (TOML), URDF and MJCF, always atomically.
 
 Layer 2 (formats) loaders and writers.  The free functions here replace the
 methods ``arm.save`` and ``arm.write_urdf`` (kept one release as deprecated
@@ -10,9 +10,10 @@ from __future__ import annotations
 from .._support.files import atomic_write_text
 from .modelfile import model_to_toml, save_model
 from .urdf.writer import arm_to_urdf
+from .mjcf import arm_to_mjcf
 from ..model.arm import register_service
 
-__all__ = ["save", "write_urdf", "to_urdf", "to_toml"]
+__all__ = ["save", "write_urdf", "to_urdf", "to_toml", "to_mjcf", "write_mjcf"]
 
 
 def save(arm, path) -> None:
@@ -44,3 +45,17 @@ def write_urdf(arm, path) -> None:
 register_service("save", save)
 register_service("write_urdf", write_urdf)
 register_service("to_urdf", to_urdf)
+
+
+def to_mjcf(arm) -> str:
+    """The arm as MJCF text, MuJoCo's model format (:mod:`manipdyn.formats.mjcf`): bodies with their
+    inertials at full precision, joints with range, ``armature``, ``damping`` and ``frictionloss``,
+    one ``motor`` per joint, a ``tool`` site and the model's gravity; its opening comment names the
+    model (sha256, source, manipdyn version) and says what MJCF does not hold of it.  Warns
+    (:class:`~manipdyn.PhysicalConsistencyWarning`) for each link MuJoCo's compiler will refuse."""
+    return arm_to_mjcf(arm)
+
+
+def write_mjcf(arm, path) -> None:
+    """Write :func:`to_mjcf` to ``path`` atomically (no partial file on failure)."""
+    atomic_write_text(path, arm_to_mjcf(arm))

@@ -1,0 +1,110 @@
+"""MuJoCo stepping the plant of a closed-loop run: ``simulate(..., simulator="mujoco")``.
+
+Layer 6 (control).  The plant is the arm's own MJCF (``md.to_mjcf``, compiled by the
+``"mujoco"`` engine, :meth:`manipdyn.engines.mujoco.MujocoEngine.simulation_model`) as a
+MuJoCo user has it: joint limits and ``frictionloss`` are MuJoCo's constraints.  Each
+control period the controller's torque goes in as the actuators' control (``d.ctrl``: one
+``motor`` per joint, gear 1, clamped to ``ctrlrange`` where the model has an effort limit)
+and is held while MuJoCo takes ``substeps`` steps of ``dt / substeps``: the same zero-order
+hold, the same sub-steps and, with the default ``integrator="RK4"``, the same classical
+Runge-Kutta scheme as manipdyn's own loop (:mod:`manipdyn.control.simulate`), so that the two
+runs differ only by how each evaluates the dynamics (``mj_forward`` against Pinocchio's ABA,
+equal to about 1e-13: ``manipdyn check ARM --engines pinocchio,mujoco``) and, with the default
+plant, by what MJCF does not hold (:func:`manipdyn.formats.losses.format_losses`).
+
+Two plants (``mujoco_plant``):
+
+* ``"file"`` (default): the MJCF as MuJoCo loads it: joint limits and ``frictionloss`` are
+  MuJoCo's soft constraints, and the friction terms MJCF cannot hold are absent;
+* ``"model"``: the same plant as manipdyn's own simulation: constraints off, and the arm's
+  friction law beyond MuJoCo's damping (:meth:`MujocoEngine.friction_beyond_damping`) applied at
+  every evaluation of the dynamics, Runge-Kutta stages included, through MuJoCo's passive-force
+  callback (``mjcb_passive``).  That callback is global to the process, so such runs take a
+  lock: one at a time per process.
+"""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+
+from .controllers import Controller
+
+__all__ = ["integrate_mujoco", "SIMULATORS", "INTEGRATOR", "MUJOCO_PLANTS"]
+
+#: the MuJoCo plants (module docstring)
+MUJOCO_PLANTS = ("file", "model")
+#: MuJoCo's passive-force callback is one per process
+_CALLBACK = threading.Lock()
+
+#: the simulators a closed-loop run can use
+SIMULATORS = ("manipdyn", "mujoco")
+#: MuJoCo's integrator in these runs (the scheme of manipdyn's own loop)
+INTEGRATOR = "RK4"
+
+
+def integrate_mujoco(log, watch, plant, controller, trajectory, q, qd, progress, mujoco_plant: str = "file",
+                     integrator: str = INTEGRATOR) -> None:
+    """The loop of :func:`manipdyn.control.simulate.simulate` with MuJoCo stepping ``plant``
+    (``mujoco_plant``: module docstring); fills ``log`` in place (``log.substeps`` MuJoCo steps
+    per control period)."""
+    if mujoco_plant not in MUJOCO_PLANTS:
+        raise ValueError(f"mujoco_plant: expected 'file' or 'model', got {mujoco_plant!r:.40}")
+    engine = plant.engine("mujoco")
+    mj, model = engine.simulation_model(log.dt / log.substeps, integrator)
+    if mujoco_plant == "file" or plant.friction_model is None:
+        if mujoco_plant == "model":
+            model.opt.disableflags |= int(mj.mjtDisableBit.mjDSBL_CONSTRAINT)
+        _loop(mj, model, log, watch, controller, trajectory, q, qd, progress)
+        return
+    model.opt.disableflags |= int(mj.mjtDisableBit.mjDSBL_CONSTRAINT)
+    beyond = engine.friction_beyond_damping
+
+    def passive(m, d):                    # the law beyond damping, at every evaluation
+        d.qfrc_passive[:] -= beyond(d.qvel)
+    with _CALLBACK:
+        mj.set_mjcb_passive(passive)
+        try:
+            _loop(mj, model, log, watch, controller, trajectory, q, qd, progress)
+        finally:
+            mj.set_mjcb_passive(None)
+
+
+def _loop(mj, model, log, watch, controller, trajectory, q, qd, progress) -> None:
+    Q, V, TAU, dt, N, n = log.q, log.qd, log.tau, log.dt, watch.N, len(q)
+    m_sub = log.substeps
+    d = mj.MjData(model)
+    d.qpos[:], d.qvel[:] = q, qd
+    mj.mj_forward(model, d)
+    every = max(1, N // 100)
+    if isinstance(controller, Controller) and controller.trajectory is trajectory:
+        step = controller.step
+        rows = (list(log.q_d), list(log.qd_d), list(log.qdd_d))
+    else:
+        step = rows = None
+    with np.errstate(over="ignore", invalid="ignore"):
+        for k in range(N):
+            q, qd = d.qpos.copy(), d.qvel.copy()
+            Q[k], V[k] = q, qd
+            if step is None:
+                tau = np.asarray(controller(k * dt, q, qd), dtype=np.float64)
+            else:
+                tau = np.asarray(step(k * dt, q, qd, rows[0][k], rows[1][k], rows[2][k]), dtype=np.float64)
+            if tau.shape != (n,):
+                raise ValueError(f"controller: returned shape {tau.shape}, expected ({n},)")
+            watch.check_torque(k, tau)
+            TAU[k] = tau
+            d.ctrl[:] = tau
+            for _ in range(m_sub):
+                mj.mj_step(model, d)
+            watch.check_state(k + 1, d.qpos, d.qvel)
+            if progress is not None and (k + 1) % every == 0:
+                progress(k + 1, N)
+        q, qd = d.qpos.copy(), d.qvel.copy()
+        Q[N], V[N] = q, qd
+        tau = np.asarray(controller(N * dt, q, qd), dtype=np.float64)
+        watch.check_torque(N, tau)
+        TAU[N] = tau
+    if progress is not None:
+        progress(N, N)

@@ -1,0 +1,189 @@
+"""What a target format cannot hold of an arm: one account shared by the URDF and the MJCF writers.
+
+Layer 2 (formats).  :func:`format_losses` returns one line per thing of the model that the
+file does not carry as it is (dropped, approximated, or a placeholder), with how large the
+difference is where it is a number.  Both writers put the lines into the file's opening
+comment, and ``manipdyn urdf`` / ``manipdyn mjcf`` print them, so nothing is lost in silence.
+
+What each format holds of the friction law (:class:`manipdyn.Friction`, the joints' torque
+``tau_f(qd)``):
+
+=================  ========================================  ====================================
+term               URDF ``<dynamics damping friction>``       MJCF
+=================  ========================================  ====================================
+viscous            ``damping`` (the links' own, joint side)   ``damping``, motor side reflected
+                                                              (``R_kk^2 Fv``), coupled rows as
+                                                              ``<tendon><fixed damping>``
+coulomb            ``friction`` (the links' own, joint side)  ``frictionloss`` (a soft constraint
+                                                              in MuJoCo, not a sign function)
+asymmetric         dropped                                    ``frictionloss`` = mean level
+sigmoid (Gaz)      dropped                                    ``frictionloss`` = ``A / 2``, the mean
+                                                              of its saturation levels
+offset, stribeck   dropped                                    dropped
+smoothing,         dropped (the sign is sharp)                dropped (the constraint's softness
+deadband                                                      plays their part)
+=================  ========================================  ====================================
+
+The size of a dropped term is the largest ``|tau_f(qd) - held(qd)|`` over each joint's
+velocities ``|qd_j| <= v_j`` (one joint moving at a time): ``v_j`` is the joint's velocity
+limit where the model gives one, else :data:`VELOCITY_RANGE` (the cross-check's range).
+Model files do not record the states a model was fitted on, so this grid stands in for them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._support.errors import ModelError
+from ..model.friction import Friction
+
+__all__ = ["format_losses", "friction_held", "friction_difference", "nonphysical_inertias",
+           "VELOCITY_RANGE", "URDF_GRAVITY", "TARGETS"]
+
+#: the formats :func:`format_losses` knows
+TARGETS = ("urdf", "mjcf")
+#: joint speeds (rad/s for revolute, m/s for prismatic joints) over which a dropped friction
+#: term is measured when the model gives no velocity limit: the cross-check's ranges
+VELOCITY_RANGE = {"revolute": 2.0, "prismatic": 0.5}
+#: the gravity URDF readers assume (URDF has no gravity element), m/s^2
+URDF_GRAVITY = (0.0, 0.0, -9.81)
+#: grid points per joint on which a friction difference is measured
+_GRID = 801
+#: a principal moment below this (kg m^2) counts as zero: MuJoCo's compiler refuses such a body
+#: (its mjMINVAL is 1e-15)
+_MINVAL = 1e-15
+
+
+def _grid(arm) -> np.ndarray:
+    """States (n * _GRID, n): each joint alone swept over +-v_j (limit or :data:`VELOCITY_RANGE`)."""
+    joints, _tool = arm.chain()
+    n = len(joints)
+    rows = []
+    for k, j in enumerate(joints):
+        v = j.velocity if j.velocity is not None else VELOCITY_RANGE[j.joint]
+        block = np.zeros((_GRID, n))
+        block[:, k] = np.linspace(-v, v, _GRID)
+        rows.append(block)
+    return np.concatenate(rows)
+
+
+def friction_held(arm, target: str):
+    """``(held, words)``: the part of ``arm.friction_model`` the target format holds, as a
+    :class:`Friction` (joint side or motor side as the law; None when nothing is held), and one
+    phrase per term saying what became of it."""
+    law = arm.friction_model
+    if law is None:
+        return None, []
+    words = []
+    z = np.zeros(law.n)
+    viscous = law.viscous
+    coulomb = law.coulomb
+    if target == "urdf":          # what the URDF writer puts into <dynamics>: the links' friction
+        joints, _tool = arm.chain()
+        fv = np.array([j.friction_viscous for j in joints], dtype=np.float64)
+        fc = np.array([j.friction_coulomb for j in joints], dtype=np.float64)
+        if not (np.any(fv) or np.any(fc)):
+            return None, [f"{', '.join(law.terms)} on the {law.side} side: dropped (URDF's <dynamics> "
+                          "holds only the links' joint-side viscous and Coulomb friction)"]
+        held = Friction(viscous=fv, coulomb=fc, smoothing=0.0)
+        if held == law:
+            return law, ["viscous and Coulomb friction as <dynamics damping friction>"]
+        return held, ["the links' viscous and Coulomb friction as <dynamics damping friction>; the rest of "
+                      f"the law ({', '.join(law.terms)}, {law.side} side) dropped"]
+    # MJCF: damping (reflected or on a tendon) and frictionloss hold viscous and a symmetric level
+    if law.asymmetric:
+        coulomb = 0.5 * (law.coulomb_pos + law.coulomb_neg)
+    if law.sigmoid_A is not None:    # Gaz's sigmoid saturates at A (1 - l0) and -A l0: their mean is A / 2
+        half = np.where(law.sigmoid_A > 0, 0.5 * law.sigmoid_A, 0.0)
+        coulomb = half if coulomb is None else coulomb + half
+    held = Friction(viscous=viscous if viscous is not None else z, coulomb=coulomb if coulomb is not None else z,
+                    smoothing=law.smoothing, deadband=law.deadband, side=law.side)
+    side = "" if law.side == "joint" else " (motor side: reflected through R, tendons for coupled rows)"
+    for t in law.terms:
+        words.append({
+            "viscous": f"viscous as joint damping{side}",
+            "coulomb": f"Coulomb as frictionloss{side}, a soft constraint in MuJoCo, not a sign function "
+                       f"(the law's smoothing {law.smoothing:g} and deadband {law.deadband:g} are not held)",
+            "asymmetric": "asymmetric Coulomb as frictionloss at the mean of its two levels",
+            "sigmoid": "Gaz's sigmoid as frictionloss A/2, the mean of its two saturation levels A (1 - l0) and "
+                       "A l0 (l0 = logistic(alpha p3)); its offset and smooth slope are not held",
+        }.get(t, f"{t} dropped (MJCF has no such term)"))
+    return held, words
+
+
+def friction_difference(arm, held) -> np.ndarray:
+    """Largest ``|law - held|`` per joint (n,), N m (N), over :func:`_grid`'s velocities."""
+    law = arm.friction_model
+    qd = _grid(arm)
+    full = law.torque(qd, arm.transmission)
+    kept = np.zeros_like(full) if held is None else held.torque(qd, arm.transmission)
+    return np.abs(full - kept).max(axis=0)
+
+
+def nonphysical_inertias(arm) -> list:
+    """``(joint index, link name, why)`` of each body MuJoCo's compiler refuses: a principal
+    moment not positive, or a triangle inequality broken (``A + B >= C``)."""
+    joints, _tool = arm.chain()
+    out = []
+    for k, j in enumerate(joints):
+        b = j.body
+        I = np.asarray(b.inertia, dtype=np.float64)
+        if b.mass == 0 and not np.any(I):
+            continue        # an empty link: written without an inertial
+        w = np.linalg.eigvalsh(0.5 * (I + I.T))
+        name = j.link_name or j.name
+        if b.mass <= 0:
+            out.append((k, name, f"mass {float(b.mass)!r} with rotational inertia"))
+        elif w[0] < _MINVAL:
+            out.append((k, name, f"principal moments {[float(x) for x in w]} are not all positive"))
+        elif w[0] + w[1] < w[2] * (1 - 1e-12):
+            out.append((k, name, f"principal moments {[float(x) for x in w]} break A + B >= C"))
+    return out
+
+
+def _drive_lines(arm, target) -> list:
+    lines = []
+    Jm = np.asarray(arm.motor_inertia, dtype=np.float64)
+    if np.any(Jm):
+        if target == "urdf":
+            lines.append("rotor inertia (armature, kg m^2 per joint, R_kk^2 Jm_k) is not expressible in URDF: "
+                         + " ".join(repr(float(a)) for a in arm.armature)
+                         + ("; the coupled rotor inertia R^T diag(Jm) R is not held either"
+                            if not arm.transmission.is_diagonal else ""))
+    if not arm.transmission.is_diagonal:
+        if target == "urdf":
+            lines.append(f"the coupled transmission (R entries {arm.transmission.coupling}, 1-based [motor, joint, "
+                         "value]) is not expressible in URDF")
+    return lines
+
+
+def format_losses(arm, target: str) -> list:
+    """One line per thing of ``arm`` the ``target`` format (``"urdf"`` or ``"mjcf"``) does not hold
+    as it is, with the size of the difference where it is a number (module docstring)."""
+    if target not in TARGETS:
+        raise ModelError(f"target: expected one of {', '.join(TARGETS)}, got {target!r:.40}")
+    lines = []
+    g = np.asarray(arm.gravity, dtype=np.float64)
+    if target == "urdf" and not np.array_equal(g, URDF_GRAVITY):
+        rel = float(np.linalg.norm(g - URDF_GRAVITY) / max(np.linalg.norm(g), 1e-300))
+        lines.append(f"gravity {[float(x) for x in g]} m/s^2 is not expressible in URDF: readers assume their own "
+                     f"(commonly {list(URDF_GRAVITY)}), which changes every gravity torque by {rel:.3g} relative")
+    lines += _drive_lines(arm, target)
+    law = arm.friction_model
+    if law is not None:
+        held, words = friction_held(arm, target)
+        if held is not law:
+            diff = friction_difference(arm, held)
+            joints, _tool = arm.chain()
+            size = ", ".join(f"{j.name} {float(d):.3g}" for j, d in zip(joints, diff))
+            lines.append(f"friction law ({', '.join(law.terms)}; {law.side} side): {'; '.join(words)}. Largest "
+                         f"difference from the model's law over |qd| up to each joint's velocity limit (else "
+                         f"{VELOCITY_RANGE['revolute']:g} rad/s, {VELOCITY_RANGE['prismatic']:g} m/s), N m or N: {size}")
+        elif law.coulomb is not None and np.any(law.coulomb) and target == "mjcf":
+            lines.append("Coulomb friction is held as frictionloss, a soft constraint in MuJoCo, "
+                         "not a sign function: near qd = 0 MuJoCo's friction torque differs from the law's")
+    for k, name, why in nonphysical_inertias(arm):
+        lines.append(f"link {name!r} (joint {k + 1}) is no physical body ({why}): MuJoCo's compiler refuses it "
+                     "('inertia must have positive eigenvalues' or 'must satisfy A + B >= C'); the file holds "
+                     "the model's values as they are")
+    return lines
