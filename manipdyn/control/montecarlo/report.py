@@ -87,6 +87,16 @@ class StudyReport:
         """Run indices of ``controller``'s worst runs, worst first (replay them with ``study.replay``)."""
         return [w["run"] for w in self.controllers[controller]["worst"]]
 
+    def report_html(self, path, command: str | None = None, plants_file=None) -> str:
+        """Write the study as one self-contained HTML page to ``path`` (atomically; what
+        ``manipdyn montecarlo --report`` writes, :mod:`.html`): what was run, the verdict, the
+        distributions per controller, divergences and causes, the worst runs, the CDF figure.
+        ``command``: the command line to show; ``plants_file``: the identification the plants
+        were drawn from (its sha256 is shown).  Returns the path."""
+        from .html import write_study_report
+
+        return write_study_report(self, path, command=command, plants_file=plants_file)
+
     def to_dict(self) -> dict:
         s = self.study
         return {"runs": s.runs, "seed": s.seed, "study": s.to_dict(),
