@@ -50,7 +50,7 @@ p.sub{color:#555;margin:.1em 0 1em}
 table{border-collapse:collapse;margin:.4em 0 1em;font-size:.92em}
 caption{text-align:left;font-weight:600;padding:.3em 0;caption-side:top}
 th,td{border:1px solid #d4d7dd;padding:.25em .6em;vertical-align:top}
-th{background:#f1f3f6;text-align:left}td.num{text-align:right;font-variant-numeric:tabular-nums;
+th{background:#f1f3f6;text-align:left}th[scope=row]{white-space:nowrap}td.num{text-align:right;font-variant-numeric:tabular-nums;
 font-family:ui-monospace,"DejaVu Sans Mono",monospace;font-size:.95em}
 tr.flag td,tr.flag th{background:#fde7e4}tr.flag th{border-left:4px solid #c22}
 td.best{font-weight:700;background:#e6f4ea}
