@@ -19,7 +19,6 @@ from ..._support.errors import ModelError
 from ..stiffness import SAMPLED_LIMIT
 from .diverged import CAUSES
 from .identified import plant_source
-from .report import METRICS, PERCENTILES
 
 __all__ = ["study_page", "write_study_report"]
 
@@ -84,14 +83,15 @@ def _done(report, command, plants_file) -> list:
 
 
 def _distribution(report):
-    headers = ["controller", "figure", *(f"p{p}" for p in PERCENTILES), "max", "unit"]
-    rows = []
+    pcts = report.percentiles
+    headers = ["controller", "figure", *(f"p{p}" for p in pcts), "max", "unit"]
+    rows, flagged = [], set()
     for key, e in report.controllers.items():
-        for m, (_, unit) in METRICS.items():
+        for m, (_, unit) in report.metrics.items():
             st = e[m]
-            rows.append([_label(key), m.replace("_", " "), *(st[f"p{p}"] for p in PERCENTILES), st["max"], unit])
-    flagged = {i for i, row in enumerate(rows)
-               if report.controllers[list(report.controllers)[i // len(METRICS)]]["diverged"]}
+            if e["diverged"]:
+                flagged.add(len(rows))
+            rows.append([_label(key), m.replace("_", " "), *(st[f"p{p}"] for p in pcts), st["max"], unit])
     return H.table(headers, rows, name="distribution", flagged=flagged,
                    caption="Per controller, over the runs that did not diverge: percentiles of each run's figure "
                            "(rows of a controller with diverged runs highlighted)")
@@ -146,13 +146,14 @@ def study_page(report, command: str | None = None, plants_file=None) -> str:
                        alt=f"Empirical cumulative distributions of the per-run RMS error, max error and peak torque "
                            f"of {', '.join(_label(k) for k in s.controllers)} over {s.runs} runs",
                        caption="Fraction of runs (vertical) at or under each value (horizontal, log scale), one "
-                               "curve per controller; diverged runs are left out and counted in the legend.")
+                               "curve per controller; diverged runs are left out and counted in the legend (a "
+                               "controller whose every run diverged has no curve).")
     except ModelError:          # matplotlib missing: the page without its figure, saying why
         fig = "No figure: matplotlib is not installed (pip install -e '.[plot]')."
     parts = [H.section("What was run", H.facts(_done(report, command, plants_file))),
              H.section("Verdict", H.verdict(text, level)),
              H.section("Tracking error and torque per controller", _distribution(report),
-                       H.bullets([f"{m.replace('_', ' ')}: {d} ({u})" for m, (d, u) in METRICS.items()]), fig)]
+                       H.bullets([f"{m.replace('_', ' ')}: {d} ({u})" for m, (d, u) in report.metrics.items()]), fig)]
     notes = _causes(report)
     parts.append(H.section("Divergences and their causes", _divergences(report),
                            H.bullets(notes) if notes else "No run diverged and no plant needed a shorter period."))

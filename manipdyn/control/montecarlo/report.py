@@ -62,6 +62,8 @@ class StudyReport:
 
     #: the per-run figures, name -> (description, unit)
     metrics = METRICS
+    #: the percentiles of each figure's distribution
+    percentiles = PERCENTILES
 
     def __init__(self, study, per_run: list, timing: dict):
         self.study = study
