@@ -80,7 +80,7 @@ def _spans(t, mask):
     return out
 
 
-def _draw(t, measured, series, units, beyond=None, title=None):
+def _draw(t, measured, series, units, beyond=None, xlabel="time (s)"):
     """Per joint: measured, each ``(label, predicted, band or None)``, the residual under it, and the
     stretches in ``beyond`` (N, n) shaded.  Returns the figure."""
     from ..._support.figures import pyplot
@@ -115,7 +115,7 @@ def _draw(t, measured, series, units, beyond=None, title=None):
         axr.set_ylabel("residual", fontsize=8)
         ax.tick_params(labelbottom=False, labelsize=7)
         axr.tick_params(labelsize=7)
-        axr.set_xlabel("time (s)", fontsize=8)
+        axr.set_xlabel(xlabel, fontsize=8)
         for a in (ax, axr):
             a.grid(alpha=0.3)
             a.set_xlim(t[0], t[-1])
@@ -125,8 +125,12 @@ def _draw(t, measured, series, units, beyond=None, title=None):
 
 
 def _figure(t, measured, series, units, beyond, what: str, flagged_text: str):
+    t = np.asarray(t, dtype=np.float64)
+    xlabel = "time (s)"
+    if len(t) > 1 and np.any(np.diff(t) < 0):      # several logs stacked, each from its own t = 0
+        t, xlabel = np.arange(len(t), dtype=np.float64), "sample (the logs one after the other)"
     try:
-        fig = _draw(np.asarray(t), np.asarray(measured), series, units, beyond)
+        fig = _draw(t, np.asarray(measured), series, units, beyond, xlabel=xlabel)
     except ModelError:
         return _NO_FIG
     n = measured.shape[1]
@@ -362,11 +366,12 @@ def identify_page(result, command: str | None = None) -> str:
         fig = f"No figure: {exc}"
     parts.append(H.section("Measured and predicted (fit data)", fig))
     active = rep.get("active_bounds") or []
-    parts.append(H.section("Parameters", _parameters(rep),
+    parts.append(H.section("Parameters",
                            H.section("Active bounds", H.bullets(active) if active else
                                      "No plausibility bound is active: the data alone placed every parameter.",
                                      level=3),
-                           H.bullets(rep.get("fit_notes") or []) if rep.get("fit_notes") else ""))
+                           H.bullets(rep.get("fit_notes") or []) if rep.get("fit_notes") else "",
+                           _parameters(rep)))
     extra = []
     tc = rep.get("torque_constants")
     if tc:
