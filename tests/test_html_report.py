@@ -104,17 +104,15 @@ def idv(tmp_path_factory):
     runs = {"identify": ["identify", str(prior), str(fit_log), "-o", str(model)],
             "validate": ["validate", str(model), str(new_log)],
             "side_by_side": ["validate", str(model), str(prior), str(new_log)]}
-    for kind, argv in runs.items():
-        page = d / f"{kind}.html"
-        assert main(argv + ["--report", str(page)]) == 0, kind
-        text = page.read_text(encoding="utf-8")
-        import contextlib
-        import io
+    import contextlib
+    import io
 
+    for kind, argv in runs.items():     # one command prints --json and writes --report
+        page = d / f"{kind}.html"
         buf = io.StringIO()
         with contextlib.redirect_stdout(buf):
-            assert main(argv + ["--json"]) == 0
-        out[kind] = (text, json.loads(buf.getvalue()))
+            assert main(argv + ["--report", str(page), "--json"]) == 0, kind
+        out[kind] = (page.read_text(encoding="utf-8"), json.loads(buf.getvalue()))
     return out
 
 

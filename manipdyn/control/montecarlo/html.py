@@ -70,8 +70,10 @@ def _done(report, command, plants_file) -> list:
             ("torque limit", "the model's own" if s.tau_max is None
              else ", ".join(H.number(x, 4) for x in s.tau_max) + " N m"),
             ("plants", plant_source(s).removeprefix("plants: ")),
-            ("distributions", ", ".join(f"{k.replace('_', ' ')} {v:g}" for k, v in d.items()
-                                        if isinstance(v, (int, float))))]
+            ("distributions" if s.plants is None else "other draws",
+             ", ".join(f"{k.replace('_', ' ')} {v:g}" for k, v in d.items()
+                       if isinstance(v, (int, float)) and (s.plants is None or v)))]
+    plants_file = plants_file or getattr(s.plants, "source", None)     # the library call: the study knows it
     if plants_file:
         sha = H.sha256_of(plants_file)
         rows.append(("identification", f"{os.path.basename(os.fspath(plants_file))}"
@@ -161,7 +163,9 @@ def study_page(report, command: str | None = None, plants_file=None) -> str:
                            "Replay a run alone with study.replay(run, controller), i.e. manipdyn.simulate on the "
                            "run's plant: the plant depends only on the seed and the run's index."))
     return H.page(f"Monte-Carlo study: {s.model[3]}",
-                  f"{s.runs} runs x {len(s.controllers)} controllers, seed {s.seed}; {plant_source(s)}", parts)
+                  f"{s.runs} runs x {len(s.controllers)} controllers, seed {s.seed}; plants "
+                  + ("hand-chosen around the model" if s.plants is None
+                     else f"drawn from the identification {getattr(s.plants, 'source', '')}"), parts)
 
 
 def write_study_report(report, path, command: str | None = None, plants_file=None) -> str:
