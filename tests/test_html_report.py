@@ -308,3 +308,64 @@ def test_each_report_renders_in_chromium_with_its_figures(kind, idv, mc, tmp_pat
     assert np.mean(np.all(flat >= 250, axis=1)) < 0.97                    # something drawn
     lines = sum(np.all(np.abs(flat - c) <= 12, axis=1).sum() for c in ([0x1F, 0x77, 0xB4], [0xFF, 0x7F, 0x0E]))
     assert lines > 300, lines                 # C0/C1 curves, antialiased: a missing image leaves none
+
+
+# --------------------------------------------------------------------------- the library calls
+
+
+def test_library_calls_write_the_same_pages(idv, tmp_path):
+    """``md.validate(...).report_html(path)``: the page of the library call holds the same per-joint
+    numbers as the command's; the shaded stretches are the samples the JSON counts as far outside
+    (the fallback mask when the extrapolation carries no per-sample one), and a per-sample ``beyond``
+    mask, when a model's trust data carries one, is the one drawn."""
+    from types import SimpleNamespace
+
+    from manipdyn.identification.results.html import beyond_mask
+
+    res = md.validate(str(idv["model"]), str(idv["new_log"]))
+    page = tmp_path / "lib.html"
+    assert res.report_html(page) == str(page)
+    lib = H.read_tables(page.read_text(encoding="utf-8"))["joints"]
+    cli = H.read_tables(idv["validate"][0])["joints"]
+    assert lib == cli
+    r = res.results[0]
+    mask = beyond_mask(r, res.data)
+    far = [e["far_outside_fraction"] for e in idv["validate"][1]["extrapolation"]]
+    np.testing.assert_allclose(mask.mean(axis=0), far, rtol=0, atol=1e-12)
+    carried = np.zeros_like(mask)
+    carried[::7, 3] = True
+    fake = SimpleNamespace(measured=r.measured, extrapolation=SimpleNamespace(beyond=carried))
+    assert beyond_mask(fake, None) is not None and np.array_equal(beyond_mask(fake, None), carried)
+    assert beyond_mask(SimpleNamespace(measured=r.measured, extrapolation=None), res.data) is None
+
+
+@pytest.mark.filterwarnings("ignore::manipdyn.PhysicalConsistencyWarning")   # the bundled PUMA's own notes
+def test_montecarlo_library_call(tmp_path):
+    """``report.report_html(path)`` on a study run in this process: the page names the library call
+    and holds the report's own numbers."""
+    pytest.importorskip("matplotlib", reason="the reports' figures need the plot extra (matplotlib)")
+    from manipdyn.control import montecarlo as mc
+
+    rep = mc.run(mc.study("puma560", runs=2, controllers=("pd",), duration=0.3), scheduler="sync")
+    page = tmp_path / "lib-mc.html"
+    rep.report_html(page)
+    text = page.read_text(encoding="utf-8")
+    _page_is_self_contained(text)
+    assert "(library call)" in text
+    rows = H.read_tables(text)["distribution"][1:]
+    assert rows[0][2:6] == [rep.controllers["pd"]["rms_error"][k] for k in ("p50", "p90", "p99", "max")]
+
+
+def test_report_without_matplotlib_says_how_to_install(monkeypatch, capsys, tmp_path):
+    """No plot extra: --report is refused before any work, in one line with the install command."""
+    from manipdyn.cli import common
+
+    def missing():
+        raise md.ModelError("--plot needs matplotlib: pip install 'manipdyn[plot]' (in a source checkout: "
+                            "pip install -e '.[plot]')")
+
+    monkeypatch.setattr(common, "pyplot", missing)
+    assert main(["montecarlo", "puma560", "--runs", "1", "--report", str(tmp_path / "r.html")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--report" in err and "pip install -e '.[plot]'" in err
+    assert not (tmp_path / "r.html").exists()
