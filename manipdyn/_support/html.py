@@ -33,8 +33,8 @@ from html.parser import HTMLParser
 
 from .files import atomic_write_text
 
-__all__ = ["Markup", "escape", "number", "table", "figure", "section", "paragraph", "facts", "bullets", "verdict", "page",
-           "write_page", "read_tables", "sha256_of", "version", "CSP"]
+__all__ = ["Markup", "escape", "number", "table", "figure", "section", "paragraph", "facts", "bullets", "verdict",
+           "page", "write_page", "read_tables", "sha256_of", "version", "CSP"]
 
 #: what the page allows the browser to load: nothing but its own inline styles and data: images
 CSP = "default-src 'none'; img-src data:; style-src 'unsafe-inline'"
@@ -122,7 +122,7 @@ def table(headers, rows, caption: str | None = None, flagged=(), best=None, name
             cls = "best" if (i, k) in best else ""
             c = _cell(v, tag, cls)
             cells.append(c.replace("<th", '<th scope="row"', 1) if tag == "th" else c)
-        out.append(f'<tr class="flag">' if i in flagged else "<tr>")
+        out.append('<tr class="flag">' if i in flagged else "<tr>")
         out.append("".join(cells) + "</tr>")
     out.append("</tbody></table>")
     return Markup("".join(out))

@@ -61,7 +61,8 @@ def run(args) -> int:
     check_study_size(args.runs, len(keys), args.duration, args.dt, args.bandwidth, cli=True)
     # fail before a long run, not after it
     check_report_target(args.report)
-    check_outputs([("--plot", args.plot), ("--report", args.report)], [("MODEL", args.model), ("--plants-from", args.plants_from)],
+    check_outputs([("--plot", args.plot), ("--report", args.report)],
+                  [("MODEL", args.model), ("--plants-from", args.plants_from)],
                   plots=("--plot",))
     if args.plants_from is not None:
         given = [f"--{f.replace('_', '-')}" for f in _REPLACED_BY_PLANTS if f in getattr(args, "given", ())]

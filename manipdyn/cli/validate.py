@@ -1,4 +1,5 @@
-"""``manipdyn validate MODEL [MODEL ...] LOG [LOG ...] [--logs RUNS.toml] [--json] [--plot FIG.png] [--predictions OUT.csv] [--report FILE.html]``.
+"""``manipdyn validate MODEL [MODEL ...] LOG [LOG ...] [--logs RUNS.toml] [--json] [--plot FIG.png]
+[--predictions OUT.csv] [--report FILE.html]``.
 
 Layer 7 (CLI, the top).  Parses, calls :func:`manipdyn.identification.validate` (same options, same
 defaults), prints.  MODEL is anything ``manipdyn`` loads or a base model JSON from

@@ -27,7 +27,8 @@ __all__ = ["identify_page", "validation_page", "beyond_mask"]
 
 #: the shading of the stretches beyond the fit: pale yellow, hatched (no model's line colour)
 _SHADE = "#fff3a0"
-_NO_FIG = "No figure: matplotlib is not installed (pip install 'manipdyn[plot]', in a checkout pip install -e '.[plot]')."
+_NO_FIG = ("No figure: matplotlib is not installed (pip install 'manipdyn[plot]', in a checkout "
+           "pip install -e '.[plot]').")
 
 
 def _logs(data, extra=()) -> list:
@@ -99,12 +100,13 @@ def _draw(t, measured, series, units, beyond=None, xlabel="time (s)"):
             for a in (ax, axr):
                 for t0, t1 in _spans(t, beyond[:, j]):
                     h = a.axvspan(t0, t1, facecolor=_SHADE, edgecolor="#b8a200", hatch="//", alpha=0.5, lw=0)
-            handles.setdefault("beyond the fit (extrapolates)", h)
+            handles.setdefault(f"beyond {series[0][0]}'s fit (extrapolates)", h)
         (h,) = ax.plot(t, measured[:, j], color="0.45", lw=1.1)
         handles.setdefault("measured", h)
         for k, (label, pred, band) in enumerate(series):
             if band is not None:
-                h = ax.fill_between(t, pred[:, j] - band[:, j], pred[:, j] + band[:, j], color=f"C{k}", alpha=0.22, lw=0)
+                h = ax.fill_between(t, pred[:, j] - band[:, j], pred[:, j] + band[:, j], color=f"C{k}", alpha=0.22,
+                                    lw=0)
                 handles.setdefault(f"{label}: 95 % band", h)
             (h,) = ax.plot(t, pred[:, j], color=f"C{k}", lw=0.9)
             handles.setdefault(f"{label}: predicted", h)
@@ -240,7 +242,7 @@ def validation_page(v, command: str | None = None, options: dict | None = None, 
     joint_parts, any_flag = [], set()
     for k, r in enumerate(rs):
         name = "joints" if len(rs) == 1 else f"joints_{k + 1}"
-        tab, flagged = _joints_table(r, name, units, f"{r.model}: per joint, on the validation data (held out)")
+        tab, flagged = _joints_table(r, name, units, f"{r.model}: per joint, on the validation data")
         any_flag |= flagged
         joint_parts.append(tab)
         if r.band_method:
@@ -375,9 +377,9 @@ def identify_page(result, command: str | None = None) -> str:
     extra = []
     tc = rep.get("torque_constants")
     if tc:
-        extra.append(H.table(["motor", "k_t (N m/A)", "std"], [[f"motor {j + 1}", v, s] for j, (v, s) in
-                                                                enumerate(zip(tc.get("values", []), tc.get("std", [])))],
-                             name="torque_constants", caption="Torque constants from the currents"))
+        rows = [[f"motor {j + 1}", v, s] for j, (v, s) in enumerate(zip(tc.get("values", []), tc.get("std", [])))]
+        extra.append(H.table(["motor", "k_t (N m/A)", "std"], rows, name="torque_constants",
+                             caption="Torque constants from the currents (scale: " + str(tc.get("scale")) + ")"))
     if extra:
         parts.append(H.section("Drives", *extra))
     parts.append(H.section("Data notes", H.bullets(rep.get("data_notes") or []) if rep.get("data_notes") else
