@@ -161,6 +161,9 @@ def test_identify_tables_hold_the_json(idv):
     for row, p in zip(params, rep["base_parameters"]):
         assert row[1] == p["expression"] and _close(row[2], p["value"]) and _close(row[3], p.get("std"))
     assert rep["provenance"]["data_sha256"] in text          # the log named with its sha256
+    for bound in rep.get("active_bounds") or []:              # the active bounds, in words
+        assert f"<li>{H.escape(bound)}</li>" in text
+    assert bool(rep.get("active_bounds")) != ("No plausibility bound is active" in text)
     assert len(_pngs(text)) == 1
 
 

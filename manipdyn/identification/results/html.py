@@ -372,7 +372,8 @@ def identify_page(result, command: str | None = None) -> str:
                            H.section("Active bounds", H.bullets(active) if active else
                                      "No plausibility bound is active: the data alone placed every parameter.",
                                      level=3),
-                           H.bullets(rep.get("fit_notes") or []) if rep.get("fit_notes") else "",
+                           H.section("Notes on the fit", H.bullets(rep["fit_notes"]), level=3)
+                           if rep.get("fit_notes") else "",
                            _parameters(rep)))
     extra = []
     tc = rep.get("torque_constants")
