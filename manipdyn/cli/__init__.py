@@ -111,6 +111,7 @@ def main(argv=None) -> int:
 def _main(argv) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    args.argv = list(argv)          # the command line as typed, for the reports that show it
     if not getattr(args, "func", None):
         parser.print_help()
         return EXIT_USAGE

@@ -14,7 +14,7 @@ from .._support.figures import pyplot
 from .._support.errors import ModelError, TipError
 from ..formats.loading import load_with_notes
 
-__all__ = ["check_outputs", "check_plot_target", "check_output_file", "require_numbers", "add_progress_options", "progress_wanted", "EXIT_OK", "EXIT_DISAGREE", "EXIT_USAGE", "EXIT_INTERNAL", "Progress", "output_folder",
+__all__ = ["check_outputs", "check_plot_target", "check_report_target", "command_line", "check_output_file", "require_numbers", "add_progress_options", "progress_wanted", "EXIT_OK", "EXIT_DISAGREE", "EXIT_USAGE", "EXIT_INTERNAL", "Progress", "output_folder",
            "urdf_target", "usage_error", "one_line", "with_runs", "cli_message", "load_arm", "load_all", "is_urdf", "TIP_HELP"]
 
 #: help of every ``--tip`` option
@@ -245,3 +245,24 @@ def check_outputs(outputs, inputs=(), plots=()) -> None:
             check_plot_target(path, option)
         else:
             check_output_file(path, option)
+
+
+def check_report_target(path, option: str = "--report") -> None:
+    """``--report`` must name an ``.html`` (or ``.htm``) file, and matplotlib must be there to draw its
+    figures (before any work starts); the rest of its checks are :func:`check_outputs`'."""
+    if path is None:
+        return
+    if not isinstance(path, str) or not path.lower().endswith((".html", ".htm")):
+        raise ModelError(f"{option}: expected a file name ending in .html, got {path!r}")
+    try:
+        pyplot()  # the report's figures: matplotlib installed, or the install command
+    except ModelError as exc:
+        raise ModelError(f"{option}: {exc}".replace("--plot needs", "the report's figures need")) from None
+
+
+def command_line(args) -> str:
+    """The command as typed (``manipdyn COMMAND ARG ...``, shell-quoted), from the argv :func:`main` kept."""
+    import shlex
+
+    argv = getattr(args, "argv", None)
+    return "manipdyn " + shlex.join(argv) if argv else f"manipdyn {getattr(args, 'command', '')}".strip()

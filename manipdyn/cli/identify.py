@@ -1,4 +1,4 @@
-"""``manipdyn identify MODEL LOG [LOG ...] [--logs RUNS.toml] -o OUT.toml|OUT.urdf|OUT.json``.
+"""``manipdyn identify MODEL LOG [LOG ...] [--logs RUNS.toml] -o OUT.toml|OUT.urdf|OUT.json [--report FILE.html]``.
 
 Layer 7 (CLI, the top).  Parses, calls :func:`manipdyn.identification.identify` (the options
 are its keyword arguments, under the same names and defaults), prints.  ``--payload``:
@@ -14,7 +14,7 @@ import json
 import sys
 
 from .._support.errors import ModelError
-from .common import EXIT_OK, TIP_HELP, cli_message, usage_error
+from .common import EXIT_OK, TIP_HELP, cli_message, command_line, usage_error
 from .logopts import DATA_HELP, library_options, register_log_options
 
 __all__ = ["register", "run"]
@@ -65,6 +65,10 @@ def register(subparsers) -> None:
     p.add_argument("--payload-link", metavar="NAME", default=None, help="with --payload: the link carrying it")
     p.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
     p.add_argument("--json", action="store_true", help="print a JSON object instead of text")
+    p.add_argument("--report", metavar="FILE.html", default=None,
+                   help="also write one self-contained HTML page (no scripts, nothing fetched): what was done, "
+                        "the verdict, per joint RMS in-sample and held out, the fit figure, the parameters with "
+                        "their standard deviations and active bounds, the data notes (default: none)")
     from ..identification import METHODS
 
     choices = {"--method": METHODS, "--friction-side": ("joint", "motor")}
@@ -109,7 +113,14 @@ def run(args) -> int:
         return usage_error("identify", f"--scheduler: {exc}")
     except OSError as exc:
         return usage_error("identify", f"{exc.filename or args.output}: cannot write: {exc.strerror or exc}")
+    if args.report:
+        try:
+            result.report_html(args.report, command=command_line(args))
+        except OSError as exc:
+            return usage_error("identify", f"--report {args.report}: cannot write: {exc.strerror or exc}")
     print(json.dumps(result.report(), indent=2, allow_nan=False, default=str) if args.json else result.format())
+    if args.report and not args.json:
+        print(f"wrote {args.report} (the report)")
     if result.exit_code != EXIT_OK:
         print(f"manipdyn identify: the {args.method} parameters are not a physical arm, so no model file was "
               f"written, only the base model {result.base_model}: {result.fit.arm_error or 'a J_i is not >= 0'}; "

@@ -4,7 +4,7 @@ Layer 7 (CLI, the top).
 
     manipdyn montecarlo MODEL [--tip LINK] --runs N [--controllers pd,pdg,ct,adaptive,lqr]
                         [--seed S] [--scheduler tcp://HOST:PORT] [--json] [--plot FILE.png]
-                        [--plants-from IDENTIFIED.json]
+                        [--plants-from IDENTIFIED.json] [--report FILE.html]
 
 Exit codes: 0 the study completed (diverged runs are results, not failures),
 2 usage or model error, or a missing extra, or no scheduler at the address
@@ -22,8 +22,8 @@ from .._support.errors import ModelError
 from ..control.montecarlo import DISTRIBUTIONS_HELP, Distributions, check_study_size, load_identified, run as run_study, study
 from ..check.scale import check_scheduler
 from ..control.montecarlo.plot import plot_report
-from .common import (EXIT_OK, TIP_HELP, Progress, add_progress_options, check_outputs, load_arm,
-                     progress_wanted, require_numbers)
+from .common import (EXIT_OK, TIP_HELP, Progress, add_progress_options, check_outputs, check_report_target,
+                     command_line, load_arm, progress_wanted, require_numbers)
 
 __all__ = ["register", "run"]
 
@@ -61,7 +61,9 @@ def run(args) -> int:
     check_scheduler(args.scheduler, "--scheduler")
     check_study_size(args.runs, len(keys), args.duration, args.dt, args.bandwidth, cli=True)
     # fail before a long run, not after it
-    check_outputs([("--plot", args.plot)], [("MODEL", args.model), ("--plants-from", args.plants_from)],
+    check_report_target(args.report)
+    check_outputs([("--plot", args.plot), ("--report", args.report)],
+                  [("MODEL", args.model), ("--plants-from", args.plants_from)],
                   plots=("--plot",))
     if args.plants_from is not None:
         given = [f"--{f.replace('_', '-')}" for f in _REPLACED_BY_PLANTS if f in getattr(args, "given", ())]
@@ -104,6 +106,10 @@ def run(args) -> int:
         plot_report(report, args.plot)
         if not args.json:
             print(f"figure written to {args.plot}")
+    if args.report:
+        report.report_html(args.report, command=command_line(args), plants_file=args.plants_from)
+        if not args.json:
+            print(f"report written to {args.report}")
     return EXIT_OK
 
 
@@ -179,5 +185,9 @@ def register(subparsers) -> None:
                         "hand-chosen distributions below)")
     p.add_argument("--json", action="store_true", help="print one JSON document instead of tables")
     p.add_argument("--plot", metavar="FILE.png", default=None, help="write the CDFs per controller (needs matplotlib)")
+    p.add_argument("--report", metavar="FILE.html", default=None,
+                   help="also write one self-contained HTML page (no scripts, nothing fetched): what was run, the "
+                        "verdict, the distributions per controller, divergences and causes, the worst runs, the "
+                        "CDF figure (default: none)")
     add_progress_options(p, "the progress bar")
     p.set_defaults(func=run)

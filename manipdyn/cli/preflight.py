@@ -14,7 +14,7 @@ import os
 
 from .._support import limits
 from .._support.errors import ModelError
-from .common import check_outputs
+from .common import check_outputs, check_report_target
 
 __all__ = ["check_identify"]
 
@@ -46,7 +46,11 @@ def check_identify(args) -> None:
         from ..check.scale import check_scheduler
 
         check_scheduler(args.scheduler, "--scheduler")
+    report = getattr(args, "report", None)
+    if report is not None and getattr(args, "payload", False):
+        raise ModelError("--report: not with --payload (the report is of an arm's identification)")
+    check_report_target(report)
     check_outputs([("-o", args.output), ("--base-json", args.base_json),
-                   ("the base model beside -o", _implied_base(args))],
+                   ("the base model beside -o", _implied_base(args)), ("--report", report)],
                   [("MODEL", args.model), ("--logs", getattr(args, "logs", None))]
                   + [("LOG", d) for d in ([args.data] if isinstance(args.data, str) else args.data)])

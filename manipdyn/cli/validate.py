@@ -1,4 +1,5 @@
-"""``manipdyn validate MODEL [MODEL ...] LOG [LOG ...] [--logs RUNS.toml] [--json] [--plot FIG.png] [--predictions OUT.csv]``.
+"""``manipdyn validate MODEL [MODEL ...] LOG [LOG ...] [--logs RUNS.toml] [--json] [--plot FIG.png]
+[--predictions OUT.csv] [--report FILE.html]``.
 
 Layer 7 (CLI, the top).  Parses, calls :func:`manipdyn.identification.validate` (same options, same
 defaults), prints.  MODEL is anything ``manipdyn`` loads or a base model JSON from
@@ -17,7 +18,7 @@ import json
 import os
 
 from .._support.errors import ModelError
-from .common import EXIT_OK, TIP_HELP, check_outputs, cli_message, usage_error
+from .common import EXIT_OK, TIP_HELP, check_outputs, check_report_target, cli_message, command_line, usage_error
 from .logopts import DATA_HELP, library_options, register_log_options
 
 __all__ = ["register", "run", "split_inputs", "load_model"]
@@ -47,6 +48,11 @@ def register(subparsers) -> None:
     p.add_argument("--predictions", metavar="OUT.csv", default=None,
                    help="write t, tau1..n (measured), pred1..n, lo1..n, hi1..n (the 95 %% band) and x1..n (1 where "
                         "the sample is beyond the fit data by the leverage of the joint's regressor row) per sample")
+    p.add_argument("--report", metavar="FILE.html", default=None,
+                   help="also write one self-contained HTML page (no scripts, nothing fetched): what was done, the "
+                        "verdict, per joint RMS, band coverage and extrapolation (flagged joints highlighted), the "
+                        "figure with the stretches beyond the fit shaded, the models side by side, the data notes "
+                        "(default: none)")
     register_log_options(p)
     p.set_defaults(func=run)
 
@@ -79,11 +85,15 @@ def run(args) -> int:
         models, logs = split_inputs(args.inputs, args.logs)
         if args.predictions and len(models) > 1:
             raise ModelError("--predictions: one MODEL at a time (the file holds one model's predictions)")
-        check_outputs([("--plot", args.plot), ("--predictions", args.predictions)],
+        check_report_target(args.report)
+        check_outputs([("--plot", args.plot), ("--predictions", args.predictions), ("--report", args.report)],
                       [("MODEL", m) for m in models] + [("DATA", x) for x in logs], plots=("--plot",))
-        res = validate(models, logs, **library_options(args, validate))
+        opts = library_options(args, validate)
+        res = validate(models, logs, **opts)
         if args.plot:
             res.plot(args.plot)
+        if args.report:
+            res.report_html(args.report, command=command_line(args), options=opts, model_files=models)
     except ModelError as exc:
         return usage_error("validate", cli_message(exc))
     except ConnectionError as exc:      # a scheduler that does not answer: not the output's fault
@@ -92,11 +102,12 @@ def run(args) -> int:
         return usage_error("validate", f"{exc.filename or args.predictions}: cannot write: {exc.strerror or exc}")
     if args.json:
         out = res.to_dict()
-        out.update({"data": ", ".join(logs), "plot": args.plot, "predictions": args.predictions})
+        out.update({"data": ", ".join(logs), "plot": args.plot, "predictions": args.predictions,
+                    "report": args.report})
         print(json.dumps(out, indent=2, allow_nan=False))
     else:
         print(res.format())
-        for path in (args.predictions, args.plot):
+        for path in (args.predictions, args.plot, args.report):
             if path:
                 print(f"wrote {path}")
     return EXIT_OK

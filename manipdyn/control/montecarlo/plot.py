@@ -14,12 +14,20 @@ from ..demo import CONTROLLERS
 from ..._support.figures import pyplot, save_figure
 from ..plots import plain_log_ticks
 
-__all__ = ["plot_report", "pyplot"]
+__all__ = ["plot_report", "draw_report", "pyplot"]
 
 
 def plot_report(report, path: str) -> None:
     """Write ``path`` (format from its extension; atomically): one panel per per-run figure
     of the report, two panels a row, and the legend in a cell of its own (never over a curve)."""
+    plt = pyplot()
+    fig = draw_report(report)
+    save_figure(fig, path)
+    plt.close(fig)
+
+
+def draw_report(report, title: bool = True):
+    """The figure of :func:`plot_report` (a matplotlib Figure; ``title``: the study in its title)."""
     plt = pyplot()
     metrics = report.metrics
     ncols = 2
@@ -38,6 +46,12 @@ def plot_report(report, path: str) -> None:
             handles.setdefault(key, line)
         ax.set_xscale("log")
         plain_log_ticks(ax.xaxis)
+        lo, hi = ax.get_xlim()
+        if 0 < lo and hi / lo < 3:       # under a factor 3 no power-of-ten tick falls inside: plain ticks
+            from matplotlib.ticker import MaxNLocator, NullLocator
+
+            ax.xaxis.set_major_locator(MaxNLocator(4))
+            ax.xaxis.set_minor_locator(NullLocator())
         ax.set_xlabel(f"{m.replace('_', ' ')} ({unit})")
         ax.set_ylabel("fraction of runs")
         ax.set_title(desc, fontsize=9)
@@ -53,8 +67,8 @@ def plot_report(report, path: str) -> None:
     for ax in cells[len(metrics) + 1:]:
         ax.axis("off")
     s = report.study
-    fig.suptitle(f"{s.model[3]}: {s.runs} runs, seed {s.seed}, demo path {s.duration:g} s at {1 / s.dt:g} Hz\n"
-                 f"{plant_source(s)}", fontsize=10)
+    if title:
+        fig.suptitle(f"{s.model[3]}: {s.runs} runs, seed {s.seed}, demo path {s.duration:g} s at {1 / s.dt:g} Hz\n"
+                     f"{plant_source(s)}", fontsize=10)
     fig.tight_layout()
-    save_figure(fig, path)
-    plt.close(fig)
+    return fig

@@ -63,6 +63,8 @@ class StudyReport:
 
     #: the per-run figures, name -> (description, unit)
     metrics = METRICS
+    #: the percentiles of each figure's distribution
+    percentiles = PERCENTILES
 
     def __init__(self, study, per_run: list, timing: dict):
         self.study = study
@@ -92,6 +94,16 @@ class StudyReport:
         """What the study's added friction and torque noise do to its arm (:func:`.distributions.effect_on_arm`)."""
         s = self.study
         return effect_on_arm(s.distributions, s.arm, s.bandwidth)
+
+    def report_html(self, path, command: str | None = None, plants_file=None) -> str:
+        """Write the study as one self-contained HTML page to ``path`` (atomically; what
+        ``manipdyn montecarlo --report`` writes, :mod:`.html`): what was run, the verdict, the
+        distributions per controller, divergences and causes, the worst runs, the CDF figure.
+        ``command``: the command line to show; ``plants_file``: the identification the plants
+        were drawn from (its sha256 is shown).  Returns the path."""
+        from .html import write_study_report
+
+        return write_study_report(self, path, command=command, plants_file=plants_file)
 
     def to_dict(self) -> dict:
         s = self.study

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..._support.errors import ModelError
 
-__all__ = ["best_per_joint", "format_side_by_side", "side_by_side_dict"]
+__all__ = ["model_labels", "best_per_joint", "format_side_by_side", "side_by_side_dict"]
 
 
 def best_per_joint(results) -> np.ndarray:
@@ -29,7 +29,8 @@ def best_per_joint(results) -> np.ndarray:
     return np.argmin(rms, axis=0)
 
 
-def _labels(results) -> list[str]:
+def model_labels(results) -> list[str]:
+    """The models' labels, numbered ``[k]`` where two share one (as the table and the JSON name them)."""
     labels = [r.model for r in results]
     return [f"{lab} [{k + 1}]" if labels.count(lab) > 1 else lab for k, lab in enumerate(labels)]
 
@@ -39,7 +40,7 @@ def format_side_by_side(results, unit: str = "N m", units=None) -> str:
     model's band coverage and extrapolation lines.  ``units`` per joint (N m, N for a prismatic
     joint), else ``unit`` for every joint; mixed units are printed at the end of each row."""
     best = best_per_joint(results)
-    labels = _labels(results)
+    labels = model_labels(results)
     width = max(12, *(len(lab) + 2 for lab in labels))
     n = len(results[0].rms)
     units = list(units) if units is not None else [unit] * n
@@ -68,6 +69,6 @@ def format_side_by_side(results, unit: str = "N m", units=None) -> str:
 def side_by_side_dict(results) -> dict:
     """JSON-ready: ``{"models": [each model's scores], "best": [{"joint", "model", "index"}, ...]}``."""
     best = best_per_joint(results)
-    labels = _labels(results)
+    labels = model_labels(results)
     return {"models": [r.to_dict() for r in results],
             "best": [{"joint": j + 1, "model": labels[k], "index": int(k)} for j, k in enumerate(best)]}

@@ -204,6 +204,18 @@ class IdentifyResult:
                          f"standard deviations; score it with manipdyn validate)")
         return "\n".join(lines)
 
+    def report_html(self, path, command: str | None = None) -> str:
+        """Write this identification as one self-contained HTML page to ``path`` (atomically;
+        what ``manipdyn identify --report`` writes, :mod:`.html`): what was done (the logs with
+        their sha256, the options, the version), the verdict, per joint RMS in-sample and held
+        out, the fit figure with its band, the parameters with their standard deviations and the
+        active bounds, the data notes.  ``command``: the command line to show.  Returns the path."""
+        from ..._support.html import write_page
+        from .html import identify_page
+
+        write_page(path, identify_page(self, command=command))
+        return os.fspath(path)
+
     def score(self, logs, **options):
         """:func:`manipdyn.identification.validate` of the identified model on ``logs`` (the
         base model when the parameters are no physical arm)."""

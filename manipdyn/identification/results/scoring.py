@@ -104,6 +104,19 @@ class Validation:
                 else format_side_by_side(self.results, units=self.units))
         return "\n".join([f"data: {note}" for note in self.notes] + [body] + self._runs_text())
 
+    def report_html(self, path, command: str | None = None, options: dict | None = None, model_files=()) -> str:
+        """Write the scores as one self-contained HTML page to ``path`` (atomically; what
+        ``manipdyn validate --report`` writes, :mod:`.html`): what was done, the verdict, per
+        joint RMS, band coverage and extrapolation (flagged joints highlighted), the figure with
+        the stretches beyond the fit shaded, several models side by side, the data notes.
+        ``command``, ``options``, ``model_files``: shown as given (the files with their sha256).
+        Returns the path."""
+        from ..._support.html import write_page
+        from .html import validation_page
+
+        write_page(path, validation_page(self, command=command, options=options, model_files=model_files))
+        return os.fspath(path)
+
     def write_predictions(self, path) -> None:
         """One model's ``t, tau{i}, pred{i}, lo{i}, hi{i}`` per sample as CSV, atomically
         (:func:`.validation.write_predictions`)."""
