@@ -383,7 +383,7 @@ def test_cli_log_options(tmp_path):
                               "--cutoff", "5", "--no-decimate", "--t-range", "2:10"])
     m = read_log(p, 2, **log_options_from_args(args, joint_names=["a", "b"]))
     assert m.cutoff == 5.0 and m.decimation == 1 and 2.0 <= m.t[0] and m.t[-1] < 10.0
-    for bad, match in ((["--t-range", "5"], "--t-range: expected T0:T1"), (["--rate", "-1"], "--rate: expected")):
+    for bad, match in ((["--t-range", "5"], "--t-range: expected \\(t0, t1\\) in seconds.*T0:T1"), (["--rate", "-1"], "--rate: expected")):
         with pytest.raises(md.ModelError, match=match):
             log_options_from_args(parser.parse_args(bad))
 

@@ -8,7 +8,7 @@ forward dynamics of those torques, the end pose, both energies, the
 inverse-dynamics regressor Y (tau = Y pi, :mod:`manipdyn.model.parameters`), the
 derivatives, and (when both engines offer it) the tool frame's Jacobian and
 its time derivative, in the tool's own axes, every link's, and the inverse dynamics under
-a tool wrench (:data:`TOOL_WRENCH`).  The error of one state is
+a tool wrench (:data:`TOOL_WRENCH`).  The error of one state is::
 
     err = max_k |pinocchio_k - lagrange_k| / max(1, max_k |lagrange_k|)
 

@@ -1,7 +1,7 @@
 """The optional ``mujoco`` extra (the MuJoCo wheel) of the MuJoCo engine and simulator.
 
 Layer 3 (engines: mujoco).  :func:`mujoco_module` imports MuJoCo or raises
-:class:`~manipdyn.errors.MissingExtraError` with the install command, never a bare
+:class:`~manipdyn._support.errors.MissingExtraError` with the install command, never a bare
 ``ImportError`` traceback.  Writing MJCF (``md.to_mjcf``) needs no MuJoCo.
 """
 
