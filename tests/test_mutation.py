@@ -179,7 +179,9 @@ def _with_pinocchio(arm, **kw):
     args = dict(friction=arm.friction_model, transmission=arm.transmission, tool_frame="tool",
                 rotor_coupling=arm.rotor_inertia - np.diag(np.diag(arm.rotor_inertia)))
     args.update(kw)
-    arm.set_engine("pinocchio", PinocchioEngine(model_for_arm(arm), **args))
+    eng = PinocchioEngine(model_for_arm(arm), **args)
+    eng.link_offsets = arm.urdf_link_offsets()      # as the engine's factory does (link k's Jacobian at T_k)
+    arm.set_engine("pinocchio", eng)
     return arm
 
 

@@ -128,9 +128,9 @@ MAX_PEER_MESSAGE_BYTES = 1024 * 1024
 #: most arithmetic operations of an arm's generated C (``md.codegen``, ``manipdyn codegen``,
 #: ``arm.compiled``), estimated from the joint count by :func:`codegen_operations` before any
 #: graph is built.  The graphs' build time and the C's size grow with it, and the compiler's
-#: time and memory faster: 3e5 operations is a 20-joint arm (some 20 s to generate, an 8 MB
+#: time and memory faster: 4e5 estimated operations is about a 20-joint arm (some 20 s to generate, an 8 MB
 #: source); a 30-joint arm (some 7e5) took 50 s and 2.2 GB, a 50-joint one was killed at 4.9 GB
-MAX_CODEGEN_OPERATIONS = 3e5
+MAX_CODEGEN_OPERATIONS = 400_000
 
 #: most runs of one identification (``[[log]]`` entries of a RUNS.toml, or logs given):
 #: each is read, filtered and held in memory; 35 000 entries of one small log took 4.4 GB
@@ -293,6 +293,7 @@ def nonnegative(value, where: str, unit: str = "") -> float:
 
 def codegen_operations(n: int) -> float:
     """Estimated arithmetic operations of the generated C of an ``n``-joint arm (all its
-    functions): ``400 n**2.2``, fitted to the counts of random arms with rotors and friction
-    (within 20 % for n = 4 to 20: 7220, 63774 and 295185 operations at n = 4, 10 and 20)."""
-    return 400.0 * float(n) ** 2.2
+    functions): ``510 n**2.2``, fitted to the counts of random arms with rotors and friction
+    since the forward-dynamics derivatives are generated too (within 15 % for n = 4 to 10: 9521,
+    38643 and 85209 operations at n = 4, 7 and 10)."""
+    return 510.0 * float(n) ** 2.2
