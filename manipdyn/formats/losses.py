@@ -20,8 +20,8 @@ asymmetric         dropped                                    ``frictionloss`` =
 sigmoid (Gaz)      dropped                                    ``frictionloss`` = ``A / 2``, the mean
                                                               of its saturation levels
 offset, stribeck   dropped                                    dropped
-smoothing,         dropped (the sign is sharp)                dropped (the constraint's softness
-deadband                                                      plays their part)
+smooth, deadband   dropped (the sign is sharp)                dropped (the constraint's softness
+                                                              plays their part)
 =================  ========================================  ====================================
 
 The size of a dropped term is the largest ``|tau_f(qd) - held(qd)|`` over each joint's
