@@ -8,21 +8,23 @@ comment, and ``manipdyn urdf`` / ``manipdyn mjcf`` print them, so nothing is los
 What each format holds of the friction law (:class:`manipdyn.Friction`, the joints' torque
 ``tau_f(qd)``):
 
-=================  ========================================  ====================================
-term               URDF ``<dynamics damping friction>``       MJCF
-=================  ========================================  ====================================
-viscous            ``damping`` (the links' own, joint side)   ``damping``, motor side reflected
-                                                              (``R_kk^2 Fv``), coupled rows as
-                                                              ``<tendon><fixed damping>``
-coulomb            ``friction`` (the links' own, joint side)  ``frictionloss`` (a soft constraint
-                                                              in MuJoCo, not a sign function)
-asymmetric         dropped                                    ``frictionloss`` = mean level
-sigmoid (Gaz)      dropped                                    ``frictionloss`` = ``A / 2``, the mean
-                                                              of its saturation levels
-offset, stribeck   dropped                                    dropped
-smooth, deadband   dropped (the sign is sharp)                dropped (the constraint's softness
-                                                              plays their part)
-=================  ========================================  ====================================
+::
+
+    =================  ========================================  ====================================
+    term               URDF ``<dynamics damping friction>``       MJCF
+    =================  ========================================  ====================================
+    viscous            ``damping`` (the links' own, joint side)   ``damping``, motor side reflected
+                                                                  (``R_kk^2 Fv``), coupled rows as
+                                                                  ``<tendon><fixed damping>``
+    coulomb            ``friction`` (the links' own, joint side)  ``frictionloss`` (a soft constraint
+                                                                  in MuJoCo, not a sign function)
+    asymmetric         dropped                                    ``frictionloss`` = mean level
+    sigmoid (Gaz)      dropped                                    ``frictionloss`` = ``A / 2``, the mean
+                                                                  of its saturation levels
+    offset, stribeck   dropped                                    dropped
+    smooth, deadband   dropped (the sign is sharp)                dropped (the constraint's softness
+                                                                  plays their part)
+    =================  ========================================  ====================================
 
 The size of a dropped term is the largest ``|tau_f(qd) - held(qd)|`` over each joint's
 velocities ``|qd_j| <= v_j`` (one joint moving at a time): ``v_j`` is the joint's velocity

@@ -8,7 +8,7 @@ far to trust it on new data: the data file's name and sha256, the method and opt
 fit, the states it saw (``fitted_range``), the prediction band from blocked hold-outs of its
 data (``prediction_band``), the reference for the extrapolation measure (``leverage``: how
 far a new state is from what the fit data excited, joint by joint), and what the fit found
-doubtful (``doubts``).  The identification layer (:mod:`manipdyn.identification.trust`) builds
+doubtful (``doubts``).  The identification layer (``manipdyn.identification.trust``) builds
 and reads the fields; this module only moves the record across the disk, and it is the
 **one** place that does, for every kind of file:
 

@@ -9,7 +9,7 @@ Inverse kinematics (:meth:`ReachCalls.inverse_kinematics`) is damped least squar
 (Levenberg-Marquardt with Sugihara's damping ``lambda = E + lambda_bar``,
 where ``E = |e|^2 / 2``): each step solves ``(J^T J + lambda I) dq = J^T e``
 for the pose error ``e = [p* - p; log(R* R^T)]`` (metres and radians, base-frame
-axes, ``J`` the :meth:`jacobian` in base axes) and is projected onto the joint limits.
+axes, ``J`` the ``jacobian`` in base axes) and is projected onto the joint limits.
 A run that stalls is restarted from seeded random joint positions within the limits,
 so the answer does not depend on the call's history.  A pose no start reaches raises
 :class:`manipdyn.UnreachablePoseError`, which says how far the best start got.
@@ -71,7 +71,7 @@ def wrench_torque(J: np.ndarray, f: np.ndarray) -> np.ndarray:
 
 
 def rotation_vector(R: np.ndarray) -> np.ndarray:
-    """The rotation vector ``theta * axis`` (3,) of a rotation matrix (3, 3): ``log(R)``, |theta| <= pi."""
+    """The rotation vector ``theta * axis`` (3,) of a rotation matrix (3, 3): ``log(R)``, ``|theta| <= pi``."""
     c = min(1.0, max(-1.0, (np.trace(R) - 1.0) / 2.0))
     w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
     s = 0.5 * np.linalg.norm(w)                                   # sin(theta)
@@ -120,12 +120,12 @@ class ReachCalls:
 
     def inverse_kinematics(self, T, q0=None, *, tol: float = IK_TOLERANCE, max_steps: int = 100,
                            restarts: int = 20, seed: int = 0, engine: str = "pinocchio") -> np.ndarray:
-        """Joint positions whose :meth:`fkine` is the pose ``T``: (n,), or (N, n) for (N, 4, 4).
+        """Joint positions whose ``fkine`` is the pose ``T``: (n,), or (N, n) for (N, 4, 4).
 
         Parameters
         ----------
         T : (4, 4) or (N, 4, 4)
-            The tool frame's pose in the base frame (metres), as :meth:`fkine` gives it.
+            The tool frame's pose in the base frame (metres), as ``fkine`` gives it.
             A stack is solved in order, each pose starting from the last answer.
         q0 : (n,), optional
             The first start (rad or m); default: the middle of the joint limits.  Of the

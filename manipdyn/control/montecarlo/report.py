@@ -97,7 +97,7 @@ class StudyReport:
 
     def report_html(self, path, command: str | None = None, plants_file=None) -> str:
         """Write the study as one self-contained HTML page to ``path`` (atomically; what
-        ``manipdyn montecarlo --report`` writes, :mod:`.html`): what was run, the verdict, the
+        ``manipdyn montecarlo --report`` writes, :mod:`manipdyn.control.montecarlo.html`): what was run, the verdict, the
         distributions per controller, divergences and causes, the worst runs, the CDF figure.
         ``command``: the command line to show; ``plants_file``: the identification the plants
         were drawn from (its sha256 is shown).  Returns the path."""

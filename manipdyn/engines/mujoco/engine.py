@@ -13,7 +13,7 @@ What MuJoCo models differently is not passed off as MuJoCo's:
   limits and ``frictionloss`` are constraints solved with softness, not the law's sign
   function.  The part of the friction law MuJoCo does not compute as passive damping (Coulomb,
   and the terms MJCF cannot hold) is added to ``tau`` and removed before ``qdd`` from
-  manipdyn's law (:attr:`MujocoEngine.foreign_friction` says how large it is, and the
+  manipdyn's law (``MujocoEngine.foreign_friction`` says how large it is, and the
   cross-check's notes say it); viscous friction is MuJoCo's (``qfrc_passive``).
 * MuJoCo gives no Christoffel Coriolis matrix, no regressor and only finite-difference
   derivatives: :attr:`MujocoEngine.not_offered` names them, their methods raise
@@ -22,7 +22,7 @@ What MuJoCo models differently is not passed off as MuJoCo's:
 * A link MuJoCo's compiler refuses (no physical body: :func:`manipdyn.formats.losses.nonphysical_inertias`)
   is compiled with a stand-in inertial and then given the model's exact mass, COM and principal
   inertia in the compiled model (``body_mass``, ``body_ipos``, ``body_iquat``, ``body_inertia``),
-  which MuJoCo's algorithms take as they are; :attr:`MujocoEngine.notes` says so.
+  which MuJoCo's algorithms take as they are; ``MujocoEngine.notes`` says so.
 
 Shapes: one state (n,) or a batch (N, n); batches are looped in Python over one ``MjData`` per
 thread.  Units SI, base frame = MuJoCo's world frame.

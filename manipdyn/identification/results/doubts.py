@@ -51,7 +51,7 @@ RUN_FACTOR = 2.0
 #: a fitted payload mass off the declared one by more than this fraction contradicts it
 PAYLOAD_RTOL = 0.25
 #: a smallest radius of gyration under this fraction of the arm's size is degenerate (half the default fit's
-#: floor, :data:`..estimation.sdp.PLAUSIBLE_GYRATION`: a body on the floor is named by the active bounds)
+#: floor, ``estimation.sdp.PLAUSIBLE_GYRATION``: a body on the floor is named by the active bounds)
 GYRATION_FRACTION = 0.005
 #: a pseudo-inertia whose smallest eigenvalue is under this fraction of its largest sits on J >= 0
 BOUNDARY_RTOL = 1e-6

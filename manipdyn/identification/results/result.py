@@ -206,7 +206,7 @@ class IdentifyResult:
 
     def report_html(self, path, command: str | None = None) -> str:
         """Write this identification as one self-contained HTML page to ``path`` (atomically;
-        what ``manipdyn identify --report`` writes, :mod:`.html`): what was done (the logs with
+        what ``manipdyn identify --report`` writes, :mod:`manipdyn.identification.results.html`): what was done (the logs with
         their sha256, the options, the version), the verdict, per joint RMS in-sample and held
         out, the fit figure with its band, the parameters with their standard deviations and the
         active bounds, the data notes.  ``command``: the command line to show.  Returns the path."""

@@ -106,7 +106,7 @@ class Validation:
 
     def report_html(self, path, command: str | None = None, options: dict | None = None, model_files=()) -> str:
         """Write the scores as one self-contained HTML page to ``path`` (atomically; what
-        ``manipdyn validate --report`` writes, :mod:`.html`): what was done, the verdict, per
+        ``manipdyn validate --report`` writes, :mod:`manipdyn.identification.results.html`): what was done, the verdict, per
         joint RMS, band coverage and extrapolation (flagged joints highlighted), the figure with
         the stretches beyond the fit shaded, several models side by side, the data notes.
         ``command``, ``options``, ``model_files``: shown as given (the files with their sha256).

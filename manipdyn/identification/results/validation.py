@@ -23,7 +23,7 @@ measured states; the score per joint is
 * a joint whose band holds under 80 % of the samples is flagged (``BAND MISSES``,
   ``--json`` ``band_95_missed``): the band failed there, whatever the flags predicted.
 
-The model's own friction and armature are included: what :meth:`Arm.inverse_dynamics`
+The model's own friction and armature are included: what ``Arm.inverse_dynamics``
 predicts, the fast path.
 """
 

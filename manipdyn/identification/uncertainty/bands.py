@@ -70,7 +70,7 @@ Choosing ``g`` among a few values on the same scores costs a little coverage opt
 synthetic logs of the right model class a gain picked for a 1-3 % narrower band lost 0.5-1.2 %
 of coverage on the next trajectory, which is why a gain must buy 5 %.
 
-:attr:`PredictionBand.half_width` stays the width at a typical fitted sample (``u = 1``);
+``PredictionBand.half_width`` stays the width at a typical fitted sample (``u = 1``);
 :meth:`PredictionBand.interval` takes ``u`` per sample.
 
 The numbers travel with the model in its trust record (:mod:`manipdyn.formats.trust`:
