@@ -222,3 +222,25 @@ def test_the_library_names_its_keywords_and_the_command_line_its_flags(tmp_path)
         assert str(info.value).startswith(api) and info.value.cli_message().startswith(cli)
     with pytest.raises(md.ModelError, match="bootstrap: the number of replicates .* over the limit"):
         md.identify("ur5", log, bootstrap=10**6)
+
+
+def test_identify_tells_its_stages_and_draws_the_bootstrap(tmp_path, capsys):
+    """issue 31 item 15: ``manipdyn identify --progress`` names each long stage as it starts and draws
+    a bar over the bootstrap's refits; ``--no-progress`` is silent; ``md.identify(progress=...)``
+    is told the same stages, and a progress that is not callable is refused by name."""
+    arm = md.load("ur5")
+    (p1,), _ = _logs(tmp_path, arm, seeds=(1,), noise=(0.02,))
+    args = ["identify", "ur5", str(p1), "--method", "wls", "--bootstrap", "3", "--band-folds", "2"]
+    assert main(args + ["-o", str(tmp_path / "a.json"), "--progress"]) == 0
+    err = capsys.readouterr().err
+    for stage in ("identify: reading the logs", "identify: fit (wls)", "identify: prediction band (2 blocked",
+                  "identify: bootstrap (3 refits)"):
+        assert stage in err, err
+    assert "3/3 refits" in err
+    assert main(args + ["-o", str(tmp_path / "b.json"), "--no-progress"]) == 0
+    assert "identify:" not in capsys.readouterr().err
+    told = []
+    md.identify(arm, [p1], method="wls", band_folds=0, progress=lambda stage, done=None, total=None: told.append(stage))
+    assert told == ["reading the logs", "fit (wls)"]
+    with pytest.raises(md.ModelError, match="progress"):
+        md.identify(arm, [p1], method="wls", progress="yes")

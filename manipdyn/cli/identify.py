@@ -14,7 +14,8 @@ import json
 import sys
 
 from .._support.errors import ModelError
-from .common import EXIT_OK, TIP_HELP, cli_message, command_line, usage_error
+from .common import (EXIT_OK, TIP_HELP, Progress, add_progress_options, cli_message, command_line,
+                     progress_wanted, usage_error)
 from .logopts import DATA_HELP, library_options, register_log_options
 
 __all__ = ["register", "run"]
@@ -76,6 +77,7 @@ def register(subparsers) -> None:
         kw = {"action": kind} if kind == "store_true" else {"type": kind, "metavar": meta, "choices": choices.get(flag)}
         p.add_argument(flag, default=default, help=text, **{k: v for k, v in kw.items() if v is not None})
     register_log_options(p)
+    add_progress_options(p, "each stage as it starts, and a bar over the bootstrap's refits")
     p.set_defaults(func=run)
 
 
@@ -106,6 +108,7 @@ def run(args) -> int:
             except ValueError:
                 raise ModelError("--torque-constant-reference: expected motor numbers like 1,2, got "
                                  f"{args.torque_constant_reference!r}") from None
+        opts["progress"] = stages(progress_wanted(args))
         result = identify(args.model, logs, **opts)
     except ModelError as exc:
         return usage_error("identify", cli_message(exc))
@@ -126,3 +129,20 @@ def run(args) -> int:
               f"written, only the base model {result.base_model}: {result.fit.arm_error or 'a J_i is not >= 0'}; "
               "--method consistent always gives a physical arm", file=sys.stderr)
     return result.exit_code
+
+
+def stages(enabled: bool):
+    """The ``progress`` of :func:`manipdyn.identification.identify` drawn on stderr: one line per
+    stage with the time since the start, and a bar over the bootstrap's refits; None when off."""
+    if not enabled:
+        return None
+    import time
+
+    t0, bars = time.perf_counter(), {}
+
+    def tell(stage, done=None, total=None):
+        if done is None:
+            print(f"[{time.perf_counter() - t0:6.1f} s] identify: {stage}", file=sys.stderr, flush=True)
+        else:
+            bars.setdefault(stage, Progress(stage, True, unit="refits"))(done, total)
+    return tell

@@ -165,7 +165,7 @@ def identify(prior, logs, *, method: str = "consistent", tip=None, friction: boo
              torque_constant_reference=None, output=None, base_json=None, name=None, columns=None,
              deg: bool = False, rate=None, time_scale: float = 1.0, resample=None, cutoff=None,
              no_decimate: bool = False, t_range=None, topic=None, joint_names=None, extra_joints: bool = False,
-             blas_threads=1) -> IdentifyResult:
+             blas_threads=1, progress=None) -> IdentifyResult:
     """Identify ``prior``'s parameters from ``logs`` (module docstring); ``manipdyn identify``.
 
     Parameters
@@ -197,6 +197,11 @@ def identify(prior, logs, *, method: str = "consistent", tip=None, friction: boo
         ``(t0, t1)`` in s, ``no_decimate`` is ``decimate=False``).
     blas_threads : int or None
         BLAS threads while identifying (None: the BLAS library's own choice).
+    progress : callable, optional
+        Told what runs: ``progress(stage)`` as each long stage starts (reading, torque constants,
+        the smoothing's and the prior weight's held-out refits, the fit, the band's folds, the
+        bootstrap) and ``progress(stage, done, total)`` as the bootstrap's refits come back
+        (``manipdyn identify`` draws these on stderr).
 
     Returns :class:`IdentifyResult`; raises :class:`~manipdyn.ModelError` (an
     :class:`.options.OptionError` for a bad option) naming what is wrong.
@@ -234,6 +239,11 @@ def _identify(prior, logs, o) -> IdentifyResult:
         raise OptionError("{}: expected motor numbers 1 to " + f"{arm.n} (integers), got " + brace_safe(f"{ref!r:.60}"),
                           "torque_constant_reference")
     _check_target(arm, o["output"], o["armature"], o["friction_terms"], prior_label)
+    tell = o["progress"] if o["progress"] is not None else (lambda stage, done=None, total=None: None)
+    if not callable(tell):
+        raise OptionError("{}: expected a callable progress(stage, done=None, total=None), got "
+                          + brace_safe(f"{tell!r:.40}"), "progress")
+    tell("reading the logs")
     read_options = dict(joint_names=o["joint_names"] if o["joint_names"] is not None else _joint_names(arm),
                         columns=o["columns"], deg=o["deg"], rate=o["rate"], time_scale=o["time_scale"],
                         resample=o["resample"], cutoff=o["cutoff"], decimate=False if o["no_decimate"] else None,
@@ -250,11 +260,13 @@ def _identify(prior, logs, o) -> IdentifyResult:
                               o["sigmoid_alpha"])
     tc, as_read = None, arm
     if o["identify_torque_constants"]:
+        tell("torque constants from the currents")
         arm, runs, tc = _torque_constants(arm, runs, law, o["armature"], o["torque_constant_reference"])
     payload_logs = [os.path.basename(str(d.source)) for d, p in runs if p is not None]
     data = _known_payloads(arm, runs)
     smoothing_table = None
     if o["smoothing"] is None and o["friction_terms"] is not None and smoothing is not None:
+        tell("Coulomb smoothing by blocked held-out error (a refit per candidate and fold)")
         smoothing, law, smoothing_table, note = _held_out_smoothing(arm, data, o, side, smoothing, bounds, weight)
         law_notes.append(note)
     shapes = None
@@ -264,6 +276,7 @@ def _identify(prior, logs, o) -> IdentifyResult:
     if isinstance(law, Friction) and set(law.terms) & set(SHAPED):
         from .estimation.varpro import fit_shapes
 
+        tell("friction shapes (Stribeck, sigmoid) by variable projection")
         law, shapes = fit_shapes(arm, data, law, armature=o["armature"])
         if tc is not None:         # the gains again, with the fitted shapes
             arm, runs, tc = _torque_constants(as_read, _reread(runs, tc, arm), law, o["armature"],
@@ -273,11 +286,13 @@ def _identify(prior, logs, o) -> IdentifyResult:
     if weight == "auto":
         from .estimation.selection import choose_prior_weight
 
+        tell("prior weight by blocked cross-validation (a refit per weight and fold)")
         weight, selection = choose_prior_weight(arm, data.q, data.qd, data.qdd, data.tau, friction=law,
                                                 armature=o["armature"], bounds=bounds)
     given_name = o["name"]
     name = given_name or _name_from(o["output"]) or f"{arm.name or 'arm'}_identified"
     segments = data.segments if len(data.segments) > 1 else None
+    tell(f"fit ({o['method']})")
     result = fit(arm, data.q, data.qd, data.qdd, data.tau, method=o["method"], friction=law,
                  armature=o["armature"], bounds=bounds, name=name, prior_weight=weight, segments=segments)
     chosen = {"prior_weight": weight, "friction_side": side, "smoothing": smoothing}
@@ -289,6 +304,8 @@ def _identify(prior, logs, o) -> IdentifyResult:
     prov = provenance(", ".join(os.path.basename(str(s)) for s in sources), o["method"], options, prior_label,
                       result.report["rms_residual"], sha256=", ".join(str(s) for s in shas))
     # the fitted range and the band travel with the model: in the provenance before its metadata is written
+    if folds:
+        tell(f"prediction band ({int(folds)} blocked hold-outs, a refit each)")
     record, record_notes = fit_record(arm, data, folds=int(folds), smoothing=smoothing, method=o["method"],
                                       friction=law, armature=o["armature"], bounds=bounds, prior_weight=weight,
                                       segments=segments)
@@ -316,8 +333,10 @@ def _identify(prior, logs, o) -> IdentifyResult:
 
         from .uncertainty.bootstrap import bootstrap_summary
 
+        tell(f"bootstrap ({boot} refits)")
         bs = bootstrap(arm, data, boot, scheduler=o["scheduler"], method=o["method"], friction=law,
-                       armature=o["armature"], bounds=bounds, prior_weight=weight)
+                       armature=o["armature"], bounds=bounds, prior_weight=weight,
+                       progress=lambda done, total: tell("bootstrap refits", done, total))
         out.bootstrap = bootstrap_summary(bs)     # its std and covariance go to the base model too
     if o["output"] is not None or o["base_json"] is not None:
         write_model_files(out, o["output"], o["base_json"])
