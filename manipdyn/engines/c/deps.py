@@ -8,24 +8,17 @@ in the cache (:mod:`manipdyn.engines.c.build`) loads without it.
 
 from __future__ import annotations
 
-import importlib
-
-from ..._support.errors import MissingExtraError
+from ..._support.deps import install_command, require
 
 __all__ = ["casadi", "INSTALL", "manipdyn_version"]
 
 #: the command that installs what code generation needs
-INSTALL = "pip install 'manipdyn[codegen]' (in a source checkout: pip install -e '.[codegen]')"
+INSTALL = install_command("codegen")
 
 
 def casadi():
     """The ``casadi`` module, or :class:`MissingExtraError` naming the extra to install."""
-    try:
-        return importlib.import_module("casadi")
-    except ImportError as exc:
-        raise MissingExtraError(
-            f"generating C (md.codegen, the 'c' engine) needs the Python package 'casadi', which is not "
-            f"installed ({exc}); install the code-generation extra: {INSTALL}") from None
+    return require("casadi", "generating C (md.codegen, the 'c' engine)", "codegen", "code-generation")
 
 
 def manipdyn_version() -> str:

@@ -9,12 +9,12 @@ from __future__ import annotations
 
 import importlib
 
-from ..._support.errors import MissingExtraError
+from ..._support.deps import install_command, require
 
 __all__ = ["mujoco_module", "available", "INSTALL"]
 
 #: the command that installs MuJoCo for manipdyn
-INSTALL = "pip install 'manipdyn[mujoco]' (from a checkout: pip install -e '.[mujoco]')"
+INSTALL = install_command("mujoco")
 
 
 def available() -> bool:
@@ -28,9 +28,4 @@ def available() -> bool:
 
 def mujoco_module():
     """The ``mujoco`` module, or :class:`MissingExtraError` naming the extra to install."""
-    try:
-        return importlib.import_module("mujoco")
-    except ImportError as exc:
-        raise MissingExtraError(
-            f"the 'mujoco' engine and simulator need the Python package 'mujoco', which is not installed "
-            f"({exc}); install the MuJoCo extra: {INSTALL}") from None
+    return require("mujoco", "MuJoCo as an engine ('mujoco') or as the simulator", "mujoco", "MuJoCo")
