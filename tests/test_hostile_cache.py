@@ -26,6 +26,7 @@ import pytest
 import manipdyn as md
 from manipdyn.engines.c import CompiledEngine, build, compiled_engine
 from manipdyn.engines.c.cache import MANIFEST
+from manipdyn.engines.c.engine import library_for
 from manipdyn.model.random_arms import random_arm
 
 CC = build.find_compiler()
@@ -61,8 +62,12 @@ def _planted_library(path, marker) -> None:
 
 
 def _key_folder(arm) -> str:
-    """The cache folder of ``arm``'s -O0 build (built once, to learn the key)."""
-    return os.path.dirname(compiled_engine(arm, opt="-O0").library)
+    """The cache folder of ``arm``'s -O0 build (built once, to learn the key).
+
+    Built, never loaded: the tests then truncate or overwrite the library in place, and a
+    library mapped into pytest's own process that is cut short under it dies of SIGBUS when
+    the process touches or unloads it (at exit, after every test has passed)."""
+    return os.path.dirname(library_for(arm, opt="-O0"))
 
 
 def _agrees(engine, arm) -> None:
@@ -163,7 +168,7 @@ def _child(seed, n, cache):
 def test_a_library_cut_short_is_rebuilt_not_a_sigbus(cache, keep):
     """Issue: "A truncated library dies of SIGBUS and is never rebuilt"."""
     arm = random_arm(14, n=3)
-    lib = compiled_engine(arm, opt="-O0").library
+    lib = library_for(arm, opt="-O0")       # built, not loaded here: see _key_folder
     size = os.path.getsize(lib)
     with open(lib, "r+b") as f:
         f.truncate(int(size * keep))
@@ -180,7 +185,7 @@ def test_another_arms_library_under_the_key_is_rebuilt(cache, n_other):
     the heap".  Another arm's whole build (library and manifest) is copied under this arm's key."""
     target = random_arm(15, n=2)
     folder = _key_folder(target)
-    other = os.path.dirname(compiled_engine(random_arm(16, n=n_other), opt="-O0").library)
+    other = os.path.dirname(library_for(random_arm(16, n=n_other), opt="-O0"))
     for name in os.listdir(other):
         with open(os.path.join(other, name), "rb") as src, open(os.path.join(folder, name), "wb") as dst:
             dst.write(src.read())
@@ -272,3 +277,15 @@ def test_an_embedded_urdf_still_loads(tmp_path):
     assert again.n == arm.n
     q = np.linspace(-0.5, 0.5, arm.n)
     assert np.allclose(again.gravity_torque(q), arm.gravity_torque(q), rtol=1e-12, atol=1e-12)
+
+
+@needs_cc
+def test_the_tampering_tests_leave_pytest_able_to_exit(tmp_path):
+    """CI once ended in SIGBUS (exit 135) after every test had passed: the tests above truncated a
+    library that pytest's own process had loaded.  Run them in a child pytest: it must exit 0."""
+    env = dict(os.environ, PYTHONPATH=ROOT, **{build.CACHE_ENV: str(tmp_path / "cache")})
+    res = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", __file__,
+                          "-k", "cut_short or another_arms"], capture_output=True, text=True, env=env,
+                         timeout=600, cwd=ROOT)
+    assert res.returncode == 0, (res.returncode, res.stdout[-1500:], res.stderr[-1500:])
+    assert "4 passed" in res.stdout, res.stdout[-500:]
