@@ -55,9 +55,6 @@ def test_text_json_and_model(payload_log, tmp_path, capsys):
     assert np.all(np.sqrt(np.mean(err**2, axis=0)) <= 0.2 * ref.sigma)
 
 
-@pytest.mark.skip(reason="open conflict after merging issue 31's items: the reader collapses these held poses to 8 "
-                  "samples 0.3 s apart, and its zero-velocity check (item 28) then refuses qd = 0 as a driver that "
-                  "reports no velocities; which of the two should give way is not decided yet")
 def test_static_data_print_notes_and_null_std(tmp_path, capsys):
     """Held still, only the weight shows: the inertia is not determined, the note says so and the
     JSON has null (not Infinity) for the standard deviations of what was not excited."""

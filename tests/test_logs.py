@@ -98,6 +98,29 @@ def test_time_going_back_or_clashing_names_the_row(tmp_path):
         read_log(p, 1)
 
 
+def test_repeated_rows_at_rest_are_samples_repeated_rows_in_motion_are_not(tmp_path):
+    """A repeated row with every measured velocity exactly zero is an arm at rest and stays; a
+    repeated row carrying a velocity is a sample logged twice and goes (timebase.py, item 2)."""
+    t = np.arange(60) * 0.01
+    q = np.repeat([[0.1, -0.2], [0.4, 0.3], [0.7, 0.1]], 20, axis=0)        # three poses held still
+    qd = np.zeros_like(q)
+    tau = np.repeat([[1.0, 2.0], [1.5, 2.5], [0.5, 1.0]], 20, axis=0)
+    p = tmp_path / "held.csv"
+    write_csv(p, ["t", "q1", "q2", "qd1", "qd2", "qdd1", "qdd2", "tau1", "tau2"], [t, q, qd, qd, tau])
+    m = read_log(p, 2)                  # qd and qdd measured: used as they are, nothing filtered
+    text = "\n".join(m.notes)
+    assert "kept 57 rows that repeat the previous row" in text and "duplicate" not in text
+    assert len(m.t) == 60 and np.array_equal(m.q, q) and np.array_equal(m.tau, tau)
+    # the same rows with a velocity that is not zero: samples logged again while moving, dropped
+    from manipdyn.formats.logs.timebase import uniform_samples
+    values = np.hstack([q, np.full_like(q, 0.5), tau])
+    t2, v2, _, notes = uniform_samples(t, values, np.arange(60) + 2, "held.csv", velocity_columns=[2, 3])
+    assert "dropped 57 duplicate rows" in "\n".join(notes) and len(t2) == 3
+    # without velocity columns the rule cannot tell, and drops them as before
+    t3, _, _, notes = uniform_samples(t, np.hstack([q, tau]), np.arange(60) + 2, "held.csv")
+    assert "dropped 57 duplicate rows" in "\n".join(notes) and len(t3) == 3
+
+
 @pytest.mark.skipif(not PANDA.is_file(), reason="the real Panda log (../shared/realdata/panda_gaz2019, "
                     "outside the repository) is not on this machine")
 def test_real_panda_log_reads_as_logged():

@@ -12,7 +12,8 @@ Its samples go through, in this order:
 2. the drive (:mod:`~manipdyn.formats.logs.motor`): motor-side positions,
    velocities, torques or currents to the joints;
 3. the time base (:mod:`~manipdyn.formats.logs.timebase`): duplicate rows
-   dropped, gaps found, a uniform grid (linear interpolation);
+   dropped (but rows of an arm at rest, measured velocities exactly zero, kept),
+   gaps found, a uniform grid (linear interpolation);
 4. derivatives (:mod:`~manipdyn.formats.logs.filtering`): when ``qd`` and
    ``qdd`` are both measured they are used as they are (nothing filtered);
    when only ``qd`` is, it is filtered and differentiated for ``qdd``;
@@ -215,7 +216,9 @@ def read_log(path, n: int, *, joint_names=None, columns=None, deg=False, rate=No
                                                                         drive_args, rate, bool(extra_joints))
     check_signals(where, rows, q=q, qd=qd, qdd=qdd, tau=tau)
     parts = [q] + [a for a in (qd, qdd) if a is not None] + [tau]
-    t, values, fs, tnotes = uniform_samples(t, np.hstack(parts), rows, where, rate=rate, resample=resample)
+    vel = list(range(q.shape[1], sum(a.shape[1] for a in parts[:-1])))      # the measured qd (and qdd) columns
+    t, values, fs, tnotes = uniform_samples(t, np.hstack(parts), rows, where, rate=rate, resample=resample,
+                                            velocity_columns=vel)
     notes += tnotes
     split = np.split(values, np.cumsum([a.shape[1] for a in parts])[:-1], axis=1)
     q, tau = split[0], split[-1]

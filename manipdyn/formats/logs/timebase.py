@@ -13,8 +13,12 @@ need uniform samples, so :func:`uniform_samples`
    the previous row's exactly is the same sample logged again (a real
    sensor's noise never repeats all its digits), and keeps the first time
    stamp, the one closest to when the sample was taken.  Noiseless
-   synthetic data at rest repeats rows too: dropping them is harmless there
-   (the interpolation below bridges the dropped rows with the same values);
+   synthetic data at rest repeats rows too.  A repeated row whose *measured
+   velocities* are all exactly zero is kept: it is a sample of an arm at rest
+   (the same sample logged again while the arm moves repeats a velocity that
+   is not zero; the real Panda log's 1131 repeated rows all do), and dropping
+   the rows of poses held still would leave one sample per pose, the jumps
+   between them read as motion;
 3. finds *gaps*: steps over 1.5 times the median step (the median of the
    steps that are not gaps is the step of the grid);
 4. checks that the median rate is plausible for a joint log (2 Hz to
@@ -112,14 +116,16 @@ def _check_rate(rate, where, what):
             "with rate=HZ (--rate HZ)")
 
 
-def uniform_samples(t, values, rows, where: str, *, rate=None, resample=None):
+def uniform_samples(t, values, rows, where: str, *, rate=None, resample=None, velocity_columns=()):
     """Uniform samples of a log (module docstring).
 
     ``t`` (N,) time stamps in s, or None (then ``rate`` Hz is required and the
     rows are taken as uniform samples from t = 0); given with ``t``, ``rate``
     replaces the stamps (for a ``t`` column in an unknown unit).  ``values``
     (N, m) every other signal; ``rows`` (N,) the file row of each sample, for
-    messages; ``resample`` Hz, the rate of the grid (default: the median rate).
+    messages; ``resample`` Hz, the rate of the grid (default: the median rate);
+    ``velocity_columns`` the indices of ``values``' measured velocities (and
+    accelerations): a repeated row with all of them exactly zero is kept.
 
     Returns ``(t, values, rate, notes)``: the uniform times (M,), the values
     on them (M, m), the rate in Hz and a list of one-line notes saying what
@@ -165,6 +171,13 @@ def uniform_samples(t, values, rows, where: str, *, rate=None, resample=None):
                          f"row {rows[k - 1]} (t = {float(t[k - 1])!r})")
     same = np.all(values[1:] == values[:-1], axis=1)
     clash = np.flatnonzero((step == 0) & ~same)
+    cols = list(velocity_columns)
+    if cols:
+        rest = same & (step > 0) & np.all(values[1:, cols] == 0.0, axis=1)
+        if rest.any():
+            notes.append(f"time: kept {int(rest.sum())} rows that repeat the previous row with every measured "
+                         "velocity exactly zero (an arm at rest, not a sample logged twice)")
+            same = same & ~rest
     if clash.size:
         k = int(clash[0]) + 1
         raise ModelError(f"{where}: column 't' must increase: row {rows[k]} repeats the time {float(t[k])!r} of row "
