@@ -47,7 +47,12 @@ class PinocchioJacobian:
         Linear velocity of the frame's origin on top, angular velocity below, in base-frame
         axes (``frame="world"``, ``pin.LOCAL_WORLD_ALIGNED``) or the frame's own
         (``frame="tool"``, ``pin.LOCAL``); SI units.  ``link`` is 1..n: the frame
-        ``T_k`` of :meth:`manipdyn.Arm.link_poses` (columns after k are zero).
+        ``T_k`` of :meth:`manipdyn.Arm.link_poses` (columns after k are zero), when the engine
+        knows the arm's offsets ``S_k`` (``link_offsets``: set by ``arm.pinocchio`` and
+        ``arm.engine("pinocchio")``).  An engine built by hand from a ``pin.Model`` has none and
+        gives joint k's URDF link frame ``L_k``: the same frame for a modified-DH or URDF arm,
+        not for a standard-DH one (``T_k = L_k S_k``, ``S_k = Trans_x(a_k) Rot_x(alpha_k)``);
+        set ``engine.link_offsets = arm.urdf_link_offsets()`` there.
         """
         frame = check_jacobian_frame(frame)
         q = as_state(q, "q", self.n)
