@@ -120,3 +120,42 @@ def test_the_default_fit_keeps_the_pandas_bodies_off_the_boundary(tmp_path):
     assert min(J_free) < 1e-7 and min(S_min) > 10 * min(J_free)
     v0 = md.validate(nofloor.arm, PANDA_LOG, t_range=(10, 13.8)).results[0]
     assert np.all(v.rms <= 1.01 * v0.rms), (v.rms, v0.rms)
+
+
+def test_a_fit_that_drops_the_gyration_floor_says_so(monkeypatch):
+    """The floor is best effort: when the solve with it fails, the fit retries without it, and
+    the notes say that it did (before, nothing did).  The failure is planted in front of the real
+    solver, for the floored try only; the retry runs the real solver (the ordinary fits of the
+    tests above run it with the floor)."""
+    from manipdyn.identification import excitation
+    from manipdyn.identification.estimation import fitting
+    from manipdyn.identification.estimation.sdp import Bounds
+
+    arm = md.load("ur5")
+    ex = excitation(arm, duration=4.0, harmonics=3, rate=100.0, iterations=0, seed=2)
+    tau = arm.inverse_dynamics(ex.q, ex.qd, ex.qdd)
+    real = fitting.consistent_fit
+    calls = []
+
+    def failing_with_floor(*a, bounds=None, **kw):
+        calls.append(bounds is not None and bounds.gyration is not None)
+        if calls[-1]:
+            raise md.ModelError("consistent fit: the solver failed (planted)")
+        return real(*a, bounds=bounds, **kw)
+
+    monkeypatch.setattr(fitting, "consistent_fit", failing_with_floor)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r = fitting.fit(arm, ex.q, ex.qd, ex.qdd, tau, method="consistent", bounds=Bounds.plausible(arm))
+    assert calls == [True, False]
+    assert r.report["gyration_floor_dropped"] is True
+    assert r.report["fit_notes"][0].startswith("the radius-of-gyration floor (a plausibility bound, best effort) "
+                                               "was dropped: the fit with it failed (consistent fit: the solver "
+                                               "failed (planted))")
+    assert r.consistent
+    monkeypatch.setattr(fitting, "consistent_fit", real)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r2 = fitting.fit(arm, ex.q, ex.qd, ex.qdd, tau, method="consistent", bounds=Bounds.plausible(arm))
+    assert "gyration_floor_dropped" not in r2.report
+    assert not any("floor" in n and "dropped" in n for n in r2.report["fit_notes"])

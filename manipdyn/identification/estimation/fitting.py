@@ -393,6 +393,7 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         else:
             tries = [bounds] + ([Bounds(mass=bounds.mass, com=bounds.com, total_mass=bounds.total_mass)]  # the floor:
                                 if bounds is not None and bounds.gyration is not None else [])  # best effort
+            dropped = None           # why the radius-of-gyration floor was dropped, when it was
             for k, b in enumerate(tries):
                 try:
                     pi, solver = consistent_fit(R, c, base.K, n, prior, extra=len(base.names) > 10 * n, bounds=b,
@@ -406,6 +407,7 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
                 except ModelError as exc:
                     if k == len(tries) - 1:
                         raise ModelError(f"{exc}{_scale_hint(R, c, base.K, prior, b)}") from None
+                    dropped = str(exc).splitlines()[0]
             beta = base.from_full(pi)
     residuals = y - Yb @ beta
     eig = link_min_eigenvalues(pi, n)
@@ -436,6 +438,12 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     if method == "consistent":
         result.report.update(_shortfall(R, c, rho_w, y * w, residuals * w, pi, n, base, bounds, solver,
                                         result.report["active_bounds"]))
+        if dropped is not None:
+            result.report["fit_notes"].insert(0, (
+                "the radius-of-gyration floor (a plausibility bound, best effort) was dropped: the fit with it "
+                f"failed ({dropped}); this fit has the mass, COM and total-mass bounds and J_i >= 0 only, so a "
+                "body's shape may be degenerate (a rod or a plate)"))
+            result.report["gyration_floor_dropped"] = True
     return result
 
 
