@@ -13,9 +13,9 @@ from pathlib import Path
 import pytest
 
 README = Path(__file__).resolve().parents[1] / "README.md"
-DATA = Path(__file__).resolve().parents[1].parent / "shared" / "realdata" / "panda_gaz2019" / "panda_as_logged.csv"
-pytestmark = pytest.mark.skipif(not DATA.is_file(), reason=f"the real-data folder is absent ({DATA.name} not found "
-                                                            "beside the project in shared/realdata)")
+from common import PANDA_LOG as DATA, needs_panda_log
+
+pytestmark = needs_panda_log
 pytest.importorskip("cvxpy", reason="identification needs the identify extra")
 
 

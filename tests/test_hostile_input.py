@@ -27,12 +27,7 @@ from manipdyn.cli import main
 pytest.importorskip("scipy")
 
 
-def err_line(capsys) -> str:
-    """The one line a refused command prints on stderr."""
-    cap = capsys.readouterr()
-    lines = cap.err.strip().splitlines()
-    assert len(lines) == 1, cap.err
-    return lines[0]
+from common import err_line
 
 
 @pytest.fixture(scope="module")

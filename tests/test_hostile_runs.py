@@ -24,11 +24,7 @@ from manipdyn.identification import excitation, write_measurements_csv  # noqa: 
 from manipdyn.identification.inputs.runs import LogSpec, Payload, as_log_specs, read_runs_file  # noqa: E402
 
 
-def err_line(capsys) -> str:
-    cap = capsys.readouterr()
-    lines = cap.err.strip().splitlines()
-    assert len(lines) == 1, cap.err
-    return lines[0]
+from common import err_line
 
 
 @pytest.fixture(scope="module")

@@ -7,7 +7,6 @@ and a Coulomb smoothing chosen from the log.
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,7 +16,7 @@ import manipdyn as md
 pytest.importorskip("scipy")
 pytest.importorskip("cvxpy")
 
-PANDA = Path(__file__).resolve().parents[1].parent / "shared" / "realdata" / "panda_gaz2019" / "panda_as_logged.csv"
+from common import PANDA_LOG as PANDA
 
 
 def _write_csv(path, header, columns):

@@ -26,9 +26,7 @@ from manipdyn.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text(encoding="utf-8")
-REALDATA = ROOT.parent / "shared" / "realdata" / "panda_gaz2019" / "panda_as_logged.csv"
-needs_realdata = pytest.mark.skipif(not REALDATA.is_file(), reason="the real-data folder is absent "
-                                    "(panda_as_logged.csv not found beside the project in shared/realdata)")
+from common import PANDA_LOG as REALDATA, needs_panda_log as needs_realdata
 
 
 def _load(name):

@@ -4,16 +4,15 @@ identify on t < 10 s as logged, score on 10 s <= t < 13.8 s against the publishe
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import manipdyn as md
 
-DATA = Path(__file__).resolve().parents[1].parent / "shared" / "realdata" / "panda_gaz2019" / "panda_as_logged.csv"
-pytestmark = pytest.mark.skipif(not DATA.is_file(), reason=f"the real-data folder is absent ({DATA.name} not found "
-                                                            "beside the project in shared/realdata)")
+from common import PANDA_LOG as DATA, needs_panda_log
+
+pytestmark = needs_panda_log
 pytest.importorskip("cvxpy", reason="identification needs the identify extra")
 
 SIGMOID = dict(sigmoid_A=[0.54615, 0.87224, 0.64068, 1.2794, 0.83904, 0.30301, 0.56489],

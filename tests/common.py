@@ -1,0 +1,29 @@
+"""Helpers the test files share: the real Panda log's place and its skip, and a refused command's line.
+
+The real-data logs live beside the project in ``../shared/realdata`` (measured by others, with their
+sources in that folder's README); the tests read them there and never copy them in.  Where the folder
+is absent, the tests that need it skip, saying so.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+#: the real Panda log (Gaz et al. 2019), as logged: ``../shared/realdata/panda_gaz2019/panda_as_logged.csv``
+PANDA_LOG = ROOT.parent / "shared" / "realdata" / "panda_gaz2019" / "panda_as_logged.csv"
+#: why a test that needs it skips
+PANDA_SKIP = ("the real-data folder is absent (panda_as_logged.csv not found beside the project in "
+              "shared/realdata/panda_gaz2019)")
+#: mark a test (or ``pytestmark`` a module) that reads the real Panda log
+needs_panda_log = pytest.mark.skipif(not PANDA_LOG.is_file(), reason=PANDA_SKIP)
+
+
+def err_line(capsys) -> str:
+    """The one line a refused command prints on stderr (asserts there is exactly one)."""
+    cap = capsys.readouterr()
+    lines = cap.err.strip().splitlines()
+    assert len(lines) == 1, cap.err
+    return lines[0]
