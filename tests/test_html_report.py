@@ -374,3 +374,94 @@ def test_report_without_matplotlib_says_how_to_install(monkeypatch, capsys, tmp_
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--report" in err and "pip install -e '.[plot]'" in err
     assert not (tmp_path / "r.html").exists()
+
+
+# --------------------------------------------------------------------------- identify --payload
+
+
+@pytest.fixture(scope="module")
+def payload_report(tmp_path_factory):
+    """``manipdyn identify ur5 LOG --payload --json --report`` on a UR5 carrying a known payload
+    (1 % noise), the log named hostilely; and the same held still (the inertia not excited)."""
+    pytest.importorskip("cvxpy", reason="identification needs the identify extra (cvxpy)")
+    pytest.importorskip("matplotlib", reason="the reports' figures need the plot extra (matplotlib)")
+    import contextlib
+    import io
+
+    from manipdyn.control import with_payload
+    from manipdyn.identification import excitation, write_measurements_csv
+
+    d = tmp_path_factory.mktemp("payload")
+    arm = md.load("ur5")
+    carried = with_payload(arm, 2.5, np.array([0.02, -0.03, 0.08]), np.diag([0.010, 0.012, 0.006]))
+    ex = excitation(arm, duration=10.0, harmonics=4, rate=100.0, iterations=0, seed=1)
+    tau = carried.inverse_dynamics(ex.q, ex.qd, ex.qdd)
+    tau = tau + 0.01 * np.abs(tau).max(axis=0) * np.random.default_rng(0).standard_normal(tau.shape)
+    moving = d / f"pay {HOSTILE[:8]}.csv"
+    write_measurements_csv(moving, ex.t, ex.q, tau, qd=ex.qd, qdd=ex.qdd)
+    q = np.repeat(arm.random_state(np.random.default_rng(3), 8), 30, axis=0)
+    z = np.zeros_like(q)
+    still = d / "still.csv"
+    write_measurements_csv(still, np.arange(len(q)) * 0.01, q, carried.inverse_dynamics(q, z, z), qd=z, qdd=z)
+    out = {"dir": d}
+    for kind, log in (("moving", moving), ("still", still)):
+        page = d / f"{kind}.html"
+        buf = io.StringIO()
+        with contextlib.redirect_stdout(buf):
+            assert main(["identify", "ur5", str(log), "--payload", "--json", "--report", str(page)]) == 0
+        out[kind] = (page, page.read_text(encoding="utf-8"), json.loads(buf.getvalue()))
+    return out
+
+
+@pytest.mark.parametrize("kind", ["moving", "still"])
+def test_payload_report_holds_the_json(payload_report, kind):
+    """The payload page's tables hold --json's numbers bit for bit (null std: an empty cell), the
+    parameters the data do not determine are highlighted and named in the verdict, the log is named
+    with its sha256 and escaped, and the figure is there."""
+    import hashlib
+
+    page, text, d = payload_report[kind]
+    _page_is_self_contained(text)
+    t = H.read_tables(text)
+    rows = t["payload"][1:]
+    assert rows[0][0] == "mass (kg)" and _close(rows[0][1], d["mass"]) and _close(rows[0][2], d["mass_std"])
+    for k in range(3):
+        assert _close(rows[1 + k][1], d["com"][k]) and _close(rows[1 + k][2], d["com_std"][k])
+    for row, (i, k) in zip(rows[4:], ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))):
+        assert _close(row[1], d["inertia"][i][k])
+    params = t["parameters"][1:]
+    assert [r[0] for r in params] == list(d["parameters"])
+    for r in params:
+        assert _close(r[1], d["parameters"][r[0]]) and _close(r[2], d["parameter_std"][r[0]])
+    joints = t["joints"][1:]
+    assert len(joints) == 6
+    for j, r in enumerate(joints):
+        assert _close(r[1], d["rms_residual"][j]) and _close(r[2], d["noise_sigma"][j])
+    sha = hashlib.sha256(open(d["data"], "rb").read()).hexdigest()
+    assert sha in text and "&lt;script&gt;" in text if kind == "moving" else sha in text
+    assert len(_pngs(text)) == 1
+    if kind == "still":
+        assert d["poorly_determined"] and "the data do not determine" in text
+        assert text.count('<tr class="flag">') >= len(d["poorly_determined"])
+        assert any(r[2] is None for r in params)            # an unexcited parameter: null in JSON, empty here
+    else:
+        assert d["poorly_determined"] == [] and "every parameter is determined by the data" in text
+
+
+def test_payload_report_renders_in_chromium(payload_report, tmp_path):
+    exe = _browser()
+    import matplotlib.image as mpimg
+
+    png = tmp_path / "payload.png"
+    _screenshot(exe, payload_report["moving"][0], png, 3200)
+    flat = (mpimg.imread(png)[:, :, :3] * 255).round().astype(int).reshape(-1, 3)
+    assert len(np.unique(flat, axis=0)) > 200 and np.mean(np.all(flat >= 250, axis=1)) < 0.97
+    lines = sum(np.all(np.abs(flat - c) <= 12, axis=1).sum() for c in ([0x1F, 0x77, 0xB4], [0xFF, 0x7F, 0x0E]))
+    assert lines > 300, lines
+
+
+def test_payload_report_goes_through_the_output_checks(payload_report, capsys):
+    """Never onto an input (the log): refused in one line before any work."""
+    page, _, d = payload_report["moving"]
+    assert main(["identify", "ur5", d["data"], "--payload", "--report", d["data"]]) == 2
+    assert "--report" in capsys.readouterr().err

@@ -1,4 +1,4 @@
-"""``manipdyn identify MODEL DATA --payload [--payload-link NAME] [-o OUT.toml|OUT.urdf] [--json]``.
+"""``manipdyn identify MODEL DATA --payload [--payload-link NAME] [-o OUT.toml|OUT.urdf] [--json] [--report FILE.html]``.
 
 Layer 7 (CLI, the top).
 
@@ -8,7 +8,9 @@ mass +- standard deviation (kg), centre of mass +- standard deviation (mm, paylo
 frame), inertia about the centre of mass (kg m^2), the parameters the data do not
 determine, and notes; ``--json`` prints :meth:`PayloadResult.as_dict` (an infinite standard
 deviation, a parameter the data do not excite, as null); ``-o`` writes
-MODEL carrying the payload (:meth:`PayloadResult.arm_with_payload`, a DH model).
+MODEL carrying the payload (:meth:`PayloadResult.arm_with_payload`, a DH model); ``--report``
+writes the page of :mod:`manipdyn.identification.results.payload_html` (its tables hold the
+numbers of ``--json``).
 
 Exit codes: 0 payload identified (and written); 2 usage, model or data error.
 """
@@ -87,6 +89,15 @@ def run_payload(args) -> int:
             return usage_error("identify", f"--scheduler: {exc}")
         except OSError as exc:
             return usage_error("identify", f"{exc.filename or out}: cannot write: {exc.strerror or exc}")
+    report = getattr(args, "report", None)
+    if report:
+        from ..identification.results.payload_html import write_payload_report
+        from .common import command_line
+
+        try:
+            write_payload_report(res, report, data=data, command=command_line(args), model=args.model)
+        except OSError as exc:
+            return usage_error("identify", f"--report {report}: cannot write: {exc.strerror or exc}")
     if args.json:
         rep = res.as_dict()
         rep.update({"model": args.model, "data": args.data, "output": out,
@@ -98,6 +109,8 @@ def run_payload(args) -> int:
         print(format_payload(res, args.payload_link or ""))
         if out is not None:
             print(f"wrote {out}")
+        if report:
+            print(f"wrote {report} (the report)")
     return EXIT_OK
 
 

@@ -47,8 +47,6 @@ def check_identify(args) -> None:
 
         check_scheduler(args.scheduler, "--scheduler")
     report = getattr(args, "report", None)
-    if report is not None and getattr(args, "payload", False):
-        raise ModelError("--report: not with --payload (the report is of an arm's identification)")
     check_report_target(report)
     check_outputs([("-o", args.output), ("--base-json", args.base_json),
                    ("the base model beside -o", _implied_base(args)), ("--report", report)],

@@ -12,7 +12,7 @@ Layer 5 (identification).  May import: ``manipdyn.check``, ``manipdyn.engines``,
   derivatives of q and notes on what was done; :func:`read_measurements` is
   its CSV shorthand.
 * :func:`identify_payload`: the ten parameters of a payload carried by a known arm
-  (J >= 0), :class:`PayloadResult`;
+  (J >= 0), :class:`PayloadResult`; :func:`write_payload_report` its HTML page;
 * :func:`bootstrap`: a moving-block bootstrap of a fit (refits on data resampled in
   blocks of time), in this process or on Dask, bit-identical;
 * :func:`calibrate_band` (:class:`PredictionBand`): a 95 % band from blocked hold-outs of
@@ -48,11 +48,12 @@ from .pipeline import identify
 from .results.result import IdentifyResult
 from .inputs.runs import LogSpec, Payload, read_runs_file
 from .results.scoring import Validation, validate
+from .results.payload_html import write_payload_report
 from .payload.torque_constants import TorqueConstants, identify_torque_constants
 
 __all__ = ["BaseParameters", "BootstrapResult", "Bounds", "Excitation", "FitResult", "INSTALL", "METHODS",
            "Measurements", "MissingExtraError", "PayloadResult", "base_parameters", "bootstrap", "excitation", "fit",
-           "format_report", "fit_friction_shapes", "HardLog", "hard_log", "identify_payload", "read_log",
+           "format_report", "fit_friction_shapes", "HardLog", "hard_log", "identify_payload", "write_payload_report", "read_log",
            "read_measurements", "write_measurements_csv",
            "Trajectory", "read_trajectory", "synthesize", "PredictionBand", "calibrate_band", "StateRange",
            "fitted_range", "identify", "IdentifyResult", "LogSpec", "Payload",

@@ -45,6 +45,7 @@ from .sdp import Bounds, consistent_fit
 from ...formats.logs.measurements import segment_edges
 from .covariance import base_covariance
 from .noise import floor_noise
+from .report import FLOOR_DROPPED, build_report, shortfall
 
 __all__ = ["fit", "FitResult", "METHODS", "link_min_eigenvalues", "known_torque", "joint_noise"]
 
@@ -393,7 +394,7 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         else:
             tries = [bounds] + ([Bounds(mass=bounds.mass, com=bounds.com, total_mass=bounds.total_mass)]  # the floor:
                                 if bounds is not None and bounds.gyration is not None else [])  # best effort
-            dropped = None           # why the radius-of-gyration floor was dropped, when it was
+            dropped = None
             for k, b in enumerate(tries):
                 try:
                     pi, solver = consistent_fit(R, c, base.K, n, prior, extra=len(base.names) > 10 * n, bounds=b,
@@ -428,7 +429,6 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     result = FitResult(arm=out_arm, parameters=pi, base=base, beta=beta, residuals=residuals,
                        sigma=sigma, method=method, condition_number=cond, consistent=consistent,
                        prior=arm, arm_error=err, covariance=cov)
-    from .report import build_report
 
     result.report = build_report(result, solver=solver, samples=N, cov=cov, min_eigenvalues=eig)
     result.report["active_bounds"] = bounds.active(pi, n) if bounds is not None else []
@@ -436,14 +436,11 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     result.report.update({"noise_sigma_per_run": sigmas.tolist()} if runs is not None else {})
     result.report["noise_floor_joints"] = floored
     if method == "consistent":
-        result.report.update(_shortfall(R, c, rho_w, y * w, residuals * w, pi, n, base, bounds, solver,
-                                        result.report["active_bounds"]))
-        if dropped is not None:
-            result.report["fit_notes"].insert(0, (
-                "the radius-of-gyration floor (a plausibility bound, best effort) was dropped: the fit with it "
-                f"failed ({dropped}); this fit has the mass, COM and total-mass bounds and J_i >= 0 only, so a "
-                "body's shape may be degenerate (a rod or a plate)"))
+        result.report.update(shortfall(R, c, rho_w, y * w, residuals * w, pi, n, nonnegative_extras(base.names, n),
+                                       bounds, solver, result.report["active_bounds"]))
+        if dropped is not None:      # the floor is best effort: say that it went, and why
             result.report["gyration_floor_dropped"] = True
+            result.report["fit_notes"].insert(0, FLOOR_DROPPED.format(dropped))
     return result
 
 
@@ -457,50 +454,3 @@ def _scale_hint(R, c, K, prior, bounds) -> str:
     return (f"; the measured torques are {ratio:.3g} times the prior's, far outside the plausibility "
             f"bounds around it: are the torques in the prior's units (N m, N)? Otherwise drop the "
             f"bounds (bounds=None, --no-bounds)")
-
-
-#: relative growth of the weighted residual over least squares' that :func:`_shortfall` explains
-SHORTFALL_RTOL = 1e-2
-#: and the absolute floor (of the weighted torque's norm) below which it is rounding
-SHORTFALL_ATOL = 1e-6
-
-
-def _shortfall(R, c, rho0, yw, ew, pi, n, base, bounds, solver, active_bounds) -> dict:
-    """How much more of the (weighted) torque the consistent fit leaves than least squares,
-    and why: the constraints it sits on, or a solver that stopped short.
-
-    Returns ``relative_residual`` (``||e_w|| / ||tau_w||``, weighted rows),
-    ``least_squares_relative_residual`` (the same for the unconstrained optimum),
-    ``stopped_short`` (bool) and ``fit_notes`` (sentences, empty when the two agree).
-    """
-    norm = max(float(np.linalg.norm(yw)), 1e-300)
-    rel = float(np.linalg.norm(ew)) / norm
-    beta_ls = np.linalg.lstsq(R, c, rcond=None)[0]
-    ls = float(np.sqrt(np.sum((R @ beta_ls - c) ** 2) + rho0**2)) / norm
-    out = {"relative_residual": rel, "least_squares_relative_residual": ls, "stopped_short": False,
-           "fit_notes": []}
-    inaccurate = "inaccurate" in str(solver)
-    J = pseudo_inertia_from_parameters(np.asarray(pi)[:10 * n].reshape(n, 10))
-    ev = np.linalg.eigvalsh(J)
-    at_psd = [i + 1 for i in range(n) if ev[i, 0] <= 1e-6 * max(float(ev[i, -1]), 1e-300)]
-    extra = np.asarray(pi)[10 * n:][nonnegative_extras(base.names, n)] if len(pi) > 10 * n else np.zeros(0)
-    at_zero = int(np.sum(extra <= 1e-9 * max(float(np.abs(pi).max()), 1e-300)))
-    reasons = ([f"J_i >= 0 of link(s) {', '.join(map(str, at_psd))}"] if at_psd else []) \
-        + ([f"{at_zero} armature/friction coefficient(s) at 0"] if at_zero else []) + list(active_bounds)
-    if bounds is not None and not bounds.satisfied(pi, n, rtol=1e-6):
-        out["fit_notes"].append("the answer is outside its bounds: the data and the bounds disagree beyond "
-                                "what the solver can resolve (are the torques in other units than the "
-                                "prior's masses?); widen or drop the bounds")
-        reasons.append("the bounds")
-    if rel <= ls * (1 + SHORTFALL_RTOL) + SHORTFALL_ATOL and not inaccurate:
-        return out
-    head = (f"the consistent fit leaves {rel:.3g} of the weighted torque unexplained where least squares "
-            f"leaves {ls:.3g}")
-    if reasons and not inaccurate:
-        out["fit_notes"].append(f"{head}: the constraints it sits on cost that ({'; '.join(reasons)})")
-    else:
-        out["stopped_short"] = True
-        why = "the solver reported an inaccurate answer" if inaccurate else "no constraint is active"
-        out["fit_notes"].append(f"{head}, and {why}: the solver ({solver}) stopped short of the best "
-                                "physical fit; this answer is not it")
-    return out

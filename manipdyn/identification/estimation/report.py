@@ -7,9 +7,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...model.inertia import pseudo_inertia_from_parameters
 from .covariance import STD_SOURCE
 
-__all__ = ["build_report", "format_report", "friction_to_json"]
+__all__ = ["build_report", "format_report", "friction_to_json", "shortfall", "FLOOR_DROPPED", "SHORTFALL_RTOL",
+           "SHORTFALL_ATOL"]
 
 
 def friction_to_json(friction, n: int):
@@ -91,3 +93,54 @@ def format_report(rep: dict) -> str:
     if rep.get("arm_error"):
         lines.append(f"the identified parameters cannot be written as a model: {rep['arm_error']}")
     return "\n".join(lines)
+
+
+#: relative growth of the weighted residual over least squares' that :func:`shortfall` explains
+SHORTFALL_RTOL = 1e-2
+#: the note of a fit that dropped the radius-of-gyration floor (the reason in braces)
+FLOOR_DROPPED = ("the radius-of-gyration floor (a plausibility bound, best effort) was dropped: the fit with it "
+                  "failed ({}); this fit has the mass, COM and total-mass bounds and J_i >= 0 only, so a body's "
+                  "shape may be degenerate (a rod or a plate)")
+#: and the absolute floor (of the weighted torque's norm) below which it is rounding
+SHORTFALL_ATOL = 1e-6
+
+
+def shortfall(R, c, rho0, yw, ew, pi, n, nonnegative, bounds, solver, active_bounds) -> dict:
+    """How much more of the (weighted) torque the consistent fit leaves than least squares,
+    and why: the constraints it sits on, or a solver that stopped short.
+
+    Returns ``relative_residual`` (``||e_w|| / ||tau_w||``, weighted rows),
+    ``least_squares_relative_residual`` (the same for the unconstrained optimum),
+    ``stopped_short`` (bool) and ``fit_notes`` (sentences, empty when the two agree).
+    """
+    norm = max(float(np.linalg.norm(yw)), 1e-300)
+    rel = float(np.linalg.norm(ew)) / norm
+    beta_ls = np.linalg.lstsq(R, c, rcond=None)[0]
+    ls = float(np.sqrt(np.sum((R @ beta_ls - c) ** 2) + rho0**2)) / norm
+    out = {"relative_residual": rel, "least_squares_relative_residual": ls, "stopped_short": False,
+           "fit_notes": []}
+    inaccurate = "inaccurate" in str(solver)
+    J = pseudo_inertia_from_parameters(np.asarray(pi)[:10 * n].reshape(n, 10))
+    ev = np.linalg.eigvalsh(J)
+    at_psd = [i + 1 for i in range(n) if ev[i, 0] <= 1e-6 * max(float(ev[i, -1]), 1e-300)]
+    extra = np.asarray(pi)[10 * n:][nonnegative] if len(pi) > 10 * n else np.zeros(0)
+    at_zero = int(np.sum(extra <= 1e-9 * max(float(np.abs(pi).max()), 1e-300)))
+    reasons = ([f"J_i >= 0 of link(s) {', '.join(map(str, at_psd))}"] if at_psd else []) \
+        + ([f"{at_zero} armature/friction coefficient(s) at 0"] if at_zero else []) + list(active_bounds)
+    if bounds is not None and not bounds.satisfied(pi, n, rtol=1e-6):
+        out["fit_notes"].append("the answer is outside its bounds: the data and the bounds disagree beyond "
+                                "what the solver can resolve (are the torques in other units than the "
+                                "prior's masses?); widen or drop the bounds")
+        reasons.append("the bounds")
+    if rel <= ls * (1 + SHORTFALL_RTOL) + SHORTFALL_ATOL and not inaccurate:
+        return out
+    head = (f"the consistent fit leaves {rel:.3g} of the weighted torque unexplained where least squares "
+            f"leaves {ls:.3g}")
+    if reasons and not inaccurate:
+        out["fit_notes"].append(f"{head}: the constraints it sits on cost that ({'; '.join(reasons)})")
+    else:
+        out["stopped_short"] = True
+        why = "the solver reported an inaccurate answer" if inaccurate else "no constraint is active"
+        out["fit_notes"].append(f"{head}, and {why}: the solver ({solver}) stopped short of the best "
+                                "physical fit; this answer is not it")
+    return out

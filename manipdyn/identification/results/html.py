@@ -23,7 +23,7 @@ import numpy as np
 from ..._support import html as H
 from ..._support.errors import ModelError
 
-__all__ = ["identify_page", "validation_page", "beyond_mask"]
+__all__ = ["identify_page", "validation_page", "beyond_mask", "torque_figure"]
 
 #: the shading of the stretches beyond the fit: pale yellow, hatched (no model's line colour)
 _SHADE = "#fff3a0"
@@ -126,7 +126,7 @@ def _draw(t, measured, series, units, beyond=None, xlabel="time (s)"):
     return fig
 
 
-def _figure(t, measured, series, units, beyond, what: str, flagged_text: str):
+def torque_figure(t, measured, series, units, beyond, what: str, flagged_text: str):
     t = np.asarray(t, dtype=np.float64)
     xlabel = "time (s)"
     if len(t) > 1 and np.any(np.diff(t) < 0):      # several logs stacked, each from its own t = 0
@@ -142,8 +142,10 @@ def _figure(t, measured, series, units, beyond, what: str, flagged_text: str):
     shaded = (" Hatched yellow stretches: the samples beyond the states the fit saw (by over 10 % of the "
               "fitted interval's width in q, qd or tau)." if beyond is not None and beyond.any() else
               f" Nothing is shaded: {flagged_text}.")
-    return H.figure(fig, alt=alt, caption=f"{what}. Grey: measured; coloured: predicted and its 95 % band; "
-                                          "the small panel under each: measured minus predicted." + shaded)
+    banded = any(len(s) > 2 and s[2] is not None for s in series)
+    return H.figure(fig, alt=alt, caption=f"{what}. Grey: measured; coloured: predicted"
+                                          + (" and its 95 % band" if banded else "")
+                                          + "; the small panel under each: measured minus predicted." + shaded)
 
 
 def _units(n, units):
@@ -274,7 +276,7 @@ def validation_page(v, command: str | None = None, options: dict | None = None, 
     flagged_text = ("the shaded stretches are beyond the states the fit saw" if beyond is not None and beyond.any()
                     else "no stretch is beyond the states the fit saw" if beyond is not None
                     else "the model carries no fitted range")
-    parts.append(H.section("Measured and predicted", _figure(rs[0].t, rs[0].measured, series, units, beyond,
+    parts.append(H.section("Measured and predicted", torque_figure(rs[0].t, rs[0].measured, series, units, beyond,
                                                              "Validation data", flagged_text)))
     parts.append(H.section("Data notes", H.bullets(v.notes) if v.notes else "The logs were used as read: nothing "
                            "was resampled, filtered or trimmed."))
@@ -362,7 +364,7 @@ def identify_page(result, command: str | None = None) -> str:
         pred = np.asarray(result.fit.predict(data.q, data.qd, data.qdd))
         hw = (prov.get("prediction_band") or {}).get("half_width")
         band = None if hw is None else np.broadcast_to(np.asarray(hw, dtype=np.float64), pred.shape)
-        fig = _figure(data.t, data.tau, [(result.name, pred, band)], units, None, "Fit data",
+        fig = torque_figure(data.t, data.tau, [(result.name, pred, band)], units, None, "Fit data",
                       "the fit data is inside the fitted states by definition, so nothing is shaded")
     except (ModelError, ValueError) as exc:
         fig = f"No figure: {exc}"
