@@ -160,6 +160,12 @@ def test_identify_tables_hold_the_json(idv):
     assert len(params) == rep["n_base"]
     for row, p in zip(params, rep["base_parameters"]):
         assert row[1] == p["expression"] and _close(row[2], p["value"]) and _close(row[3], p.get("std"))
+    links = t["links"][1:]                                   # the bodies, fitted beside the prior's
+    assert len(links) == 6 == len(rep["links"])
+    for row, b in zip(links, rep["links"]):
+        assert row[0] == f"{b['link']} ({b['name']})"
+        for got, want in zip(row[1:], [b["mass"], b["prior_mass"], *b["com"], *b["principal_moments"]]):
+            assert _close(got, want), (row, b)
     assert rep["provenance"]["data_sha256"] in text          # the log named with its sha256
     for bound in rep.get("active_bounds") or []:              # the active bounds, in words
         assert f"<li>{H.escape(bound)}</li>" in text

@@ -268,3 +268,32 @@ def test_validate_refuses_tip_with_a_base_model(tmp_path, capsys, ur5_motion):
     capsys.readouterr()
     assert main(["validate", str(base), str(data), "--tip", "foo"]) == 2
     assert "--tip: a base model" in capsys.readouterr().err
+
+
+def test_identify_json_lists_each_body_beside_the_prior(tmp_path):
+    """``links`` in ``identify --json``: each link's mass, COM and principal moments, fitted and
+    prior: exact for the prior's own parameters (the bodies of ``arm.chain()``, to rounding), None
+    where a body has no mass, and present in a real identification's report."""
+    import warnings
+
+    from manipdyn.identification.results.result import link_table
+    from manipdyn.model.parameters import arm_parameters
+
+    arm = md.load("ur5")
+    table = link_table(arm_parameters(arm), arm)
+    assert [b["link"] for b in table] == [1, 2, 3, 4, 5, 6]
+    for b, j in zip(table, arm.chain()[0]):
+        assert b["mass"] == pytest.approx(j.body.mass, rel=1e-12) and b["mass"] == b["prior_mass"]
+        np.testing.assert_allclose(b["com"], j.body.com, atol=1e-12)
+        np.testing.assert_allclose(b["principal_moments"], np.linalg.eigvalsh(j.body.inertia), atol=1e-12)
+    pi = arm_parameters(arm).copy()
+    pi[10:20] = 0.0                       # a massless link 2: no COM, no moments
+    assert link_table(pi, arm)[1]["com"] is None and link_table(pi, arm)[1]["principal_moments"] is None
+    ex = excitation(arm, duration=6.0, harmonics=3, rate=100.0, iterations=0, seed=4)
+    write_measurements_csv(tmp_path / "log.csv", ex.t, ex.q, arm.inverse_dynamics(ex.q, ex.qd, ex.qdd),
+                           qd=ex.qd, qdd=ex.qdd)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r = md.identify(arm, str(tmp_path / "log.csv"), band_folds=0)
+    rep = r.report()
+    assert len(rep["links"]) == 6 and rep["links"][2]["prior_mass"] == pytest.approx(arm.chain()[0][2].body.mass)

@@ -321,6 +321,18 @@ def _parameters(rep: dict):
                            + (f" ({src})" if src else ""))
 
 
+def _links(rep: dict):
+    rows = []
+    for b in rep.get("links") or []:
+        c = b["com"] or [None] * 3
+        mom = b["principal_moments"] or [None] * 3
+        rows.append([f"{b['link']} ({b['name']})", b["mass"], b["prior_mass"], *c, *mom])
+    return H.table(["link", "mass (kg)", "prior mass (kg)", "COM x (m)", "COM y (m)", "COM z (m)",
+                    "I1 (kg m^2)", "I2 (kg m^2)", "I3 (kg m^2)"], rows, name="links",
+                   caption="The identified bodies: mass beside the prior's, centre of mass in the link's URDF "
+                           "frame, principal moments about the centre of mass (ascending)")
+
+
 def _joints_identify(rep: dict):
     band = (rep.get("provenance") or {}).get("prediction_band") or {}
     held, hw = band.get("held_out_rms"), band.get("half_width")
@@ -376,6 +388,7 @@ def identify_page(result, command: str | None = None) -> str:
                                      level=3),
                            H.section("Notes on the fit", H.bullets(rep["fit_notes"]), level=3)
                            if rep.get("fit_notes") else "",
+                           _links(rep) if rep.get("links") else "",
                            _parameters(rep)))
     extra = []
     tc = rep.get("torque_constants")

@@ -138,7 +138,8 @@ class IdentifyResult:
         (when the Coulomb smoothing was chosen: one ``{"smoothing", "score", "rms"}`` per candidate,
         :mod:`..inputs.smoothing`), ``prior_weight_selection``, ``bootstrap``, ``friction_shapes``,
         ``torque_constants``, ``provenance`` (with ``prediction_band``, ``fitted_range``,
-        ``leverage``, ``doubts``: the trust record's content), ``runs``, ``data_notes``.
+        ``leverage``, ``doubts``: the trust record's content), ``runs``, ``data_notes``, and
+        ``links`` (:func:`link_table`: each body's mass, COM and principal moments, fitted and prior).
         """
         rep = dict(self.report_dict)
         if self.selection is not None:
@@ -154,7 +155,8 @@ class IdentifyResult:
                     "derived_derivatives": self.data.derived, "provenance": self.provenance,
                     "runs": [{"log": os.path.basename(str(s)), "samples": int(k)}
                              for s, k in zip(self.data.sources, self.data.segments)],
-                    "payload_logs": list(self.payload_logs), "data_notes": list(self.data.notes)})
+                    "payload_logs": list(self.payload_logs), "data_notes": list(self.data.notes),
+                    "links": link_table(self.fit.parameters, self.prior)})
         return rep
 
     def format(self) -> str:
@@ -264,3 +266,37 @@ def _save_base(result, path):
     write_base_model(os.fspath(path), result.fit, prior_text(result.prior), result.provenance,
                      bootstrap=result.bootstrap)
     return os.fspath(path)
+
+
+def link_table(pi, prior) -> list:
+    """Per link, the identified body beside the prior's (JSON-ready; ``identify --json`` ``links``).
+
+    ``pi`` (>= 10 n,): the fit's full parameters, link k's ten in its URDF link frame ``L_k``
+    (:mod:`manipdyn.model.parameters`).  Each entry: ``link`` (1..n), ``name``, ``mass`` and
+    ``prior_mass`` (kg), ``com`` and ``prior_com`` (m, in ``L_k``), ``principal_moments`` and
+    ``prior_principal_moments`` (kg m^2, about the COM, ascending); a body of zero or negative
+    mass (a fit that is no physical arm) has ``com`` and its moments None.
+    """
+    from ...model.inertia import pseudo_inertia_from_parameters
+    from ...model.parameters import arm_parameters
+
+    n = prior.n
+    names = [j.link_name or f"link{k + 1}" for k, j in enumerate(prior.chain()[0])]
+    ref = arm_parameters(prior)
+
+    def body(p):
+        J = pseudo_inertia_from_parameters(np.asarray(p, dtype=np.float64))
+        m = float(J[3, 3])
+        if not m > 0:
+            return m, None, None
+        c = J[:3, 3] / m
+        S = J[:3, :3] - m * np.outer(c, c)                      # second moment about the COM
+        return m, c.tolist(), np.sort(np.trace(S) - np.linalg.eigvalsh(S)).tolist()   # I = tr(S) 1 - S
+
+    out = []
+    for k in range(n):
+        m, c, moments = body(pi[10 * k:10 * k + 10])
+        m0, c0, moments0 = body(ref[10 * k:10 * k + 10])
+        out.append({"link": k + 1, "name": names[k], "mass": m, "prior_mass": m0, "com": c, "prior_com": c0,
+                    "principal_moments": moments, "prior_principal_moments": moments0})
+    return out
