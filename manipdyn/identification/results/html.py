@@ -377,7 +377,7 @@ def identify_page(result, command: str | None = None) -> str:
         hw = (prov.get("prediction_band") or {}).get("half_width")
         band = None if hw is None else np.broadcast_to(np.asarray(hw, dtype=np.float64), pred.shape)
         fig = torque_figure(data.t, data.tau, [(result.name, pred, band)], units, None, "Fit data",
-                      "the fit data is inside the fitted states by definition, so nothing is shaded")
+                      "the fit data is inside the fitted states by definition")
     except (ModelError, ValueError) as exc:
         fig = f"No figure: {exc}"
     parts.append(H.section("Measured and predicted (fit data)", fig))
