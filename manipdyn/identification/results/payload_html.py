@@ -2,14 +2,14 @@
 
 Layer 5 (identification), room ``results``.
 
-The payload of a known arm (:func:`manipdyn.identification.identify_payload`) read from the
-top down, as the other reports (:mod:`.html`): what was done (the command, the model, the link,
-the log with its sha256, the solver, the version), the verdict in a sentence (the mass and COM,
-what the data do not determine), the payload's figures with their standard deviations, the
-ten parameters of the fit, the per-joint residual against the noise, the figure (measured
-torque against the arm carrying the payload), the notes and the data notes in words.  The
-tables hold the numbers of ``--json`` of the same command (each cell's exact value in
-``data-value``; an infinite standard deviation, a parameter the data do not excite, is an
+The payload of a known arm (:func:`manipdyn.identification.identify_payload`) read from the top
+down, as the other reports (:mod:`manipdyn.identification.results.html`): what was done (the
+command, the model, the link, the log with its sha256, the solver, the version), the verdict in
+a sentence (the mass and COM, what the data do not determine), the payload's figures with their
+standard deviations, the ten parameters of the fit, the per-joint residual against the noise,
+the figure (measured torque against the arm carrying the payload), the notes and the data notes
+in words. The tables hold the numbers of ``--json`` of the same command (each cell's exact value
+in ``data-value``; an infinite standard deviation, a parameter the data do not excite, is an
 empty cell as it is ``null`` in JSON); every text from a log, a file name or a model is escaped.
 """
 
@@ -47,8 +47,8 @@ def _verdict(d: dict) -> tuple[str, str]:
 def payload_page(result, data=None, command: str | None = None, model: str | None = None) -> str:
     """The page of a :class:`manipdyn.identification.PayloadResult` (module docstring).
 
-    ``data``: the :class:`Measurements` it was fitted on (for the log's sha256, the figure and
-    the data notes; None leaves them out); ``command``: the command line to show; ``model``: the
+    ``data``: the :class:`manipdyn.identification.Measurements` it was fitted on (for the log's
+    sha256, the figure and the data notes; None leaves them out); ``command``: the command line to show; ``model``: the
     arm's name or file as the user gave it."""
     d = result.as_dict()
     n = len(d["rms_residual"])
