@@ -53,10 +53,14 @@ def test_engine_times_its_batches_and_keeps_a_given_count(monkeypatch):
     q, qd, qdd = (rng.uniform(-1, 1, (PARALLEL_MIN_STATES, 6)) for _ in range(3))
     ref = PinocchioEngine(arm.pinocchio.model.copy(), num_threads=1).inverse_dynamics(q, qd, qdd)
     used.clear()
-    for _ in range(3):
+    for _ in range(2):
         np.testing.assert_array_equal(auto.inverse_dynamics(q, qd, qdd), ref)
-    assert used[:2] == [2, 1] and set(auto.thread_choice.cost) == {1, 2}
-    best = min(auto.thread_choice.cost, key=auto.thread_choice.cost.get)
+    assert used == [2, 1] and set(auto.thread_choice.cost) == {1, 2}
+    # the third batch runs on the faster so far (read before it runs: its own time, measured on a
+    # loaded machine, may change which is faster afterwards)
+    cost = auto.thread_choice.cost
+    best = 1 if cost[1] <= cost[2] else 2          # a tie goes to one thread
+    np.testing.assert_array_equal(auto.inverse_dynamics(q, qd, qdd), ref)
     assert used[2] == best
     used.clear()
     np.testing.assert_array_equal(asked.inverse_dynamics(q, qd, qdd), ref)
