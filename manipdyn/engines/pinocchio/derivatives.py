@@ -33,9 +33,8 @@ from ..._support.state import as_state, check_result, same_batch
 from ..._support.errors import SingularMassMatrixError
 from ...model.friction_jacobian import SingleStateFriction, friction_jacobian
 
-__all__ = ["PinocchioDerivatives", "OneStateFriction", "install_derivative_shortcuts"]
+__all__ = ["PinocchioDerivatives", "OneStateFriction", "install_derivative_shortcuts", "pivots_positive"]
 
-_ND = np.ndarray
 _F64 = np.dtype(np.float64)
 _isfinite = math.isfinite
 _add = np.add.reduce
@@ -52,9 +51,60 @@ _grav_d = pin.computeGeneralizedGravityDerivatives
 #: not be read again (reading 2 n^2 numbers would cost more than the checks it saves)
 _SHORTCUT_BOUND = 1e50
 _hypot = math.hypot
-#: what sends a shortcut down the general path: a nested or 0-d ``tolist()`` in
-#: ``math.hypot`` (TypeError), Pinocchio refusing a wrong length (ValueError, RuntimeError)
-_ERRORS = (TypeError, ValueError, RuntimeError)
+#: what sends a shortcut down the general path: no ``dtype`` (AttributeError: a list), a
+#: nested, 0-d or masked ``tolist()`` in ``math.hypot`` (TypeError: a batch, a scalar, a
+#: masked entry), Pinocchio refusing an argument (TypeError, ValueError, RuntimeError)
+_ERRORS = (AttributeError, TypeError, ValueError, RuntimeError)
+
+
+_REVOLUTE = frozenset(("JointModelRX", "JointModelRY", "JointModelRZ", "JointModelRevoluteUnaligned"))
+#: how far above the rounding of ABA's pivots their lower bound must lie (relative to the
+#: bound on the articulated inertias' entries, :func:`pivots_positive`)
+_PIVOT_MARGIN = 1e-8
+
+
+def pivots_positive(model) -> bool:
+    """True when ABA's pivots are positive at EVERY configuration, by a margin no rounding
+    can take away: then D(q) is positive definite for every q and the forward derivatives
+    need not test Minv (:func:`install_derivative_shortcuts`).
+
+    ABA's pivot of joint k is ``S_k^T Ia_k S_k + armature_k``, where the articulated inertia
+    ``Ia_k`` is body k's own spatial inertia ``I_k`` plus, for the child, ``Ia - U D^-1 U^T``
+    (a Schur complement, positive semidefinite when ``Ia`` is, whatever the child's
+    armature >= 0).  So when every body's spatial inertia is positive semidefinite (mass
+    >= 0, inertia at the centre of mass PSD), ``Ia_k - I_k`` is PSD and the pivot is at least
+    ``c_k = S_k^T I_k S_k + armature_k``: body k's moment about its own joint axis plus its
+    rotor, a constant of the model.  Checked here for a serial chain of revolute joints (a
+    prismatic joint's q moves masses without bound, and with them the rounding), with
+    ``c_k > _PIVOT_MARGIN * s_k``, ``s_k`` a bound on the entries of ``Ia_k`` at any q
+    (``sum_i>=k m_i (1 + R)^2 + |I_i|``, R the sum of the joint placements' and the largest
+    centre-of-mass offsets); ABA's computed pivot is within a few hundred ulp of ``s_k``
+    of the exact one, so it stays above ``c_k / 2``.
+    """
+    n = model.njoints - 1
+    if n < 1 or any(model.parents[i] != i - 1 for i in range(1, n + 1)):
+        return False
+    joints, inertias = model.joints, model.inertias
+    if any(joints[i].nq != 1 or joints[i].nv != 1 or joints[i].shortname() not in _REVOLUTE
+           for i in range(1, n + 1)):
+        return False
+    data = model.createData()
+    pin.computeJointJacobians(model, data, pin.neutral(model))
+    R = (sum(float(np.linalg.norm(model.jointPlacements[i].translation)) for i in range(1, n + 1))
+         + max(float(np.linalg.norm(inertias[i].lever)) for i in range(1, n + 1)))
+    size = []
+    for i in range(1, n + 1):
+        Y = inertias[i]
+        w = np.linalg.eigvalsh(np.asarray(Y.inertia))
+        if not (Y.mass >= 0.0 and w[0] >= 0.0):
+            return False                         # not PSD: no bound from below
+        size.append(Y.mass * (1.0 + R) ** 2 + float(w[-1]))
+    for i in range(1, n + 1):
+        S = np.asarray(pin.getJointJacobian(model, data, i, pin.LOCAL)).reshape(6, -1)[:, joints[i].idx_v]
+        c = float(S @ inertias[i].matrix() @ S) + float(model.armature[joints[i].idx_v])
+        if not c > _PIVOT_MARGIN * sum(size[i - 1:]):
+            return False
+    return True
 
 
 class OneStateFriction:
@@ -124,16 +174,19 @@ def install_derivative_shortcuts(eng) -> dict:
 
     Each shortcut is a closure in the engine's ``__dict__`` (as
     :func:`manipdyn.engines.pinocchio.fast.install_fast_path` does for the dynamics): no
-    method frame, no attribute look-ups.  It takes plain native-float64 ndarrays, tested in
-    one C call each way:
+    method frame, no attribute look-ups.  It takes native-float64 arrays of one state,
+    tested by two expressions:
 
-    * ``type(x) is ndarray and x.dtype is float64`` (a big-endian, integer or masked array,
-      or a subclass, goes down the general path, which converts or refuses it);
-    * ``math.hypot(*q.tolist(), *qd.tolist(), *x.tolist()) < _SHORTCUT_BOUND``: NaN, inf
-      and huge entries fail the comparison (hypot is NaN or inf, never overflows on the
-      way), and an argument that is not 1-D makes ``tolist()`` nested (or a float) and
-      hypot raise TypeError; a wrong length makes Pinocchio raise.  Either way the general
-      path then names the argument.
+    * ``x.dtype is float64`` for each argument (the native float64 dtype object: a
+      big-endian, integer or bool array goes down the general path, which converts or
+      refuses it; a list has no dtype);
+    * ``math.hypot(*q.tolist(), *qd.tolist(), *x.tolist()) < _SHORTCUT_BOUND``, one C call
+      on the entries as floats: NaN, inf and huge entries fail the comparison (hypot is NaN
+      or inf, and never overflows on the way), and an argument that is not 1-D makes
+      ``tolist()`` nested (or a float) and hypot raise TypeError, as does a masked entry
+      (None); a wrong length makes Pinocchio raise.  Either way the general path then names
+      the argument.  (A subclass with nothing masked, or a strided array, holds the numbers
+      Pinocchio reads: tests/test_fast_path_dtypes.py.)
 
     The forward derivatives also read the diagonal of ``Minv``: a singular D(q) gives a
     zero pivot ``S^T Ia_k S`` in ABA, so ``Dinv_k = 1 / 0``, and Pinocchio's backward pass
@@ -143,20 +196,24 @@ def install_derivative_shortcuts(eng) -> dict:
     general path explains it (:class:`~manipdyn.SingularMassMatrixError`).  With every
     pivot finite and the inputs bounded, the off-diagonal entries are bounded by the
     diagonal (``|Minv_ij| <= sqrt(Minv_ii Minv_jj)`` for a positive definite D), so the
-    diagonal, n numbers, stands for the n^2 (summed in one C call, ``sum`` of a list).  The unchecked calls are the
+    diagonal, n numbers, stands for the n^2 (summed in one C call, ``sum`` of a list).  A
+    model whose pivots are bounded away from zero at every q (:func:`pivots_positive`,
+    decided once here: all bundled arms) skips even that.  The unchecked calls are the
     same code without any of the tests (the same bits: tests/test_derivatives_fast.py).
     """
     cls = type(eng)
     g_inv, g_fwd, g_grav = (getattr(cls, nm).__get__(eng) for nm in (
         "inverse_dynamics_derivatives", "forward_dynamics_derivatives", "gravity_derivative"))
     m, d = eng.model, eng.data
-    ND, F64, isf, hypot, B, errors = _ND, _F64, _isfinite, _hypot, _SHORTCUT_BOUND, _ERRORS
+    F64, isf, hypot, B, errors = _F64, _isfinite, _hypot, _SHORTCUT_BOUND, _ERRORS
     rnea_d, aba_d, grav_d = _rnea_d, _aba_d, _grav_d
     fr = eng._friction_one
+    #: D(q) positive definite at every q (pivots_positive): Minv needs no test
+    pd = pivots_positive(m)
 
     def gravity_derivative(q):
         try:
-            if type(q) is ND and q.dtype is F64 and hypot(*q.tolist()) < B:
+            if q.dtype is F64 and hypot(*q.tolist()) < B:
                 return grav_d(m, d, q)      # Pinocchio returns this one by value: a new array
         except errors:
             pass
@@ -168,7 +225,7 @@ def install_derivative_shortcuts(eng) -> dict:
     if fr is None:
         def inverse_dynamics_derivatives(q, qd, qdd):
             try:
-                if (type(q) is type(qd) is type(qdd) is ND and q.dtype is qd.dtype is qdd.dtype is F64
+                if (q.dtype is qd.dtype is qdd.dtype is F64
                         and hypot(*q.tolist(), *qd.tolist(), *qdd.tolist()) < B):
                     r = rnea_d(m, d, q, qd, qdd)
                     return r[0].copy(), r[1].copy()
@@ -178,11 +235,11 @@ def install_derivative_shortcuts(eng) -> dict:
 
         def forward_dynamics_derivatives(q, qd, tau):
             try:
-                if (type(q) is type(qd) is type(tau) is ND and q.dtype is qd.dtype is tau.dtype is F64
+                if (q.dtype is qd.dtype is tau.dtype is F64
                         and hypot(*q.tolist(), *qd.tolist(), *tau.tolist()) < B):
                     r = aba_d(m, d, q, qd, tau)
                     c = r[2]
-                    if isf(sum(c.diagonal().tolist())):      # singular D: see the docstring
+                    if pd or isf(sum(c.diagonal().tolist())):      # singular D: see the docstring
                         return r[0].copy(), r[1].copy(), c.copy()
             except errors:
                 pass
@@ -201,7 +258,7 @@ def install_derivative_shortcuts(eng) -> dict:
 
         def inverse_dynamics_derivatives(q, qd, qdd):
             try:
-                if type(q) is type(qd) is type(qdd) is ND and q.dtype is qd.dtype is qdd.dtype is F64:
+                if q.dtype is qd.dtype is qdd.dtype is F64:
                     vl = qd.tolist()
                     if hypot(*q.tolist(), *vl, *qdd.tolist()) < B:
                         r = rnea_d(m, d, q, qd, qdd)
@@ -213,13 +270,13 @@ def install_derivative_shortcuts(eng) -> dict:
 
         def forward_dynamics_derivatives(q, qd, tau):
             try:
-                if type(q) is type(qd) is type(tau) is ND and q.dtype is qd.dtype is tau.dtype is F64:
+                if q.dtype is qd.dtype is tau.dtype is F64:
                     vl, tl = qd.tolist(), tau.tolist()
                     if hypot(*q.tolist(), *vl, *tl) < B:
                         T, J = tau_jac(vl, tl)
                         r = aba_d(m, d, q, qd, array(T))
                         c = r[2]
-                        if isf(sum(c.diagonal().tolist())):      # singular D: see the docstring
+                        if pd or isf(sum(c.diagonal().tolist())):      # singular D: see the docstring
                             return r[0].copy(), r[1] - c * array(J), c.copy()
             except errors:
                 pass
@@ -240,7 +297,7 @@ def install_derivative_shortcuts(eng) -> dict:
 
         def inverse_dynamics_derivatives(q, qd, qdd):
             try:
-                if type(q) is type(qd) is type(qdd) is ND and q.dtype is qd.dtype is qdd.dtype is F64:
+                if q.dtype is qd.dtype is qdd.dtype is F64:
                     vl = qd.tolist()
                     if hypot(*q.tolist(), *vl, *qdd.tolist()) < B:
                         r = rnea_d(m, d, q, qd, qdd)
@@ -251,13 +308,13 @@ def install_derivative_shortcuts(eng) -> dict:
 
         def forward_dynamics_derivatives(q, qd, tau):
             try:
-                if type(q) is type(qd) is type(tau) is ND and q.dtype is qd.dtype is tau.dtype is F64:
+                if q.dtype is qd.dtype is tau.dtype is F64:
                     vl, tl = qd.tolist(), tau.tolist()
                     if hypot(*q.tolist(), *vl, *tl) < B:
                         t, J = fr_tau(tau, vl, tl, qd)
                         r = aba_d(m, d, q, qd, t)
                         c = r[2]
-                        if isf(sum(c.diagonal().tolist())):      # singular D: see the docstring
+                        if pd or isf(sum(c.diagonal().tolist())):      # singular D: see the docstring
                             return r[0].copy(), fr_b(r[1], c, J), c.copy()
             except errors:
                 pass
