@@ -7,10 +7,12 @@ Layer 3 (engines: pinocchio) (engines).  :class:`PinocchioDerivatives` is a base
 and adds what lies outside Pinocchio's rigid-body model (friction).  It shares
 no code with the trace form (:mod:`manipdyn.engines.lagrange.derivatives`).
 
-Conventions (Pinocchio 3 and 4, checked on 4.1): each call returns a tuple of
-matrices that are views of ``data`` (``data.dtau_dq``, ``data.dtau_dv``,
-``data.M``; ``data.ddq_dq``, ``data.ddq_dv``, ``data.Minv``), overwritten by
-the next call, so every answer here is copied; ``M`` and ``Minv`` come back
+Conventions (Pinocchio 3 and 4, checked on 4.1): the RNEA and ABA derivatives
+return tuples of matrices that are views of ``data`` (``data.dtau_dq``,
+``data.dtau_dv``, ``data.M``; ``data.ddq_dq``, ``data.ddq_dv``, ``data.Minv``),
+overwritten by the next call, so those answers are copied; the gravity
+derivative comes back by value, a new array (tests/test_derivatives_fast.py
+holds it to that), and is returned as it is; ``M`` and ``Minv`` come back
 full (both triangles) in Python, and ``M`` includes ``model.armature`` (the
 rotor inertias).  Index ``[i, m] = d out_i / d in_m``; ``q`` derivatives are
 per joint coordinate (``nq == nv`` for the revolute and prismatic joints
@@ -19,7 +21,12 @@ manipdyn builds).
 Friction ``F(qd)`` is applied outside Pinocchio, as in the engine's dynamics:
 ``dtau/dqd += dF/dqd``, and the forward dynamics runs ABA on ``tau - F(qd)``,
 so ``dqdd/dqd = ddq_dv - Minv dF/dqd``.  The friction law's derivative is read
-from :meth:`PinocchioDerivatives.friction_derivative` only.
+from the model (:mod:`manipdyn.model.friction_jacobian`) only.
+
+Single states (issue 34) take shortcuts installed on each engine as closures
+(:func:`install_derivative_shortcuts`), and ``engine.unchecked`` gets the same
+code without its tests; the methods of :class:`PinocchioDerivatives` are the
+general path behind them.
 """
 
 from __future__ import annotations
@@ -70,8 +77,8 @@ def pivots_positive(model) -> bool:
 
     ABA's pivot of joint k is ``S_k^T Ia_k S_k + armature_k``, where the articulated inertia
     ``Ia_k`` is body k's own spatial inertia ``I_k`` plus, for the child, ``Ia - U D^-1 U^T``
-    (a Schur complement, positive semidefinite when ``Ia`` is, whatever the child's
-    armature >= 0).  So when every body's spatial inertia is positive semidefinite (mass
+    (a Schur complement, positive semidefinite when ``Ia`` is and the child's pivot ``D`` is
+    positive, whatever its armature >= 0: by induction from the leaf).  So when every body's spatial inertia is positive semidefinite (mass
     >= 0, inertia at the centre of mass PSD), ``Ia_k - I_k`` is PSD and the pivot is at least
     ``c_k = S_k^T I_k S_k + armature_k``: body k's moment about its own joint axis plus its
     rotor, a constant of the model.  Checked here for a serial chain of revolute joints (a
@@ -85,7 +92,7 @@ def pivots_positive(model) -> bool:
     if n < 1 or any(model.parents[i] != i - 1 for i in range(1, n + 1)):
         return False
     joints, inertias = model.joints, model.inertias
-    if any(joints[i].nq != 1 or joints[i].nv != 1 or joints[i].shortname() not in _REVOLUTE
+    if not np.all(np.asarray(model.armature) >= 0.0) or any(joints[i].nq != 1 or joints[i].nv != 1 or joints[i].shortname() not in _REVOLUTE
            for i in range(1, n + 1)):
         return False
     data = model.createData()
