@@ -37,7 +37,8 @@ def _load(name):
 
 
 def _with_friction(kind):
-    """A random 5-joint arm with rotors and: the links' table, a joint-side law, a motor-side law."""
+    """A random 5-joint arm with rotors and: the links' table, a joint-side law, a motor-side law, or
+    a joint-side law with coupled rotors (whose forward derivatives take the drive path)."""
     base = arms.random_arm(3, n=5, rotors=True)
     rng = np.random.default_rng(11)
     if kind == "table":
@@ -48,13 +49,16 @@ def _with_friction(kind):
     law = {"joint law": Friction(viscous=rng.random(5), coulomb=rng.random(5), smoothing=0.05,
                                  sigmoid_A=rng.random(5), sigmoid_alpha=1 + 20 * rng.random(5),
                                  sigmoid_p3=0.1 * rng.normal(size=5), offset=rng.normal(size=5)),
-           "motor law": Friction(viscous=1e-3 * rng.random(5), coulomb=1e-2 * rng.random(5), side="motor")}[kind]
-    tr = md.Transmission.from_gear_ratios([l.gear_ratio for l in base.links])
+           "motor law": Friction(viscous=1e-3 * rng.random(5), coulomb=1e-2 * rng.random(5), side="motor"),
+           "coupled": Friction(viscous=1e-3 * rng.random(5), sigmoid_A=rng.random(5), sigmoid_alpha=1 + 5 * rng.random(5),
+                               sigmoid_p3=0.1 * rng.normal(size=5))}[kind]
+    coupling = [[5, 4, 32.0]] if kind == "coupled" else []
+    tr = md.Transmission.from_gear_ratios([l.gear_ratio for l in base.links], coupling=coupling)
     return md.Manipulator(base.links, base.convention, transmission=tr, friction=law, name=kind)
 
 
 ARMS = {"ur5": _load("ur5"), "puma560": _load("puma560"), "panda": _load("panda"), "stanford": _load("stanford"),
-        **{k: _with_friction(k) for k in ("table", "joint law", "motor law")}}
+        **{k: _with_friction(k) for k in ("table", "joint law", "motor law", "coupled")}}
 
 
 def _args(arm, names, seed=0):
