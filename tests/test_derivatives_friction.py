@@ -162,6 +162,10 @@ def test_the_benchmarks_print_a_target_and_a_verdict_per_row():
     assert r["grav"]["target"] == bd.TARGET_FAST
     for k in ("inv", "fwd", "grav"):
         assert r[k]["verdict"] == bd.verdict(r[k])
+        # the checked call's own floor and the unchecked call are timed beside it (issue 34)
+        assert r[k]["check_floor"] > 0 and r[k]["unchecked"] > 0
+    assert bd.verdict({"ratio": 1.6, "best_ratio": 1.55, "target": 1.5, "check_floor": 1.52}) == "floor"
+    assert bd.verdict({"ratio": 1.6, "best_ratio": 1.55, "target": 1.5, "check_floor": 1.45}) == "OVER"
     assert bd.verdict({"ratio": 1.9, "best_ratio": 1.8, "target": 2.0}) == "ok"
     assert bd.verdict({"ratio": 2.1, "best_ratio": 1.9, "target": 2.0}) == "ok (best)"
     assert bd.verdict({"ratio": 2.1, "best_ratio": 2.05, "target": 2.0}) == "OVER"

@@ -48,12 +48,15 @@ class SingleStateFriction:
     full (n, n) (motor side: ``R^T diag(f') R``).
 
     The laws it writes out itself (viscous, smooth or sharp symmetric Coulomb
-    without a deadband, offsets, Gaz's sigmoid) cost a handful of vector
-    operations prepared at construction: a joint-side law in one loop over
-    Python floats (the sigmoid as ``(1 + tanh(x / 2)) / 2``: within a few ulp
-    of the law's numbers), a motor-side law in the law's own array operations
-    and order (the same bits); any other law (asymmetric, Stribeck, with a
-    deadband) answers through :meth:`Friction.torque` and
+    without a deadband, offsets, Gaz's sigmoid) cost a handful of operations
+    prepared at construction.  A joint-side law becomes two straight-line Python
+    functions of the velocities as floats (:attr:`torque_jacobian_floats`,
+    :attr:`jacobian_floats`, :attr:`tau_jacobian_floats`: one expression per joint, the law's constants written
+    in as exact float literals, no loop, no array), the sigmoid as
+    ``(1 + tanh(x / 2)) / 2``: within a few ulp of the law's numbers (tests hold
+    it to 1e-14 of the largest entry).  A motor-side law runs the law's own array
+    operations in its order (the same bits); any other law (asymmetric, Stribeck,
+    with a deadband) answers through :meth:`Friction.torque` and
     :meth:`Friction.derivative`.
     """
 
@@ -80,9 +83,9 @@ class SingleStateFriction:
         else:
             self.sig = None
         self.RT = None if self.R is None else self.R.T.copy()
-        # a joint-side law: one loop over Python floats, cheaper than a dozen ufuncs on (n,) arrays;
-        # the sigmoid as (1 + tanh(x / 2)) / 2 (no overflow), so within a few ulp of the law's numbers
-        self.floats = None
+        # a joint-side law: per joint (fv, fc, off, sigmoid constants) as Python floats, written
+        # out below as straight-line code; the sigmoid as (1 + tanh(x / 2)) / 2 (no overflow)
+        self.floats = self.torque_jacobian_floats = self.jacobian_floats = self.tau_jacobian_floats = None
         if not self.general and self.R is None:
             sg = self.sig
             self.floats = [(float(self.fv[k]) if self.fv is not None else 0.0,
@@ -92,6 +95,8 @@ class SingleStateFriction:
                                                      0.5 * float(sg[2][k]), float(sg[2][k] * (0.5 - sg[3][k])),
                                                      0.25 * float(sg[4][k])))
                            for k in range(n)]
+            (self.torque_jacobian_floats, self.jacobian_floats,
+             self.tau_jacobian_floats) = _joint_side_functions(self.floats, self.eps)
 
     def __call__(self, qd: np.ndarray):
         if self.general:
@@ -99,7 +104,8 @@ class SingleStateFriction:
             F, J = law.torque(qd, tr), law.derivative(qd, tr)
             return F, (J if self.R is not None else J.diagonal().copy())
         if self.floats is not None:
-            return self._joint_side(qd)
+            F, J = self.torque_jacobian_floats(qd.tolist())
+            return np.array(F), np.array(J)
         R = self.R
         v = qd if R is None else qd @ self.RT
         # the law's own operations in its own order (Friction.torque, Friction.derivative): the same bits
@@ -127,40 +133,63 @@ class SingleStateFriction:
             f = f + self.off
         return f, d
 
-    def _joint_side(self, qd):
-        F, D = [], []
-        eps = self.eps
-        for x, (fv, fc, off, sg) in zip(qd.tolist(), self.floats):
-            f, d = (fv * x if fv else 0.0), fv
-            if fc is not None:
-                if eps:
-                    t = math.tanh(x / eps)
-                    f += fc * t
-                    d += fc * ((1.0 - t * t) / eps)
-                else:
-                    f += fc * (1.0 if x > 0.0 else (-1.0 if x < 0.0 else 0.0 * x))
-            if sg is not None:
-                h, hp, A2, c0, c1 = sg
-                t = math.tanh(h * x + hp)                # logistic(a (x + p3)) = (1 + t) / 2
-                f += A2 * t + c0
-                d += c1 * (1.0 - t * t)
-            F.append(f + off)
-            D.append(d)
-        return np.array(F), np.array(D)
-
     def jacobian(self, qd: np.ndarray) -> np.ndarray:
         """``dF/dqd`` alone at one plain (n,) velocity, as ``J`` of :meth:`__call__` (same numbers)."""
         if self.floats is None:
             return self(qd)[1]
-        D = []
-        eps = self.eps
-        for x, (fv, fc, _, sg) in zip(qd.tolist(), self.floats):
-            d = fv
-            if fc is not None and eps:
-                t = math.tanh(x / eps)
-                d += fc * ((1.0 - t * t) / eps)
-            if sg is not None:
-                t = math.tanh(sg[0] * x + sg[1])
-                d += sg[4] * (1.0 - t * t)
-            D.append(d)
-        return np.array(D)
+        return np.array(self.jacobian_floats(qd.tolist()))
+
+
+def _joint_side_functions(floats, eps: float):
+    """``(torque_jacobian, jacobian, tau_jacobian)``: straight-line functions of lists of floats.
+
+    For the joint-side law whose per-joint constants are ``floats``
+    (:class:`SingleStateFriction`) and ``v`` the n joint velocities:
+    ``torque_jacobian(v)`` returns ``(F, J)``, ``jacobian(v)`` ``J`` and
+    ``tau_jacobian(v, t)`` ``([t_k - F_k], J)`` (the torque ABA runs on), lists of n
+    floats.  Per joint, the operations of the law's scalar form in its order::
+
+        c   = tanh(x / eps)                      (smooth Coulomb)     sign(x) when eps == 0
+        s   = tanh(h x + hp)                     (sigmoid, h = alpha / 2, hp = alpha p3 / 2)
+        F   = ((fv x + fc c) + (A/2 s + c0)) + offset
+        J   = (fv + fc (1 - c^2) / eps) + c1 (1 - s^2)
+
+    with absent (or zero) terms left out.  The constants are written as ``repr``
+    literals (exact: a float's repr reads back to the same float), so a call runs one
+    expression per joint and no loop; the source is built here from numbers only,
+    never from user text.
+    """
+    n = len(floats)
+    lit = "({!r})".format
+    pre, F, J = [], [], []
+    for k, (fv, fc, off, sg) in enumerate(floats):
+        x = f"x{k}"
+        f = [f"{lit(fv)} * {x}"] if fv else []
+        d = [lit(fv)] if fv else []
+        if fc is not None:
+            if eps:
+                pre.append(f"c{k} = tanh({x} / {lit(eps)})")
+                f.append(f"{lit(fc)} * c{k}")
+                d.append(f"{lit(fc)} * ((1.0 - c{k} * c{k}) / {lit(eps)})")
+            else:
+                f.append(f"{lit(fc)} * (1.0 if {x} > 0.0 else (-1.0 if {x} < 0.0 else 0.0 * {x}))")
+        if sg is not None:
+            h, hp, A2, c0, c1 = sg
+            pre.append(f"s{k} = tanh({lit(h)} * {x} + {lit(hp)})")
+            f.append(f"({lit(A2)} * s{k} + {lit(c0)})")
+            d.append(f"{lit(c1)} * (1.0 - s{k} * s{k})")
+        if off:
+            f.append(lit(off))
+        F.append(" + ".join(f) or "0.0")          # a + b + c is (a + b) + c: the law's order
+        J.append(" + ".join(d) or "0.0")
+    unpack = ", ".join(f"x{k}" for k in range(n)) + ", = v"
+    body = "".join(f"    {line}\n" for line in [unpack, *pre])
+    Fs, Js = ", ".join(F), ", ".join(J)
+    minus = ", ".join(f"t{k} - ({F[k]})" for k in range(n))
+    src = (f"def torque_jacobian(v):\n{body}    return [{Fs}], [{Js}]\n"
+           f"def jacobian(v):\n{body}    return [{Js}]\n"
+           f"def tau_jacobian(v, t):\n{body}    {', '.join(f't{k}' for k in range(n))}, = t\n"
+           f"    return [{minus}], [{Js}]\n")
+    names = {"tanh": math.tanh}
+    exec(compile(src, f"<friction law, {n} joints>", "exec"), names)     # numbers only: see the docstring
+    return names["torque_jacobian"], names["jacobian"], names["tau_jacobian"]

@@ -34,7 +34,7 @@ from ..._support.errors import ModelError, SingularMassMatrixError
 from ...model.parameters import with_extra_columns
 from .agree import check_same_arm
 from .fast import UncheckedView, install_fast_path
-from .derivatives import PinocchioDerivatives
+from .derivatives import OneStateFriction, PinocchioDerivatives, install_derivative_shortcuts
 from .jacobian import PinocchioJacobian
 from ...formats.urdf.writer import TOOL_LINK, arm_to_urdf
 
@@ -237,7 +237,10 @@ class PinocchioEngine(PinocchioDerivatives, PinocchioJacobian):  # .derivatives,
         self._explicit_threads = bool(num_threads)
         self.thread_choice = ThreadChoice()
         self._pool = self._pool0 = None
-        self.unchecked = UncheckedView(self)
+        # the friction at one state, shared by the derivative shortcuts, the unchecked calls and
+        # the general path's single states (the same bits on all three)
+        self._friction_one = None if self._law is None and self.friction is None else OneStateFriction(self)
+        self.unchecked = UncheckedView(self, install_derivative_shortcuts(self))
         install_fast_path(self)
 
     @property

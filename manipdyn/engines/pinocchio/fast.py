@@ -131,9 +131,16 @@ class UncheckedView:
     in the checked path.  With drive extras (coupled rotors or a friction law
     beyond the links' kind, ``engine.drive_extras``) the dynamics calls are the
     checked ones.
+
+    The derivatives (issue 34): ``inverse_dynamics_derivatives(q, qd, qdd)``,
+    ``forward_dynamics_derivatives(q, qd, tau)`` and ``gravity_derivative(q)``, the
+    checked shortcuts' code without their tests (so the same bits, friction law
+    included; :func:`manipdyn.engines.pinocchio.derivatives.install_derivative_shortcuts`).
+    They do not detect a singular D(q) either: Minv then holds inf or NaN.  With coupled
+    rotors ``forward_dynamics_derivatives`` is the checked call.
     """
 
-    def __init__(self, eng):
+    def __init__(self, eng, derivatives=None):
         model, data, model0, data0, zeros = eng.model, eng.data, eng._model0, eng._data0, eng._zeros
         self.n = eng.n
         self.mass_matrix = functools.partial(_crba, model, data)
@@ -162,6 +169,8 @@ class UncheckedView:
 
             self.inverse_dynamics = inverse_dynamics
             self.forward_dynamics = forward_dynamics
+        for name, fn in (derivatives or {}).items():
+            setattr(self, name, fn)
 
     def __repr__(self) -> str:
         return f"<unchecked Pinocchio calls, {self.n} joints>"
