@@ -77,8 +77,11 @@ def _rate(body, w, vo):
     # [w]x I - I [w]x = [w]x I + ([w]x I)^T (I symmetric, [w]x skew)
     out = Body([0.0] * 10)
     out.h = h
-    out.I = [[wI[c][r] + wI[r][c] + (2.0 * hv if r == c else 0.0) - vo[r] * body.h[c] - body.h[r] * vo[c]
-              for c in range(3)] for r in range(3)]
+    out.I = [[None] * 3 for _ in range(3)]
+    for r in range(3):
+        for c in range(r, 3):                                         # symmetric: one triangle, mirrored
+            out.I[r][c] = out.I[c][r] = (wI[c][r] + wI[r][c] + (2.0 * hv if r == c else 0.0)
+                                         - vo[r] * body.h[c] - body.h[r] * vo[c])
     return out
 
 

@@ -65,13 +65,16 @@ class Body:
         """The same body seen from the parent frame (child -> parent by ``E``, origin at ``p``)."""
         y = mv(E, self.h)                                   # E h
         EI = [mv(E, [self.I[0][c], self.I[1][c], self.I[2][c]]) for c in range(3)]   # columns of E I
-        EIE = [[sum(EI[k][r] * E[c][k] for k in range(3)) for c in range(3)] for r in range(3)]
-        # I' = E I E^T - m [p]x[p]x - [p]x[y]x - [y]x[p]x, with -[a]x[b]x = (a.b) 1 - b a^T
+        # I' = E I E^T - m [p]x[p]x - [p]x[y]x - [y]x[p]x, with -[a]x[b]x = (a.b) 1 - b a^T: symmetric,
+        # so the upper triangle is written and mirrored (the graph would hold both triangles otherwise)
         pp = p[0] * p[0] + p[1] * p[1] + p[2] * p[2]
         py = p[0] * y[0] + p[1] * y[1] + p[2] * y[2]
-        I = [[EIE[r][c] + self.m * ((pp if r == c else 0.0) - p[c] * p[r])
-              + 2.0 * (py if r == c else 0.0) - y[c] * p[r] - p[c] * y[r]
-              for c in range(3)] for r in range(3)]
+        I = [[None] * 3 for _ in range(3)]
+        for r in range(3):
+            for c in range(r, 3):
+                I[r][c] = I[c][r] = (sum(EI[k][r] * E[c][k] for k in range(3))
+                                     + self.m * ((pp if r == c else 0.0) - p[c] * p[r])
+                                     + 2.0 * (py if r == c else 0.0) - y[c] * p[r] - p[c] * y[r])
         out = Body([self.m, 0, 0, 0, 0, 0, 0, 0, 0, 0])
         out.h = add(y, scale(self.m, p))
         out.I = I
