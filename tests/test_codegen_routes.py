@@ -97,7 +97,7 @@ def test_coupled_rotors_and_every_friction_law_recursive_equals_reverse_mode(law
 def test_six_and_seven_joint_arms_get_the_shorter_recursive_graph(name):
     """The issue: the Panda's RNEA derivatives were the Jacobian of the unrolled RNEA (7.4k
     operations).  Counted by the generator itself: the recursion is at least a quarter shorter
-    on the Panda (4.3k against 7.4k when written; the margin leaves room for CasADi's
+    on the Panda (4.1k against 7.4k when written; the margin leaves room for CasADi's
     simplifier), and it is the route ``generate`` picks unasked, for both derivative functions."""
     arm = _load(name)
     auto = source.generate(arm, derivatives=True)
