@@ -296,7 +296,7 @@ def codegen_operations(n: int) -> float:
     """Estimated arithmetic operations of the generated C of an ``n``-joint arm (all its
     functions): ``370 n**2.26``, fitted to the counts of a random arm with rotors (seed 5 of
     the tests' random arms) since the RNEA derivatives come from the recursive derivative
-    algorithm (issue 34): within 5 % of it for n = 4 to 20 (8256, 31735, 67164, 143687 and
-    318742 operations at n = 4, 7, 10, 14 and 20); other random arms hold up to 1.6 times the
-    estimate at n = 4, and 0.94 to 1.07 times it at n = 20, where the cap bites."""
+    algorithm (issue 34): within 5 % of it for n = 4 to 20 (8099, 30656, 65127, 140148 and
+    312512 operations at n = 4, 7, 10, 14 and 20); other random arms (seeds 6 and 7) hold up to
+    1.6 times the estimate at n = 4, and 1.00 to 1.05 times it at n = 20, where the cap bites."""
     return 370.0 * float(n) ** 2.26
