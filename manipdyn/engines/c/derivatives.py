@@ -4,11 +4,12 @@ Layer 3 (engines: c), the generated-C engine.  :func:`rnea_derivatives` writes
 ``d tau / d q`` and ``d tau / d qd`` of :meth:`ArmGraph.rnea
 <manipdyn.engines.c.graph.ArmGraph.rnea>` (plus the rotors, which depend on
 neither, and the friction law, on ``qd`` only) as one forward and one backward
-pass in the base frame, then an ``O(n^2)`` table of 6-vector dot products;
+pass over the link frames, then an ``O(n^2)`` table of 6-vector dot products;
 :func:`derivative_route` builds it and the reverse-mode Jacobian of the unrolled
 RNEA and keeps the one with fewer operations.  The derivation is written out in
 ARCHITECTURE.md ("Generated C: the RNEA derivatives"); in short, with every
-spatial quantity in the base frame about the base origin, ``S_j`` joint j's
+spatial quantity in one frame (the formulas hold in any: each is written in the
+frame of its link, and the table's forces are carried between them), ``S_j`` joint j's
 axis, ``v_j``, ``a_j`` (gravity as the base's acceleration ``-g``) the link's
 velocity and acceleration, ``Sd_j = v_(j-1) x S_j``, ``Yc_j``, ``F_j``, ``Hc_j``
 the composite inertia, force and momentum of links j..n, and ``DYc_j`` the sum
