@@ -19,7 +19,7 @@ import re
 
 from ..._support.errors import ModelError
 
-__all__ = ["c_identifier", "check_prefix", "emit_function", "emit_batch", "OUTPUTS", "C_KEYWORDS"]
+__all__ = ["c_identifier", "check_prefix", "emit_function", "emit_batch", "has_cse", "OUTPUTS", "C_KEYWORDS"]
 
 #: C99's keywords (a prefix must not be one)
 C_KEYWORDS = frozenset("""auto break case char const continue default do double else enum extern float for goto
@@ -102,7 +102,7 @@ def emit_function(ca, prefix: str, name: str, args, outs, n: int) -> tuple[str, 
     ``args``: ``[(arg name, SX column)]``; ``outs``: dense SX columns in
     :data:`OUTPUTS` order.  The operation count excludes reads, writes and constants.
     """
-    opts = {"cse": True} if _has_cse(ca) else {}
+    opts = {"cse": True} if has_cse(ca) else {}
     f = ca.Function(name, [a for _, a in args], [ca.densify(o) for o in outs], opts)
     if f.has_free():
         raise ModelError(f"generated C: {name} depends on free symbols {f.get_free()}")
@@ -159,7 +159,8 @@ def emit_batch(prefix: str, name: str, args, sizes) -> tuple[str, str]:
     return decl + ";", body
 
 
-def _has_cse(ca) -> bool:
+def has_cse(ca) -> bool:
+    """Whether this CasADi's Function takes the ``cse`` option (common-subexpression elimination)."""
     try:
         x = ca.SX.sym("x")
         ca.Function("t", [x], [x], {"cse": True})

@@ -20,7 +20,7 @@ function.
 Rounding residue.  Rotations written from ``rpy`` angles such as pi/2 hold
 entries like ``cos(pi/2) = 6.1e-17``: not a property of the arm but the
 rounding error of a zero.  Entries of joint origins, axes and the tool
-transform under :data:`SNAP` (1e-15, below float64's resolution of a unit
+transform under :data:`~manipdyn.engines.c.spatial.SNAP` (1e-15, below float64's resolution of a unit
 rotation entry, 2.2e-16 ulp, by a few units, and a femtometre for
 translations) are folded as exact zeros, so that CasADi removes the products
 they would feed (on the Panda's URDF this halves the derivatives' operations).
@@ -38,88 +38,20 @@ import numpy as np
 from ..._support.errors import ModelError
 from ...model.friction import Friction
 from ...model.parameters import parameter_names
+from .derivatives import derivative_route
+from .spatial import Body as _Body, add as _add, cross as _cross, matmul3 as _matmul3, mtv as _mtv, mv as _mv
+from .spatial import scale as _scale, snap as _snap
 
 __all__ = ["ArmGraph", "KNOWN_FRICTION_TERMS"]
 
-#: entries of rotations, axes (unit) and translations (m) under this magnitude are rounding residue: 0
-SNAP = 1e-15
-
 #: the friction terms the generated C writes out (:mod:`manipdyn.model.friction`)
 KNOWN_FRICTION_TERMS = ("viscous", "coulomb", "asymmetric", "offset", "stribeck", "sigmoid")
-
-
-def _snap(a) -> np.ndarray:
-    a = np.array(a, dtype=np.float64)
-    a[np.abs(a) < SNAP] = 0.0
-    return a
 
 
 def _ca():
     from .deps import casadi
 
     return casadi()
-
-
-def _cross(a, b):
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-
-
-def _mv(E, x):
-    """3x3 (nested lists) times a 3-vector."""
-    return [E[r][0] * x[0] + E[r][1] * x[1] + E[r][2] * x[2] for r in range(3)]
-
-
-def _mtv(E, x):
-    """E^T x."""
-    return [E[0][c] * x[0] + E[1][c] * x[1] + E[2][c] * x[2] for c in range(3)]
-
-
-def _add(a, b):
-    return [x + y for x, y in zip(a, b)]
-
-
-def _sub(a, b):
-    return [x - y for x, y in zip(a, b)]
-
-
-def _scale(s, a):
-    return [s * x for x in a]
-
-
-class _Body:
-    """10 inertial parameters (m, h = m c, I about the origin, tensor sign) of one body."""
-
-    def __init__(self, p):
-        self.m = p[0]
-        self.h = [p[1], p[2], p[3]]
-        ixx, ixy, iyy, ixz, iyz, izz = p[4:10]
-        self.I = [[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]]
-
-    def times(self, w, v):
-        """Spatial inertia times motion ``(w, v)``: force ``(I w + h x v, m v - h x w)``."""
-        return _add(_mv(self.I, w), _cross(self.h, v)), _sub(_scale(self.m, v), _cross(self.h, w))
-
-    def to_parent(self, E, p):
-        """The same body seen from the parent frame (child -> parent by ``E``, origin at ``p``)."""
-        y = _mv(E, self.h)                                   # E h
-        EI = [_mv(E, [self.I[0][c], self.I[1][c], self.I[2][c]]) for c in range(3)]   # columns of E I
-        EIE = [[sum(EI[k][r] * E[c][k] for k in range(3)) for c in range(3)] for r in range(3)]
-        # I' = E I E^T - m [p]x[p]x - [p]x[y]x - [y]x[p]x, with -[a]x[b]x = (a.b) 1 - b a^T
-        pp = p[0] * p[0] + p[1] * p[1] + p[2] * p[2]
-        py = p[0] * y[0] + p[1] * y[1] + p[2] * y[2]
-        I = [[EIE[r][c] + self.m * ((pp if r == c else 0.0) - p[c] * p[r])
-              + 2.0 * (py if r == c else 0.0) - y[c] * p[r] - p[c] * y[r]
-              for c in range(3)] for r in range(3)]
-        out = _Body([self.m, 0, 0, 0, 0, 0, 0, 0, 0, 0])
-        out.h = _add(y, _scale(self.m, p))
-        out.I = I
-        return out
-
-    def plus(self, other):
-        out = _Body([self.m + other.m, 0, 0, 0, 0, 0, 0, 0, 0, 0])
-        out.h = _add(self.h, other.h)
-        out.I = [[self.I[r][c] + other.I[r][c] for c in range(3)] for r in range(3)]
-        return out
 
 
 def _rotation(ca, axis, c, s):
@@ -129,10 +61,6 @@ def _rotation(ca, axis, c, s):
     return [[c + t * x * x, t * x * y - s * z, t * x * z + s * y],
             [t * x * y + s * z, c + t * y * y, t * y * z - s * x],
             [t * x * z - s * y, t * y * z + s * x, c + t * z * z]]
-
-
-def _matmul3(A, B):
-    return [[sum(A[r][k] * B[k][c] for k in range(3)) for c in range(3)] for r in range(3)]
 
 
 class ArmGraph:
@@ -185,9 +113,13 @@ class ArmGraph:
         self.tau_in = ca.SX.sym("tau", n)
         self.pi_sym = ca.SX.sym("pi", self.p)
         self._kin = None
+        #: the derivatives' route (:data:`manipdyn.engines.c.derivatives.ROUTES`), None: the shorter
+        self.route = None
+        #: the route each derivative function was built by, after :meth:`functions`
+        self.routes = {}
 
     # -- pieces -------------------------------------------------------------------
-    def _joint_transforms(self):
+    def joint_transforms(self):
         """Per joint ``(E, p)``: rotation child -> parent and the child origin in the parent (SX)."""
         if self._kin is None:
             ca, out = self.ca, []
@@ -205,7 +137,7 @@ class ArmGraph:
             self._kin = out
         return self._kin
 
-    def _bodies(self, pi):
+    def bodies(self, pi):
         return [_Body([pi[10 * k + i] for i in range(10)]) for k in range(self.n)]
 
     def _subspace(self, k):
@@ -215,7 +147,7 @@ class ArmGraph:
 
     def rnea(self, pi, qd, qdd, gravity=True):
         """Rigid-body torques (no rotors, no friction): a list of n SX."""
-        kin, bodies, n = self._joint_transforms(), self._bodies(pi), self.n
+        kin, bodies, n = self.joint_transforms(), self.bodies(pi), self.n
         zero = [0.0, 0.0, 0.0]
         w, v = zero, zero
         aw, av = zero, ([-float(x) for x in self.gravity] if gravity else zero)
@@ -254,8 +186,8 @@ class ArmGraph:
 
     def crba(self, pi):
         """The rigid-body mass matrix by composite inertias: n x n nested lists of SX."""
-        kin, n = self._joint_transforms(), self.n
-        comp = self._bodies(pi)
+        kin, n = self.joint_transforms(), self.n
+        comp = self.bodies(pi)
         for k in reversed(range(1, n)):
             E, p = kin[k]
             comp[k - 1] = comp[k - 1].plus(comp[k].to_parent(E, p))
@@ -335,7 +267,7 @@ class ArmGraph:
         """The tool frame's pose in the base frame, 4x4 nested lists."""
         Rb = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
         pb = [0.0, 0.0, 0.0]
-        for E, p in self._joint_transforms():
+        for E, p in self.joint_transforms():
             pb = _add(pb, _mv(Rb, p))
             Rb = _matmul3(Rb, E)
         T = _snap(self.tool)
@@ -348,7 +280,7 @@ class ArmGraph:
         Rb = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
         pb = [0.0, 0.0, 0.0]
         P = 0.0
-        for (E, p), body in zip(self._joint_transforms(), self._bodies(pi)):
+        for (E, p), body in zip(self.joint_transforms(), self.bodies(pi)):
             pb = _add(pb, _mv(Rb, p))
             Rb = _matmul3(Rb, E)
             first = _add(_scale(body.m, pb), _mv(Rb, body.h))
@@ -395,9 +327,12 @@ class ArmGraph:
             ("potential_energy", [("q", q)], [V([self.potential(num)])]),
         ]
         if derivatives:
-            dtau_dq, dtau_dqd = _jacobian_rows(ca, tau, q, qd)
+            # d tau/d(q, qd) by the recursion or the reverse-mode Jacobian, whichever is shorter
+            # (manipdyn.engines.c.derivatives); self.routes records the choice per function
+            route, dtau_dq, dtau_dqd = derivative_route(self, num, tau, fr, route=self.route)
             # forward dynamics' derivatives: d qdd/dx = -M^-1 d tau/dx at qdd = FD(q, qd, tau), d qdd/d tau = M^-1
-            at_fd = ca.Function("dtau", [q, qd, qdd], [dtau_dq, dtau_dqd])(q, qd, V(qdd_fd))
+            fd_route, *at_fd = derivative_route(self, num, tau, fr, qdd=qdd_fd, route=self.route or route)
+            self.routes = {"inverse_dynamics_derivatives": route, "forward_dynamics_derivatives": fd_route}
             Minv = _ldlt_inverse(factor)
             fdd = [rowmajor([[-sum(Minv[i][k] * J[k, m] for k in range(n)) for m in range(n)] for i in range(n)])
                    for J in at_fd]
@@ -415,20 +350,6 @@ class ArmGraph:
                 ("coriolis_matrix", [("q", q), ("qd", qd)], [ca.vec(_christoffel(ca, M, q, qd).T)]),
             ]
         return out
-
-
-def _jacobian_rows(ca, f, *xs):
-    """``[d f / d x for x in xs]`` (each len(f) x len(x)) by reverse mode, one adjoint sweep per
-    output row: on an RNEA (n outputs, 2n inputs) the generated code has a quarter fewer
-    operations than ``casadi.jacobian``'s choice (Panda: 7.4k against 9.7k for dtau/dq, dtau/dqd)."""
-    x = ca.vertcat(*xs)
-    m = f.shape[0]
-    rows = ca.vertcat(*[ca.jtimes(f, x, ca.DM.eye(m)[:, i], True).T for i in range(m)])
-    out, start = [], 0
-    for xi in xs:
-        out.append(rows[:, start:start + xi.shape[0]])
-        start += xi.shape[0]
-    return out
 
 
 def _ldlt_factor(M):

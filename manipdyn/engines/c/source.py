@@ -23,12 +23,13 @@ from ..._support import limits
 from ..._support.files import atomic_write, atomic_write_text, overwrites, replaceable
 from ..._support.errors import ModelError
 from . import build, emit
+from .derivatives import ROUTES
 from .graph import ArmGraph
 
 __all__ = ["generate", "codegen", "codegen_targets", "check_arm", "comment_text", "model_sha256", "GeneratedC", "GENERATOR_VERSION", "FUNCTIONS"]
 
 #: bump when the generated code changes for the same model (the cache key holds it)
-GENERATOR_VERSION = "2"
+GENERATOR_VERSION = "3"
 
 #: the public functions of the header, in the issue's order, then the ones the engine also uses
 FUNCTIONS = ("inverse_dynamics", "mass_matrix", "gravity", "nonlinear_effects", "forward_dynamics",
@@ -93,6 +94,8 @@ class GeneratedC:
     sha256: str
     flops: dict = field(default_factory=dict)       #: arithmetic operations per function
     seconds: float = 0.0                             #: time to build the graphs and write the text
+    #: how each derivative function was built: "recursive" or "reverse" (:mod:`manipdyn.engines.c.derivatives`)
+    routes: dict = field(default_factory=dict)
 
 
 def comment_text(text: str) -> str:
@@ -141,12 +144,20 @@ def _header_comment(arm, g: ArmGraph, prefix: str, sha: str) -> str:
     return "\n".join(out) + "\n */\n"
 
 
-def generate(arm, prefix: str | None = None, derivatives: bool = True) -> GeneratedC:
-    """The C of ``arm``: header and source text (module docstring).  Needs CasADi."""
+def generate(arm, prefix: str | None = None, derivatives: bool = True, route: str | None = None) -> GeneratedC:
+    """The C of ``arm``: header and source text (module docstring).  Needs CasADi.
+
+    ``route``: how ``d tau / d (q, qd)`` is written (:data:`manipdyn.engines.c.derivatives.ROUTES`):
+    ``"recursive"`` (the recursive derivative algorithm), ``"reverse"`` (the reverse-mode
+    Jacobian of the unrolled RNEA), or None (default): both are built and the one with fewer
+    operations is kept, per arm.  :attr:`GeneratedC.routes` says which was."""
     t0 = time.perf_counter()
     check_arm(arm)
     prefix = emit.check_prefix(emit.c_identifier(arm.name) if prefix is None else prefix)
     g = ArmGraph(arm)
+    if route not in (None, *ROUTES):
+        raise ModelError(f"route: expected one of {', '.join(ROUTES)} or None, got {route!r:.60}")
+    g.route = route
     ca = g.ca
     sha = model_sha256(arm)
     comment = _header_comment(arm, g, prefix, sha)
@@ -171,7 +182,7 @@ def generate(arm, prefix: str | None = None, derivatives: bool = True) -> Genera
               + "\n".join(decls)
               + "\n\n#ifdef __cplusplus\n}\n#endif\n\n#endif\n")
     source = (comment + f"#include <math.h>\n#include \"{prefix}.h\"\n\n" + "\n".join(defs))
-    return GeneratedC(prefix, header, source, g.n, g.p, sha, flops, time.perf_counter() - t0)
+    return GeneratedC(prefix, header, source, g.n, g.p, sha, flops, time.perf_counter() - t0, dict(g.routes))
 
 
 def check_arm(arm) -> None:
