@@ -50,8 +50,8 @@ class SingleStateFriction:
     The laws it writes out itself (viscous, smooth or sharp symmetric Coulomb
     without a deadband, offsets, Gaz's sigmoid) cost a handful of operations
     prepared at construction.  A joint-side law becomes two straight-line Python
-    functions of the velocities as floats (:attr:`torque_jacobian_floats`,
-    :attr:`jacobian_floats`, :attr:`tau_jacobian_floats`: one expression per joint, the law's constants written
+    functions of the velocities as floats (``torque_jacobian_floats``,
+    ``jacobian_floats``, ``tau_jacobian_floats``: one expression per joint, the law's constants written
     in as exact float literals, no loop, no array), the sigmoid as
     ``(1 + tanh(x / 2)) / 2``: within a few ulp of the law's numbers (tests hold
     it to 1e-14 of the largest entry).  A motor-side law runs the law's own array

@@ -124,7 +124,7 @@ class OneStateFriction:
 
     * the links' table ``[Fv, Fc]`` (viscous plus sharp Coulomb): ``dF/dqd = diag(Fv)``;
     * a friction law: :class:`~manipdyn.model.friction_jacobian.SingleStateFriction`; a
-      joint-side law runs as straight-line float code (:attr:`floats`: its ``jacobian``
+      joint-side law runs as straight-line float code (``floats``: its ``jacobian``
       and ``tau_jacobian``), ``J`` the diagonal of dF/dqd; a motor-side law gives the
       full ``J = R^T diag(f') R``.
 
