@@ -78,8 +78,9 @@ def pivots_positive(model) -> bool:
     ABA's pivot of joint k is ``S_k^T Ia_k S_k + armature_k``, where the articulated inertia
     ``Ia_k`` is body k's own spatial inertia ``I_k`` plus, for the child, ``Ia - U D^-1 U^T``
     (a Schur complement, positive semidefinite when ``Ia`` is and the child's pivot ``D`` is
-    positive, whatever its armature >= 0: by induction from the leaf).  So when every body's spatial inertia is positive semidefinite (mass
-    >= 0, inertia at the centre of mass PSD), ``Ia_k - I_k`` is PSD and the pivot is at least
+    positive, whatever its armature >= 0: by induction from the leaf).  So when every body's
+    spatial inertia is positive semidefinite (mass >= 0, inertia at the centre of mass PSD),
+    ``Ia_k - I_k`` is PSD and the pivot is at least
     ``c_k = S_k^T I_k S_k + armature_k``: body k's moment about its own joint axis plus its
     rotor, a constant of the model.  Checked here for a serial chain of revolute joints (a
     prismatic joint's q moves masses without bound, and with them the rounding), with
@@ -92,8 +93,8 @@ def pivots_positive(model) -> bool:
     if n < 1 or any(model.parents[i] != i - 1 for i in range(1, n + 1)):
         return False
     joints, inertias = model.joints, model.inertias
-    if not np.all(np.asarray(model.armature) >= 0.0) or any(joints[i].nq != 1 or joints[i].nv != 1 or joints[i].shortname() not in _REVOLUTE
-           for i in range(1, n + 1)):
+    if not np.all(np.asarray(model.armature) >= 0.0) or any(
+            joints[i].nq != 1 or joints[i].nv != 1 or joints[i].shortname() not in _REVOLUTE for i in range(1, n + 1)):
         return False
     data = model.createData()
     pin.computeJointJacobians(model, data, pin.neutral(model))
@@ -259,47 +260,7 @@ def install_derivative_shortcuts(eng) -> dict:
         def u_fwd(q, qd, tau):
             r = aba_d(m, d, q, qd, tau)
             return r[0].copy(), r[1].copy(), r[2].copy()
-    elif fr.floats is not None:             # a joint-side law: straight-line float code, inlined
-        jac, tau_jac = fr.floats
-        D, Ddiag, array = fr.D, fr.Ddiag, np.array
-
-        def inverse_dynamics_derivatives(q, qd, qdd):
-            try:
-                if q.dtype is qd.dtype is qdd.dtype is F64:
-                    vl = qd.tolist()
-                    if hypot(*q.tolist(), *vl, *qdd.tolist()) < B:
-                        r = rnea_d(m, d, q, qd, qdd)
-                        Ddiag[:] = jac(vl)
-                        return r[0].copy(), r[1] + D
-            except errors:
-                pass
-            return g_inv(q, qd, qdd)
-
-        def forward_dynamics_derivatives(q, qd, tau):
-            try:
-                if q.dtype is qd.dtype is tau.dtype is F64:
-                    vl, tl = qd.tolist(), tau.tolist()
-                    if hypot(*q.tolist(), *vl, *tl) < B:
-                        T, J = tau_jac(vl, tl)
-                        r = aba_d(m, d, q, qd, array(T))
-                        c = r[2]
-                        if pd or isf(sum(c.diagonal().tolist())):      # singular D: see the docstring
-                            return r[0].copy(), r[1] - c * array(J), c.copy()
-            except errors:
-                pass
-            return g_fwd(q, qd, tau)
-
-        def u_inv(q, qd, qdd):
-            r = rnea_d(m, d, q, qd, qdd)
-            Ddiag[:] = jac(qd.tolist())
-            return r[0].copy(), r[1] + D
-
-        def u_fwd(q, qd, tau):
-            T, J = tau_jac(qd.tolist(), tau.tolist())
-            r = aba_d(m, d, q, qd, array(T))
-            c = r[2]
-            return r[0].copy(), r[1] - c * array(J), c.copy()
-    else:                                   # the links' table, a motor-side or a general law
+    else:                                   # friction: OneStateFriction's code, one state
         fr_dv, fr_tau, fr_b = fr.dv, fr.tau, fr.dqdd_dqd
 
         def inverse_dynamics_derivatives(q, qd, qdd):
