@@ -31,7 +31,7 @@ from __future__ import annotations
 
 from .emit import has_cse
 from .spatial import Body, add as _add, cross as _cross, mtv as _mtv, mv as _mv
-from .spatial import scale as _scale, snap as _snap, sub as _sub
+from .spatial import scale as _scale, sub as _sub
 
 __all__ = ["rnea_derivatives", "derivative_route", "jacobian_rows", "count_operations", "ROUTES"]
 
@@ -122,7 +122,7 @@ def rnea_derivatives(g, pi, qd, qdd, gravity=True):
     S, Sd, dAq, f, D, H = [], [], [], [], [], []
     for k in range(n):
         E, p = kin[k]
-        s = _axis(g, k)
+        s = g.subspace(k)
         vp, ap = _motion_in(E, p, v), _motion_in(E, p, a)
         sd = _mcross(vp, s)
         dAq.append(_madd(_mcross(ap, s), _mcross(vp, sd)))
@@ -169,12 +169,6 @@ def rnea_derivatives(g, pi, qd, qdd, gravity=True):
             dq[i][j] = _sdot(dAq[j], rY) + _sdot(Sd[j], rD)
             dv[i][j] = 2.0 * _sdot(Sd[j], rY) + _sdot(S[j], rD)
     return dq, dv
-
-
-def _axis(g, k):
-    a = [float(x) for x in _snap(g.joints[k].axis)]
-    z = [0.0, 0.0, 0.0]
-    return (a, z) if g.joints[k].joint == "revolute" else (z, a)
 
 
 def count_operations(ca, inputs, outputs) -> int:

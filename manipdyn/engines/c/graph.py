@@ -140,7 +140,8 @@ class ArmGraph:
     def bodies(self, pi):
         return [_Body([pi[10 * k + i] for i in range(10)]) for k in range(self.n)]
 
-    def _subspace(self, k):
+    def subspace(self, k):
+        """Joint k's motion subspace in its link frame, ``(angular, linear)`` 3-vectors of floats."""
         a = [float(x) for x in _snap(self.joints[k].axis)]
         z = [0.0, 0.0, 0.0]
         return (a, z) if self.joints[k].joint == "revolute" else (z, a)
@@ -154,7 +155,7 @@ class ArmGraph:
         forces = []
         for k in range(n):
             E, p = kin[k]
-            sw, sv = self._subspace(k)
+            sw, sv = self.subspace(k)
             # velocity: X v_parent + S qd
             wc = _mtv(E, w)
             vc = _mtv(E, _add(v, _cross(w, p)))
@@ -175,7 +176,7 @@ class ArmGraph:
         tau = [None] * n
         for k in reversed(range(n)):
             fn, ff = forces[k]
-            sw, sv = self._subspace(k)
+            sw, sv = self.subspace(k)
             tau[k] = sum(sw[i] * fn[i] + sv[i] * ff[i] for i in range(3))
             if k > 0:
                 E, p = kin[k]
@@ -193,14 +194,14 @@ class ArmGraph:
             comp[k - 1] = comp[k - 1].plus(comp[k].to_parent(E, p))
         M = [[None] * n for _ in range(n)]
         for j in range(n):
-            sw, sv = self._subspace(j)
+            sw, sv = self.subspace(j)
             fn, ff = comp[j].times(sw, sv)
             for i in range(j, -1, -1):
                 if i < j:
                     E, p = kin[i + 1]
                     Ef = _mv(E, ff)
                     fn, ff = _add(_mv(E, fn), _cross(p, Ef)), Ef
-                si_w, si_v = self._subspace(i)
+                si_w, si_v = self.subspace(i)
                 M[i][j] = M[j][i] = sum(si_w[r] * fn[r] + si_v[r] * ff[r] for r in range(3))
         return M
 
