@@ -429,7 +429,6 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     result = FitResult(arm=out_arm, parameters=pi, base=base, beta=beta, residuals=residuals,
                        sigma=sigma, method=method, condition_number=cond, consistent=consistent,
                        prior=arm, arm_error=err, covariance=cov)
-
     result.report = build_report(result, solver=solver, samples=N, cov=cov, min_eigenvalues=eig)
     result.report["active_bounds"] = bounds.active(pi, n) if bounds is not None else []
     result.report["prior_weight"] = float(prior_weight)

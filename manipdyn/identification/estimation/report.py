@@ -97,12 +97,12 @@ def format_report(rep: dict) -> str:
 
 #: relative growth of the weighted residual over least squares' that :func:`shortfall` explains
 SHORTFALL_RTOL = 1e-2
-#: the note of a fit that dropped the radius-of-gyration floor (the reason in braces)
-FLOOR_DROPPED = ("the radius-of-gyration floor (a plausibility bound, best effort) was dropped: the fit with it "
-                  "failed ({}); this fit has the mass, COM and total-mass bounds and J_i >= 0 only, so a body's "
-                  "shape may be degenerate (a rod or a plate)")
 #: and the absolute floor (of the weighted torque's norm) below which it is rounding
 SHORTFALL_ATOL = 1e-6
+#: the note of a fit that dropped the radius-of-gyration floor (the reason in braces)
+FLOOR_DROPPED = ("the radius-of-gyration floor (a plausibility bound, best effort) was dropped: the fit with it "
+                 "failed ({}); this fit has the mass, COM and total-mass bounds and J_i >= 0 only, so a body's "
+                 "shape may be degenerate (a rod or a plate)")
 
 
 def shortfall(R, c, rho0, yw, ew, pi, n, nonnegative, bounds, solver, active_bounds) -> dict:

@@ -277,7 +277,7 @@ def link_table(pi, prior) -> list:
     ``prior_principal_moments`` (kg m^2, about the COM, ascending); a body of zero or negative
     mass (a fit that is no physical arm) has ``com`` and its moments None.
     """
-    from ...model.inertia import pseudo_inertia_from_parameters
+    from ...model.inertia import pseudo_inertia_from_parameters, tensor_from_pseudo_inertia
     from ...model.parameters import arm_parameters
 
     n = prior.n
@@ -286,12 +286,10 @@ def link_table(pi, prior) -> list:
 
     def body(p):
         J = pseudo_inertia_from_parameters(np.asarray(p, dtype=np.float64))
-        m = float(J[3, 3])
-        if not m > 0:
-            return m, None, None
-        c = J[:3, 3] / m
-        S = J[:3, :3] - m * np.outer(c, c)                      # second moment about the COM
-        return m, c.tolist(), np.sort(np.trace(S) - np.linalg.eigvalsh(S)).tolist()   # I = tr(S) 1 - S
+        if not J[3, 3] > 0:
+            return float(J[3, 3]), None, None
+        m, c, inertia = tensor_from_pseudo_inertia(J)
+        return m, c.tolist(), np.linalg.eigvalsh(inertia).tolist()
 
     out = []
     for k in range(n):
