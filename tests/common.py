@@ -27,3 +27,17 @@ def err_line(capsys) -> str:
     lines = cap.err.strip().splitlines()
     assert len(lines) == 1, cap.err
     return lines[0]
+
+
+def sigint_as_a_terminal_gives_it() -> None:
+    """``preexec_fn`` of a child that a test will Ctrl-C: SIGINT back to its default action.
+
+    A process started in the background by a non-interactive shell (``cmd &``, ``nohup``, some CI
+    runners) inherits SIGINT *ignored*, and Python then installs no KeyboardInterrupt handler: the
+    child never sees the test's Ctrl-C, a study runs to its end and ``bench`` exits 0 (issue 38,
+    item 10: the four "timing" failures on a fresh machine were this, not the clock).  A terminal's
+    foreground job has the default action, which is what these tests are about.
+    """
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_DFL)

@@ -70,7 +70,10 @@ def _interrupt_while_importing(delay: float):
     (``-X importtime`` says so), then Ctrl-C it ``delay`` seconds later: ``(returncode, stderr
     lines other than -X importtime's)``."""
     env = dict(os.environ, PYTHONPATH=ROOT)
+    from common import sigint_as_a_terminal_gives_it
+
     p = subprocess.Popen([sys.executable, "-X", "importtime", "-m", "manipdyn", "check", "panda"],
+                         preexec_fn=sigint_as_a_terminal_gives_it,
                          stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env, cwd=ROOT)
     seen = []
     for line in p.stderr:

@@ -508,9 +508,15 @@ def test_item4_unguarded_script_fails_in_one_message(tmp_path):
 
 
 # -- item 9: Ctrl-C stops montecarlo and bench quietly, exit 130, nothing left behind ---------------
-def _interrupt_after(seconds: float, argv, cwd, after_children: bool = False):
+def _interrupt_after(seconds: float, argv, cwd, after_children: bool = False, after_output: bool = False):
     """Run ``manipdyn ARGV``; Ctrl-C it ``seconds`` after it started (``after_children``: after
-    its first child process, a Dask worker, appeared); return (exit code, stderr)."""
+    its first child process, a Dask worker, appeared; ``after_output``: after its first line on
+    stdout, i.e. once it is at work, whatever the machine's load); return (exit code, stderr).
+
+    The child gets SIGINT's default action, as a terminal's foreground job has it, even when this
+    test runs under a shell that started it in the background (``tests/common.py``)."""
+    from common import sigint_as_a_terminal_gives_it
+
     import os
     import signal
     import subprocess
@@ -528,11 +534,14 @@ def _interrupt_after(seconds: float, argv, cwd, after_children: bool = False):
 
     env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1]))
     proc = subprocess.Popen([sys.executable, "-m", "manipdyn", *argv], cwd=cwd, env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+                            preexec_fn=sigint_as_a_terminal_gives_it)
     try:
         t0 = time.monotonic()
         while after_children and not children() and time.monotonic() - t0 < 120:
             time.sleep(0.02)
+        if after_output:
+            assert proc.stdout.readline(), "ended before it printed anything"
         time.sleep(seconds)
         assert proc.poll() is None, "finished before the interrupt: make the run longer"
         os.killpg(proc.pid, signal.SIGINT)            # Ctrl-C: the whole process group, as a terminal does
@@ -559,7 +568,7 @@ def test_item9_bench_ctrl_c_is_quiet_and_removes_its_folder(tmp_path):
     if not (Path(__file__).resolve().parents[1] / "benchmarks" / "run.py").is_file():
         pytest.skip("no benchmark suite beside the package")
     out = tmp_path / "run"
-    code, err = _interrupt_after(4.0, ["bench", "--no-rtb", "--out", str(out)], tmp_path)
+    code, err = _interrupt_after(1.0, ["bench", "--no-rtb", "--out", str(out)], tmp_path, after_output=True)
     assert code == 130 and "Traceback" not in err, err[-3000:]
     assert err.strip().splitlines()[-1] == "manipdyn bench: interrupted"
     assert not out.exists()

@@ -119,7 +119,45 @@ def test_cli_identify_and_validate_take_several_logs_and_models(tmp_path, capsys
     assert r.arm.name == "ur5_identified"
     r.save(tmp_path / "mine.toml")
     assert md.load(str(tmp_path / "mine.toml")).name == "mine"
-    assert r.score([p2]).results[0].rms.max() < 0.2
+    # held out, the fit of run 1 predicts run 2 at the noise level (0.05 N m): 0.0497 to 0.0506
+    # measured over three OpenBLAS kernels (default, Haswell, Prescott); 0.06 leaves 20 % for the
+    # sampling spread of 6 x 1600 residuals (~2 %) and another machine's rounding.  Before the
+    # solvers' answers were weighed (issue 38 item 10) SCS's loose answer was kept, and joint 1
+    # read 0.050 to 0.072 here and 0.2019 on a fresh machine
+    assert r.score([p2]).results[0].rms.max() < 0.06
+
+
+def test_the_consistent_fit_does_not_move_with_the_blas_kernel(tmp_path):
+    """Issue 38 item 10: one fit, two OpenBLAS kernels (``OPENBLAS_CORETYPE``), one answer.
+
+    Clarabel reports "inaccurate" on this fit's floored problem; SCS's "optimal" then broke the
+    PSD constraints by 1e-3 and its answer moved with the kernel's rounding (held-out torque of
+    joint 1: 0.050 to 0.072 N m by kernel).  The kept answer is now the verified one, the same to
+    ~1e-8 whatever the kernel; 1e-6 of the torque's scale leaves that a hundredfold margin.
+    (Where the variable is not honoured, as on a CPU without those kernels, both runs use one
+    kernel and the test checks nothing more than determinism.)"""
+    import os
+    import subprocess
+    import sys
+
+    arm = md.load("ur5")
+    (p1,), (e1,) = _logs(tmp_path, arm, seeds=(5,), noise=(0.05,))
+    script = (
+        "import sys, numpy as np, manipdyn as md\n"
+        f"r = md.identify(md.load('ur5'), [{str(p1)!r}])\n"
+        f"np.save(sys.argv[1], r.fit.predict(*[np.load({str(tmp_path / 'state.npy')!r})[k] for k in range(3)]))\n")
+    np.save(tmp_path / "state.npy", np.stack([e1.q[::50], e1.qd[::50], e1.qdd[::50]]))
+    root = str(Path(__file__).resolve().parents[1])
+    out = []
+    for kernel in ("Prescott", "Haswell"):
+        env = dict(os.environ, OPENBLAS_CORETYPE=kernel, PYTHONPATH=root)
+        path = tmp_path / f"{kernel}.npy"
+        proc = subprocess.run([sys.executable, "-c", script, str(path)], env=env, capture_output=True,
+                              text=True, timeout=600)
+        assert proc.returncode == 0, proc.stderr[-3000:]
+        out.append(np.load(path))
+    scale = np.abs(out[0]).max()
+    assert np.max(np.abs(out[0] - out[1])) < 1e-6 * scale
 
 
 def test_urdf_prior_with_friction_armature_and_gears_is_written_as_a_full_model(tmp_path):
