@@ -345,9 +345,9 @@ def _identify(prior, logs, o) -> IdentifyResult:
 
 def _doubts(result, data, runs) -> list[str]:
     """What the fit should doubt (:mod:`.results.doubts`): degenerate bodies, runs far off, payloads contradicted."""
-    from .results.doubts import degenerate_links, floor_doubts, payload_doubts, run_doubts
+    from .results.doubts import degenerate_links, floor_doubts, payload_doubts, run_doubts, solver_doubts
 
-    return ((degenerate_links(result.arm) if result.arm is not None else [])
+    return (solver_doubts(result.report) + (degenerate_links(result.arm) if result.arm is not None else [])
             + floor_doubts(result.report.get("active_bounds")) + run_doubts(result, data, result.report)
             + payload_doubts(result.arm, runs))
 

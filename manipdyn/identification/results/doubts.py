@@ -41,7 +41,7 @@ import os
 
 import numpy as np
 
-__all__ = ["degenerate_links", "floor_doubts", "run_doubts", "payload_doubts", "NOISE_FACTOR", "RUN_FACTOR", "PAYLOAD_RTOL",
+__all__ = ["degenerate_links", "floor_doubts", "solver_doubts", "run_doubts", "payload_doubts", "NOISE_FACTOR", "RUN_FACTOR", "PAYLOAD_RTOL",
            "GYRATION_FRACTION", "BOUNDARY_RTOL"]
 
 #: a run's residual over this many times its own noise level ...
@@ -87,6 +87,16 @@ def degenerate_links(arm) -> list[str]:
                        "decide this body's shape; its prediction on these motions may hold, its use as a plant "
                        "(simulation, control) does not")
     return out
+
+
+def solver_doubts(report) -> list[str]:
+    """One sentence when the solver stopped short of the best physical fit (``report["stopped_short"]``):
+    the model is saved, and this doubt travels with it (issue 38 item 7), rather than only being printed."""
+    if not report.get("stopped_short"):
+        return []
+    return [f"the solver ({report.get('solver')}) stopped short of the best physical fit: these parameters are "
+            "physical but not the best fit the data allow; refit (other data, --no-bounds, or another method) "
+            "before trusting them beyond the band"]
 
 
 def floor_doubts(active_bounds) -> list[str]:
