@@ -34,3 +34,72 @@ def test_item1_a_single_leaf_or_an_explicit_tip_adds_no_note():
         warnings.simplefilter("error", md.ModelNoteWarning)
         arm = md.load("erd:panda", tip="panda_hand")
     assert arm.notes == () or not any("tool frame" in n for n in arm.notes)
+
+
+# -- items 4 and 6: validate's band misses side by side, rounding, and every flag's reason -----
+def _scored(name, coverage_hits, n_samples=500, leverage_joint=None):
+    """A ValidationResult on synthetic samples: joint j's error lies inside its band on
+    ``coverage_hits[j]`` of ``n_samples`` samples; ``leverage_joint`` (0-based) lies beyond
+    the fit by leverage on 30 % of them while every joint stays inside its fitted range."""
+    from manipdyn.identification.results.validation import ValidationResult
+    from manipdyn.identification.uncertainty.coverage import fitted_range
+
+    rng = np.random.default_rng(0)
+    n = len(coverage_hits)
+    t = np.arange(n_samples) * 0.01
+    q, qd = rng.uniform(-1, 1, (n_samples, n)), rng.uniform(-1, 1, (n_samples, n))
+    measured = rng.uniform(-5, 5, (n_samples, n))
+    band = np.ones((n_samples, n))
+    err = np.full((n_samples, n), 0.5)
+    for j, hits in enumerate(coverage_hits):
+        err[hits:, j] = 2.0                                 # outside the band of half-width 1
+    predicted = measured - err
+    coverage = np.mean(np.abs(err) <= band, axis=0)
+
+    class Data:
+        pass
+
+    data = Data()
+    data.q, data.qd, data.tau = q, qd, measured
+    ex = fitted_range(q, qd, measured).outside(data)        # the fit's range is the data's own: 0 % outside
+    beyond = np.zeros((n_samples, n), dtype=bool)
+    if leverage_joint is not None:
+        beyond[: int(0.3 * n_samples), leverage_joint] = True
+    ex.beyond, ex.leverage_ratio = beyond, np.where(beyond, 4.0, 0.5)
+    rms = np.sqrt(np.mean(err**2, axis=0))
+    return ValidationResult(model=name, rms=rms, relative_rms=rms / np.sqrt(np.mean(measured**2, axis=0)),
+                            r2=np.zeros(n), mean_error=err.mean(axis=0), t=t, measured=measured,
+                            predicted=predicted, band=band, coverage=coverage, band_method="test band",
+                            extrapolation=ex)
+
+
+def test_item4_side_by_side_keeps_band_misses_and_rounds_below_the_threshold():
+    from manipdyn.identification.results.comparison import format_side_by_side
+
+    a = _scored("a", [500, 500, 399])                       # joint 3 holds 399/500 = 79.8 %
+    b = _scored("b", [500, 500, 500])
+    single = a.format()
+    line = next(x for x in single.splitlines() if x.startswith("BAND MISSES joint 3"))
+    assert "holds 79.8 %" in line and "(under 80 %)" in line  # not "holds 80 % ... (under 80 %)"
+    both = format_side_by_side([a, b])
+    assert "BAND MISSES joint 3: the 95 % band holds 79.8 %" in both
+    assert both.count("BAND MISSES") == 1                   # b misses nothing
+    assert a.to_dict()["band_95_missed"] == [3]             # the same joint the JSON names
+
+
+def test_item6_validate_page_gives_each_flag_its_reason():
+    from manipdyn.identification.results.html import validation_page
+    from manipdyn.identification.results.scoring import Validation
+
+    r = _scored("m", [500, 399, 500, 500, 500, 500, 500], leverage_joint=6)
+    assert r.extrapolation.fraction[6] == 0.0 and r.extrapolation.flagged[6]   # joint 7: 0 % outside, flagged
+
+    class Data:                                             # one log, read as it was
+        t, sources, segments = r.t, ["log.csv"], [len(r.t)]
+
+    page = validation_page(Validation(results=[r], data=Data()))
+    assert "why flagged" in page and "beyond the fit by leverage" in page
+    row7 = page[page.index(">joint 7<"):].split("</tr>")[0]
+    assert "EXTRAPOLATES" in row7 and "by leverage: 30.0 %" in row7 and "up to 4 times" in row7
+    row2 = page[page.index(">joint 2<"):].split("</tr>")[0]
+    assert "BAND MISSES" in row2 and "holds 79.8 %" in row2
