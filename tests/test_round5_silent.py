@@ -103,3 +103,48 @@ def test_item6_validate_page_gives_each_flag_its_reason():
     assert "EXTRAPOLATES" in row7 and "by leverage: 30.0 %" in row7 and "up to 4 times" in row7
     row2 = page[page.index(">joint 2<"):].split("</tr>")[0]
     assert "BAND MISSES" in row2 and "holds 79.8 %" in row2
+
+
+# -- item 5: the Monte-Carlo page says what the CLI prints, names the worst by the table's figure --
+def test_item5_montecarlo_page_has_the_draws_line_the_notes_and_true_scales(tmp_path):
+    pytest.importorskip("matplotlib")
+    from manipdyn import montecarlo as mc
+    from manipdyn.control.montecarlo.plot import draw_report
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", md.ModelNoteWarning)
+        arm, notes = md.load_with_notes("puma560")
+    assert notes                                            # the Puma's impossible links
+    rep = mc.run(mc.study(arm, runs=2, seed=1, controllers=("pd",), duration=0.05), scheduler="sync")
+    page = rep.report_html(tmp_path / "mc.html", notes=notes)
+    text = open(page, encoding="utf-8").read()
+    effect = rep.effect()["text"]
+    assert effect and "holds joint" in effect
+    import html as _html
+    assert _html.escape(effect[1:60]) in text               # what the draws do to the arm
+    for n in notes:
+        assert _html.escape(n) in text
+    fig = draw_report(rep, title=False)
+    scales = {ax.get_xscale() for ax in fig.axes[:len(rep.metrics)]}
+    caption = text[text.index("Fraction of runs"):].split("</figcaption>")[0]
+    for m, ax in zip(rep.metrics, fig.axes):
+        assert (f"{ax.get_xscale()} scale" in caption), (m, ax.get_xscale(), caption)
+    if scales == {"linear"}:
+        assert "log scale" not in caption
+
+
+def test_item5_verdict_names_the_worst_by_the_tables_p90():
+    from types import SimpleNamespace
+
+    from manipdyn.control.montecarlo.html import _verdict
+
+    def entry(p90, diverged):
+        return {"rms_error": {"p90": p90}, "diverged": diverged, "saturated": 0}
+
+    rep = SimpleNamespace(study=SimpleNamespace(runs=100),
+                          controllers={"pd": entry(1.44, 0), "ct": entry(0.05, 0), "lqr": entry(0.922, 3)})
+    text, level = _verdict(rep)
+    assert "computed torque tracks best" in text.split(";")[0]
+    worst = text.split(";")[1].split(" rad)")[0]
+    assert "PD" in worst and "1.44" in worst and "LQR" not in worst   # the table's largest p90 is PD's
+    assert "LQR in 3 of 100 runs" in text and level == "bad"
