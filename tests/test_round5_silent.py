@@ -148,3 +148,36 @@ def test_item5_verdict_names_the_worst_by_the_tables_p90():
     worst = text.split(";")[1].split(" rad)")[0]
     assert "PD" in worst and "1.44" in worst and "LQR" not in worst   # the table's largest p90 is PD's
     assert "LQR in 3 of 100 runs" in text and level == "bad"
+
+
+# -- item 12: excite's period is --period; --duration, its old name, says what the file holds ----
+def _csv_span(path):
+    t = np.loadtxt(path, delimiter=",", skiprows=1, usecols=0)
+    return t[-1] - t[0], len(t)
+
+
+def test_item12_excite_period_option_and_the_deprecated_duration(tmp_path, capsys):
+    pytest.importorskip("scipy", reason="excite needs the identify extra")
+    base = ["excite", "ur5", "--iterations", "0", "--rate", "50", "--harmonics", "2"]
+    out = tmp_path / "bare.csv"
+    assert main([*base, "--period", "2", "--ramp", "0", "-o", str(out)]) == 0
+    span, count = _csv_span(out)
+    assert count == 100 and span == pytest.approx(2 - 1 / 50)         # one period, no ramp: 2 s at 50 Hz
+    assert "--duration" not in capsys.readouterr().err
+    ramped = tmp_path / "ramped.csv"
+    assert main([*base, "--period", "2", "--ramp", "1", "-o", str(ramped), "--json"]) == 0
+    import json
+    rep = json.loads(capsys.readouterr().out)
+    assert rep["period"] == 2 and rep["duration"] == 4                 # ramp + period + ramp
+    assert _csv_span(ramped)[0] == pytest.approx(4, abs=1 / 50)
+    old = tmp_path / "old.csv"
+    assert main([*base, "--duration", "2", "--ramp", "1", "-o", str(old)]) == 0
+    err = capsys.readouterr().err
+    assert "--duration is deprecated" in err and "(2 s)" in err and "(4 s with the ramps)" in err
+    assert np.array_equal(np.loadtxt(old, delimiter=",", skiprows=1), np.loadtxt(ramped, delimiter=",", skiprows=1))
+    assert main([*base, "--duration", "2", "--period", "2", "-o", str(old)]) == 2
+    from manipdyn.cli import build_parser
+    sub = build_parser()._subparsers._group_actions[0].choices["excite"]
+    helps = {a.option_strings[0]: a.help for a in sub._actions if a.option_strings}
+    assert "period" in helps["--period"] and "ramp + period + ramp" in helps["--period"]
+    assert helps["--duration"].startswith("deprecated")
