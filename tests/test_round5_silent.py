@@ -181,3 +181,40 @@ def test_item12_excite_period_option_and_the_deprecated_duration(tmp_path, capsy
     helps = {a.option_strings[0]: a.help for a in sub._actions if a.option_strings}
     assert "period" in helps["--period"] and "ramp + period + ramp" in helps["--period"]
     assert helps["--duration"].startswith("deprecated")
+
+
+# -- item 13: arm.with_payload on every kind of arm; the old name still works, and warns ---------
+PAYLOAD_I = np.array([[0.010, 0.001, -0.002], [0.001, 0.012, 0.0005], [-0.002, 0.0005, 0.008]])
+
+
+@pytest.mark.parametrize("spec, tip", [("erd:ur5_robot", "tool0"), ("erd:panda", "panda_hand"), ("puma560", None)])
+def test_item13_with_payload_on_every_arm(spec, tip):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", md.ModelNoteWarning)
+        arm = md.load(spec, tip=tip) if tip else md.load(spec)
+    com = np.array([0.01, 0.02, 0.05])
+    heavy = arm.with_payload(2.0, com, PAYLOAD_I)
+    assert type(heavy) is type(arm) and heavy.name == f"{arm.name}+2kg"
+    rng = np.random.default_rng(0)
+    q = arm.random_state(rng, 4)
+    qd, qdd = rng.normal(size=(4, arm.n)), rng.normal(size=(4, arm.n))
+    # the two engines read the new arm alike (the URDF text Pinocchio reads, the chain the trace form reads)
+    np.testing.assert_allclose(heavy.lagrange.inverse_dynamics(q, qd, qdd), heavy.pinocchio.inverse_dynamics(q, qd, qdd),
+                               atol=1e-11)                     # measured: <= 5e-14 N m on these arms
+    # static check against the unloaded arm's own Jacobian: the payload's weight at its COM
+    for qk in q:
+        T, Jt = arm.fkine(qk), arm.jacobian(qk)
+        r = T[:3, :3] @ com
+        Jp = Jt[:3] + np.stack([np.cross(Jt[3:, j], r) for j in range(arm.n)], axis=1)
+        np.testing.assert_allclose(heavy.gravity_torque(qk) - arm.gravity_torque(qk), -Jp.T @ (2.0 * arm.gravity),
+                                   atol=1e-12)                 # measured: <= 1.1e-14 N m
+    if isinstance(arm, md.URDFArm):                            # the payload is in the text: a file keeps it
+        from manipdyn.formats.urdf.reader import load_urdf
+
+        back = load_urdf(heavy.urdf_text, tip=heavy.tip)
+        np.testing.assert_array_equal(back.mass_matrix(q), heavy.mass_matrix(q))
+    import manipdyn.control as control
+
+    with pytest.warns(DeprecationWarning, match="arm.with_payload"):
+        old = control.with_payload(arm, 2.0, com, PAYLOAD_I)
+    np.testing.assert_array_equal(old.inverse_dynamics(q, qd, qdd), heavy.inverse_dynamics(q, qd, qdd))
