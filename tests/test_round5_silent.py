@@ -218,3 +218,26 @@ def test_item13_with_payload_on_every_arm(spec, tip):
     with pytest.warns(DeprecationWarning, match="arm.with_payload"):
         old = control.with_payload(arm, 2.0, com, PAYLOAD_I)
     np.testing.assert_array_equal(old.inverse_dynamics(q, qd, qdd), heavy.inverse_dynamics(q, qd, qdd))
+
+
+# -- item 14: a URDF written from an erd:panda-route model loads with the tip it was read with ----
+def test_item14_written_urdf_keeps_the_tip_by_name(tmp_path):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", md.ModelNoteWarning)
+        arm = md.load("erd:panda", tip="panda_hand")
+        md.save(arm, tmp_path / "panda_route.toml")              # the model file an identification writes
+        model = md.load(tmp_path / "panda_route.toml")
+    assert model.tip == "panda_hand"
+    assert main(["urdf", str(tmp_path / "panda_route.toml"), str(tmp_path)]) == 0
+    written = next(p for p in tmp_path.glob("*.urdf"))
+    text = written.read_text(encoding="utf-8")
+    assert "Tool frame (fkine, jacobian(frame='tool')): link 'panda_hand'" in text
+    back = md.load(written, tip="panda_hand")                    # the tip it was fitted with
+    q = arm.random_state(np.random.default_rng(1), 3)
+    np.testing.assert_allclose(back.fkine(q), arm.fkine(q), atol=1e-12)        # measured: 4e-16
+    np.testing.assert_allclose(back.mass_matrix(q), arm.mass_matrix(q), atol=1e-12)
+
+
+def test_item14_dh_arms_keep_their_tool_link():
+    text = md.to_urdf(md.load("ur5"))
+    assert '<link name="tool"/>' in text and "Tool frame" not in text  # the bundled urdf/ files are unchanged
