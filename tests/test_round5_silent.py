@@ -241,3 +241,41 @@ def test_item14_written_urdf_keeps_the_tip_by_name(tmp_path):
 def test_item14_dh_arms_keep_their_tool_link():
     text = md.to_urdf(md.load("ur5"))
     assert '<link name="tool"/>' in text and "Tool frame" not in text  # the bundled urdf/ files are unchanged
+
+
+# -- item 16: manipdyn mjcf measures MuJoCo's forward dynamics where frictionloss holds Coulomb ---
+def _ur5_with_coulomb(tmp_path):
+    ur5 = md.load("ur5")
+    coulomb = np.array([3.0, 3.0, 2.0, 1.0, 1.0, 1.0])
+    law = md.Friction(viscous=np.full(6, 0.5), coulomb=coulomb, smoothing=0.01)
+    md.save(md.Manipulator(ur5.links, convention=ur5.convention, name="ur5_fric", friction=law),
+            tmp_path / "ur5_fric.toml")
+    return tmp_path / "ur5_fric.toml", coulomb
+
+
+def test_item16_mjcf_prints_the_measured_forward_dynamics_difference(tmp_path, capsys):
+    pytest.importorskip("mujoco")
+    import re
+
+    model, coulomb = _ur5_with_coulomb(tmp_path)
+    assert main(["mjcf", str(model), str(tmp_path / "out")]) == 0
+    out = capsys.readouterr().out
+    assert "not MuJoCo's forward dynamics" in out             # the formula line no longer passes for the dynamics
+    line = next(x for x in out.splitlines() if "frictionloss, measured" in x)
+    torque = line.split("M (qacc - qdd), N m or N: ")[1].split(";")[0]
+    diff = np.array([float(v) for v in re.findall(r"joint\d (\S+?)(?:,|$)", torque)])
+    assert diff.shape == (6,)
+    assert diff.max() > 1e-3                                    # a soft constraint: not 0
+    # MuJoCo's frictionloss force lies between 0 and the level, so its deficit cannot exceed the level
+    assert np.all(diff <= coulomb * (1 + 1e-9))
+    text = (tmp_path / "out" / "ur5_fric.xml").read_text(encoding="utf-8")
+    assert "not measured here" in text                          # the file's comment says it plainly
+
+
+def test_item16_without_mujoco_it_says_not_measured(tmp_path, capsys, monkeypatch):
+    import manipdyn.engines.mujoco as mjpkg
+
+    model, _ = _ur5_with_coulomb(tmp_path)
+    monkeypatch.setattr(mjpkg, "available", lambda: False)
+    assert main(["mjcf", str(model), str(tmp_path / "out")]) == 0
+    assert "forward dynamics on this file are not measured" in capsys.readouterr().out
