@@ -27,6 +27,8 @@ def test_item1_default_tool_frame_names_the_frames_passed_over(capsys):
         md.load("erd:ur10_robot")
     assert main(["check", "erd:ur10_robot", "--samples", "2", "--timing-calls", "0"]) == 0
     assert "note: " in capsys.readouterr().out.split("passed over")[0]
+    assert main(["check", "erd:ur10_robot", "--samples", "2", "--timing-calls", "0", "--strict"]) == 1
+    assert "tool frame taken by default" in capsys.readouterr().out
 
 
 def test_item1_a_single_leaf_or_an_explicit_tip_adds_no_note():

@@ -232,7 +232,9 @@ class Arm(ArmCalls, ReachCalls):  # jacobian, inverse_dynamics, poses, ...: .arm
         """Pose of the tool frame in the base frame: ``T`` (4, 4) or (N, 4, 4), metres, with
         ``p_base = T @ [p_tool, 1]``.  The tool frame is DH frame n (``T_n`` of eq. 2.7; the
         ``tool`` link of the generated URDF) for a :class:`Manipulator`, and the tip link
-        (``arm.tip``) for a :class:`URDFArm`; :meth:`jacobian` is this frame's."""
+        (``arm.tip``) for a :class:`URDFArm` (loaded without ``tip=``: the last moving link, and
+        ``arm.notes`` names the fixed frames beyond it that were passed over, e.g. ``tool0``);
+        :meth:`jacobian` is this frame's."""
         return self.lagrange.fkine(q)
 
     def random_state(self, rng, size=None):
