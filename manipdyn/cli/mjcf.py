@@ -34,13 +34,16 @@ def _losses_measured(arm) -> list:
     from ..engines.mujoco.fidelity import forward_dynamics_difference
 
     r = forward_dynamics_difference(arm)
-    joints, _tool = arm.chain()
+    names = [j.name for j in arm.chain()[0]]
+
+    def per_joint(values):
+        return ", ".join(f"{nm} {float(x):.3g}" for nm, x in zip(names, values))
+
     return lines + ["frictionloss, measured (the line above compares the laws' formulas): MuJoCo solves it as a soft "
                     f"constraint, so on {r['samples']} seeded sliding states (|qd| >= {r['sliding']:g}) its forward "
                     "dynamics on this file differ from the model's by up to, per joint, in joint torque "
-                    "M (qacc - qdd), N m or N: " + ", ".join(f"{j.name} {float(x):.3g}" for j, x in zip(joints, r["torque"]))
-                    + "; in qdd, rad/s^2 or m/s^2: " + ", ".join(f"{j.name} {float(x):.3g}" for j, x in zip(joints, r["qdd"]))]
-
+                    f"M (qacc - qdd), N m or N: {per_joint(r['torque'])}; in qdd, rad/s^2 or m/s^2: "
+                    f"{per_joint(r['qdd'])}"]
 
 def register(sub) -> None:
     """Add ``manipdyn mjcf``."""

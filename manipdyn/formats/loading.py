@@ -101,8 +101,8 @@ def load_with_notes(x, tip: str | None = None, **kw):
 
     Returns ``(arm, notes)``: ``notes`` is ``list(arm.notes)``, one line per
     physically impossible link inertia, link that moves no mass, value in
-    a suspicious unit, or URDF tool frame chosen where others were passed over (the :class:`~manipdyn.ModelNoteWarning` warnings are
-    not shown; other warnings are).  This is how the CLI reports them.
+    a suspicious unit, or URDF tool frame chosen where others were passed over
+    (the :class:`~manipdyn.ModelNoteWarning` warnings are not shown; other warnings are).  This is how the CLI reports them.
     """
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ModelNoteWarning)

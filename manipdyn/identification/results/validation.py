@@ -92,8 +92,8 @@ class ValidationResult:
         (the coverage printed with as many decimals as it takes to stay under it: 79.8 %, not 80 %)."""
         if self.coverage is None:
             return []
-        return [f"{indent}BAND MISSES joint {j + 1}: the 95 % band holds {percent_under(self.coverage[j], MISS_COVERAGE)} %"
-                f" of these samples (under {100 * MISS_COVERAGE:g} %): this joint's error here is beyond what the "
+        return [f"{indent}BAND MISSES joint {j + 1}: the 95 % band holds "
+                f"{percent_under(self.coverage[j], MISS_COVERAGE)} % of these samples (under {100 * MISS_COVERAGE:g} %): this joint's error here is beyond what the "
                 "fit data showed; do not trust its band" for j in np.flatnonzero(self.band_missed)]
 
     def to_dict(self) -> dict:
