@@ -25,7 +25,7 @@ from .engine import mujoco_engine
 
 __all__ = ["forward_dynamics_difference", "SLIDING", "SAMPLES"]
 
-#: smallest |qd_j| of the measured states, rad/s (m/s): the joints slide, away from stiction
+#: smallest ``|qd_j|`` of the measured states, rad/s (m/s): the joints slide, away from stiction
 SLIDING = 0.2
 #: states measured by default
 SAMPLES = 32
