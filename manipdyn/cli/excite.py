@@ -9,6 +9,7 @@ model error (one line on stderr).
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import sys
@@ -19,6 +20,18 @@ from .common import (EXIT_OK, TIP_HELP, Progress, add_progress_options, check_ou
                      progress_wanted, require_numbers, usage_error)
 
 __all__ = ["register", "run"]
+
+#: the series' period when neither --period nor the deprecated --duration is given, s
+#: (``manipdyn.identification.excitation``'s ``duration`` default)
+DEFAULT_PERIOD = 10.0
+
+
+class _Given(argparse.Action):
+    """Store the value and remember, in ``args.given``, that the option was on the command line."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        setattr(namespace, self.dest, values)
+        namespace.given = set(getattr(namespace, "given", ())) | {self.dest}
 
 
 def register(subparsers) -> None:
@@ -35,7 +48,7 @@ def register(subparsers) -> None:
     p.add_argument("model", metavar="MODEL", help="bundled model name, .toml model file, .urdf file or erd:NAME (manipdyn models --erd)")
     p.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
     p.add_argument("-o", "--output", required=True, metavar="TRAJ.csv", help="CSV file to write")
-    p.add_argument("--period", type=float, default=None, metavar="S",
+    p.add_argument("--period", type=float, default=DEFAULT_PERIOD, metavar="S", action=_Given,
                    help="period of the Fourier series, s (default 10); the file covers one period and "
                         "the ramps in and out (--ramp), so it lasts ramp + period + ramp")
     p.add_argument("--duration", type=float, default=None, metavar="S",
@@ -67,22 +80,16 @@ def register(subparsers) -> None:
 MAX_RATE_LIMIT = 1e6
 
 
-#: the period when neither --period nor the deprecated --duration is given, s
-DEFAULT_PERIOD = 10.0
-
-
 def resolve_period(args) -> str:
     """``args.period`` from ``--period`` or the deprecated ``--duration`` (its old name; both
     is an error), the default otherwise; returns the option's name as the user wrote it,
     for the messages."""
     require_numbers(args, "period", "duration")
-    if args.duration is not None and args.period is not None:
+    if args.duration is not None and "period" in getattr(args, "given", ()):
         raise ModelError("--duration: deprecated name of --period; give --period only")
     if args.duration is not None:
         args.period = args.duration
         return "--duration"
-    if args.period is None:
-        args.period = DEFAULT_PERIOD
     return "--period"
 
 
