@@ -32,6 +32,7 @@ from .model.links import ChainJoint, DHLink
 from .model.drive import Transmission
 from .model.friction import Friction, FrictionTerms
 from .model.arm import Arm, Convention, Manipulator, URDFArm
+from .model import variants as _variants  # noqa: F401  (registers arm.with_payload)
 from .formats.loading import load, load_with_notes, models
 from .formats.save import save, to_mjcf, to_toml, to_urdf, write_mjcf, write_urdf
 from .engines.protocol import DynamicsEngine, JacobianEngine

@@ -38,7 +38,7 @@ def _pipelines():
         "montecarlo/study": (mc.study, same("seed", "duration", "dt", "bandwidth", "tau_max")
                              | {"plants_from": "plants"}),
         "montecarlo/run": (mc.run, same("scheduler", "workers", "chunk_size")),
-        "excite/excitation": (excitation, same("duration", "harmonics", "rate", "seed", "vmax", "amax",
+        "excite/excitation": (excitation, {"period": "duration"} | same("harmonics", "rate", "seed", "vmax", "amax",
                                                "iterations", "friction", "ramp")),
         "synthesize/synthesize": (synthesize, same("noise", "seed")),
         "check/crosscheck": (md.crosscheck, same("samples", "seed", "scheduler", "workers")),

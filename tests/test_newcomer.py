@@ -109,7 +109,7 @@ def test_item15_scheduler_without_workers_times_out(monkeypatch, capsys):
 # -- item 19: exit 2, never 3, on bad excite and montecarlo options ---------------------------
 @pytest.mark.parametrize("argv, culprit", [
     (["excite", "ur5", "--duration", "0.005"], "--rate x --duration"),
-    (["excite", "ur5", "--rate", "1e-9"], "--rate x --duration"),
+    (["excite", "ur5", "--rate", "1e-9"], "--rate x --period"),      # --duration: the period's old name
     (["excite", "ur5", "--seed", "-1"], "--seed"),
     (["excite", "ur5", "--duration", "nan"], "--duration"),
     (["montecarlo", "puma560", "--runs", "1", "--scheduler", "garbage"], "--scheduler"),

@@ -101,6 +101,13 @@ class SuspiciousValueWarning(ModelNoteWarning):
     """
 
 
+class ToolFrameWarning(ModelNoteWarning):
+    """A URDF's tool frame was chosen by the default rule (the last moving link) while
+    fixed frames beyond it (``tool0``, ``ee_link``, ...) sit elsewhere: pass ``tip=`` to
+    make one of them the tool.  The note names them, their distance and angle.
+    """
+
+
 def warn_at_caller(message: str, category=ModelNoteWarning) -> None:
     """``warnings.warn`` pointed at the first frame outside manipdyn: the user's own call."""
     frame, level = sys._getframe(0), 1

@@ -95,7 +95,7 @@ def run(args) -> int:
                  if failed else ""))
         strict = [r["model"] for r in results if r["strict_failed"]]
         if strict:
-            print(f"--strict: {', '.join(strict)} have notes (physically impossible or suspicious values)")
+            print(f"--strict: {', '.join(strict)} have notes (physically impossible or suspicious values, or a tool frame taken by default)")
     return worst
 
 
@@ -119,7 +119,8 @@ def register(sub) -> None:
     c.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
     c.add_argument("--strict", action="store_true",
                    help="fail (exit 1) on every note: physically impossible link inertias, values in "
-                        "suspicious units (default: check them as published, and say so)")
+                        "suspicious units, a URDF tool frame taken by default where others were passed over "
+                        "(default: check them as published, and say so)")
     c.add_argument("--json", action="store_true", help="print one JSON document instead of tables")
     c.add_argument("--urdf-out", metavar="DIR", default=None, help="also write each arm's URDF into DIR")
     c.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",

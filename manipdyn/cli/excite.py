@@ -9,6 +9,7 @@ model error (one line on stderr).
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import sys
@@ -20,6 +21,18 @@ from .common import (EXIT_OK, TIP_HELP, Progress, add_progress_options, check_ou
 
 __all__ = ["register", "run"]
 
+#: the series' period when neither --period nor the deprecated --duration is given, s
+#: (``manipdyn.identification.excitation``'s ``duration`` default)
+DEFAULT_PERIOD = 10.0
+
+
+class _Given(argparse.Action):
+    """Store the value and remember, in ``args.given``, that the option was on the command line."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        setattr(namespace, self.dest, values)
+        namespace.given = set(getattr(namespace, "given", ())) | {self.dest}
+
 
 def register(subparsers) -> None:
     """Add ``manipdyn excite`` to the command line."""
@@ -30,14 +43,18 @@ def register(subparsers) -> None:
         description="Optimise a finite Fourier series per joint (Swevers et al. 1997) to minimise "
                     "the condition number of the stacked base regressor, within the model's joint "
                     "limits and the velocity and acceleration limits; write it as CSV "
-                    "(t,q1..qn,qd1..qdn,qdd1..qddn). Exit codes: 0 written, 2 usage or model error.")
+                    "(t,q1..qn,qd1..qdn,qdd1..qddn), one period (--period) between a ramp in from rest "
+                    "and a ramp out to it (--ramp): the file lasts ramp + period + ramp. Exit codes: 0 written, 2 usage or model error.")
     p.add_argument("model", metavar="MODEL", help="bundled model name, .toml model file, .urdf file or erd:NAME (manipdyn models --erd)")
     p.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
     p.add_argument("-o", "--output", required=True, metavar="TRAJ.csv", help="CSV file to write")
-    p.add_argument("--duration", type=float, default=10.0, metavar="S",
-                   help="period, s (default 10); the file covers it and the ramps (--ramp)")
+    p.add_argument("--period", type=float, default=DEFAULT_PERIOD, metavar="S", action=_Given,
+                   help="period of the Fourier series, s (default 10); the file covers one period and "
+                        "the ramps in and out (--ramp), so it lasts ramp + period + ramp")
+    p.add_argument("--duration", type=float, default=None, metavar="S",
+                   help="deprecated: the old name of --period (it set the period, not the file's length)")
     p.add_argument("--harmonics", type=int, default=5, metavar="K", help=f"harmonics per joint (default 5, at most {limits.MAX_HARMONICS})")
-    p.add_argument("--rate", type=float, default=100.0, metavar="HZ", help=f"sample rate, Hz (default 100; --rate x --duration at most {limits.MAX_EXCITATION_SAMPLES} samples)")
+    p.add_argument("--rate", type=float, default=100.0, metavar="HZ", help=f"sample rate, Hz (default 100; --rate x --period at most {limits.MAX_EXCITATION_SAMPLES} samples)")
     p.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the optimiser's start (default 0)")
     p.add_argument("--vmax", type=float, nargs="+", default=None, metavar="V",
                    help=f"velocity limit, one or n values (default {DEFAULT_VMAX['revolute']} rad/s, "
@@ -63,10 +80,24 @@ def register(subparsers) -> None:
 MAX_RATE_LIMIT = 1e6
 
 
+def resolve_period(args) -> str:
+    """``args.period`` from ``--period`` or the deprecated ``--duration`` (its old name; both
+    is an error), the default otherwise; returns the option's name as the user wrote it,
+    for the messages."""
+    require_numbers(args, "period", "duration")
+    if args.duration is not None and "period" in getattr(args, "given", ()):
+        raise ModelError("--duration: deprecated name of --period; give --period only")
+    if args.duration is not None:
+        args.period = args.duration
+        return "--duration"
+    return "--period"
+
+
 def check_options(args) -> None:
     """Every option checked, and ``-o`` writable, before the optimiser starts (it runs for
     minutes); a ModelError names the option and, for a cap, how to raise it."""
-    require_numbers(args, "iterations", "seed", "duration", "rate", "harmonics")
+    opt = resolve_period(args)
+    require_numbers(args, "iterations", "seed", "period", "rate", "harmonics")
     for name in ("vmax", "amax"):
         if getattr(args, name) is not None and not all(isinstance(v, float) for v in getattr(args, name)):
             raise ModelError(f"--{name}: expected numbers, got {getattr(args, name)!r:.60}")
@@ -76,19 +107,19 @@ def check_options(args) -> None:
         raise ModelError(f"--iterations: expected >= 0, got {args.iterations}")
     if args.seed < 0:
         raise ModelError(f"--seed: expected an integer >= 0, got {args.seed}")
-    for name, unit in (("duration", "s"), ("rate", "Hz")):
+    for name, label, unit in (("period", opt, "s"), ("rate", "--rate", "Hz")):
         v = getattr(args, name)
         if not (math.isfinite(v) and v > 0):
-            raise ModelError(f"--{name}: expected a positive finite number in {unit}, got {v}")
+            raise ModelError(f"{label}: expected a positive finite number in {unit}, got {v}")
     if args.harmonics < 1:
         raise ModelError(f"--harmonics: expected >= 1, got {args.harmonics}")
     limits.check_count(args.harmonics, "--harmonics", "the number of harmonics per joint",
                        "MAX_HARMONICS", cli=True)
-    samples = args.duration * args.rate
-    limits.check_count(samples, "--rate x --duration", "the number of samples", "MAX_EXCITATION_SAMPLES",
+    samples = args.period * args.rate
+    limits.check_count(samples, f"--rate x {opt}", "the number of samples", "MAX_EXCITATION_SAMPLES",
                        cli=True)
     if round(samples) < 2:
-        raise ModelError(f"--rate x --duration: {args.rate:g} Hz over {args.duration:g} s gives "
+        raise ModelError(f"--rate x {opt}: {args.rate:g} Hz over {args.period:g} s gives "
                          f"{round(samples)} sample(s); expected at least 2")
     if args.ramp != "auto":
         try:
@@ -97,7 +128,7 @@ def check_options(args) -> None:
             raise ModelError(f"--ramp: expected seconds >= 0 or 'auto', got {args.ramp!r:.40}") from None
         if not (math.isfinite(args.ramp) and args.ramp >= 0):
             raise ModelError(f"--ramp: expected seconds >= 0 or 'auto', got {args.ramp}")
-        limits.check_count((args.duration + 2 * args.ramp) * args.rate, "--rate x (--duration + 2 --ramp)",
+        limits.check_count((args.period + 2 * args.ramp) * args.rate, f"--rate x ({opt} + 2 --ramp)",
                            "the number of samples", "MAX_EXCITATION_SAMPLES", cli=True)
     for name in ("vmax", "amax"):
         for v in getattr(args, name) or ():
@@ -113,7 +144,7 @@ def run(args) -> int:
     try:
         check_options(args)
         arm, notes = load_arm(args.model, args.tip)
-        ex = excitation(arm, duration=args.duration, harmonics=args.harmonics, rate=args.rate,
+        ex = excitation(arm, duration=args.period, harmonics=args.harmonics, rate=args.rate,
                         seed=args.seed, vmax=args.vmax, amax=args.amax, iterations=args.iterations,
                         friction=args.friction, ramp=args.ramp,
                         progress=Progress("optimising", progress_wanted(args), unit="iterations"))
@@ -138,4 +169,7 @@ def run(args) -> int:
               file=sys.stdout)
         for n in notes:                  # the model's notes, as check and track show them
             print(f"  note: {n}")
+    if args.duration is not None:        # the old name: say what it set, and what the file holds
+        print(f"excite: --duration is deprecated: it set the series' period ({ex.period:g} s), not the file's "
+              f"length ({ex.duration:g} s with the ramps); write --period {ex.period:g}", file=sys.stderr)
     return EXIT_OK

@@ -107,7 +107,7 @@ def run(args) -> int:
         if not args.json:
             print(f"figure written to {args.plot}")
     if args.report:
-        report.report_html(args.report, command=command_line(args), plants_file=args.plants_from)
+        report.report_html(args.report, command=command_line(args), plants_file=args.plants_from, notes=notes)
         if not args.json:
             print(f"report written to {args.report}")
     return EXIT_OK

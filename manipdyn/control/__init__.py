@@ -12,7 +12,7 @@ the plant instead of manipdyn's RK4: ``simulate(..., simulator="mujoco")``).  Ma
   :class:`LQR` (time-varying LQR along the reference, :mod:`.lqr`);
 * :class:`Regressor`: the dynamics linear in the inertial parameters;
 * :func:`simulate`: fixed-step RK4 with the torque held over each step, on the
-  arm or on a different plant (:func:`with_payload`, :func:`with_scaled_inertia`).
+  arm or on a different plant (``arm.with_payload(...)``, :func:`with_scaled_inertia`).
 
 Example::
 
@@ -27,7 +27,7 @@ Example::
 from .controllers import (PD, ComputedTorque, Controller, PDGravity, SlotineLi,
                           adaptation_gains, model_torque_limits, pd_gains)
 from .lqr import LQR, lqr_weights, solve_dare
-from ..model.variants import with_payload, with_scaled_inertia
+from ..model.variants import with_payload as _with_payload, with_scaled_inertia
 from .regressor import Regressor, parameters_from_pseudo_inertia, pseudo_inertia_from_parameters
 from .simulate import SimulationDiverged, SimulationLog, simulate
 from .trajectory import PiecewisePolynomial, Quintic, Sampled, Trajectory, ViaPoints
@@ -40,3 +40,13 @@ __all__ = [
     "pseudo_inertia_from_parameters", "simulate", "SimulationLog", "SimulationDiverged",
     "with_payload", "with_scaled_inertia",
 ]
+
+
+def with_payload(arm, mass: float, com=(0.0, 0.0, 0.0), inertia=None, name=None):
+    """Deprecated: ``arm.with_payload(mass, com, inertia)``, which takes every kind of arm
+    (:func:`manipdyn.model.variants.with_payload`); this name still works, for every arm, and warns."""
+    import warnings
+
+    warnings.warn("manipdyn.control.with_payload(arm, ...) is deprecated; use arm.with_payload(mass, com, "
+                  "inertia), which takes every kind of arm", DeprecationWarning, stacklevel=2)
+    return _with_payload(arm, mass, com, inertia, name)

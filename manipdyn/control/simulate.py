@@ -197,7 +197,7 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
     dt : float
         Step (and controller sampling period), s.
     plant : manipdyn.Arm, optional
-        The arm actually simulated, e.g. :func:`with_payload` (arm, ...).
+        The arm actually simulated, e.g. ``arm.with_payload(...)`` (:meth:`manipdyn.model.arm.Arm.with_payload`).
     q0, qd0 : (n,), optional
         Initial state; default the reference at t = 0 (zero initial error).
     max_position, max_velocity : float

@@ -11,7 +11,7 @@ import difflib
 import os
 import warnings
 
-from .._support.errors import ModelError, ModelNoteWarning, PhysicalConsistencyWarning, warn_notes
+from .._support.errors import ModelError, ModelNoteWarning, PhysicalConsistencyWarning, ToolFrameWarning, warn_notes
 from .modelfile import load_bundled, load_model_file, models
 from .urdf.reader import load_urdf
 
@@ -75,18 +75,23 @@ def did_you_mean(name: str, candidates) -> str:
 
 
 def _load_urdf_with_notes(source: str, tip, **kw):
-    """:func:`load_urdf`, its physical-consistency warnings kept as ``arm.notes`` and
-    warned once, at the user's call (not at a line inside manipdyn)."""
+    """:func:`load_urdf`, its physical-consistency warnings and the tool frame's note
+    (a default tip that passed over other leaf frames) kept as ``arm.notes`` and warned
+    once each kind, at the user's call (not at a line inside manipdyn)."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", PhysicalConsistencyWarning)
+        warnings.simplefilter("always", ToolFrameWarning)
         arm = load_urdf(source, tip=tip, **kw)
-    notes = []
+    notes, tool_notes = [], []
     for w in caught:
         if issubclass(w.category, PhysicalConsistencyWarning):
             notes.append(str(w.message))
+        elif issubclass(w.category, ToolFrameWarning):
+            tool_notes.append(str(w.message))
         else:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-    arm.notes = tuple(notes)
+    arm.notes = tuple(tool_notes + notes)
+    warn_notes(arm.name or "arm", tool_notes, ToolFrameWarning)
     warn_notes(arm.name or "arm", notes, PhysicalConsistencyWarning)
     return arm
 
@@ -95,9 +100,9 @@ def load_with_notes(x, tip: str | None = None, **kw):
     """:func:`load`, with the model's notes returned instead of warned.
 
     Returns ``(arm, notes)``: ``notes`` is ``list(arm.notes)``, one line per
-    physically impossible link inertia, link that moves no mass, or value in
-    a suspicious unit (the :class:`~manipdyn.ModelNoteWarning` warnings are
-    not shown; other warnings are).  This is how the CLI reports them.
+    physically impossible link inertia, link that moves no mass, value in
+    a suspicious unit, or URDF tool frame chosen where others were passed over
+    (the :class:`~manipdyn.ModelNoteWarning` warnings are not shown; other warnings are).  This is how the CLI reports them.
     """
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ModelNoteWarning)

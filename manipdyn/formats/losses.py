@@ -178,8 +178,12 @@ def format_losses(arm, target: str) -> list:
             diff = friction_difference(arm, held)
             joints, _tool = arm.chain()
             size = ", ".join(f"{j.name} {float(d):.3g}" for j, d in zip(joints, diff))
-            lines.append(f"friction law ({', '.join(law.terms)}; {law.side} side): {'; '.join(words)}. Largest "
-                         f"difference from the model's law over |qd| up to each joint's velocity limit (else "
+            what = ("Largest difference from the model's law" if target == "urdf" or held.coulomb is None
+                    or not np.any(held.coulomb) else "Largest difference of the held law's formula from the "
+                    "model's law (not MuJoCo's forward dynamics, where frictionloss is a soft constraint: not "
+                    "measured here; manipdyn mjcf measures them)")
+            lines.append(f"friction law ({', '.join(law.terms)}; {law.side} side): {'; '.join(words)}. {what} "
+                         f"over |qd| up to each joint's velocity limit (else "
                          f"{VELOCITY_RANGE['revolute']:g} rad/s, {VELOCITY_RANGE['prismatic']:g} m/s), N m or N: {size}")
         elif law.coulomb is not None and np.any(law.coulomb) and target == "mjcf":
             lines.append("Coulomb friction is held as frictionloss, a soft constraint in MuJoCo, "

@@ -214,6 +214,15 @@ class Arm(ArmCalls, ReachCalls):  # jacobian, inverse_dynamics, poses, ...: .arm
 
     def linearize(self, q, qd, tau, dt=None, engine="pinocchio"): return _SERVICES["linearize"](self, q, qd, tau, dt, engine)
 
+    def with_payload(self, mass: float, com=(0.0, 0.0, 0.0), inertia=None, name=None) -> "Arm":
+        """A new arm of the same kind carrying a payload rigidly attached at the tool.
+
+        ``mass`` kg (>= 0); ``com`` (3,) m, its centre of mass in the tool frame (the frame
+        :meth:`fkine` gives); ``inertia`` (3, 3) or (3,) kg m^2 about that centre of mass,
+        tool-frame axes (default 0, a point mass); ``name`` default ``"<arm>+<mass>kg"``.
+        Any arm, DH or URDF (:func:`manipdyn.model.variants.with_payload`)."""
+        return _SERVICES["with_payload"](self, mass, com, inertia, name)
+
     # -- kinematics ---------------------------------------------------------
     def link_poses(self, q) -> np.ndarray:
         """Link frames T_1..T_n in the base frame (eq. 2.7): (n, 4, 4) or (N, n, 4, 4)."""
@@ -223,7 +232,9 @@ class Arm(ArmCalls, ReachCalls):  # jacobian, inverse_dynamics, poses, ...: .arm
         """Pose of the tool frame in the base frame: ``T`` (4, 4) or (N, 4, 4), metres, with
         ``p_base = T @ [p_tool, 1]``.  The tool frame is DH frame n (``T_n`` of eq. 2.7; the
         ``tool`` link of the generated URDF) for a :class:`Manipulator`, and the tip link
-        (``arm.tip``) for a :class:`URDFArm`; :meth:`jacobian` is this frame's."""
+        (``arm.tip``) for a :class:`URDFArm` (loaded without ``tip=``: the last moving link, and
+        ``arm.notes`` names the fixed frames beyond it that were passed over, e.g. ``tool0``);
+        :meth:`jacobian` is this frame's."""
         return self.lagrange.fkine(q)
 
     def random_state(self, rng, size=None):

@@ -3,23 +3,28 @@
 Layer 1 (model): an arm changed into another arm.  Used as simulation plants (control,
 Monte-Carlo) and by payload identification.
 
-Both return a new :class:`manipdyn.Manipulator` (the original is immutable and
+Each returns a new arm of the kind it was given (the original is immutable and
 unchanged), built by combining pseudo-inertias (eq. 2.20: the pseudo-inertias
-of bodies described in one frame add) and ``dataclasses.replace`` on the DH
-links.
+of bodies described in one frame add) and ``dataclasses.replace`` on the links.
+:func:`with_payload` takes every kind of arm and is ``arm.with_payload``: on a URDF
+arm the payload becomes a link of its own, fixed to the tip, in the URDF text
+(which Pinocchio reads) and lumped into the last chain body (which the trace
+form reads), so the engines' agreement check holds the two to each other.
+:func:`with_scaled_inertia` needs a DH arm.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import re
 import warnings
 
 import numpy as np
 
 from .._support.errors import ModelError, PhysicalConsistencyWarning
 from .._support.limits import nonnegative
-from .arm import Manipulator
-from .inertia import LinkInertia
+from .arm import Manipulator, URDFArm, register_service
+from .inertia import LinkInertia, transform_pseudo_inertia
 
 __all__ = ["with_payload", "with_scaled_inertia"]
 
@@ -43,33 +48,101 @@ def _dh_arm(arm, fn: str) -> Manipulator:
     return arm
 
 
-def with_payload(arm, mass: float, com=(0.0, 0.0, 0.0), inertia=None, name=None) -> Manipulator:
-    """The arm carrying a payload rigidly attached to its last link.
+def with_payload(arm, mass: float, com=(0.0, 0.0, 0.0), inertia=None, name=None):
+    """The arm carrying a payload rigidly attached at its tool; ``arm.with_payload(...)``.
 
     Parameters
     ----------
-    arm : manipdyn.Manipulator
+    arm : manipdyn.Arm
+        A DH arm (:class:`~manipdyn.Manipulator`) or a URDF arm (:class:`~manipdyn.URDFArm`).
     mass : float
         Payload mass, kg (>= 0).
     com : (3,)
-        Payload centre of mass in the last link's DH frame n, m.
+        Payload centre of mass in the tool frame, the frame :meth:`~manipdyn.Arm.fkine`
+        gives (a DH arm's frame n; a URDF arm's tip link), m.
     inertia : (3, 3) or (3,), optional
-        Payload inertia tensor about its own centre of mass (tensor sign,
-        frame-n axes), kg m^2; default 0 (a point mass).
+        Payload inertia tensor about its own centre of mass (tensor sign, tool-frame
+        axes; three values are the diagonal), kg m^2; default 0 (a point mass).
     name : str, optional
         Default ``"<arm>+<mass>kg"``.
 
-    The last link's pseudo-inertia becomes ``J_n + J_payload`` (both in frame
-    n), converted back by :meth:`LinkInertia.from_pseudo_inertia`.
+    Returns
+    -------
+    manipdyn.Arm
+        A new arm of the same kind.  The last link's pseudo-inertia becomes ``J_n + J_payload``
+        (both in that link's frame), converted back by :meth:`LinkInertia.from_pseudo_inertia`;
+        a URDF arm's text gains the payload as a link fixed to the tip (named
+        ``<tip>_payload``), so the arm written to a file carries it too.
     """
-    arm = _dh_arm(arm, "with_payload")
+    if not isinstance(arm, (Manipulator, URDFArm)):
+        raise ModelError(f"with_payload: needs an arm (manipdyn.Manipulator or manipdyn.URDFArm), "
+                         f"got {type(arm).__name__}")
     mass = nonnegative(mass, "with_payload: mass", "kg")
     payload = LinkInertia(mass, com, np.zeros((3, 3)) if inertia is None else inertia, name="payload")
     payload.check_physical(strict=True, where="with_payload: payload")
+    name = name if name is not None else f"{arm.name or 'arm'}+{mass:g}kg"
+    if isinstance(arm, URDFArm):
+        return _urdf_with_payload(arm, payload, name)
     last = arm.links[-1]
     body = LinkInertia.from_pseudo_inertia(last.body.J + payload.J, name=last.name or "last link")
     links = arm.links[:-1] + (dataclasses.replace(last, mass=body.mass, com=body.com, inertia=body.inertia),)
-    return _rebuild(arm, links, name if name is not None else f"{arm.name or 'arm'}+{mass:g}kg")
+    return _rebuild(arm, links, name)
+
+
+def _outside_comments(text: str, needle: str) -> int:
+    """Index of the last ``needle`` in ``text`` outside XML comments, or -1."""
+    comments = [m.span() for m in re.finditer(r"<!--.*?-->", text, flags=re.S)]
+    at = len(text)
+    while True:
+        at = text.rfind(needle, 0, at)
+        if at < 0 or not any(a <= at < b for a, b in comments):
+            return at
+
+
+def _with_payload_link(text: str, link: str, joint: str, tip: str, payload: LinkInertia) -> str:
+    """``text`` with ``<link name=link>`` (the payload's inertial, about its COM in the tip
+    frame) fixed to ``tip`` by ``<joint name=joint>``, just before ``</robot>``."""
+    at = _outside_comments(text, "</robot>")
+    if at < 0:
+        raise ModelError("with_payload: the arm's URDF text has no closing </robot>")
+    I = [[float(x) for x in row] for row in payload.inertia]      # repr of a float: exact, and plain
+    c = [float(x) for x in payload.com]
+    block = (f'  <link name="{link}">\n    <inertial>\n      <origin xyz="{c[0]!r} {c[1]!r} {c[2]!r}" rpy="0 0 0"/>\n'
+             f'      <mass value="{float(payload.mass)!r}"/>\n'
+             f'      <inertia ixx="{I[0][0]!r}" ixy="{I[0][1]!r}" ixz="{I[0][2]!r}" iyy="{I[1][1]!r}" '
+             f'iyz="{I[1][2]!r}" izz="{I[2][2]!r}"/>\n    </inertial>\n  </link>\n'
+             f'  <joint name="{joint}" type="fixed">\n    <parent link="{tip}"/>\n    <child link="{link}"/>\n'
+             f'    <origin xyz="0 0 0" rpy="0 0 0"/>\n  </joint>\n')
+    return text[:at] + block + text[at:]
+
+
+def _urdf_with_payload(arm: URDFArm, payload: LinkInertia, name: str) -> URDFArm:
+    joints, tool = arm.chain()
+    taken = arm.urdf_text + arm.source_urdf
+    link = f"{arm.tip}_payload"
+    k = 1
+    while f'"{link}"' in taken or f'"{link}_joint"' in taken:
+        k += 1
+        link = f"{arm.tip}_payload{k}"
+    last = joints[-1]
+    body = LinkInertia.from_pseudo_inertia(last.body.J + transform_pseudo_inertia(payload.J, tool),
+                                           name=last.link_name or "last link")
+    joints = joints[:-1] + (dataclasses.replace(last, body=body),)
+    members = [list(m) for m in arm.lumped_links]
+    if members:
+        members[-1].append(link)
+    custom = arm.custom_drive                  # a drive given apart from the text goes along
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PhysicalConsistencyWarning)
+        out = URDFArm(name=name, gravity=arm.gravity, source=arm.source,
+                      urdf_text=_with_payload_link(arm.urdf_text, link, f"{link}_joint", arm.tip, payload),
+                      pin_text=_with_payload_link(arm.source_urdf, link, f"{link}_joint", arm.tip, payload),
+                      root=arm.root, tip=arm.tip, joints=joints, tool=tool, locked=arm.locked_joints,
+                      members=members, transmission=arm.transmission if custom else None,
+                      friction=arm.friction_model if custom else None,
+                      motor_inertia=arm.motor_inertia if custom else None)
+    out.notes = tuple(arm.notes)
+    return out
 
 
 def with_scaled_inertia(arm, factor, name=None) -> Manipulator:
@@ -91,3 +164,6 @@ def with_scaled_inertia(arm, factor, name=None) -> Manipulator:
                   for l, fi in zip(arm.links, f))
     default = f"{arm.name or 'arm'}x{f[0]:g}" if np.all(f == f[0]) else f"{arm.name or 'arm'}(scaled)"
     return _rebuild(arm, links, name if name is not None else default)
+
+
+register_service("with_payload", with_payload)     # arm.with_payload(...)

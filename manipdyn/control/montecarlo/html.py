@@ -33,21 +33,24 @@ def _label(key: str) -> str:
 
 
 def _verdict(report) -> tuple[str, str]:
-    """The sentence and its level (ok, warn, bad)."""
+    """The sentence and its level (ok, warn, bad).  Best and worst are named by the figure the
+    table shows, the p90 of the RMS error over the runs that did not diverge (the best among the
+    controllers that diverged least); divergences are named on their own."""
     s = report.study
     c = report.controllers
-    ranked = sorted((k for k in c if c[k]["rms_error"]["p90"] is not None),
-                    key=lambda k: (c[k]["diverged"], c[k]["rms_error"]["p90"]))
+    scored = [k for k in c if c[k]["rms_error"]["p90"] is not None]
     diverged = {k: c[k]["diverged"] for k in c if c[k]["diverged"]}
     saturated = {k: c[k]["saturated"] for k in c if c[k]["saturated"]}
-    if not ranked:
+    if not scored:
         return f"Every run of every controller diverged over the {s.runs} plants.", "bad"
-    best = ranked[0]
-    text = (f"Over {s.runs} plant{'s' * (s.runs != 1)}, {_label(best)} tracks best: 90 % of its runs stay under "
-            f"{H.number(c[best]['rms_error']['p90'], 3)} rad RMS error")
-    if len(ranked) > 1:
-        worst = ranked[-1]
-        text += f"; {_label(worst)} the worst ({H.number(c[worst]['rms_error']['p90'], 3)} rad)"
+    best = min(scored, key=lambda k: (c[k]["diverged"], c[k]["rms_error"]["p90"]))
+    text = (f"Over {s.runs} plant{'s' * (s.runs != 1)}, {_label(best)} tracks best: 90 % of its "
+            + ("runs" if not c[best]["diverged"] else "runs that did not diverge")
+            + f" stay under {H.number(c[best]['rms_error']['p90'], 3)} rad RMS error")
+    worst = max(scored, key=lambda k: c[k]["rms_error"]["p90"])
+    if worst != best:
+        text += (f"; {_label(worst)} has the largest p90 of the RMS error "
+                 f"({H.number(c[worst]['rms_error']['p90'], 3)} rad)")
     if diverged:
         text += ". Diverged: " + ", ".join(f"{_label(k)} in {v} of {s.runs} runs" for k, v in diverged.items())
     else:
@@ -136,24 +139,45 @@ def _causes(report) -> list:
     return notes
 
 
-def study_page(report, command: str | None = None, plants_file=None) -> str:
+def _scales_caption(fig, metrics) -> str:
+    """The horizontal scale of each panel of ``fig`` as drawn (log, or linear over a narrow range)."""
+    scales = [ax.get_xscale() for ax in fig.axes[:len(metrics)]]
+    names = [m.replace("_", " ") for m in metrics]
+    if len(set(scales)) == 1:
+        return f"{scales[0]} scale" if scales else "no panel"
+    return ", ".join(f"{nm}: {sc} scale" for nm, sc in zip(names, scales))
+
+
+def study_page(report, command: str | None = None, plants_file=None, notes=None) -> str:
     """The page (a str of HTML) of a :class:`~.report.StudyReport` (module docstring);
-    ``command``: the command line that ran it, shown as given (escaped)."""
+    ``command``: the command line that ran it, shown as given (escaped); ``notes``: the model's
+    notes (default: the study's arm's ``notes``), shown as the command prints them."""
     s = report.study
     text, level = _verdict(report)
     try:
         from .plot import draw_report
 
-        fig = H.figure(draw_report(report, title=False),
+        drawn = draw_report(report, title=False)
+        fig = H.figure(drawn,
                        alt=f"Empirical cumulative distributions of the per-run RMS error, max error and peak torque "
                            f"of {', '.join(_label(k) for k in s.controllers)} over {s.runs} runs",
-                       caption="Fraction of runs (vertical) at or under each value (horizontal, log scale), one "
+                       caption=f"Fraction of runs (vertical) at or under each value (horizontal, "
+                               f"{_scales_caption(drawn, report.metrics)}), one "
                                "curve per controller; diverged runs are left out and counted in the legend (a "
                                "controller whose every run diverged has no curve).")
     except ModelError:          # matplotlib missing: the page without its figure, saying why
         fig = "No figure: matplotlib is not installed (pip install -e '.[plot]')."
+    if notes is None:
+        notes = list(getattr(s.arm, "notes", ()) or ())
+    effect = report.effect()["text"]
+    verdict = [H.verdict(text, level)]
+    if effect:                  # why every controller may err by as much: the draws, not the controllers
+        verdict.append(H.paragraph(effect[0].upper() + effect[1:] + "."))
+    if notes:
+        verdict.append(H.paragraph("The model's notes:"))
+        verdict.append(H.bullets(list(notes)))
     parts = [H.section("What was run", H.facts(_done(report, command, plants_file))),
-             H.section("Verdict", H.verdict(text, level)),
+             H.section("Verdict", *verdict),
              H.section("Tracking error and torque per controller", _distribution(report),
                        H.bullets([f"{m.replace('_', ' ')}: {d} ({u})" for m, (d, u) in report.metrics.items()]), fig)]
     notes = _causes(report)
@@ -168,7 +192,7 @@ def study_page(report, command: str | None = None, plants_file=None) -> str:
                      else f"drawn from the identification {getattr(s.plants, 'source', '')}"), parts)
 
 
-def write_study_report(report, path, command: str | None = None, plants_file=None) -> str:
+def write_study_report(report, path, command: str | None = None, plants_file=None, notes=None) -> str:
     """Write :func:`study_page` to ``path`` atomically; returns the path."""
-    H.write_page(path, study_page(report, command=command, plants_file=plants_file))
+    H.write_page(path, study_page(report, command=command, plants_file=plants_file, notes=notes))
     return os.fspath(path)

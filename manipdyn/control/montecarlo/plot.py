@@ -47,12 +47,10 @@ def draw_report(report, title: bool = True):
         ax.set_xscale("log")
         plain_log_ticks(ax.xaxis)
         lo, hi = ax.get_xlim()
-        if 0 < lo and hi / lo < 3:       # under a factor 3 no power-of-ten tick falls inside: plain ticks
-            from matplotlib.ticker import MaxNLocator, NullLocator
-
-            ax.xaxis.set_major_locator(MaxNLocator(4))
-            ax.xaxis.set_minor_locator(NullLocator())
-        ax.set_xlabel(f"{m.replace('_', ' ')} ({unit})")
+        if 0 < lo and hi / lo < 3:       # under a factor 3 no power-of-ten tick falls inside: a linear axis
+            ax.set_xscale("linear")
+            ax.set_xlim(lo, hi)
+        ax.set_xlabel(f"{m.replace('_', ' ')} ({unit}, {ax.get_xscale()} scale)")
         ax.set_ylabel("fraction of runs")
         ax.set_title(desc, fontsize=9)
         ax.set_ylim(0, 1.02)

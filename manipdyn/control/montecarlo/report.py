@@ -95,15 +95,16 @@ class StudyReport:
         s = self.study
         return effect_on_arm(s.distributions, s.arm, s.bandwidth)
 
-    def report_html(self, path, command: str | None = None, plants_file=None) -> str:
+    def report_html(self, path, command: str | None = None, plants_file=None, notes=None) -> str:
         """Write the study as one self-contained HTML page to ``path`` (atomically; what
         ``manipdyn montecarlo --report`` writes, :mod:`manipdyn.control.montecarlo.html`): what was run, the verdict, the
         distributions per controller, divergences and causes, the worst runs, the CDF figure.
         ``command``: the command line to show; ``plants_file``: the identification the plants
-        were drawn from (its sha256 is shown).  Returns the path."""
+        were drawn from (its sha256 is shown); ``notes``: the model's notes (default: the arm's own).
+        Returns the path."""
         from .html import write_study_report
 
-        return write_study_report(self, path, command=command, plants_file=plants_file)
+        return write_study_report(self, path, command=command, plants_file=plants_file, notes=notes)
 
     def to_dict(self) -> dict:
         s = self.study

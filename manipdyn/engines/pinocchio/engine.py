@@ -36,7 +36,7 @@ from .agree import check_same_arm
 from .fast import UncheckedView, install_fast_path
 from .derivatives import OneStateFriction, PinocchioDerivatives, install_derivative_shortcuts
 from .jacobian import PinocchioJacobian
-from ...formats.urdf.writer import TOOL_LINK, arm_to_urdf
+from ...formats.urdf.writer import arm_to_urdf, tool_link
 
 _isfinite = math.isfinite
 _clock = time.perf_counter
@@ -156,7 +156,7 @@ def model_for_arm(arm) -> "pin.Model":
 
 def pinocchio_engine(arm) -> "PinocchioEngine":
     """The Pinocchio engine of ``arm`` (the factory behind ``arm.pinocchio``)."""
-    tool = arm.tool_frame if arm.source_urdf is not None else TOOL_LINK
+    tool = arm.tool_frame if arm.source_urdf is not None else tool_link(arm)
     coupling = None
     if not arm.transmission.is_diagonal:
         coupling = arm.rotor_inertia - np.diag(np.diag(arm.rotor_inertia))

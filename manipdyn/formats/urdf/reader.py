@@ -55,10 +55,10 @@ import numpy as np
 
 from ..._support import limits
 from ...model.arm import DEFAULT_QLIM, URDFArm
-from ..._support.errors import ModelError, PhysicalConsistencyWarning
+from ..._support.errors import ModelError, PhysicalConsistencyWarning, ToolFrameWarning
 from ...model.inertia import LinkInertia, transform_pseudo_inertia
 from ...model.links import ChainJoint
-from .tree import URDFTree, default_tip, some_names, unknown_tip
+from .tree import URDFTree, default_tip, some_names, tool_frame_note, unknown_tip
 from .xml import decode, parse_xml, read_source
 from ..trust import trust_from_urdf
 
@@ -279,7 +279,11 @@ def load_urdf(source, tip=None, *, name=None, gravity=(0.0, 0.0, -9.81), strict=
     text = decode(data, label)
     root_el = parse_xml(text, label)
     tree = URDFTree(root_el, label)
+    chosen = tip is None
     tip, joints, tool, locked, members = build_chain(tree, tip, strict)
+    note = tool_frame_note(tree, tip) if chosen else None
+    if note is not None:
+        warnings.warn(note, ToolFrameWarning, stacklevel=2)
     if path is None and tree.robot_name:
         label = f"URDF text (robot '{tree.robot_name}')"
     pin_text = pinocchio_text(root_el, text)

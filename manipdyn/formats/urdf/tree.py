@@ -260,3 +260,36 @@ def default_tip(tree: URDFTree) -> str:
     while len(tree.children[tip]) == 1 and tree.children[tip][0].type == "fixed":
         tip = tree.children[tip][0].child
     return tip
+
+
+def passed_over_frames(tree: URDFTree, tip: str) -> list[tuple[str, np.ndarray]]:
+    """The leaf links hanging from ``tip`` through fixed joints only, with the fixed
+    transform (4, 4) from ``tip`` to each: the tool frames a default tip passed over."""
+    out = []
+    stack = [(tip, np.eye(4))]
+    while stack:
+        link, T = stack.pop()
+        kids = tree.children[link]
+        if not kids and link != tip:
+            out.append((link, T))
+        for j in kids:
+            if j.type == "fixed":
+                stack.append((j.child, T @ j.origin))
+    return sorted(out, key=lambda x: x[0])
+
+
+def tool_frame_note(tree: URDFTree, tip: str) -> str | None:
+    """A one-line note when the default ``tip`` is not the only tool frame the URDF offers:
+    the leaf frames beyond it at another pose (distance in m, rotation in degrees), or None."""
+    others = []
+    for name, T in passed_over_frames(tree, tip):
+        dist = float(np.linalg.norm(T[:3, 3]))
+        angle = float(np.degrees(np.arccos(np.clip((np.trace(T[:3, :3]) - 1) / 2, -1.0, 1.0))))
+        if dist > 1e-9 or angle > 1e-7:        # a frame at the tip's own pose is the same tool
+            others.append(f"'{name}' ({dist:.4g} m, {angle:.3g} deg away)")
+    if not others:
+        return None
+    return (f"{tree.label}: the tool frame is link '{tip}', the last moving link (no tip= given); "
+            f"the URDF's leaf frames beyond it were passed over: {', '.join(others)}; fkine, "
+            f"jacobian(frame='tool') and inverse_kinematics use '{tip}': pass tip='<link>' "
+            "(--tip on the command line) to make one of them the tool")

@@ -359,7 +359,9 @@ def excitation(arm, duration: float = 10.0, harmonics: int = 5, rate: float = 10
     arm : manipdyn.Arm
         Kinematics and joint limits (``arm.qlim``).
     duration : float
-        Period and length of the trajectory, s.
+        The series' period, s: one period is optimised and sampled; with the ramps
+        (``ramp``) the samples cover ``ramp + duration + ramp`` seconds
+        (:attr:`Excitation.duration`).
     harmonics : int
         K, harmonics per joint.
     rate : float

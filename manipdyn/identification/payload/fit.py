@@ -157,28 +157,27 @@ class PayloadResult:
         return self.arm.inverse_dynamics(q, qd, qdd) + Y @ (payload_parameter_map(self.frame) @ self.parameters)
 
     def arm_with_payload(self, name: str | None = None):
-        """The arm carrying the identified payload (a new :class:`manipdyn.Manipulator`).
+        """The arm carrying the identified payload (a new arm of the same kind, DH or URDF).
 
-        On the last link this is :func:`manipdyn.control.with_payload` with
-        the payload expressed in DH frame n; on another link, the link's
-        parameters plus the payload's (:func:`.model.arm_with_parameters`).
-        Needs a DH arm (a URDF arm raises :class:`ModelError`).
+        On the last link this is ``arm.with_payload`` (:func:`manipdyn.model.variants.with_payload`)
+        with the payload expressed in the tool frame; on another link, the link's parameters plus
+        the payload's (:func:`.model.arm_with_parameters`).
         """
-        from ...model.arm import Manipulator
+        from ...model.arm import Manipulator, URDFArm
         from ...model.kinematics import transform_inverse
         from ...model.parameters import arm_parameters
 
         arm = self.arm
-        if not isinstance(arm, Manipulator):
-            raise ModelError(f"arm_with_payload: needs a DH arm (manipdyn.Manipulator), got "
-                             f"{type(arm).__name__} {arm.name!r}")
+        if not isinstance(arm, (Manipulator, URDFArm)):
+            raise ModelError(f"arm_with_payload: needs an arm (manipdyn.Manipulator or manipdyn.URDFArm), got "
+                             f"{type(arm).__name__}")
         J_link = transform_pseudo_inertia(self.J, self.frame)        # URDF link frame L_k
         name = name if name is not None else f"{arm.name or 'arm'}+payload"
         if self.link == arm.n - 1:
             from ...model.variants import with_payload
 
-            S = arm.urdf_link_offsets()[-1]                            # DH frame n = L_n S_n
-            m, c, I = tensor_from_pseudo_inertia(transform_pseudo_inertia(J_link, transform_inverse(S)),
+            _, tool = arm.chain()                                      # tool frame = L_n tool (DH: frame n)
+            m, c, I = tensor_from_pseudo_inertia(transform_pseudo_inertia(J_link, transform_inverse(tool)),
                                                  name="payload")
             return with_payload(arm, m, c, I, name=name)
         from ..estimation.model import arm_with_parameters

@@ -37,7 +37,7 @@ def model_labels(results) -> list[str]:
 
 def format_side_by_side(results, unit: str = "N m", units=None) -> str:
     """One table: RMS per joint (rows) and model (columns), the best per joint marked ``*``; then each
-    model's band coverage and extrapolation lines.  ``units`` per joint (N m, N for a prismatic
+    model's band coverage (with its ``BAND MISSES`` lines) and extrapolation lines.  ``units`` per joint (N m, N for a prismatic
     joint), else ``unit`` for every joint; mixed units are printed at the end of each row."""
     best = best_per_joint(results)
     labels = model_labels(results)
@@ -58,6 +58,7 @@ def format_side_by_side(results, unit: str = "N m", units=None) -> str:
             extra.append(f"  95 % band ({r.band_method}) holds: " + ", ".join(
                 f"j{j + 1} {100 * c:.1f} %" for j, c in enumerate(r.coverage))
                 + f"; pooled {100 * r.pooled_coverage:.1f} %")
+            extra += r.band_miss_lines(indent="  ")
         if r.extrapolation is not None:
             extra.append("  " + r.extrapolation.summary())
         extra += [f"  note: {x}" for x in r.notes]

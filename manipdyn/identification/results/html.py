@@ -22,6 +22,8 @@ import numpy as np
 
 from ..._support import html as H
 from ..._support.errors import ModelError
+from ..uncertainty.coverage import FLAG_FRACTION, FLAG_MARGIN
+from .validation import MISS_COVERAGE, percent_under
 
 __all__ = ["identify_page", "validation_page", "beyond_mask", "torque_figure"]
 
@@ -156,7 +158,8 @@ def _units(n, units):
 
 
 def _joint_rows(r, d: dict, units):
-    """Rows of one model's per-joint table, and the flagged rows (extrapolates or band misses)."""
+    """Rows of one model's per-joint table, and the flagged rows (extrapolates or band misses);
+    each flag's reason is in the row's last cell (by range, by leverage, the band's coverage)."""
     n = len(r.rms)
     ex = d.get("extrapolation") or [None] * n
     cov = d.get("band_95_coverage")
@@ -168,21 +171,45 @@ def _joint_rows(r, d: dict, units):
         e = ex[j] if j < len(ex) else None
         row = [f"joint {j + 1}", d["rms"][j], d["relative_rms"][j], d["r2"][j], d["mean_error"][j],
                None if mean_hw is None else mean_hw[j], None if cov is None else cov[j],
-               None if e is None else e["outside_fraction"], None if e is None else e["far_outside_fraction"]]
-        flags = []
+               None if e is None else e["outside_fraction"], None if e is None else e["far_outside_fraction"],
+               None if e is None else e.get("beyond_fit_fraction")]
+        flags, why = [], []
         if e is not None and e.get("extrapolates"):
             flags.append("EXTRAPOLATES")
+            why += _extrapolation_reasons(e)
         if (j + 1) in missed:
             flags.append("BAND MISSES")
+            why.append(f"band misses: the 95 % band holds {percent_under(cov[j], MISS_COVERAGE)} % of the "
+                       f"samples (under {100 * MISS_COVERAGE:g} %)" if cov is not None
+                       else f"band misses: the band holds under {100 * MISS_COVERAGE:g} % of the samples")
         row.append(", ".join(flags) or "-")
+        row.append("; ".join(why) or "-")
         if flags:
             flagged.add(j)
         rows.append(row)
     return rows, flagged
 
 
+def _extrapolation_reasons(e: dict) -> list[str]:
+    """Why a joint EXTRAPOLATES, from its ``to_list`` object: by its own range, by leverage, or both."""
+    why = []
+    if e.get("range_extrapolates"):
+        why.append(f"by range: {100 * e['far_outside_fraction']:.1f} % of the samples beyond the fitted q, qd "
+                   f"or tau by over {100 * FLAG_MARGIN:g} % of its width (over {100 * FLAG_FRACTION:g} % flags)")
+    if e.get("leverage_extrapolates"):
+        lev = e.get("leverage_ratio") or {}
+        why.append(f"by leverage: {100 * (e.get('beyond_fit_fraction') or 0.0):.1f} % of the samples beyond every "
+                   "fitted sample by the leverage of the joint's regressor row (the other joints' states its "
+                   "torque depends on)" + (f", up to {lev['max']:.3g} times the fit's mean" if "max" in lev else "")
+                   + f" (over {100 * FLAG_FRACTION:g} % flags)")
+    if not why:                                     # a flag whose kind this page does not know yet
+        why.append("extrapolates (see the text report)")
+    return why
+
+
 _JOINT_HEADERS = ["joint", "RMS error", "RMS / measured RMS", "R^2", "mean error", "band half-width (mean)",
-                  "band coverage", "outside fitted range", "far outside", "flags"]
+                  "band coverage", "outside fitted range", "far outside", "beyond the fit by leverage", "flags",
+                  "why flagged"]
 
 
 def _joints_table(r, name: str, units, caption: str):
@@ -263,8 +290,9 @@ def validation_page(v, command: str | None = None, options: dict | None = None, 
             caption="RMS error per joint and model on the same samples; the best per joint in bold")))
     parts.append(H.section("Per joint", *joint_parts, unit_note,
                            "Highlighted rows: the joint extrapolates (more than 5 % of its samples beyond the "
-                           "fitted states by over 10 % of their width) or its band holds under 80 % of the "
-                           "samples." if any_flag else "No joint is flagged."))
+                           "fitted states by over 10 % of their width, or beyond every fitted sample by the "
+                           "leverage of its regressor row) or its band holds under 80 % of the samples; the "
+                           "last column says which, with its figure." if any_flag else "No joint is flagged."))
     per_run = v.per_run()
     if len(per_run) > 1:
         labels = [r.model for r in rs]

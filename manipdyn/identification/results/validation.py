@@ -44,6 +44,17 @@ MISS_COVERAGE = 0.8
 COVARIANCE_BAND = "parameter covariance and white noise only: no model error, too narrow on real data"
 
 
+def percent_under(fraction: float, limit: float) -> str:
+    """``100 * fraction`` as text with the fewest decimals (0 to 6) that keep it below ``100 * limit``
+    when ``fraction < limit``: 0.798 under 0.8 is ``"79.8"``, never ``"80"``."""
+    x, cap = 100 * float(fraction), 100 * float(limit)
+    for d in range(7):
+        text = f"{x:.{d}f}"
+        if not (fraction < limit) or float(text) < cap:
+            return text
+    return f"{x:.6g}"
+
+
 @dataclass
 class ValidationResult:
     """Per-joint scores of :func:`validate` (module docstring), arrays of shape (n,).
@@ -75,6 +86,15 @@ class ValidationResult:
     def pooled_coverage(self) -> float | None:
         """The band's coverage over all joints' samples together."""
         return None if self.coverage is None else float(np.mean(self.coverage))
+
+    def band_miss_lines(self, indent: str = "") -> list[str]:
+        """One ``BAND MISSES joint j`` line per joint whose band holds under :data:`MISS_COVERAGE`
+        (the coverage printed with as many decimals as it takes to stay under it: 79.8 %, not 80 %)."""
+        if self.coverage is None:
+            return []
+        return [f"{indent}BAND MISSES joint {j + 1}: the 95 % band holds "
+                f"{percent_under(self.coverage[j], MISS_COVERAGE)} % of these samples (under {100 * MISS_COVERAGE:g} %): this joint's error here is beyond what the "
+                "fit data showed; do not trust its band" for j in np.flatnonzero(self.band_missed)]
 
     def to_dict(self) -> dict:
         """JSON-ready figures (NaN, e.g. R^2 of a joint with constant torque, becomes None).
@@ -130,10 +150,7 @@ class ValidationResult:
             lines.append(f"95 % prediction band ({self.band_method}) holds the measured torque: "
                          + ", ".join(f"j{j + 1} {100 * c:.1f} %" for j, c in enumerate(self.coverage))
                          + f"; pooled {100 * self.pooled_coverage:.1f} %")
-            for j in np.flatnonzero(self.band_missed):
-                lines.append(f"BAND MISSES joint {j + 1}: the 95 % band holds {100 * self.coverage[j]:.0f} % of these "
-                             f"samples (under {100 * MISS_COVERAGE:g} %): this joint's error here is beyond what the "
-                             "fit data showed; do not trust its band")
+            lines += self.band_miss_lines()
         if self.extrapolation is not None:
             lines.append(self.extrapolation.format(units=units))
         lines += [f"note: {x}" for x in self.notes]
