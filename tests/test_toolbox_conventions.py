@@ -40,8 +40,20 @@ def _toolbox_convention(arm, changes):
         return md.Manipulator(links, convention=arm.convention, name=f"{arm.name}_rtb", gravity=arm.gravity)
 
 
+@pytest.fixture(scope="module")
+def listing():
+    """What ``manipdyn models`` prints, once."""
+    import contextlib
+    import io
+
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(io.StringIO()):
+        assert main(["models"]) == 0
+    return out.getvalue().splitlines()
+
+
 @pytest.mark.parametrize("name", ["puma560", "stanford", "ur5"])
-def test_each_arm_says_where_the_toolbox_differs(name, capsys):
+def test_each_arm_says_where_the_toolbox_differs(name, listing):
     note = _load(name).sources.get("toolbox", "")
     assert note.startswith("Not the Robotics Toolbox for Python's"), name
     assert "For the Toolbox's" in note                          # how to get its convention
@@ -50,19 +62,16 @@ def test_each_arm_says_where_the_toolbox_differs(name, capsys):
             assert f"{param}{k} = {value:g}" in note, (name, param, k)
     if name == "ur5":
         assert "d1 = 0.089459" in note and "0.1897" in note
-    assert main(["models"]) == 0
-    lines = capsys.readouterr().out.splitlines()
+    lines = listing
     k = next(i for i, l in enumerate(lines) if l.split()[0] == name)
     assert lines[k + 1].strip() == note.split(" For the Toolbox")[0].rstrip(".") + \
         " (sources.toolbox says how to get its convention)", lines[k:k + 2]
 
 
-def test_an_arm_that_is_its_toolbox_model_says_nothing(capsys):
+def test_an_arm_that_is_its_toolbox_model_says_nothing(listing):
     for name in ("panda", "ur10", "puma560_akb"):
         assert "toolbox" not in _load(name).sources
-    assert main(["models"]) == 0
-    lines = capsys.readouterr().out.splitlines()
-    assert sum(1 for l in lines if l.strip().startswith("Not the Robotics Toolbox")) == 3
+    assert sum(1 for l in listing if l.strip().startswith("Not the Robotics Toolbox")) == 3
 
 
 def test_the_recipe_moves_the_puma_tool_and_keeps_its_dynamics():
