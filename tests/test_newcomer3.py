@@ -174,17 +174,22 @@ def test_issue38_item8_the_guides_panda_figures_are_the_commands(panda_identifie
     assert float(m.group(1)) == pytest.approx(mass, abs=0.005), f"identified mass {mass:.4g} kg"
     assert float(m.group(2)) == pytest.approx(prior, abs=0.005)
     assert float(m.group(3)) == pytest.approx(100 * (mass / prior - 1), abs=0.05), "the mass change in %"
-    # link 6: its smallest radius of gyration as identify's notes give it, and whether they flag it
+    # link 6: its smallest radius of gyration in the written model (sqrt of the smallest principal
+    # second moment about the COM over the mass, as the fit's doubts measure it), whether it sits at
+    # the plausibility floor and whether identify's notes flag it as degenerate
     m = re.search(r"Link 6 weighs ([\d.]+) kg with a smallest radius\s+of gyration of ([\d.]+) mm, (at its floor, )?"
                   r"and is (flagged|not flagged)", page)
     assert m, "identification.md's sentence on link 6"
-    note = re.search(r"^note: link 6 \(\w+\): degenerate inertia[^\n]*?smallest radius of gyration ([\d.e-]+) m "
-                     r"for ([\d.]+) kg", panda_identified["text"], flags=re.M)
-    floor = re.search(r"^\s+link 6 radius of gyration at its floor ([\d.e-]+) m", panda_identified["text"], flags=re.M)
-    assert (m.group(4) == "flagged") == (note is not None), "identify's notes on link 6"
-    radius = float(note.group(1)) if note else float(floor.group(1))
+    body = _load(str(panda_identified["model"])).links[5]
+    inertia = np.asarray(body.inertia, dtype=float)
+    second = 0.5 * np.trace(inertia) - np.linalg.eigvalsh(inertia)
+    radius = float(np.sqrt(max(second.min(), 0.0) / body.mass))
     assert float(m.group(2)) == pytest.approx(1e3 * radius, abs=0.005), f"link 6's radius {1e3 * radius:.3g} mm"
-    assert (m.group(3) is not None) == (floor is not None), "whether link 6 is at its floor"
+    out = panda_identified["text"]
+    flagged = re.search(r"^note: link 6 \(\w+\): degenerate", out, flags=re.M) is not None
+    assert (m.group(4) == "flagged") == flagged, "identify's notes on link 6"
+    floor = re.search(r"^\s+link 6 radius of gyration at its floor", out, flags=re.M) is not None
+    assert (m.group(3) is not None) == floor, "whether link 6 is at its floor"
     link6 = _load(str(panda_identified["model"])).links[5].mass
     assert float(m.group(1)) == pytest.approx(link6, abs=0.05)
 
