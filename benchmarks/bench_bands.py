@@ -29,10 +29,11 @@ from pathlib import Path
 import numpy as np
 
 import manipdyn as md
+from benchmarks.realdata import panda_log
 from manipdyn.identification import excitation, fit, read_log
 from manipdyn.identification.uncertainty.bands import calibrate_band
 
-DATA = Path(__file__).resolve().parents[1].parent / "shared" / "realdata" / "panda_gaz2019" / "panda_as_logged.csv"
+DATA = panda_log()       # ../shared/realdata/panda_gaz2019/panda_as_logged.csv, or under $MANIPDYN_REALDATA
 SIGMA = np.array([0.06, 0.5, 0.15, 0.02, 0.004, 0.001])    # N m per joint, as tests/test_bands.py
 
 

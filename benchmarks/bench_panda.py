@@ -42,10 +42,11 @@ import numpy as np
 
 from benchmarks.report import format_pools
 import manipdyn as md
+from benchmarks.realdata import panda_log
 from benchmarks.bench_identification import environment
 from benchmarks.timing import publish
 
-DATA = Path(__file__).resolve().parents[1].parent / "shared" / "realdata" / "panda_gaz2019" / "panda_as_logged.csv"
+DATA = panda_log()       # ../shared/realdata/panda_gaz2019/panda_as_logged.csv, or under $MANIPDYN_REALDATA
 #: Gaz et al. (2019)'s sigmoid friction, the realdata README's table
 SIGMOID = dict(sigmoid_A=[0.54615, 0.87224, 0.64068, 1.2794, 0.83904, 0.30301, 0.56489],
                sigmoid_alpha=[5.1181, 9.0657, 10.136, 5.5903, 8.3469, 17.133, 10.336],
@@ -158,7 +159,7 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="python -m benchmarks.bench_panda", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--data", default=str(DATA), help="panda_as_logged.csv (default: beside the project, in "
-                                                     "shared/realdata/panda_gaz2019)")
+                                                     "shared/realdata/panda_gaz2019, or under $MANIPDYN_REALDATA)")
     p.add_argument("--out", default=None, metavar="DIR", help="folder of results.json")
     p.add_argument("--no-write", action="store_true", help="print only")
     args = p.parse_args(argv)

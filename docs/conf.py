@@ -1,4 +1,4 @@
-"""Sphinx configuration of manipdyn's API reference (``docs/``).
+"""Sphinx configuration of manipdyn's user guide (``docs/guide/``, MyST Markdown) and API reference (``docs/``).
 
 Build: ``python -m sphinx -n -W -b html docs docs/_build/html`` (nitpicky, warnings are errors:
 a docstring that names a module, class or function that is not there fails the build, and
@@ -19,7 +19,10 @@ author = "the manipdyn developers"
 copyright = "2026, the manipdyn developers"
 release = version = manipdyn.__version__
 
-extensions = ["sphinx.ext.autodoc"]
+# the user guide (docs/guide/*.md) is MyST Markdown, readable on its own and built with the reference
+extensions = ["sphinx.ext.autodoc", "myst_parser"]
+source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
+myst_heading_anchors = 3          # [text](page.md#a-heading) links, checked by the nitpicky build
 nitpicky = True
 # the docstrings are NumPy style; types are read as text (they are descriptions such as
 # "(N, n) array, N m"), and the signatures' annotations are left out: the references that
@@ -60,6 +63,33 @@ def _clashes(name, names):
             and getattr(mod, m.rsplit(".", 1)[-1]).__module__ == name]
 
 
+#: classes documented with their inherited methods: every arm's ``mass_matrix``, ``inverse_dynamics``,
+#: ``jacobian``, ``inverse_kinematics``, ... (from the mixins ArmCalls and ReachCalls) as ``Arm.NAME``
+INHERITED = {"manipdyn.model.arm": ("Arm",)}
+
+
+def _public_names() -> str:
+    """The package page's second half: every name of ``manipdyn.__all__`` where ``import manipdyn as md``
+    gives it: a function with an entry of its own (``md.identify``), a class by its docstring (its
+    members, and its index entry, on its module's page)."""
+    import inspect
+
+    title = "Public names: ``import manipdyn as md``"
+    text = (f"\n{title}\n{'-' * len(title)}\n\nWhat ``md.NAME`` gives; each is also described on the page of "
+            "the module that defines it.\n")
+    for public in manipdyn.__all__:
+        obj = getattr(manipdyn, public)
+        if getattr(obj, "__module__", None) == "manipdyn":
+            continue                                      # defined here: automodule above has it
+        if inspect.isclass(obj):        # indexed once, on its module's page (a type named in a
+            text += f"\n.. autoclass:: manipdyn.{public}\n   :no-members:\n   :no-index:\n"   # docstring stays one target)
+        elif callable(obj):
+            text += f"\n.. autofunction:: manipdyn.{public}\n"
+        else:
+            text += f"\n.. autodata:: manipdyn.{public}\n   :annotation:\n"
+    return text
+
+
 def _write_api_pages(app):
     api = Path(app.srcdir) / "api"
     api.mkdir(exist_ok=True)
@@ -67,11 +97,15 @@ def _write_api_pages(app):
     for name in names:
         # each object on its own module's page (a package's re-exports are not described twice)
         text = f"{name}\n{'=' * len(name)}\n\n.. automodule:: {name}\n   :members:\n   :ignore-module-all:\n"
+        for cls in INHERITED.get(name, ()):   # a class whose mixins' methods are its users' calls
+            text += f"   :exclude-members: {cls}\n\n.. autoclass:: {name}.{cls}\n   :members:\n   :inherited-members:\n"
         clash = _clashes(name, names)
         if clash:       # a package's function named like one of its modules (montecarlo.study): one
             text += f"   :exclude-members: {', '.join(clash)}\n"      # index entry, the module's
             for member in clash:
                 text += f"\n.. autofunction:: {name}.{member}\n   :no-index:\n"
+        if name == "manipdyn":
+            text += _public_names()
         page = api / f"{name}.rst"
         if not page.is_file() or page.read_text() != text:
             page.write_text(text)
@@ -159,12 +193,20 @@ def _unique_suffix(app, env, node, contnode):
     if canonical in domain.objects:
         target = canonical
     hits = [full for full in domain.objects if full == target or full.endswith("." + target)]
+    # the package page describes md.NAME again: entries that are one object count once (its own
+    # module's entry is the one linked)
+    same = {_canonical(h) or h for h in hits}
+    if len(same) == 1 and len(hits) > 1 and next(iter(same)) in domain.objects:
+        hits = [next(iter(same))]
     owners = {domain.objects[h].node_id for h in hits}
     if len(owners) != 1:
         # not (uniquely) documented: fine if the name imports from where it is written (a private
         # helper, a name imported into that module; shown unlinked), else the warning stands
         where = [node.get("py:module"), node.get("py:class")]
         scopes = [".".join(x for x in where if x), where[0] or ""]
+        home = _canonical(scopes[0]) if scopes[0] else None    # md.Transmission's docstring, shown on
+        if home:                                               # the package page: its own module's names
+            scopes += [home, home.rsplit(".", 1)[0]]
         if any(_canonical(f"{scope}.{target}" if scope else target) for scope in scopes):
             return contnode
         return None

@@ -1,8 +1,9 @@
 """Helpers the test files share: the real Panda log's place and its skip, and a refused command's line.
 
 The real-data logs live beside the project in ``../shared/realdata`` (measured by others, with their
-sources in that folder's README); the tests read them there and never copy them in.  Where the folder
-is absent, the tests that need it skip, saying so.
+sources in that folder's README), or wherever ``$MANIPDYN_REALDATA`` points (``benchmarks/realdata.py``);
+the tests read them there and never copy them in.  Where the folder is absent, the tests that need it
+skip, saying so.
 """
 
 from __future__ import annotations
@@ -11,12 +12,16 @@ from pathlib import Path
 
 import pytest
 
+from benchmarks.realdata import ENV, panda_log, realdata_dir
+
 ROOT = Path(__file__).resolve().parents[1]
-#: the real Panda log (Gaz et al. 2019), as logged: ``../shared/realdata/panda_gaz2019/panda_as_logged.csv``
-PANDA_LOG = ROOT.parent / "shared" / "realdata" / "panda_gaz2019" / "panda_as_logged.csv"
+#: the real-data folder: ``$MANIPDYN_REALDATA`` when set, else ``../shared/realdata``
+REALDATA = realdata_dir()
+#: the real Panda log (Gaz et al. 2019), as logged: ``<REALDATA>/panda_gaz2019/panda_as_logged.csv``
+PANDA_LOG = panda_log()
 #: why a test that needs it skips
-PANDA_SKIP = ("the real-data folder is absent (panda_as_logged.csv not found beside the project in "
-              "shared/realdata/panda_gaz2019)")
+PANDA_SKIP = (f"the real-data folder is absent (panda_as_logged.csv not found in {PANDA_LOG.parent}; "
+              f"set {ENV} to the folder that holds panda_gaz2019/)")
 #: mark a test (or ``pytestmark`` a module) that reads the real Panda log
 needs_panda_log = pytest.mark.skipif(not PANDA_LOG.is_file(), reason=PANDA_SKIP)
 

@@ -251,9 +251,9 @@ def test_the_readme_says_which_model_to_trust():
     in tests/test_bands_realdata.py)."""
     from pathlib import Path
 
-    text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
-    start = text.index("### Which model should I trust on my robot?")
-    section = text[start:text.index("\n## ", start)]
+    import guide
+
+    section = guide.page("validation")          # the guide's page "Which model to trust" (issue 38 item 15)
     assert "--friction-terms viscous,coulomb,offset --friction-side motor --armature" in section
     assert "manipdyn validate panda_id.toml $LOG --t-range 10:21" in section
     assert "EXTRAPOLATES joint 2" in section

@@ -1,5 +1,8 @@
 """Issue 31 item 20: the API reference builds from the docstrings, nitpicky, warnings as errors.
 
+Issue 38 item 15: the user guide (``docs/guide/``, MyST Markdown) is built with it, and the package
+page documents the public names where ``import manipdyn as md`` gives them.
+
 ``docs/conf.py`` writes a page for every module it finds in the package, so a module that
 moves or is added is documented (and checked) without editing ``docs/``; a docstring that
 names a module, class or function that is not there (``:mod:`manipdyn.lagrange``` after
@@ -35,6 +38,29 @@ def test_api_reference_builds_nitpicky_with_warnings_as_errors(tmp_path):
         assert must in pages, must
     html = (tmp_path / "html" / "api" / "manipdyn.engines.c.graph.html").read_text(encoding="utf-8")
     assert "manipdyn.engines.lagrange" in html and "manipdyn.model.parameters" in html
+    # issue 38 item 15: the user guide is built with it, every page of its toctree
+    import guide
+
+    for name in guide.toc():
+        assert (tmp_path / "html" / "guide" / f"{name}.html").is_file(), name
+    # the public names where `import manipdyn as md` gives them: a function has its entry as md.NAME
+    # (md.identify, not only manipdyn.identification.pipeline.identify), a class its description
+    import inspect
+
+    import manipdyn
+
+    package = (tmp_path / "html" / "api" / "manipdyn.html").read_text(encoding="utf-8")
+    for name in manipdyn.__all__:
+        obj = getattr(manipdyn, name)
+        if inspect.isfunction(obj):
+            assert f'id="manipdyn.{name}"' in package, f"md.{name} has no entry on the package page"
+        else:
+            assert f"manipdyn.</span></span><span class=\"sig-name descname\"><span class=\"pre\">{name}<" in package, name
+    # every arm's calls have entries of their own on Arm (inherited from its mixins included)
+    arm = (tmp_path / "html" / "api" / "manipdyn.model.arm.html").read_text(encoding="utf-8")
+    for method in ("mass_matrix", "coriolis_torque", "gravity_torque", "inverse_dynamics", "forward_dynamics",
+                   "jacobian", "inverse_kinematics", "kinetic_energy", "potential_energy", "regressor"):
+        assert f'id="manipdyn.model.arm.Arm.{method}"' in arm, method
 
 
 def test_docs_name_no_moved_module():

@@ -20,8 +20,9 @@ from manipdyn.identification.results.doubts import GYRATION_FRACTION, arm_size, 
 
 from test_bands import _log
 
-PANDA_LOG = str(Path(__file__).resolve().parents[1].parent / "shared" / "realdata" / "panda_gaz2019"
-                / "panda_as_logged.csv")
+from common import PANDA_LOG as _PANDA_LOG, PANDA_SKIP  # noqa: E402
+
+PANDA_LOG = str(_PANDA_LOG)
 
 
 def test_a_declared_payload_the_data_contradict_is_named(tmp_path, capsys):
@@ -83,7 +84,7 @@ def test_degenerate_links_are_named():
     assert arm_size(arm) > 0.5
 
 
-@pytest.mark.skipif(not os.path.exists(PANDA_LOG), reason="the real Panda log (shared/realdata) is not on this machine")
+@pytest.mark.skipif(not os.path.exists(PANDA_LOG), reason=PANDA_SKIP)
 def test_the_default_fit_keeps_the_pandas_bodies_off_the_boundary(tmp_path):
     """The Panda fitted with the README's options: without the floor every link ends on J >= 0 (a 5 kg rod
     with a smallest moment of 2e-8 kg m^2); the default's floor (1 % of the arm's size, or half the prior

@@ -16,7 +16,7 @@ import manipdyn as md
 pytest.importorskip("scipy")
 pytest.importorskip("cvxpy")
 
-from common import PANDA_LOG as PANDA
+from common import PANDA_LOG as PANDA, PANDA_SKIP
 
 
 def _write_csv(path, header, columns):
@@ -104,8 +104,7 @@ def test_a_log_cut_at_10_s_fits_at_least_9_s_with_its_edges_right(tmp_path):
     assert np.all(err.max(axis=0) < 0.01 * np.sqrt(np.mean(qdd**2, axis=0)))
 
 
-@pytest.mark.skipif(not PANDA.is_file(), reason="the real Panda log (../shared/realdata/panda_gaz2019, outside "
-                                                "the repository) is not on this machine")
+@pytest.mark.skipif(not PANDA.is_file(), reason=PANDA_SKIP)
 def test_panda_log_cut_at_10_s(tmp_path, capsys):
     """The README's Panda protocol on a file that ends at 10 s: the fit keeps over 9 s of it, and joint 2
     predicts 10 to 13.8 s at 0.48 N m (0.69 when 1.5 s were dropped at each end; the published

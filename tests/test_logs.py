@@ -24,7 +24,7 @@ from manipdyn.formats.logs.filtering import choose_cutoff
 pytest.importorskip("scipy")
 
 REPO = Path(__file__).resolve().parents[1]
-PANDA = REPO / ".." / "shared" / "realdata" / "panda_gaz2019" / "panda_as_logged.csv"
+from common import PANDA_LOG as PANDA, PANDA_SKIP  # noqa: E402
 
 W = np.array([2 * np.pi * 0.3, 2 * np.pi * 0.5])     # rad/s of the two joints
 A = np.array([0.8, 0.4])                             # rad
@@ -121,8 +121,7 @@ def test_repeated_rows_at_rest_are_samples_repeated_rows_in_motion_are_not(tmp_p
     assert "dropped 57 duplicate rows" in "\n".join(notes) and len(t3) == 3
 
 
-@pytest.mark.skipif(not PANDA.is_file(), reason="the real Panda log (../shared/realdata/panda_gaz2019, "
-                    "outside the repository) is not on this machine")
+@pytest.mark.skipif(not PANDA.is_file(), reason=PANDA_SKIP)
 def test_real_panda_log_reads_as_logged():
     m = read_log(PANDA, 7)
     text = "\n".join(m.notes)

@@ -397,7 +397,9 @@ def test_item7_demo_shows_progress(capsys):
 def _readme_block(after: str, lang: str) -> str:
     from pathlib import Path
 
-    text = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    import guide
+
+    text = guide.TEXT                                # the README and the guide's pages (issue 38 item 15)
     start = text.index(f"```{lang}\n", text.index(after)) + len(lang) + 4
     return text[start:text.index("```", start)]
 
@@ -408,7 +410,7 @@ def test_item5_readme_identification_commands_run_as_written(tmp_path, monkeypat
 
     pytest.importorskip("cvxpy", reason="identification needs the identify extra")
     monkeypatch.chdir(tmp_path)
-    lines = [l.split("#")[0].strip() for l in _readme_block("## Identification", "sh").splitlines()]
+    lines = [l.split("#")[0].strip() for l in _readme_block("# Identification from logs", "sh").splitlines()]
     commands = [shlex.split(l) for l in lines if l]
     assert [c[1] for c in commands] == ["excite", "synthesize", "identify", "check"]
     for argv in commands:
@@ -625,7 +627,9 @@ def test_item14_scaling_legend_off_the_lines(tmp_path, monkeypatch):
 def _readme() -> str:
     from pathlib import Path
 
-    return (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    import guide
+
+    return guide.TEXT                                # the README and the guide's pages (issue 38 item 15)
 
 
 def test_item8_readme_states_python_version_sizes_and_seed_source():

@@ -1,7 +1,8 @@
 """Issue 27, as a newcomer meets manipdyn (round three): items 6 to 11 and 13 to 16.
 
-Each test is named after its item.  The README is read as a user reads it: its Python
-blocks run as scripts of their own, its extras, claims and output files are checked
+Each test is named after its item.  The README and the guide's pages (``docs/guide/``, read
+through ``tests/guide.py`` since issue 38 item 15) are read as a user reads them: their Python
+blocks run as scripts of their own, their extras, claims and output files are checked
 against the project.  Tests on the real Panda log skip when the log is not beside the
 project (it is measured outside it and never copied in).
 """
@@ -25,8 +26,11 @@ import manipdyn as md
 from manipdyn.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
-README = (ROOT / "README.md").read_text(encoding="utf-8")
+import guide
 from common import PANDA_LOG as REALDATA, needs_panda_log as needs_realdata
+
+#: the README and the guide's pages, one after another
+README = guide.TEXT
 
 
 def _load(name):
@@ -36,17 +40,12 @@ def _load(name):
 
 
 def _blocks(lang: str):
-    """``(line number, text)`` of every fenced block of ``lang`` in the README."""
-    out = []
-    for m in re.finditer(r"^```" + lang + r"\n(.*?)^```", README, flags=re.S | re.M):
-        out.append((README.count("\n", 0, m.start()) + 1, m.group(1)))
-    return out
+    """``(page:line, text)`` of every fenced block of ``lang`` in the README and the guide."""
+    return [(b.where, b.text) for b in guide.blocks(lang)]
 
 
 def _section(heading: str) -> str:
-    start = README.index(heading)
-    nxt = README.find("\n## ", start + len(heading))
-    return README[start:nxt if nxt >= 0 else None]
+    return guide.section(heading)
 
 
 # -- item 6: every Python block of the README runs as its own script -------------------------------
@@ -68,7 +67,7 @@ def test_item6_readme_has_python_blocks():
     assert len(PY_BLOCKS) >= 8
 
 
-@pytest.mark.parametrize("line,text", PY_BLOCKS, ids=[f"line{ln}" for ln, _ in PY_BLOCKS])
+@pytest.mark.parametrize("line,text", PY_BLOCKS, ids=[ln for ln, _ in PY_BLOCKS])
 def test_item6_readme_python_block_runs_alone(line, text, tmp_path):
     for marker, why in RUN_ELSEWHERE.items():
         if marker in text:
@@ -76,7 +75,7 @@ def test_item6_readme_python_block_runs_alone(line, text, tmp_path):
     if "montecarlo" in text or "dask" in text:
         pytest.importorskip("distributed", reason="the scale extra is not installed")
     proc = _run_script(text, tmp_path)
-    assert proc.returncode == 0, f"README block at line {line}:\n{proc.stderr[-3000:]}"
+    assert proc.returncode == 0, f"block at {line}:\n{proc.stderr[-3000:]}"
     assert "Traceback" not in proc.stderr
 
 
@@ -113,7 +112,7 @@ def test_item7_plants_from_rows_are_explained_by_what_they_draw():
     from manipdyn import montecarlo as mc
 
     # the code: plants from an identification draw no payload and no added friction
-    text = _section("### Is my controller robust to what my data left open?")
+    text = _section("## Is my controller robust to what my data left open?")
     para = text[text.index("| the prior's hand-chosen"):]
     assert re.search(r"first row draws no payload", para), para[:600]
     assert "second row adds an undeclared" in para
@@ -123,13 +122,28 @@ def test_item7_plants_from_rows_are_explained_by_what_they_draw():
     assert "payload, link scale and added friction" in inspect.getdoc(mc.study)
 
 
-@needs_realdata
-def test_item7_readme_names_every_active_mass_bound(tmp_path, capsys):
+@pytest.fixture(scope="module")
+def panda_identified(tmp_path_factory):
+    """The guide's Panda commands, run once: ``identify panda LOG -o panda_id.toml --t-range 0:10
+    --friction-terms viscous,coulomb,offset`` (its printout) and ``validate panda_id.toml LOG
+    --t-range 10:13.8 --json`` (its figures)."""
+    import contextlib
+    import io
+
     pytest.importorskip("cvxpy", reason="identification needs the identify extra")
-    out = tmp_path / "panda_id.toml"
-    assert main(["identify", "panda", str(REALDATA), "-o", str(out), "--t-range", "0:10",
-                 "--friction-terms", "viscous,coulomb,offset"]) == 0
-    text = capsys.readouterr().out
+    out = tmp_path_factory.mktemp("panda") / "panda_id.toml"
+    text, figures = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(text), contextlib.redirect_stderr(io.StringIO()):
+        assert main(["identify", "panda", str(REALDATA), "-o", str(out), "--t-range", "0:10",
+                     "--friction-terms", "viscous,coulomb,offset"]) == 0
+    with contextlib.redirect_stdout(figures), contextlib.redirect_stderr(io.StringIO()):
+        assert main(["validate", str(out), str(REALDATA), "--t-range", "10:13.8", "--json"]) == 0
+    return {"model": out, "text": text.getvalue(), "validate": json.loads(figures.getvalue())}
+
+
+@needs_realdata
+def test_item7_readme_names_every_active_mass_bound(panda_identified):
+    text = panda_identified["text"]
     at_mass = sorted({int(k) for k in re.findall(r"^\s+link (\d+) mass at its (?:upper|lower) bound", text, re.M)})
     at_com = sorted({int(k) for k in re.findall(r"^\s+link (\d+) centre of mass \w+ = .* at its bound", text, re.M)})
     m = re.search(r"(\w+) identified links \(([\d, and]+)\) come out at their mass bounds and\s+(\w+) centres "
@@ -138,6 +152,46 @@ def test_item7_readme_names_every_active_mass_bound(tmp_path, capsys):
     said = sorted(int(x) for x in re.findall(r"\d+", m.group(2)))
     said_com = sorted(int(x) for x in re.findall(r"\d+", m.group(4)))
     assert said == at_mass and said_com == at_com
+
+
+@needs_realdata
+def test_issue38_item8_the_guides_panda_figures_are_the_commands(panda_identified):
+    """Issue 38 item 8: each figure the guide gives of its Panda identification is read from the page
+    and compared with what the commands print now (the held-out RMS row, the identified mass against
+    the prior's, link 6's thinnest radius of gyration and whether the fit flags it).  When a change to
+    the fit moves them, this fails and names the figure, so the page is refreshed from the commands."""
+    page = guide.page("identification")
+    # the table row: validate's held-out RMS per joint (printed to 3 decimals)
+    row = next(l for l in page.splitlines() if l.startswith("| identified here ("))
+    said = [float(x.strip("* ")) for x in row.split("|")[2:-1]]
+    np.testing.assert_allclose(panda_identified["validate"]["rms"], said, atol=5e-4 + 1e-9,
+                               err_msg="identification.md's row '| identified here (' against validate --json")
+    # the mass: "weighs M kg against the prior's P kg (S %)", from the written model and the prior
+    m = re.search(r"weighs ([\d.]+) kg against the prior's ([\d.]+) kg\s+\(([+-][\d.]+) %\)", page)
+    assert m, "identification.md's sentence on the identified mass"
+    mass = sum(l.mass for l in _load(str(panda_identified["model"])).links)
+    prior = sum(l.mass for l in _load("panda").links)
+    assert float(m.group(1)) == pytest.approx(mass, abs=0.005), f"identified mass {mass:.4g} kg"
+    assert float(m.group(2)) == pytest.approx(prior, abs=0.005)
+    assert float(m.group(3)) == pytest.approx(100 * (mass / prior - 1), abs=0.05), "the mass change in %"
+    # link 6: its smallest radius of gyration in the written model (sqrt of the smallest principal
+    # second moment about the COM over the mass, as the fit's doubts measure it), whether it sits at
+    # the plausibility floor and whether identify's notes flag it as degenerate
+    m = re.search(r"Link 6 weighs ([\d.]+) kg with a smallest radius\s+of gyration of ([\d.]+) mm, (at its floor, )?"
+                  r"and is (flagged|not flagged)", page)
+    assert m, "identification.md's sentence on link 6"
+    body = _load(str(panda_identified["model"])).links[5]
+    inertia = np.asarray(body.inertia, dtype=float)
+    second = 0.5 * np.trace(inertia) - np.linalg.eigvalsh(inertia)
+    radius = float(np.sqrt(max(second.min(), 0.0) / body.mass))
+    assert float(m.group(2)) == pytest.approx(1e3 * radius, abs=0.005), f"link 6's radius {1e3 * radius:.3g} mm"
+    out = panda_identified["text"]
+    flagged = re.search(r"^note: link 6 \(\w+\): degenerate", out, flags=re.M) is not None
+    assert (m.group(4) == "flagged") == flagged, "identify's notes on link 6"
+    floor = re.search(r"^\s+link 6 radius of gyration at its floor", out, flags=re.M) is not None
+    assert (m.group(3) is not None) == floor, "whether link 6 is at its floor"
+    link6 = _load(str(panda_identified["model"])).links[5].mass
+    assert float(m.group(1)) == pytest.approx(link6, abs=0.05)
 
 
 def test_item7_bench_panda_says_each_stage(monkeypatch, tmp_path, capsys):

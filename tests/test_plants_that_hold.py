@@ -21,9 +21,9 @@ from manipdyn.identification.experiments.demo import true_arm  # noqa: E402
 from manipdyn.identification.estimation.fitting import link_min_eigenvalues  # noqa: E402
 from manipdyn.identification.estimation.sdp import EPS, project_physical  # noqa: E402
 
-#: the real logs beside the project (../shared/realdata), or where MANIPDYN_REALDATA says
-REALDATA = os.environ.get("MANIPDYN_REALDATA", str(Path(__file__).resolve().parents[1].parent / "shared" / "realdata"))
-PANDA_LOG = os.path.join(REALDATA, "panda_gaz2019", "panda_as_logged.csv")
+from common import PANDA_LOG as _PANDA_LOG, PANDA_SKIP  # noqa: E402  (../shared/realdata or $MANIPDYN_REALDATA)
+
+PANDA_LOG = str(_PANDA_LOG)
 STILL = mc.Distributions(payload_mass=0, link_scale=0, friction_viscous=0, friction_coulomb=0)
 
 
@@ -154,7 +154,7 @@ def test_identify_bootstrap_prints_its_spread_and_the_base_model_carries_it(tmp_
         mc.load_identified(tmp_path / "bad.json")
 
 
-@pytest.mark.skipif(not os.path.exists(PANDA_LOG), reason="the Panda log of Gaz et al. (shared/realdata) is absent")
+@pytest.mark.skipif(not os.path.exists(PANDA_LOG), reason=PANDA_SKIP)
 def test_readme_panda_identification_draws_and_divergences(tmp_path, capsys):
     """Item 4 on the README's Panda identification: the draws move a base parameter by a median
     of under 3 sigma (the Frobenius projection: 14), and every diverged run is explained or, where

@@ -1,10 +1,12 @@
-"""Issue 31 item 1: every shell block of the README runs as pasted, or says plainly why not.
+"""Issue 31 item 1: every shell block of the README and the guide runs as pasted, or says plainly why not.
 
-A block is one of three kinds:
+Since issue 38 item 15 the README's blocks live in the guide's pages (``docs/guide/``, read through
+``tests/guide.py``).  A block is one of three kinds:
 
-* run here, in README order, in one working folder as a reader following the README uses one
-  (``manipdyn`` and ``python`` on the PATH are this interpreter; the project's ``examples/`` and the
-  real-data folder ``../shared`` are where the README's relative paths expect them);
+* run here, in reading order (the README, then the guide's pages in their toctree's order), in one
+  working folder as a reader following the guide uses one (``manipdyn`` and ``python`` on the PATH
+  are this interpreter; the project's ``examples/`` beside it, and the real-data folder in
+  ``$MANIPDYN_REALDATA``, through which the blocks read it);
 * a template, whose first line is a comment starting ``# a template:`` that says what stands for
   the reader's own files or machines;
 * skipped by the tests, with ``<!-- tests skip this block: REASON -->`` on the line before its
@@ -23,26 +25,13 @@ from pathlib import Path
 
 import pytest
 
+import guide
+from common import PANDA_LOG as REALDATA, REALDATA as REALDATA_DIR
+
 ROOT = Path(__file__).resolve().parents[1]
-README = (ROOT / "README.md").read_text(encoding="utf-8")
-SHARED = ROOT.parent / "shared"
-REALDATA = SHARED / "realdata" / "panda_gaz2019" / "panda_as_logged.csv"
 
-SKIP = re.compile(r"<!-- tests skip this block: (.+?) -->\n$")
-
-
-def _sh_blocks():
-    """``(line, text, skip reason or None)`` of every ```` ```sh ```` block, in README order."""
-    out = []
-    for m in re.finditer(r"^```sh\n(.*?)^```", README, flags=re.S | re.M):
-        before = README[:m.start()]
-        prev = before[before.rstrip("\n").rfind("\n") + 1:]       # the line before the fence
-        skip = SKIP.search(prev)
-        out.append((before.count("\n") + 1, m.group(1), skip.group(1) if skip else None))
-    return out
-
-
-BLOCKS = _sh_blocks()
+#: ``(where, text, skip reason or None)`` of every ```` ```sh ```` block, in reading order
+BLOCKS = [(b.where, b.text, b.skip) for b in guide.blocks("sh")]
 
 
 def _is_template(text: str) -> bool:
@@ -72,14 +61,13 @@ def test_several_logs_block_makes_the_runs_it_reads():
 
 @pytest.fixture(scope="module")
 def workdir(tmp_path_factory):
-    """The reader's folder: ``examples`` beside it (the README's codegen block builds one) and the
-    real-data folder at ``../shared`` (the README's Panda blocks read it "from the project's folder")."""
+    """The reader's folder: ``examples`` beside it (the guide's codegen block builds one), and the
+    real-data folder in ``$MANIPDYN_REALDATA`` (a folder elsewhere: the blocks read it through the
+    variable, ``../shared/realdata`` being only their fallback)."""
     base = tmp_path_factory.mktemp("reader")
     work = base / "project"
     work.mkdir()
     (work / "examples").symlink_to(ROOT / "examples")
-    if SHARED.is_dir():
-        (base / "shared").symlink_to(SHARED)
     bindir = base / "bin"
     bindir.mkdir()
     # shims, not symlinks: a symlink to a virtual environment's python does not find its packages
@@ -89,7 +77,7 @@ def workdir(tmp_path_factory):
         shim.write_text(f'#!/bin/sh\nexec {cmd} "$@"\n')
         shim.chmod(shim.stat().st_mode | stat.S_IXUSR)
     env = dict(os.environ, PATH=f"{bindir}{os.pathsep}{os.environ.get('PATH', '')}",
-               PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
+               PYTHONPATH=str(ROOT), MPLBACKEND="Agg", MANIPDYN_REALDATA=str(REALDATA_DIR))
     return {"dir": work, "env": env, "done": set()}
 
 
@@ -103,16 +91,16 @@ def _run_block(workdir, line, text):
 RUNNABLE = [(ln, text) for ln, text, skip in BLOCKS if skip is None and not _is_template(text)]
 
 
-@pytest.mark.parametrize("line,text", RUNNABLE, ids=[f"line{ln}" for ln, _ in RUNNABLE])
+@pytest.mark.parametrize("line,text", RUNNABLE, ids=[ln for ln, _ in RUNNABLE])
 def test_readme_shell_block_runs_as_pasted(line, text, workdir):
-    if "../shared/realdata" in text and not REALDATA.is_file():
-        pytest.skip("the real-data folder is absent (panda_as_logged.csv not found beside the project)")
+    if "panda_as_logged.csv" in text and not REALDATA.is_file():
+        pytest.skip(f"the real-data folder is absent (panda_as_logged.csv not found in {REALDATA.parent})")
     # the blocks before it first, as the reader ran them (when this one is selected alone)
     for ln, earlier in RUNNABLE:
-        if ln >= line:
+        if ln == line:
             break
-        if ln not in workdir["done"] and not ("../shared/realdata" in earlier and not REALDATA.is_file()):
+        if ln not in workdir["done"] and not ("panda_as_logged.csv" in earlier and not REALDATA.is_file()):
             _run_block(workdir, ln, earlier)
     proc = _run_block(workdir, line, text)
-    assert proc.returncode == 0, f"README shell block at line {line} exits {proc.returncode}:\n{proc.stderr[-3000:]}"
+    assert proc.returncode == 0, f"shell block at {line} exits {proc.returncode}:\n{proc.stderr[-3000:]}"
     assert "Traceback" not in proc.stderr, proc.stderr[-3000:]

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+import guide  # noqa: E402  the README and the guide's pages (issue 38 item 15)
 from common import PANDA_LOG as DATA, needs_panda_log
 
 pytestmark = needs_panda_log
@@ -57,7 +57,7 @@ def test_the_vendor_urdf_model_keeps_its_band_and_flags(erd_model, capsys):
         assert missed == out["band_95_missed"]                     # under 80 %: flagged, by name
         assert any(e["extrapolates"] for e in out["extrapolation"])
         # the README's row is this run, to its digits
-        line = next(x for x in README.read_text().splitlines() if x.startswith(row))
+        line = next(x for x in guide.TEXT.splitlines() if x.startswith(row))
         printed = [float(x) for x in re.findall(r"([0-9.]+) %", line.split("|", 2)[2])]
         # to 0.15 %: the conic solver's last digits move a sample or two across the band between runs
         measured = [100 * c for c in cov] + [100 * out["band_95_pooled"]]
@@ -72,7 +72,7 @@ def test_the_smoothing_is_chosen_by_the_hold_outs(erd_model):
     assert rep["provenance"]["options"]["smoothing"] == best["smoothing"]
     assert any(note.startswith("Coulomb smoothing tanh(v / ") and "chosen by 5-fold blocked hold-outs" in note
                for note in rep["fit_notes"])
-    assert f"{best['smoothing']:.3g} rad/s" in README.read_text()
+    assert f"{best['smoothing']:.3g} rad/s" in guide.TEXT
 
 
 def test_the_default_command_against_the_published_model(erd_model, capsys):

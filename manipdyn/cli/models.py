@@ -1,5 +1,8 @@
 """``manipdyn models``: list the bundled arms and their physical-consistency verdicts.
 
+An arm whose Robotics Toolbox model differs (its model file's ``sources.toolbox``) gets a second
+line saying how.
+
 Layer 7 (CLI, the top).
 """
 
@@ -25,6 +28,9 @@ def run(args) -> int:
         kinds = arm.joint_letters
         verdict = "consistent" if not notes else f"{len(notes)} inconsistent link(s)"
         print(f"{name:<12} {arm.n} DOF {kinds:<8} {arm.convention:<9} {verdict}")
+        toolbox = arm.sources.get("toolbox")     # where the Robotics Toolbox's model of this arm differs
+        if toolbox:
+            print(f"{'':<13}{toolbox.split(' For the Toolbox')[0].rstrip('.')} (sources.toolbox says how to get its convention)")
     return EXIT_OK
 
 

@@ -111,7 +111,14 @@ def _bundled_dir():
 
 
 def models() -> list[str]:
-    """Names of the bundled arm models, sorted."""
+    """Names of the bundled arm models, sorted.
+
+    Each follows its published table (its file's ``source`` and ``[sources]``).  Three share a name
+    with a model of the Robotics Toolbox for Python and are not that model: ``puma560`` (the Toolbox
+    puts the shoulder's 0.67183 m in d1), ``stanford`` (link 3 ``a``, link 6 ``d``) and ``ur5`` (d1, a
+    mass, a centre of mass, the inertias); ``arm.sources["toolbox"]`` says what differs and how to
+    get the Toolbox's convention, and ``manipdyn models`` prints it.
+    """
     return sorted(p.name[:-5] for p in _bundled_dir().iterdir() if p.name.endswith(".toml"))
 
 
