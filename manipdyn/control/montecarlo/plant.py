@@ -108,4 +108,10 @@ def plant_arm(arm, plant: Plant):
         pi.append(np.asarray(model.armature, dtype=np.float64))
     fr = np.zeros((2, n)) if engine.friction is None else np.asarray(engine.friction, dtype=np.float64)
     pi += [fr[0], fr[1]]
-    return arm_with_parameters(arm, np.concatenate(pi), armature=armature, friction=True, name=plant.name)
+    import warnings
+
+    from ..._support.errors import PhysicalConsistencyWarning
+
+    with warnings.catch_warnings():      # the nominal arm's own notes (the Puma's links) were said once, at load
+        warnings.simplefilter("ignore", PhysicalConsistencyWarning)
+        return arm_with_parameters(arm, np.concatenate(pi), armature=armature, friction=True, name=plant.name)
