@@ -92,10 +92,15 @@ def test_cli_replay_prints_json_and_refuses_what_it_cannot_do(synthetic, tmp_pat
     truth, log = synthetic
     toml = tmp_path / "ur5_truth.toml"
     md.save(truth, str(toml))
+    page = tmp_path / "replay.html"
     assert main(["replay", str(toml), "ur5", str(log), "--horizon", "0.05", "--every", "20", "--cutoff", "50",
-                 "--json"]) == 0
+                 "--json", "--report", str(page)]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert set(doc["models"]) == {"ur5_truth", "ur5"} and doc["horizon_samples"] == [50]
+    from manipdyn._support.html import read_tables
+
+    table = read_tables(page.read_text())["q_0.05"]          # the page carries the JSON's numbers exactly
+    assert table[1][-1] == doc["models"]["ur5_truth"]["0.05"]["q_pooled"]
     assert main(["replay", "ur5", str(log), "--horizon", "100"]) == 2
     assert "longest horizon" in err_line(capsys)
     assert main(["replay", "ur5", str(log), "--mujoco-plant", "file"]) == 2
