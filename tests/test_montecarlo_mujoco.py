@@ -121,3 +121,18 @@ def test_cli_montecarlo_in_mujoco(capsys):
     assert doc["study"]["simulator"] == "mujoco" and len(doc["per_run"]) == 4
     assert main(argv + ["--mujoco-plant", "file"]) == 2
     assert err_line(capsys).endswith("--mujoco-plant: only with --simulator mujoco")
+
+
+def test_a_mujoco_study_on_a_dask_cluster_is_bit_identical_to_a_local_run(capsys):
+    pytest.importorskip("distributed", reason="Dask is not installed: the cluster path is not tested")
+    from dask_cluster import dask_cluster
+
+    argv = ["montecarlo", "ur5", "--runs", "4", "--seed", "2", "--duration", "0.3", "--controllers", "pd,ct",
+            "--simulator", "mujoco", "--json", "--no-progress"]
+    assert main(argv + ["--scheduler", "sync"]) == 0
+    local = json.loads(capsys.readouterr().out)
+    with dask_cluster(2) as (address, _):
+        assert main(argv + ["--scheduler", address, "--chunk-size", "1"]) == 0
+        remote = json.loads(capsys.readouterr().out)
+    local.pop("timing"), remote.pop("timing")
+    assert json.dumps(remote) == json.dumps(local) and remote["study"]["simulator"] == "mujoco"
