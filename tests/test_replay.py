@@ -101,8 +101,11 @@ def test_cli_replay_prints_json_and_refuses_what_it_cannot_do(synthetic, tmp_pat
 
     table = read_tables(page.read_text())["q_0.05"]          # the page carries the JSON's numbers exactly
     assert table[1][-1] == doc["models"]["ur5_truth"]["0.05"]["q_pooled"]
-    assert main(["replay", "ur5", str(log), "--horizon", "100"]) == 2
-    assert "longest horizon" in err_line(capsys)
+    for far in ("100", "1e300"):                 # 1e300 s: refused before any array of that size
+        assert main(["replay", "ur5", str(log), "--horizon", far]) == 2
+        assert "longest horizon" in err_line(capsys)
+    assert main(["replay", "ur5"]) == 2
+    assert "give at least one model, then at least one log" in err_line(capsys)
     assert main(["replay", "ur5", str(log), "--mujoco-plant", "file"]) == 2
     assert err_line(capsys).endswith("--mujoco-plant: only with --simulator mujoco")
     assert main(["replay", "ur5", str(log), "--every", "0"]) == 2

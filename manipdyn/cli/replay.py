@@ -62,6 +62,8 @@ def run(args) -> int:
     try:
         if args.simulator != "mujoco" and args.mujoco_plant is not None:
             raise ModelError("--mujoco-plant: only with --simulator mujoco")
+        if len(args.inputs) < 2:
+            raise ModelError("MODEL LOG: give at least one model, then at least one log")
         models, logs = split_inputs(args.inputs)
         check_report_target(args.report)
         check_outputs([("--plot", args.plot), ("--report", args.report)],

@@ -346,6 +346,9 @@ def replay(models, logs, horizons=DEFAULT_HORIZONS, every: int = DEFAULT_EVERY, 
     dt = dts[0]
     steps = tuple(max(1, int(round(h / dt))) for h in hs)
     kmax = steps[-1]
+    if kmax >= max(len(m.t) for m in datas):
+        raise ModelError(f"logs: shorter than the longest horizon ({hs[-1]:g} s = {kmax} samples) plus one; "
+                         "give a shorter --horizon or a longer log")
     starts = [np.arange(0, len(m.t) - kmax, every) for m in datas]
     total = sum(len(s) for s in starts)
     if total == 0:
