@@ -165,6 +165,5 @@ def test_plants_drawn_from_an_identification_become_arms_with_their_drawn_rotors
     own = mc.run(mc.study(prior, runs=2, seed=3, duration=0.3, controllers=("ct",), plants=str(path)),
                  scheduler="sync")
     for a, b in zip(own.per_run, report.per_run):
-        # measured 0 and 4e-15 relative (the plants are smooth: the identification's friction, no added
-        # Coulomb draw); 1e-9 is the forward dynamics' own agreement (test above), far above that
+        # measured 0 and 4e-15 relative; 1e-9 is the bound on the forward dynamics' own agreement above
         assert abs(a["rms_error"] - b["rms_error"]) <= 1e-9 * a["rms_error"]
