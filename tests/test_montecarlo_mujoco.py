@@ -7,7 +7,7 @@ torque held over each period, the same RK4 steps per period, the same start).  T
 each evaluates the dynamics (about 1e-13), so each run's tracking error must agree with manipdyn's
 far better than that run's own RK4 error, estimated by step halving.  Measured on
 ``montecarlo ur5 --simulator mujoco --runs 20`` (100 runs, 2 s): the two simulators' RMS errors
-differ by at most 6e-8 rad, at most 1e-6 of the step-halving difference (median 7e-14); two LQR runs
+differ by at most 6e-8 rad, at most 1e-6 of the step-halving difference (median 7e-14); three LQR runs
 diverge in both.
 """
 
