@@ -45,7 +45,8 @@ def test_the_same_seed_draws_the_same_plants_and_the_plant_arm_is_that_plant(stu
     q, qd, tau = rng.normal(size=(3, 8, 6))
     for run in range(own.runs):
         a, b = own.draw(run), mj.draw(run)
-        assert all(np.array_equal(getattr(a, f), getattr(b, f)) for f in ("scale", "friction", "q0_offset", "payload_com"))
+        assert all(np.array_equal(getattr(a, f), getattr(b, f))
+                   for f in ("scale", "friction", "q0_offset", "payload_com"))
         plant = mj.plant(run)
         arm = plant_arm(mj.arm, plant)
         ref = plant.forward_dynamics(q, qd, tau)

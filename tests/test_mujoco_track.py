@@ -135,7 +135,8 @@ def test_under_a_sharp_coulomb_sign_the_run_is_fixed_only_to_its_sensitivity_to_
     own = run()
     mj = run(simulator="mujoco", mujoco_plant="model")
     q0 = path(0.0)[0]
-    copies = [run(substeps=2 * own.substeps)] + [run(q0=q0 + s * 1e-15 * np.eye(6)[j]) for j in range(6) for s in (1, -1)]
+    copies = [run(substeps=2 * own.substeps)]
+    copies += [run(q0=q0 + s * 1e-15 * np.eye(6)[j]) for j in range(6) for s in (1, -1)]
     spread = max(np.abs(own.q - c.q).max() for c in copies)
     # why 1e-15 agreement is impossible here: a 1e-15 rad change of the start moves the run by far more
     assert spread > 1e-4

@@ -39,6 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._support.errors import ModelError, StateError
+from .replay_page import BASELINE, figure, write_page
 from .simulate import DEFAULT_MAX_POSITION, DEFAULT_MAX_VELOCITY
 
 __all__ = ["replay", "ReplayResult", "DEFAULT_HORIZONS", "DEFAULT_EVERY", "BASELINE"]
@@ -47,8 +48,6 @@ __all__ = ["replay", "ReplayResult", "DEFAULT_HORIZONS", "DEFAULT_EVERY", "BASEL
 DEFAULT_HORIZONS = (0.01, 0.05, 0.2)
 #: a start state every this many log samples by default
 DEFAULT_EVERY = 10
-#: the label of the row without a model
-BASELINE = "constant velocity"
 
 
 @dataclass
@@ -182,67 +181,12 @@ class ReplayResult:
         save_figure(self._figure(), os.fspath(path))
 
     def _figure(self):
-        from .._support.figures import pyplot
-
-        plt = pyplot()
-        n = len(self.joint_types)
-        cols = min(4, n + 1)
-        rows = math.ceil((n + 1) / cols)
-        fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 2.6 * rows), squeeze=False)
-        ms = np.array(self.horizons) * 1e3
-        for k, ax in enumerate(axes.flat):
-            if k > n:
-                ax.axis("off")
-                continue
-            for lab in [*self.labels, BASELINE]:
-                y = self.pooled(lab) if k == 0 else self.q_rms[lab][:, k - 1]
-                ax.plot(ms, y, "o-" if lab != BASELINE else "k--", label=lab, ms=3)
-            ax.set_xscale("log")
-            ax.set_yscale("log")
-            ax.set_title("pooled" if k == 0 else f"joint {k}", fontsize=9)
-            ax.set_xlabel("horizon (ms)", fontsize=8)
-            ax.set_ylabel(f"q error RMS ({self._units('q')})", fontsize=8)
-            ax.grid(True, which="both", alpha=0.3)
-        axes.flat[0].legend(fontsize=7)
-        fig.suptitle("replay: q error at the horizon, RMS over start states (log-log axes)", fontsize=10)
-        fig.tight_layout()
-        return fig
+        return figure(self)
 
     def report_html(self, path, command: str | None = None) -> str:
         """Write one self-contained HTML page to ``path`` (atomically): what was replayed, the
-        verdict, the q and qd tables per horizon, the figure.  Returns the path."""
-        from .._support import html as H
-
-        n = len(self.joint_types)
-        parts = [H.section("What was replayed", H.facts([
-            ("command", command or "(library call) manipdyn.replay(...)"), ("logs", ", ".join(self.logs)),
-            ("start states", f"{self.starts}, every {self.every} samples of {self.dt * 1e3:.4g} ms"),
-            ("simulator", self.simulator + (f" ({self.mujoco_plant} plant)" if self.simulator == "mujoco" else "")),
-            ("RK4 steps per sample", ", ".join(f"{k}: {v}" for k, v in self.substeps.items())),
-            ("manipdyn", H.version())])),
-            H.section("Verdict", H.verdict(self.verdict(), "ok"))]
-        for what in ("q", "qd"):
-            data = self.q_rms if what == "q" else self.qd_rms
-            for h, Hs in enumerate(self.horizons):
-                labels = [*self.labels, BASELINE]
-                rows = [[lab, *data[lab][h].tolist(), float(self.pooled(lab, what)[h])] for lab in labels]
-                best = set()
-                if len(self.labels) > 1:
-                    for j in range(n):
-                        i = int(np.argmin([data[lab][h, j] for lab in self.labels]))
-                        best.add((i, j + 1))
-                parts.append(H.section(f"{what} error at {Hs * 1e3:g} ms ({self._units(what)})", H.table(
-                    ["model", *[f"j{j + 1}" for j in range(n)], "pooled"], rows, best=best,
-                    name=f"{what}_{Hs:g}"), level=3))
-        try:
-            parts.append(H.section("Figure", H.figure(self._figure(), alt="q error against the horizon per joint",
-                                                      caption="RMS over the start states, log-log axes")))
-        except ModelError:          # no matplotlib: the tables say it all
-            pass
-        if self.notes:
-            parts.append(H.section("Notes", H.bullets(self.notes)))
-        H.write_page(os.fspath(path), H.page("Replay against the log", ", ".join(self.labels), parts))
-        return os.fspath(path)
+        verdict, the q and qd tables per horizon, the figure (:mod:`.replay_page`).  Returns the path."""
+        return write_page(self, path, command)
 
 
 def _load_model(spec, tip):
@@ -333,7 +277,8 @@ def replay(models, logs, horizons=DEFAULT_HORIZONS, every: int = DEFAULT_EVERY, 
     datas, notes = [], []
     if log_options.get("joint_names") is None:          # a ROS bag maps its joints by the model's names
         first = arms[0][0]
-        names = list(getattr(first, "joint_names", None) or [getattr(l, "name", "") for l in getattr(first, "links", ())])
+        names = list(getattr(first, "joint_names", None)
+                     or [getattr(link, "name", "") for link in getattr(first, "links", ())])
         log_options["joint_names"] = names if len(names) == n and all(names) else None
     for path in logs:
         m = read_log(path, n, transmission=getattr(arms[0][0], "transmission", None), **log_options)
