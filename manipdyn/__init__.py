@@ -96,6 +96,10 @@ def __getattr__(name):
         from .control.simulate import simulate
 
         return simulate
+    if name == "replay":    # the model against a real log over a horizon (control: replay)
+        from .control.replay import replay
+
+        return replay
     if name in ("identify", "validate"):   # the identification pipelines need the identify extra
         from . import identification
 
@@ -113,7 +117,7 @@ __all__ = ["Transmission", "Friction", "FrictionTerms",
     "Arm", "ChainJoint", "Convention", "CompareReport", "CrosscheckReport", "DHLink", "DynamicsEngine", "JacobianEngine",
     "LinkInertia", "Manipulator", "ModelError", "ModelNoteWarning", "PhysicalConsistencyWarning", "SingularMassMatrixError",
     "StateError", "SuspiciousValueWarning", "URDFArm", "UnreachablePoseError", "codegen", "compare", "crosscheck", "linearize", "load", "load_with_notes", "models", "save",
-    "simulate", "identify", "validate", "to_mjcf", "to_toml", "to_urdf", "transform_inverse", "write_mjcf", "write_urdf",
+    "simulate", "replay", "identify", "validate", "to_mjcf", "to_toml", "to_urdf", "transform_inverse", "write_mjcf", "write_urdf",
 ]
 
 

@@ -35,8 +35,9 @@ def _pipelines():
     return {
         # "subcommand/function": (library function, {argparse dest: parameter name})
         "track/track": (track, same("payload", "duration", "dt", "bandwidth", "gamma")),
-        "montecarlo/study": (mc.study, same("seed", "duration", "dt", "bandwidth", "tau_max")
+        "montecarlo/study": (mc.study, same("seed", "duration", "dt", "bandwidth", "tau_max", "simulator")
                              | {"plants_from": "plants"}),
+        "replay/replay": (md.replay, same("every", "simulator", "tip")),
         "montecarlo/run": (mc.run, same("scheduler", "workers", "chunk_size")),
         "excite/excitation": (excitation, {"period": "duration"} | same("harmonics", "rate", "seed", "vmax", "amax",
                                                "iterations", "friction", "ramp")),

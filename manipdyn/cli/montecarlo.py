@@ -5,6 +5,7 @@ Layer 7 (CLI, the top).
     manipdyn montecarlo MODEL [--tip LINK] --runs N [--controllers pd,pdg,ct,adaptive,lqr]
                         [--seed S] [--scheduler tcp://HOST:PORT] [--json] [--plot FILE.png]
                         [--plants-from IDENTIFIED.json] [--report FILE.html]
+                        [--simulator manipdyn|mujoco] [--mujoco-plant model|file]
 
 Exit codes: 0 the study completed (diverged runs are results, not failures),
 2 usage or model error, or a missing extra, or no scheduler at the address
@@ -59,6 +60,8 @@ def run(args) -> int:
     if args.workers is not None and args.workers < 1:
         raise ModelError(f"--workers: must be >= 1, got {args.workers}")
     check_scheduler(args.scheduler, "--scheduler")
+    if args.simulator != "mujoco" and args.mujoco_plant is not None:
+        raise ModelError("--mujoco-plant: only with --simulator mujoco")
     check_study_size(args.runs, len(keys), args.duration, args.dt, args.bandwidth, cli=True)
     # fail before a long run, not after it
     check_report_target(args.report)
@@ -90,7 +93,8 @@ def run(args) -> int:
     arm, notes = load_arm(args.model, args.tip)     # the model's notes are shown, as check and track show them
     try:
         s = study(arm, args.runs, seed=args.seed, controllers=keys, duration=args.duration, dt=args.dt,
-                  distributions=dist, tau_max=tau_max, bandwidth=args.bandwidth, plants=plants)
+                  distributions=dist, tau_max=tau_max, bandwidth=args.bandwidth, plants=plants,
+                  simulator=args.simulator, mujoco_plant=args.mujoco_plant or "model")
     except ValueError as exc:
         raise ModelError(str(exc)) from None
     show = progress_wanted(args)
@@ -183,6 +187,13 @@ def register(subparsers) -> None:
                         "friction >= 0) in the metric of the covariance; "
                         "the payload, link and friction options then do not apply (default: the "
                         "hand-chosen distributions below)")
+    p.add_argument("--simulator", choices=("manipdyn", "mujoco"), default="manipdyn",
+                   help="who steps the plants: manipdyn's RK4 (default) or MuJoCo's RK4 on each drawn plant's "
+                        "MJCF, one run at a time (the mujoco extra); the same seed draws the same plants")
+    p.add_argument("--mujoco-plant", choices=("model", "file"), default=None,
+                   help="with --simulator mujoco: 'model' (default) the plant manipdyn simulates (constraints "
+                        "off, the drawn Coulomb friction as manipdyn's sharp sign at every Runge-Kutta stage), "
+                        "or 'file' the MJCF as MuJoCo loads it (Coulomb as frictionloss, a soft constraint)")
     p.add_argument("--json", action="store_true", help="print one JSON document instead of tables")
     p.add_argument("--plot", metavar="FILE.png", default=None, help="write the CDFs per controller (needs matplotlib)")
     p.add_argument("--report", metavar="FILE.html", default=None,

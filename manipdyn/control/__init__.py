@@ -12,7 +12,9 @@ the plant instead of manipdyn's RK4: ``simulate(..., simulator="mujoco")``).  Ma
   :class:`LQR` (time-varying LQR along the reference, :mod:`.lqr`);
 * :class:`Regressor`: the dynamics linear in the inertial parameters;
 * :func:`simulate`: fixed-step RK4 with the torque held over each step, on the
-  arm or on a different plant (``arm.with_payload(...)``, :func:`with_scaled_inertia`).
+  arm or on a different plant (``arm.with_payload(...)``, :func:`with_scaled_inertia`);
+* :func:`replay` (``md.replay``): models simulated forward from states of a real log with
+  the logged torque, q and qd at each horizon against the log (:mod:`.replay`).
 
 Example::
 
@@ -30,6 +32,7 @@ from .lqr import LQR, lqr_weights, solve_dare
 from ..model.variants import with_payload as _with_payload, with_scaled_inertia
 from .regressor import Regressor, parameters_from_pseudo_inertia, pseudo_inertia_from_parameters
 from .simulate import SimulationDiverged, SimulationLog, simulate
+from .replay import ReplayResult, replay
 from .trajectory import PiecewisePolynomial, Quintic, Sampled, Trajectory, ViaPoints
 
 __all__ = [
@@ -38,7 +41,7 @@ __all__ = [
     "lqr_weights", "solve_dare",
     "model_torque_limits", "Regressor", "parameters_from_pseudo_inertia",
     "pseudo_inertia_from_parameters", "simulate", "SimulationLog", "SimulationDiverged",
-    "with_payload", "with_scaled_inertia",
+    "with_payload", "with_scaled_inertia", "replay", "ReplayResult",
 ]
 
 

@@ -21,17 +21,34 @@ Two plants (``mujoco_plant``):
   every evaluation of the dynamics, Runge-Kutta stages included, through MuJoCo's passive-force
   callback (``mjcb_passive``).  That callback is global to the process, so such runs take a
   lock: one at a time per process.
+
+How close the ``"model"`` plant's run stays to manipdyn's depends on the law.  A smooth law
+(viscous, a smoothed Coulomb, Gaz's sigmoid) gives runs equal to about 1e-15 rad, under RK4's own
+error.  A sharp Coulomb sign (``smoothing = 0``: an identified model's links, a URDF's
+``<dynamics friction>``) makes the equations jump at ``qd = 0``; where a joint stops, the last
+bits of the velocity decide the sign, and manipdyn's own run started 1e-15 rad off departs as far
+as MuJoCo's does (3.9e-2 rad over 1 s of computed torque on an identified UR5): the two agree to
+that sensitivity to rounding, not to 1e-15 (tests/test_mujoco_track.py).
+
+MuJoCo resets its data (to the model's reference pose) when it meets a non-finite or huge
+acceleration, position or velocity (``mjWARN_BADQACC``, ``BADQPOS``, ``BADQVEL``), and sets a
+non-finite or huge control (over 1e10) to zero (``mjWARN_BADCTRL``), so such a run would go on
+from another state or with another torque; the loop reads those warnings after every period and
+ends the run there with :class:`~manipdyn.control.simulate.SimulationDiverged`, as manipdyn's own loop ends it
+on a non-finite state.
 """
 
 from __future__ import annotations
 
+import contextlib
+import math
 import threading
 
 import numpy as np
 
 from .controllers import Controller
 
-__all__ = ["integrate_mujoco", "SIMULATORS", "INTEGRATOR", "MUJOCO_PLANTS"]
+__all__ = ["integrate_mujoco", "mujoco_plant_model", "SIMULATORS", "INTEGRATOR", "MUJOCO_PLANTS"]
 
 #: the MuJoCo plants (module docstring)
 MUJOCO_PLANTS = ("file", "model")
@@ -49,16 +66,25 @@ def integrate_mujoco(log, watch, plant, controller, trajectory, q, qd, progress,
     """The loop of :func:`manipdyn.control.simulate.simulate` with MuJoCo stepping ``plant``
     (``mujoco_plant``: module docstring); fills ``log`` in place (``log.substeps`` MuJoCo steps
     per control period)."""
+    with mujoco_plant_model(plant, log.dt / log.substeps, mujoco_plant, integrator) as (mj, model):
+        _loop(mj, model, log, watch, controller, trajectory, q, qd, progress)
+
+
+@contextlib.contextmanager
+def mujoco_plant_model(plant, timestep: float, mujoco_plant: str = "file", integrator: str = INTEGRATOR):
+    """``with mujoco_plant_model(arm, h, "model") as (mujoco, model):``: a fresh copy of ``arm``'s
+    compiled MJCF stepping ``h`` s with ``integrator``, as the plant ``mujoco_plant`` (module
+    docstring); for ``"model"`` with a friction law, the passive-force callback that applies the
+    law beyond damping is installed (and the process's callback lock held) inside the block."""
     if mujoco_plant not in MUJOCO_PLANTS:
         raise ValueError(f"mujoco_plant: expected 'file' or 'model', got {mujoco_plant!r:.40}")
     engine = plant.engine("mujoco")
-    mj, model = engine.simulation_model(log.dt / log.substeps, integrator)
+    mj, model = engine.simulation_model(timestep, integrator)
+    if mujoco_plant == "model":
+        model.opt.disableflags |= int(mj.mjtDisableBit.mjDSBL_CONSTRAINT)
     if mujoco_plant == "file" or plant.friction_model is None:
-        if mujoco_plant == "model":
-            model.opt.disableflags |= int(mj.mjtDisableBit.mjDSBL_CONSTRAINT)
-        _loop(mj, model, log, watch, controller, trajectory, q, qd, progress)
+        yield mj, model
         return
-    model.opt.disableflags |= int(mj.mjtDisableBit.mjDSBL_CONSTRAINT)
     beyond = engine.friction_beyond_damping
 
     def passive(m, d):                    # the law beyond damping, at every evaluation
@@ -66,7 +92,7 @@ def integrate_mujoco(log, watch, plant, controller, trajectory, q, qd, progress,
     with _CALLBACK:
         mj.set_mjcb_passive(passive)
         try:
-            _loop(mj, model, log, watch, controller, trajectory, q, qd, progress)
+            yield mj, model
         finally:
             mj.set_mjcb_passive(None)
 
@@ -78,6 +104,9 @@ def _loop(mj, model, log, watch, controller, trajectory, q, qd, progress) -> Non
     d.qpos[:], d.qvel[:] = q, qd
     mj.mj_forward(model, d)
     every = max(1, N // 100)
+    bad = [int(getattr(mj.mjtWarning, w)) for w in ("mjWARN_BADQACC", "mjWARN_BADQPOS", "mjWARN_BADQVEL",
+                                                    "mjWARN_BADCTRL")]
+    warned = d.warning
     if isinstance(controller, Controller) and controller.trajectory is trajectory:
         step = controller.step
         rows = (list(log.q_d), list(log.qd_d), list(log.qdd_d))
@@ -98,6 +127,9 @@ def _loop(mj, model, log, watch, controller, trajectory, q, qd, progress) -> Non
             d.ctrl[:] = tau
             for _ in range(m_sub):
                 mj.mj_step(model, d)
+            if warned[bad[0]].number or warned[bad[1]].number or warned[bad[2]].number or warned[bad[3]].number:
+                watch.fail(k + 1, "state", d.qvel, math.inf, "MuJoCo met a non-finite or huge control, acceleration, "
+                           "position or velocity (over 1e10) and zeroed the control or reset its data")
             watch.check_state(k + 1, d.qpos, d.qvel)
             if progress is not None and (k + 1) % every == 0:
                 progress(k + 1, N)

@@ -77,7 +77,8 @@ def check_study_size(runs, controllers: int, duration: float, dt: float, bandwid
 
 def study(arm, runs: int, seed: int = 0, controllers=CONTROLLER_KEYS, duration: float = 2.0,
           dt: float = 1e-3, distributions: Distributions | None = None, tau_max=None,
-          bandwidth: float = 10.0, gamma: float = 10.0, plants=None) -> Study:
+          bandwidth: float = 10.0, gamma: float = 10.0, plants=None, simulator: str = "manipdyn",
+          mujoco_plant: str = "model") -> Study:
     """Define a study of ``runs`` runs on ``arm`` (a DH or URDF arm).
 
     Parameters
@@ -105,6 +106,12 @@ def study(arm, runs: int, seed: int = 0, controllers=CONTROLLER_KEYS, duration: 
         :func:`load_identified` read from one (module
         :mod:`.identified`); the payload, link scale and added friction of
         ``distributions`` are then set to 0 (the start offset and torque noise stay).
+    simulator : "manipdyn" | "mujoco"
+        Who steps the plants: manipdyn's RK4 (default), or MuJoCo on each drawn plant's MJCF
+        (:mod:`.study`; the ``mujoco`` extra).  The same seed gives the same plants in both.
+    mujoco_plant : "model" | "file"
+        With MuJoCo: the plant manipdyn simulates, constraints off and the whole friction law
+        applied (default), or the MJCF as MuJoCo loads it (Coulomb as ``frictionloss``).
     """
     import os
 
@@ -115,6 +122,10 @@ def study(arm, runs: int, seed: int = 0, controllers=CONTROLLER_KEYS, duration: 
 
         arm = load(arm)           # a bundled name, a model file or a URDF, as the command line takes
     check_study_size(runs, len(tuple(controllers)), duration, dt, bandwidth)
+    if simulator == "mujoco":
+        from ...engines.mujoco.deps import mujoco_module
+
+        mujoco_module()              # a missing extra is named before a long study, not in a worker
     lim = None
     if tau_max is not None:
         try:
@@ -155,4 +166,4 @@ def study(arm, runs: int, seed: int = 0, controllers=CONTROLLER_KEYS, duration: 
                              "identification's distribution replaces them)")
         dist = dataclasses.replace(dist, **{f: 0.0 for f in replaced})
     return Study(model_text(arm), runs, seed, tuple(controllers), float(duration), float(dt),
-                 dist, lim, float(bandwidth), float(gamma), plants)
+                 dist, lim, float(bandwidth), float(gamma), plants, simulator, mujoco_plant)

@@ -70,6 +70,10 @@ def _done(report, command, plants_file) -> list:
             ("controllers", ", ".join(_label(k) for k in s.controllers)),
             ("path", f"the track demo path over {s.duration:g} s at {1 / s.dt:g} Hz (dt {s.dt:g} s), "
                      f"bandwidth {s.bandwidth:g} rad/s, adaptation gain {s.gamma:g}"),
+            ("simulator", "MuJoCo's RK4 on each drawn plant's MJCF, " + (
+                "the plant manipdyn simulates (constraints off, its friction law at every stage)"
+                if s.mujoco_plant == "model" else "the file as MuJoCo loads it (Coulomb as frictionloss)")
+             if s.simulator == "mujoco" else "manipdyn's RK4 (Pinocchio's ABA)"),
             ("torque limit", "the model's own" if s.tau_max is None
              else ", ".join(H.number(x, 4) for x in s.tau_max) + " N m"),
             ("plants", plant_source(s).removeprefix("plants: ")),

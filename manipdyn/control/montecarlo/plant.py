@@ -11,6 +11,13 @@ arms and costs nothing next to a simulation.
 For a DH arm it is the same arm as
 ``with_payload(with_scaled_inertia(arm, scale), mass, com)`` with the drawn
 friction added (tests/test_montecarlo.py checks the forward dynamics agree).
+
+For a study in MuJoCo (``simulator="mujoco"``) the same plant becomes an arm of its own,
+:func:`plant_arm`: the nominal arm carrying the plant's inertial parameters, rotor inertias
+and friction (:func:`manipdyn.identification.estimation.model.arm_with_parameters`), whose
+MJCF (:func:`manipdyn.to_mjcf`, compiled by ``arm.engine("mujoco")``) MuJoCo steps
+(:mod:`manipdyn.control.mjsim`).  Its forward dynamics are the plant's to rounding
+(tests/test_montecarlo_mujoco.py).
 """
 
 from __future__ import annotations
@@ -21,7 +28,7 @@ import pinocchio as pin
 from ...engines.pinocchio.engine import PinocchioEngine
 from .distributions import RunDraw
 
-__all__ = ["Plant", "make_plant"]
+__all__ = ["Plant", "make_plant", "plant_arm"]
 
 
 class Plant:
@@ -79,3 +86,32 @@ def make_plant(arm, draw: RunDraw) -> Plant:
     if arm.friction is not None:
         friction = friction + arm.friction
     return Plant(arm, PinocchioEngine(model, friction=friction, num_threads=1), draw)
+
+
+def plant_arm(arm, plant: Plant):
+    """The plant ``plant`` of a study on ``arm`` as an arm (DH or URDF, as ``arm``) with an MJCF.
+
+    Each body carries the plant model's inertial parameters (``pin.Inertia.toDynamicParameters``
+    of Pinocchio joint ``j``: the URDF link frame ``j``, the layout of ``arm.parameters()``), the
+    rotor inertias are the plant model's ``armature`` when they differ from the nominal arm's,
+    and the friction is the plant's own, viscous and Coulomb on the joint side with a sharp sign
+    (``Fv qd + Fc sign(qd)``, what :class:`Plant` simulates), none when the plant has none.
+    Named ``plant.name``.
+    """
+    from ...identification.estimation.model import arm_with_parameters
+
+    engine = plant.pinocchio
+    model, n = engine.model, arm.n
+    pi = [np.concatenate([model.inertias[j].toDynamicParameters() for j in range(1, n + 1)])]
+    armature = not np.array_equal(np.asarray(model.armature), np.asarray(arm.pinocchio.model.armature))
+    if armature:
+        pi.append(np.asarray(model.armature, dtype=np.float64))
+    fr = np.zeros((2, n)) if engine.friction is None else np.asarray(engine.friction, dtype=np.float64)
+    pi += [fr[0], fr[1]]
+    import warnings
+
+    from ..._support.errors import PhysicalConsistencyWarning
+
+    with warnings.catch_warnings():      # the nominal arm's own notes (the Puma's links) were said once, at load
+        warnings.simplefilter("ignore", PhysicalConsistencyWarning)
+        return arm_with_parameters(arm, np.concatenate(pi), armature=armature, friction=True, name=plant.name)

@@ -140,7 +140,9 @@ class StudyReport:
         nc = len(s.controllers)
         head = (f"montecarlo {s.model[3]!r}: {s.runs} run{'s' * (s.runs != 1)} x {nc} "
                 f"controller{'s' * (nc != 1)}, seed {s.seed}, "
-                f"demo path {s.duration:g} s at {1 / s.dt:g} Hz\n{plant_source(s)}")
+                f"demo path {s.duration:g} s at {1 / s.dt:g} Hz"
+                + (f", MuJoCo stepping each plant's MJCF ({s.mujoco_plant} plant)" if s.simulator == "mujoco" else "")
+                + f"\n{plant_source(s)}")
         effect = self.effect()["text"]
         head += f"\n{effect}" if effect else ""
         foot = (f"{s.runs * len(s.controllers)} simulations in {t.get('wall_s', 0.0):.1f} s on "

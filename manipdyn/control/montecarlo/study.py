@@ -15,6 +15,13 @@ Replaying one run (e.g. the worst of a study) alone, with
     setup = study.setup(run=17, controller="ct")
     log = md.simulate(**setup.simulate_kwargs())      # what the study ran
     # or simply: log = study.replay(17, "ct")
+
+A study in MuJoCo (``simulator="mujoco"``) draws the same plants from the same seeds; each
+becomes an arm with an MJCF (:func:`.plant.plant_arm`) and every run is stepped by MuJoCo
+(:mod:`manipdyn.control.mjsim`), one run at a time: ``mujoco_plant="model"`` (the default here)
+is the plant manipdyn simulates, constraints off and the whole friction law applied, so the two
+simulators' runs differ by how each evaluates the dynamics only; ``"file"`` is the MJCF as
+MuJoCo loads it (Coulomb friction as ``frictionloss``, MuJoCo's soft constraint).
 """
 
 from __future__ import annotations
@@ -29,12 +36,16 @@ from ..controllers import Controller
 from ...check.scale import arm_from_text, model_text
 from .distributions import Distributions, draw
 from .diverged import cause, runaway
-from .plant import Plant, make_plant
+from .plant import Plant, make_plant, plant_arm
 
 __all__ = ["Study", "RunSetup", "TorqueNoise", "run_chunk", "CONTROLLER_KEYS", "model_text"]
 
 #: controller keys of a study, in report order (those of ``manipdyn track``)
 CONTROLLER_KEYS = ("pd", "pdg", "ct", "adaptive", "lqr")
+#: who steps a study's plants
+SIMULATORS = ("manipdyn", "mujoco")
+#: the plants a study in MuJoCo can step (:mod:`manipdyn.control.mjsim`)
+MUJOCO_PLANTS = ("model", "file")
 
 
 class TorqueNoise(Controller):
@@ -84,11 +95,19 @@ class RunSetup:
     duration: float
     dt: float
     substeps: int = 1
+    #: who steps the plant, and with MuJoCo which plant and the plant as an arm (:func:`.plant.plant_arm`)
+    simulator: str = "manipdyn"
+    mujoco_plant: str = "model"
+    mujoco_arm: object = None
 
     def simulate_kwargs(self) -> dict:
-        return {"arm": self.arm, "controller": self.controller, "trajectory": self.trajectory,
-                "duration": self.duration, "dt": self.dt, "plant": self.plant, "q0": self.q0,
-                "substeps": self.substeps}
+        """The keyword arguments of :func:`manipdyn.simulate` that replay this run as the study ran it."""
+        kw = {"arm": self.arm, "controller": self.controller, "trajectory": self.trajectory,
+              "duration": self.duration, "dt": self.dt, "plant": self.plant, "q0": self.q0,
+              "substeps": self.substeps}
+        if self.simulator == "mujoco":
+            kw.update(plant=self.mujoco_arm, simulator="mujoco", mujoco_plant=self.mujoco_plant)
+        return kw
 
 
 @dataclass(frozen=True)
@@ -114,6 +133,11 @@ class Study:
         Draw every run's plant from an identification (:mod:`.identified`) instead of
         the link scale, payload and friction of :attr:`distributions` (which must then
         be 0; the start offset and torque noise still apply).  None: the distributions.
+    simulator : "manipdyn" | "mujoco"
+        Who steps the plants (module docstring): manipdyn's RK4 (default) or MuJoCo's, on each
+        plant's MJCF.  The draws are the same either way.
+    mujoco_plant : "model" | "file"
+        With MuJoCo: the plant manipdyn simulates (default) or the MJCF as MuJoCo loads it.
     """
 
     model: tuple
@@ -127,8 +151,14 @@ class Study:
     bandwidth: float = 10.0
     gamma: float = 10.0
     plants: object = None
+    simulator: str = "manipdyn"
+    mujoco_plant: str = "model"
 
     def __post_init__(self):
+        if self.simulator not in SIMULATORS:
+            raise ValueError(f"simulator: expected 'manipdyn' or 'mujoco', got {self.simulator!r:.40}")
+        if self.mujoco_plant not in MUJOCO_PLANTS:
+            raise ValueError(f"mujoco_plant: expected 'model' or 'file', got {self.mujoco_plant!r:.40}")
         if isinstance(self.runs, bool) or not isinstance(self.runs, (int, np.integer)) or self.runs < 1:
             raise ValueError(f"runs: expected a positive integer, got {self.runs!r}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
@@ -212,7 +242,16 @@ class Study:
                 _cache[key] = m
         else:
             m = _cache[key]
-        return RunSetup(self.arm, ctrl, path, plant, q0, float(self.duration), float(self.dt), m)
+        arm = None
+        if self.simulator == "mujoco":
+            key = ("mujoco_arm", int(run))      # one plant arm (one compiled MJCF) per run
+            arm = _cache.get(key) if _cache is not None else None
+            if arm is None:
+                arm = plant_arm(self.arm, plant)
+                if _cache is not None:
+                    _cache[key] = arm
+        return RunSetup(self.arm, ctrl, path, plant, q0, float(self.duration), float(self.dt), m,
+                        self.simulator, self.mujoco_plant, arm)
 
     def substeps(self, plant) -> int:
         """Runge-Kutta steps per period for ``plant`` along the path, as :func:`manipdyn.simulate`
@@ -238,7 +277,8 @@ class Study:
         return _torque_scale(self.model, float(self.duration), float(self.dt))
 
     def replay(self, run: int, controller: str):
-        """Simulate run ``run`` of ``controller`` alone: the study's :class:`SimulationLog`.
+        """Simulate run ``run`` of ``controller`` alone: the study's :class:`SimulationLog`
+        (stepped by the study's simulator).
 
         Raises :class:`manipdyn.control.SimulationDiverged` if that run diverged.
         """
@@ -256,7 +296,8 @@ class Study:
                 "controllers": list(self.controllers), "duration": self.duration, "dt": self.dt,
                 "distributions": self.distributions.to_dict(),
                 "tau_max": None if self.tau_max is None else list(self.tau_max),
-                "bandwidth": self.bandwidth, "gamma": self.gamma,
+                "bandwidth": self.bandwidth, "gamma": self.gamma, "simulator": self.simulator,
+                **({"mujoco_plant": self.mujoco_plant} if self.simulator == "mujoco" else {}),
                 **({} if self.plants is None else {"plants": self.plants.to_dict(self.seed, self.runs)})}
 
 
@@ -335,9 +376,12 @@ def _record(study: Study, setup: RunSetup, key: str, log, diverged: bool) -> dic
 
 
 def run_many(study: Study, runs, key: str, cache: dict) -> list:
-    """Runs ``runs`` of controller ``key`` stepped together (:func:`simulate_lockstep`): records."""
+    """Runs ``runs`` of controller ``key`` stepped together (:func:`simulate_lockstep`): records;
+    in MuJoCo, one run after another (:func:`run_one`)."""
     from .lockstep import simulate_lockstep
 
+    if study.simulator == "mujoco":
+        return [run_one(study, int(r), key, cache) for r in runs]
     setups = [study.setup(int(r), key, cache) for r in runs]
     return [_record(study, setup, key, log, diverged)
             for setup, (log, diverged) in zip(setups, simulate_lockstep(setups))]
