@@ -158,6 +158,8 @@ def test_the_consistent_fit_does_not_move_with_the_blas_kernel(tmp_path):
         out.append(np.load(path))
     scale = np.abs(out[0]).max()
     assert np.max(np.abs(out[0] - out[1])) < 1e-6 * scale
+    from manipdyn.identification.estimation import sdp, solvers
+    assert solvers.VIOLATION_TOL == sdp.EPS / 2     # a body that passes the check is still physical
 
 
 def test_urdf_prior_with_friction_armature_and_gears_is_written_as_a_full_model(tmp_path):

@@ -98,8 +98,7 @@ _MASS = {"kg": 1.0, "g": 0.001}
 _TOP_KEYS = {"format", "name", "convention", "gravity", "source", "sources", "units", "links", "description",
              "transmission", "friction", "poses", "trust"}
 _LINK_REQUIRED = ("joint", "a", "alpha", "d", "theta", "mass")
-_LINK_OPTIONAL = ("name", "qlim", "com", "inertia", "motor_inertia", "gear_ratio",
-                  "friction_viscous", "friction_coulomb")
+_LINK_OPTIONAL = ("name", "qlim", "com", "inertia", "motor_inertia", "gear_ratio", "friction_viscous", "friction_coulomb")
 _INERTIA_KEYS = ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")
 
 
@@ -111,14 +110,8 @@ def _bundled_dir():
 
 
 def models() -> list[str]:
-    """Names of the bundled arm models, sorted.
-
-    Each follows its published table (its file's ``source`` and ``[sources]``).  Three share a name
-    with a model of the Robotics Toolbox for Python and are not that model: ``puma560`` (the Toolbox
-    puts the shoulder's 0.67183 m in d1), ``stanford`` (link 3 ``a``, link 6 ``d``) and ``ur5`` (d1, a
-    mass, a centre of mass, the inertias); ``arm.sources["toolbox"]`` says what differs and how to
-    get the Toolbox's convention, and ``manipdyn models`` prints it.
-    """
+    """Names of the bundled arm models, sorted (puma560, stanford and ur5 are not the Toolbox for Python's
+    models of those names: ``arm.sources["toolbox"]`` and ``manipdyn models`` say what differs)."""
     return sorted(p.name[:-5] for p in _bundled_dir().iterdir() if p.name.endswith(".toml"))
 
 

@@ -217,9 +217,8 @@ class Arm(ArmCalls, ReachCalls):  # jacobian, inverse_dynamics, poses, ...: .arm
     def with_payload(self, mass: float, com=(0.0, 0.0, 0.0), inertia=None, name=None) -> "Arm":
         """A new arm of the same kind carrying a payload rigidly attached at the tool.
 
-        ``mass`` kg (>= 0); ``com`` (3,) m, its centre of mass in the tool frame (the frame
-        :meth:`fkine` gives); ``inertia`` (3, 3) or (3,) kg m^2 about that centre of mass,
-        tool-frame axes (default 0, a point mass); ``name`` default ``"<arm>+<mass>kg"``.
+        ``mass`` kg (>= 0); ``com`` (3,) m in the tool frame (:meth:`fkine`'s); ``inertia`` (3, 3) or (3,)
+        kg m^2 about that COM, tool axes (default 0); ``name`` default ``"<arm>+<mass>kg"``.
         Any arm, DH or URDF (:func:`manipdyn.model.variants.with_payload`)."""
         return _SERVICES["with_payload"](self, mass, com, inertia, name)
 
