@@ -1,0 +1,196 @@
+"""``md.observe``: a log's residuals against thresholds with a stated false-alarm rate, and its events.
+
+Layer 6 (control: collision).
+
+Where the thresholds come from, in this order (none: a :class:`ModelError`, never a silent default):
+
+1. ``threshold=`` given: per joint, N m (one number: every joint);
+2. ``calibrate=`` given: collision-free logs (or arrays) **the model was not fitted on**; the observer
+   runs on them and :func:`~manipdyn.identification.uncertainty.thresholds.fit_thresholds` reads the
+   thresholds off its residual for ``false_alarms`` per hour;
+3. the model's trust record, key ``collision`` (written by :func:`with_thresholds`, ``manipdyn observe
+   --calibrate ... --save-model``, or by ``identify`` from the band's blocked hold-outs), at the same
+   gain (another rate is read off the stored tail, no data needed).
+
+A log is read as ``validate`` reads it (:func:`~manipdyn.identification.read_log`, the same options),
+but every sample is kept (``decimate=False`` unless asked): the observer runs at the log's rate.
+When the log has no measured velocity, ``qd`` comes from the reader's zero-phase filter, which looks
+ahead by about one period of the cut-off: a controller's causal filter would detect later.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..._support.errors import ModelError
+from ...identification.uncertainty.thresholds import (DEFAULT_GAIN, DEFAULT_HYSTERESIS, DEFAULT_MIN_DURATION,
+                                                      DEFAULT_RATE, CollisionThresholds, fit_thresholds)
+from .events import detect_events
+from .observer import _gain, direct_residual, momentum_residual
+
+__all__ = ["observe", "calibrate_thresholds", "with_thresholds", "carried_thresholds", "resolve_thresholds",
+           "read_observed", "Observed", "TRUST_KEY"]
+
+#: the trust record's key of the collision thresholds
+TRUST_KEY = "collision"
+
+
+@dataclass
+class Observed:
+    """One log as the observer sees it: ``t`` (N,) s, ``q``, ``qd``, ``tau`` (N, n), ``qdd`` (N, n) or None."""
+
+    label: str
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    tau: np.ndarray
+    qdd: np.ndarray | None = None
+    notes: list = field(default_factory=list)
+
+    @property
+    def dt(self) -> float:
+        return float(np.median(np.diff(self.t)))
+
+
+def _arrays(value, n, label) -> Observed:
+    get = value.get if isinstance(value, dict) else (lambda k, d=None: getattr(value, k, d))
+    missing = [k for k in ("t", "q", "qd", "tau") if get(k) is None]
+    if missing:
+        raise ModelError(f"{label}: expected a log file, or arrays t, q, qd, tau (qdd optional); "
+                         f"missing {', '.join(missing)}")
+    t = np.asarray(get("t"), dtype=np.float64).reshape(-1)
+    arrs = [np.asarray(get(k), dtype=np.float64) for k in ("q", "qd", "tau")]
+    qdd = get("qdd")
+    for name, a in zip(("q", "qd", "tau"), arrs):
+        if a.shape != (len(t), n):
+            raise ModelError(f"{label}: {name}: expected shape ({len(t)}, {n}), got {a.shape}")
+    if len(t) < 2 or not np.all(np.diff(t) > 0):
+        raise ModelError(f"{label}: t: expected at least 2 increasing times, s")
+    span = np.diff(t)
+    if np.max(span) > 1.01 * np.min(span) + 1e-12:
+        raise ModelError(f"{label}: t: the observer needs uniform samples (steps {np.min(span):.4g} to "
+                         f"{np.max(span):.4g} s); read the log with read_log, which resamples")
+    qdd = None if qdd is None else np.asarray(qdd, dtype=np.float64)
+    return Observed(label, t, *arrs, qdd=qdd, notes=list(get("notes", None) or []))
+
+
+def read_observed(arm, source, **log_options) -> list[Observed]:
+    """The logs of ``source`` (a path, a list of paths, a Measurements or a dict of arrays ``t, q, qd, tau``
+    and optionally ``qdd``), read with :func:`~manipdyn.identification.read_log`'s ``log_options``."""
+    from ...formats.logs.read import read_log
+
+    items = list(source) if isinstance(source, (list, tuple)) else [source]
+    if not items:
+        raise ModelError("logs: expected at least one log")
+    opts = dict(log_options)
+    opts.setdefault("decimate", False)
+    out = []
+    for k, item in enumerate(items):
+        if isinstance(item, (str, os.PathLike)):
+            m = read_log(item, arm.n, transmission=getattr(arm, "transmission", None), **opts)
+            out.append(Observed(os.path.basename(os.fspath(item)), m.t, m.q, m.qd, m.tau, m.qdd, list(m.notes)))
+        else:
+            out.append(_arrays(item, arm.n, f"log {k + 1}"))
+    return out
+
+
+def _residual(arm, obs: Observed, gain) -> np.ndarray:
+    return momentum_residual(arm, obs.q, obs.qd, obs.tau, obs.dt, gain)
+
+
+def calibrate_thresholds(arm, logs, gain: float = DEFAULT_GAIN, false_alarms: float = DEFAULT_RATE, *,
+                         min_duration: float = DEFAULT_MIN_DURATION, hysteresis: float = DEFAULT_HYSTERESIS,
+                         **log_options) -> CollisionThresholds:
+    """Thresholds from collision-free ``logs`` the model was not fitted on (paths or arrays, as
+    :func:`observe` takes them), for ``false_alarms`` events per hour (the detector's, all joints)."""
+    K = _gain(gain)
+    parts = read_observed(arm, logs, **log_options)
+    res = [_residual(arm, p, K) for p in parts]
+    dts = [p.dt for p in parts]
+    if max(dts) > 1.01 * min(dts):
+        raise ModelError(f"calibrate: the logs' sample periods differ ({min(dts):.4g} to {max(dts):.4g} s); "
+                         "resample them to one rate (--resample)")
+    return fit_thresholds(np.vstack(res), dts[0], false_alarms, gain=K, min_duration=min_duration,
+                          hysteresis=hysteresis, source="calibration logs " + ", ".join(p.label for p in parts))
+
+
+def carried_thresholds(arm) -> CollisionThresholds | None:
+    """The thresholds in ``arm.trust`` (key ``collision``), or None."""
+    rec = getattr(arm, "trust", None)
+    if not isinstance(rec, dict) or rec.get(TRUST_KEY) is None:
+        return None
+    return CollisionThresholds.from_dict(rec[TRUST_KEY], arm.n, f"the model's trust record: key {TRUST_KEY!r}")
+
+
+def with_thresholds(arm, thresholds: CollisionThresholds):
+    """A shallow copy of ``arm`` whose trust record holds ``thresholds`` (``md.save`` writes it)."""
+    import copy
+
+    from ...formats.trust import TRUST_FORMAT
+
+    out = copy.copy(arm)
+    out._engines = {}
+    rec = dict(getattr(arm, "trust", None) or {"format": TRUST_FORMAT})
+    rec[TRUST_KEY] = thresholds.to_dict()
+    out.trust = rec
+    return out
+
+
+def _explicit(threshold, n, gain, rate, min_duration, hysteresis) -> CollisionThresholds:
+    T = np.atleast_1d(np.asarray(threshold, dtype=np.float64)).reshape(-1)
+    if len(T) == 1:
+        T = np.full(n, T[0])
+    if len(T) != n or not np.all(np.isfinite(T)) or np.any(T <= 0):
+        raise ModelError(f"threshold: expected 1 or {n} numbers > 0 (N m per joint), got {np.asarray(threshold)!r}")
+    return CollisionThresholds(T, rate, gain, min_duration, hysteresis, 1.0, np.zeros(n), np.zeros(n), T,
+                               "given (threshold=)")
+
+
+def resolve_thresholds(arm, gain, false_alarms, calibrate, threshold, min_duration, hysteresis, log_options):
+    """The :class:`CollisionThresholds` of :func:`observe` (module docstring), or a refusal."""
+    if threshold is not None:
+        return _explicit(threshold, arm.n, gain, false_alarms, min_duration, hysteresis)
+    if calibrate is not None:
+        return calibrate_thresholds(arm, calibrate, gain, false_alarms, min_duration=min_duration,
+                                    hysteresis=hysteresis, **log_options)
+    carried = carried_thresholds(arm)
+    if carried is None:
+        raise ModelError("thresholds: the model carries no collision thresholds (its trust record has no "
+                         f"{TRUST_KEY!r} key); give calibrate= (--calibrate LOG...: collision-free logs the model was "
+                         "not fitted on) or threshold= (--threshold N_M...)")
+    if abs(carried.gain - gain) > 1e-9 * gain:
+        raise ModelError(f"gain: the model's thresholds are for gain {carried.gain:g} 1/s, not {gain:g}; use that "
+                         "gain, or calibrate= / threshold= for this one")
+    out = carried.for_rate(false_alarms)
+    return CollisionThresholds(out.threshold, out.false_alarms_per_hour, out.gain, min_duration, hysteresis,
+                               out.hours, out.tail_a, out.tail_b, out.observed_max,
+                               out.source or "the model's trust record")
+
+
+def observe(arm, log_or_arrays, gain: float = DEFAULT_GAIN, *, false_alarms: float = DEFAULT_RATE, calibrate=None,
+            threshold=None, min_duration: float = DEFAULT_MIN_DURATION, hysteresis: float = DEFAULT_HYSTERESIS,
+            direct: bool = True, wrench: bool = True, **log_options) -> "ObserveResult":
+    """Watch a log for collisions: residuals, thresholds and events (module docstring).
+
+    ``log_or_arrays``: a log path (CSV, bag), a list of them, or arrays (a dict or an object with ``t``
+    (N,) s, uniform; ``q``, ``qd``, ``tau`` (N, n); optionally ``qdd``).  ``gain``: the momentum observer's
+    K, 1/s.  ``false_alarms``: false events per hour the thresholds allow (all joints together).
+    ``calibrate``: collision-free logs or arrays for the thresholds; ``threshold``: N m per joint.
+    ``min_duration`` s and ``hysteresis`` define an event (:mod:`.events`).  ``direct``: also the
+    direct residual (needs ``qdd``).  ``log_options``: :func:`~manipdyn.identification.read_log`'s.
+    Returns :class:`ObserveResult`; raises :class:`ModelError` when no thresholds can be had.
+    """
+    from .report import ObserveResult
+
+    K = _gain(gain)
+    thr = resolve_thresholds(arm, K, false_alarms, calibrate, threshold, min_duration, hysteresis, log_options)
+    runs = []
+    for obs in read_observed(arm, log_or_arrays, **log_options):
+        r = _residual(arm, obs, K)
+        d = direct_residual(arm, obs.q, obs.qd, obs.qdd, obs.tau) if direct and obs.qdd is not None else None
+        ev = detect_events(arm, obs.t, obs.q, r, thr.threshold, thr.min_duration, thr.hysteresis, wrench=wrench)
+        runs.append((obs, r, d, ev))
+    return ObserveResult(arm=arm, thresholds=thr, runs=runs)
