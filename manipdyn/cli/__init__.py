@@ -20,16 +20,16 @@ import sys
 import warnings
 
 from .._support.errors import MissingExtraError, ModelError, SingularMassMatrixError, StateError
-from . import (bench, check, codegen, compare, excite, identify, mjcf, models, montecarlo, synthesize, track, urdf,
-               validate)
+from . import (bench, check, codegen, compare, excite, identify, mjcf, models, montecarlo, observe, synthesize, track,
+               urdf, validate)
 from .._support.threads import blas_threads
 from .common import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, one_line
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
 #: the subcommands, in the order ``manipdyn --help`` lists them
-COMMANDS = (check, urdf, mjcf, models, compare, track, montecarlo, excite, synthesize, identify, validate, bench,
-            codegen)
+COMMANDS = (check, urdf, mjcf, models, compare, track, montecarlo, excite, synthesize, identify, validate, observe,
+            bench, codegen)
 
 
 def _version() -> str:
