@@ -17,6 +17,10 @@ In the terms of Haddadin, De Luca and Albu-Schaeffer's survey ("Robot Collisions
   ``sum_j |pinv(J^T)_ij| T_j`` at the peak's pose: what a residual error as large as the thresholds
   (the model's error on collision-free data) can make of the wrench.  A 6-joint arm's ``J^T`` is
   square; a 7-joint arm's least-squares wrench ignores the part of ``r`` no tool wrench explains.
+  Near a singular pose the wrench's force and moment trade off (its uncertainty says so); a push at
+  the tool's point carries no moment, and ``point_force``, ``pinv(J_v^T) r`` with the Jacobian's
+  three linear rows, is the force under that assumption, well conditioned wherever the tool can move
+  in three directions.
 """
 
 from __future__ import annotations
@@ -37,7 +41,8 @@ PLATEAU = 0.8
 class Event:
     """One collision event (module docstring).  Times in s of the log; ``peak_residual`` (n,) N m;
     ``joints`` crossing (1-based); ``link`` the last link touched (1-based); ``wrench`` (6,)
-    ``[f (N); m (N m)]`` in the base frame at the tool and ``wrench_uncertainty`` (6,), or None."""
+    ``[f (N); m (N m)]`` in the base frame at the tool and ``wrench_uncertainty`` (6,), or None;
+    ``point_force`` (3,) N, base frame: the force of a push at the tool's point (no moment), or None."""
 
     onset: float
     detected: float
@@ -49,6 +54,7 @@ class Event:
     link: int
     wrench: np.ndarray | None = None
     wrench_uncertainty: np.ndarray | None = None
+    point_force: np.ndarray | None = None
     samples: tuple = field(default=(0, 0), repr=False)
 
     def to_dict(self) -> dict:
@@ -60,6 +66,8 @@ class Event:
             out["moment"] = [float(x) for x in self.wrench[3:]]
             out["force_uncertainty"] = [float(x) for x in self.wrench_uncertainty[:3]]
             out["moment_uncertainty"] = [float(x) for x in self.wrench_uncertainty[3:]]
+        if self.point_force is not None:
+            out["point_force"] = [float(x) for x in self.point_force]
         return out
 
 
@@ -108,5 +116,7 @@ def detect_events(arm, t, q, r, T, min_duration: float, hysteresis: float, wrenc
             ev.wrench = np.mean(np.einsum("kij,kj->ki", P, r[plateau]), axis=0)
             Pp = np.linalg.pinv(arm.jacobian(q[kp]).T)
             ev.wrench_uncertainty = np.abs(Pp) @ T
+            Pf = np.linalg.pinv(np.swapaxes(J[:, :3, :], 1, 2))                # a force alone, no moment
+            ev.point_force = np.mean(np.einsum("kij,kj->ki", Pf, r[plateau]), axis=0)
         out.append(ev)
     return out
