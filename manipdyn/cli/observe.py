@@ -40,6 +40,9 @@ def register(subparsers) -> None:
                    help="false events per hour the thresholds allow, all joints together (default 1)")
     p.add_argument("--calibrate", nargs="+", metavar="LOG", default=None,
                    help="collision-free logs the model was NOT fitted on: the thresholds are read off them")
+    p.add_argument("--calibrate-t-range", metavar="T0:T1", default=None,
+                   help="the window of the --calibrate logs, in place of --t-range (one file cut into a calibration "
+                        "window and a watched one)")
     p.add_argument("--threshold", nargs="+", type=float, metavar="N_M", default=None,
                    help="the thresholds themselves, N m per joint (one number: every joint)")
     p.add_argument("--min-duration", type=float, default=0.005, metavar="S",
@@ -85,8 +88,13 @@ def run(args) -> int:
         if gain is None:
             carried = carried_thresholds(arm) if args.threshold is None and args.calibrate is None else None
             gain = carried.gain if carried is not None else DEFAULT_GAIN
+        cal_opts = opts
+        if args.calibrate_t_range is not None:
+            from ..formats.logs.read import as_t_range
+
+            cal_opts = dict(opts, t_range=as_t_range(args.calibrate_t_range, "--calibrate-t-range"))
         thr = resolve_thresholds(arm, gain, args.false_alarms, args.calibrate, args.threshold, args.min_duration,
-                                 args.hysteresis, opts)
+                                 args.hysteresis, cal_opts)
         res = None
         if args.logs:
             res = observe(arm, args.logs, gain, false_alarms=args.false_alarms, threshold=thr.threshold,

@@ -13,9 +13,11 @@ Where the thresholds come from, in this order (none: a :class:`ModelError`, neve
    gain (another rate is read off the stored tail, no data needed).
 
 A log is read as ``validate`` reads it (:func:`~manipdyn.identification.read_log`, the same options),
-but every sample is kept (``decimate=False`` unless asked): the observer runs at the log's rate.
-When the log has no measured velocity, ``qd`` comes from the reader's zero-phase filter, which looks
-ahead by about one period of the cut-off: a controller's causal filter would detect later.
+but every sample is kept (``decimate=False`` unless asked) and, unless ``cutoff=`` is given, the
+reader's zero-phase low-pass is set at :data:`RAW_CUTOFF` (0.4) times the log's rate, so the signals are
+nearly as logged (the reader's own choice, made for identification, is a few Hz, which would hide a
+collision and look ahead in time).  When the log has no measured velocity, ``qd`` is differentiated
+from ``q`` through that filter.
 """
 
 from __future__ import annotations
@@ -36,6 +38,8 @@ __all__ = ["observe", "calibrate_thresholds", "with_thresholds", "carried_thresh
 
 #: the trust record's key of the collision thresholds
 TRUST_KEY = "collision"
+#: without a cut-off given, a log's signals are filtered at this fraction of its rate only (nearly raw)
+RAW_CUTOFF = 0.4
 
 
 @dataclass
@@ -90,7 +94,14 @@ def read_observed(arm, source, **log_options) -> list[Observed]:
     out = []
     for k, item in enumerate(items):
         if isinstance(item, (str, os.PathLike)):
-            m = read_log(item, arm.n, transmission=getattr(arm, "transmission", None), **opts)
+            tr = getattr(arm, "transmission", None)
+            if opts.get("cutoff") is None:
+                # the signals as they come: a low-pass at 0.4 x the rate (the reader's default cut-off,
+                # chosen for identification, is a few Hz, which a collision would not get through)
+                fs = read_log(item, arm.n, transmission=tr, **dict(opts, t_range=None)).rate
+                m = read_log(item, arm.n, transmission=tr, **dict(opts, cutoff=RAW_CUTOFF * fs))
+            else:
+                m = read_log(item, arm.n, transmission=tr, **opts)
             out.append(Observed(os.path.basename(os.fspath(item)), m.t, m.q, m.qd, m.tau, m.qdd, list(m.notes)))
         else:
             out.append(_arrays(item, arm.n, f"log {k + 1}"))
@@ -150,7 +161,8 @@ def _explicit(threshold, n, gain, rate, min_duration, hysteresis) -> CollisionTh
 
 
 def resolve_thresholds(arm, gain, false_alarms, calibrate, threshold, min_duration, hysteresis, log_options):
-    """The :class:`CollisionThresholds` of :func:`observe` (module docstring), or a refusal."""
+    """The :class:`CollisionThresholds` of :func:`observe` (module docstring), or a refusal; ``log_options``
+    are the calibration logs' reading options."""
     if threshold is not None:
         return _explicit(threshold, arm.n, gain, false_alarms, min_duration, hysteresis)
     if calibrate is not None:
@@ -172,13 +184,15 @@ def resolve_thresholds(arm, gain, false_alarms, calibrate, threshold, min_durati
 
 def observe(arm, log_or_arrays, gain: float = DEFAULT_GAIN, *, false_alarms: float = DEFAULT_RATE, calibrate=None,
             threshold=None, min_duration: float = DEFAULT_MIN_DURATION, hysteresis: float = DEFAULT_HYSTERESIS,
-            direct: bool = True, wrench: bool = True, **log_options) -> "ObserveResult":
+            direct: bool = True, wrench: bool = True, calibrate_t_range=None, **log_options) -> "ObserveResult":
     """Watch a log for collisions: residuals, thresholds and events (module docstring).
 
     ``log_or_arrays``: a log path (CSV, bag), a list of them, or arrays (a dict or an object with ``t``
     (N,) s, uniform; ``q``, ``qd``, ``tau`` (N, n); optionally ``qdd``).  ``gain``: the momentum observer's
     K, 1/s.  ``false_alarms``: false events per hour the thresholds allow (all joints together).
     ``calibrate``: collision-free logs or arrays for the thresholds; ``threshold``: N m per joint.
+    ``calibrate_t_range``: ``(t0, t1)`` s (or ``"T0:T1"``) of the calibration logs, in place of ``t_range``
+    (one file cut into a calibration window and a watched window).
     ``min_duration`` s and ``hysteresis`` define an event (:mod:`.events`).  ``direct``: also the
     direct residual (needs ``qdd``).  ``log_options``: :func:`~manipdyn.identification.read_log`'s.
     Returns :class:`ObserveResult`; raises :class:`ModelError` when no thresholds can be had.
@@ -186,7 +200,8 @@ def observe(arm, log_or_arrays, gain: float = DEFAULT_GAIN, *, false_alarms: flo
     from .report import ObserveResult
 
     K = _gain(gain)
-    thr = resolve_thresholds(arm, K, false_alarms, calibrate, threshold, min_duration, hysteresis, log_options)
+    cal_options = dict(log_options, t_range=calibrate_t_range) if calibrate_t_range is not None else log_options
+    thr = resolve_thresholds(arm, K, false_alarms, calibrate, threshold, min_duration, hysteresis, cal_options)
     runs = []
     for obs in read_observed(arm, log_or_arrays, **log_options):
         r = _residual(arm, obs, K)
