@@ -31,7 +31,7 @@ from ..._support.errors import ModelError
 from ...identification.uncertainty.thresholds import (DEFAULT_GAIN, DEFAULT_HYSTERESIS, DEFAULT_MIN_DURATION,
                                                       DEFAULT_RATE, CollisionThresholds, fit_thresholds)
 from .events import detect_events
-from .observer import _gain, direct_residual, momentum_residual
+from .observer import check_gain, direct_residual, momentum_residual
 
 __all__ = ["observe", "calibrate_thresholds", "with_thresholds", "carried_thresholds", "resolve_thresholds",
            "read_observed", "Observed", "TRUST_KEY"]
@@ -117,7 +117,7 @@ def calibrate_thresholds(arm, logs, gain: float = DEFAULT_GAIN, false_alarms: fl
                          **log_options) -> CollisionThresholds:
     """Thresholds from collision-free ``logs`` the model was not fitted on (paths or arrays, as
     :func:`observe` takes them), for ``false_alarms`` events per hour (the detector's, all joints)."""
-    K = _gain(gain)
+    K = check_gain(gain)
     parts = read_observed(arm, logs, **log_options)
     res = [_residual(arm, p, K) for p in parts]
     dts = [p.dt for p in parts]
@@ -199,7 +199,7 @@ def observe(arm, log_or_arrays, gain: float = DEFAULT_GAIN, *, false_alarms: flo
     """
     from .report import ObserveResult
 
-    K = _gain(gain)
+    K = check_gain(gain)
     cal_options = dict(log_options, t_range=calibrate_t_range) if calibrate_t_range is not None else log_options
     thr = resolve_thresholds(arm, K, false_alarms, calibrate, threshold, min_duration, hysteresis, cal_options)
     runs = []

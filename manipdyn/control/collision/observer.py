@@ -40,14 +40,14 @@ import numpy as np
 from ..._support.errors import ModelError
 from ...identification.uncertainty.thresholds import DEFAULT_GAIN, low_pass
 
-__all__ = ["MomentumObserver", "momentum_residual", "direct_residual", "coriolis_transpose_qd"]
+__all__ = ["MomentumObserver", "momentum_residual", "direct_residual", "coriolis_transpose_qd", "check_gain"]
 
 #: samples per chunk of the offline observer's batched calls (memory: chunk * n * n floats)
 CHUNK = 4096
 _mul, _sub = np.multiply, np.subtract
 
 
-def _gain(gain) -> float:
+def check_gain(gain) -> float:
     try:
         K = float(gain)
     except (TypeError, ValueError):
@@ -102,7 +102,7 @@ def momentum_residual(arm, q, qd, tau, dt: float, gain: float = DEFAULT_GAIN) ->
     ``q`` (N, n) rad (m), ``qd`` (N, n) rad/s, ``tau`` (N, n) the measured joint torques, N m; ``gain``
     K, 1/s.  ``r(0) = 0``: the observer starts at the first sample.
     """
-    K, dt = _gain(gain), _dt(dt)
+    K, dt = check_gain(gain), _dt(dt)
     q, qd, tau = _states(q, qd, tau, arm.n)
     p = np.empty_like(q)
     for a in range(0, len(q), CHUNK):
@@ -139,7 +139,7 @@ class MomentumObserver:
     """
 
     def __init__(self, arm, dt: float, gain: float = DEFAULT_GAIN):
-        self.dt, self.gain = _dt(dt), _gain(gain)
+        self.dt, self.gain = _dt(dt), check_gain(gain)
         self.n = int(arm.n)
         eng = arm.engine("pinocchio")
         self._id = eng.unchecked.inverse_dynamics      # the engine's friction and rotors, no validation
