@@ -22,10 +22,11 @@ From a few minutes of data to a rate per hour
 as ``u`` grows.  A rate of ``rho`` per hour asked for, shared equally between the ``n`` joints
 (any joint's event is the detector's event), needs ``N_j(T_j) / H <= rho / n``.  When the data
 are shorter than ``n / rho`` hours no level is seen that rarely, and the tail is extrapolated:
-``ln N_j(u) = a_j - b_j u``, fitted by least squares to the counts of the upper tail (the levels
-crossed 1 to 30 times).  An exponential tail is the generalized Pareto tail with zero shape;
-a Gaussian residual's tail falls faster (``ln N ~ -u^2``), so on noise the extrapolation errs on
-the high side.  The threshold is the larger of the extrapolated level and the highest level
+``ln N_j(u) = a_j - b_j u`` (peaks over a threshold): from the lowest level ``u0`` crossed at most 30
+times, the events above ``u0`` and their peaks' mean excess ``beta`` (the maximum-likelihood scale of
+an exponential tail), ``N_j(u) = N_j(u0) exp(-(u - u0) / beta)``.  An exponential tail is the
+generalized Pareto tail with zero shape; a Gaussian residual's tail falls faster (``ln N ~ -u^2``),
+so on noise the extrapolation errs on the high side.  The threshold is the larger of the extrapolated level and the highest level
 the data crossed (at least one level above every event seen).  The record keeps ``a``, ``b``,
 ``H`` and the highest level, so another rate needs no data (:meth:`CollisionThresholds.for_rate`).
 """
@@ -39,7 +40,7 @@ import numpy as np
 
 from ..._support.errors import ModelError
 
-__all__ = ["CollisionThresholds", "sustained", "count_events", "fit_thresholds", "DEFAULT_MIN_DURATION",
+__all__ = ["CollisionThresholds", "sustained", "count_events", "event_peaks", "fit_thresholds", "DEFAULT_MIN_DURATION",
            "DEFAULT_HYSTERESIS", "DEFAULT_RATE", "DEFAULT_GAIN", "low_pass"]
 
 #: seconds a crossing must last to be an event
@@ -77,6 +78,27 @@ def sustained(residual, dt: float, min_duration: float = DEFAULT_MIN_DURATION) -
     return sliding_window_view(padded, m, axis=0).min(axis=-1)      # sample k sees k-m+1..k
 
 
+def event_peaks(s, level, hysteresis: float = DEFAULT_HYSTERESIS) -> np.ndarray:
+    """The peak of ``s`` (N,) in each event at ``level`` (a rise above ``level`` that starts after ``s``
+    fell below ``hysteresis * level``; an event lasts until the next such fall)."""
+    s = np.asarray(s, dtype=np.float64)
+    above, low = s > level, s < hysteresis * level
+    peaks, inside, peak = [], False, 0.0
+    idx = np.flatnonzero(above | low)
+    for k in idx:                               # only the marked samples: few where the level is high
+        if above[k]:
+            if not inside:
+                inside, peak = True, s[k]
+            else:
+                peak = max(peak, s[k])
+        elif inside:
+            peaks.append(peak)
+            inside = False
+    if inside:
+        peaks.append(peak)
+    return np.asarray(peaks)
+
+
 def count_events(s, level, hysteresis: float = DEFAULT_HYSTERESIS) -> int:
     """Events of one joint's sustained signal ``s`` (N,) at ``level``: rises above ``level`` that start
     after ``s`` fell below ``hysteresis * level``."""
@@ -85,12 +107,9 @@ def count_events(s, level, hysteresis: float = DEFAULT_HYSTERESIS) -> int:
     if not np.any(above):
         return 0
     low = s < hysteresis * level
-    # state machine in arrays: the last "above" or "low" mark decides
     mark = np.where(above, 1, np.where(low, -1, 0))
-    idx = np.flatnonzero(mark)
-    states = mark[idx]
-    starts = (states[1:] == 1) & (states[:-1] == -1)
-    return int(np.sum(starts) + (states[0] == 1))
+    states = mark[np.flatnonzero(mark)]
+    return int(np.sum((states[1:] == 1) & (states[:-1] == -1)) + (states[0] == 1))
 
 
 @dataclass(frozen=True)
@@ -205,14 +224,16 @@ def fit_thresholds(residual, dt: float, rate: float = DEFAULT_RATE, *, gain: flo
         levels = np.quantile(sj, np.linspace(0.5, 1.0, 80, endpoint=False)[1:])
         levels = np.unique(np.concatenate([levels, np.linspace(levels[0], top[j], 40, endpoint=False)]))
         counts = np.array([count_events(sj, u, hysteresis) for u in levels])
-        keep = (counts >= 1) & (counts <= TAIL_COUNTS)
-        if np.sum(keep) >= 3 and np.ptp(levels[keep]) > 0:
-            slope, icpt = np.polyfit(levels[keep], np.log(counts[keep]), 1)
-            a[j], b[j] = icpt, -slope
-        if not b[j] > 0:           # no falling tail seen: fall back to one e-fold per RMS of s above the top
-            rms = float(np.sqrt(np.mean(sj ** 2))) or 1e-12
-            b[j] = 1.0 / rms
-            a[j] = b[j] * top[j]   # ln N(top) = 0: one event at the top level
+        tail = np.flatnonzero((counts >= 1) & (counts <= TAIL_COUNTS))
+        u0 = float(levels[tail[0]]) if len(tail) else float(top[j])
+        excess = event_peaks(sj, u0, hysteresis) - u0
+        n0 = max(len(excess), 1)
+        beta = float(np.mean(excess)) if len(excess) and np.mean(excess) > 0 else 0.0
+        if not beta > 0:           # no tail seen: one e-fold per RMS of s above the top
+            beta = float(np.sqrt(np.mean(sj ** 2))) or 1e-12
+        # peaks over the threshold u0: exceedances of an exponential tail, scale = their mean excess (MLE)
+        b[j] = 1.0 / beta
+        a[j] = math.log(n0) + u0 * b[j]
     T = _levels(a, b, top, hours, rate / n)
     return CollisionThresholds(T, rate, float(gain), float(min_duration), float(hysteresis), hours, a, b, top,
                                source)
