@@ -216,3 +216,13 @@ def test_panda_log_no_false_event_and_thresholds_below_libfranka(panda):
     assert res.events == []
     hand_set = np.array([20, 20, 18, 18, 16, 14, 12.0])            # libfranka's examples, N m
     assert np.all(res.thresholds.threshold <= hand_set / 5)         # measured 5.9 to 19.7x below
+
+
+@pytest.mark.skipif(not (REAL / "lwr4_flobaroid").is_dir(), reason="realdata/lwr4_flobaroid not present")
+def test_lwr4_held_out_run_has_no_false_event():
+    lwr = REAL / "lwr4_flobaroid"
+    arm = _arm(str(lwr / "kuka_lwr4_gaz.urdf"))
+    res = observe(arm, str(lwr / "run1.csv"), calibrate=str(lwr / "run3.csv"), wrench=False, direct=False)
+    assert res.events == []                   # 1 false event per hour asked, 25 s watched
+    peak = np.abs(res.residuals[0]).max(axis=0) / res.thresholds.threshold
+    assert np.all(peak < 1.0) and np.max(peak) > 0.1      # measured 0.17 to 0.37 of the thresholds
