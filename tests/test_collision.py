@@ -205,6 +205,14 @@ def test_cli_synthesize_contact_and_observe(tmp_path, capsys):
     assert (d / "p.png").stat().st_size > 0 and "Collision detection" in (d / "r.html").read_text()
     assert (d / "p.csv").read_text().splitlines()[0].startswith("log,t,r1,")
     assert main(["observe", str(d / "ur5_obs.toml"), str(d / "free.csv")]) == 0     # thresholds from the file
+    # the default of an identified model: blocked hold-outs of its own fit data, through the observer
+    assert main(["identify", "ur5", str(d / "free.csv"), "--friction", "--band-folds", "0", "-o",
+                 str(d / "fit.toml")]) == 0
+    capsys.readouterr()
+    assert main(["observe", str(d / "fit.toml"), str(d / "push.csv"), "--fit-data", str(d / "free.csv")]) == 1
+    assert "blocked hold-outs of the fit data free.csv" in capsys.readouterr().out
+    assert main(["observe", str(d / "fit.toml"), str(d / "push.csv"), "--fit-data", str(d / "push.csv")]) == 2
+    assert "is not the model's fit data" in capsys.readouterr().err
 
 
 # -- real, collision-free data -----------------------------------------------------------------------------------

@@ -1,4 +1,5 @@
-"""``manipdyn observe MODEL LOG... [--gain K] [--false-alarms RATE] [--calibrate LOG...] [--threshold N_M...]
+"""``manipdyn observe MODEL LOG... [--gain K] [--false-alarms RATE] [--calibrate LOG...] [--fit-data LOG]
+[--threshold N_M...]
 [--json] [--plot FILE.png] [--report FILE.html] [--predictions FILE.csv] [--save-model OUT.toml]``.
 
 Layer 7 (CLI, the top).  Parses, calls :func:`manipdyn.control.collision.observe` (the momentum
@@ -40,6 +41,10 @@ def register(subparsers) -> None:
                    help="false events per hour the thresholds allow, all joints together (default 1)")
     p.add_argument("--calibrate", nargs="+", metavar="LOG", default=None,
                    help="collision-free logs the model was NOT fitted on: the thresholds are read off them")
+    p.add_argument("--fit-data", metavar="LOG", default=None,
+                   help="the log MODEL was identified from (its trust record checks the sha256): thresholds from "
+                        "blocked hold-outs of it, the prediction band's blocks, each watched by the observer of a "
+                        "refit on the others (costs the refits)")
     p.add_argument("--calibrate-t-range", metavar="T0:T1", default=None,
                    help="the window of the --calibrate logs, in place of --t-range (one file cut into a calibration "
                         "window and a watched one)")
@@ -71,13 +76,15 @@ def run(args) -> int:
     try:
         if not args.logs and args.save_model is None:
             raise ModelError("LOG: give at least one log to watch (or --save-model with --calibrate)")
-        if args.save_model is not None and args.calibrate is None:
-            raise ModelError("--save-model: only with --calibrate (the thresholds it stores come from those logs)")
+        if args.save_model is not None and args.calibrate is None and args.fit_data is None:
+            raise ModelError("--save-model: only with --calibrate or --fit-data (the thresholds it stores come from "
+                             "those logs)")
         if args.save_model is not None and not str(args.save_model).endswith(".toml"):
             raise ModelError(f"--save-model: expected a model file name ending in .toml, got {args.save_model!r}")
         check_report_target(args.report)
         inputs = [("MODEL", args.model)] + [("LOG", x) for x in args.logs] + [("--calibrate", x)
                                                                              for x in (args.calibrate or [])]
+        inputs += [("--fit-data", args.fit_data)] if args.fit_data else []
         check_outputs([("--plot", args.plot), ("--report", args.report), ("--predictions", args.predictions),
                        ("--save-model", args.save_model)], inputs, plots=("--plot",))
         arm, _notes = load_arm(args.model, args.tip)
@@ -86,7 +93,8 @@ def run(args) -> int:
             opts["decimate"] = False            # the observer runs at the log's rate
         gain = args.gain
         if gain is None:
-            carried = carried_thresholds(arm) if args.threshold is None and args.calibrate is None else None
+            carried = (carried_thresholds(arm) if args.threshold is None and args.calibrate is None
+                       and args.fit_data is None else None)
             gain = carried.gain if carried is not None else DEFAULT_GAIN
         cal_opts = opts
         if args.calibrate_t_range is not None:
@@ -94,7 +102,7 @@ def run(args) -> int:
 
             cal_opts = dict(opts, t_range=as_t_range(args.calibrate_t_range, "--calibrate-t-range"))
         thr = resolve_thresholds(arm, gain, args.false_alarms, args.calibrate, args.threshold, args.min_duration,
-                                 args.hysteresis, cal_opts)
+                                 args.hysteresis, cal_opts, args.fit_data)
         res = None
         if args.logs:
             res = observe(arm, args.logs, gain, false_alarms=args.false_alarms, threshold=thr.threshold,

@@ -8,9 +8,11 @@ Where the thresholds come from, in this order (none: a :class:`ModelError`, neve
 2. ``calibrate=`` given: collision-free logs (or arrays) **the model was not fitted on**; the observer
    runs on them and :func:`~manipdyn.identification.uncertainty.thresholds.fit_thresholds` reads the
    thresholds off its residual for ``false_alarms`` per hour;
+2b. ``fit_data=`` given: the log the model was identified from; its blocked hold-outs, the band's, each
+   block watched by the observer of a refit on the others (:mod:`.heldout`);
 3. the model's trust record, key ``collision`` (written by :func:`with_thresholds`, ``manipdyn observe
-   --calibrate ... --save-model``, or by ``identify`` from the band's blocked hold-outs), at the same
-   gain (another rate is read off the stored tail, no data needed).
+   --calibrate ... --save-model`` or ``--fit-data ... --save-model``), at the same gain (another rate is
+   read off the stored tail, no data needed).
 
 A log is read as ``validate`` reads it (:func:`~manipdyn.identification.read_log`, the same options),
 but every sample is kept (``decimate=False`` unless asked) and, unless ``cutoff=`` is given, the
@@ -160,7 +162,8 @@ def _explicit(threshold, n, gain, rate, min_duration, hysteresis) -> CollisionTh
                                "given (threshold=)")
 
 
-def resolve_thresholds(arm, gain, false_alarms, calibrate, threshold, min_duration, hysteresis, log_options):
+def resolve_thresholds(arm, gain, false_alarms, calibrate, threshold, min_duration, hysteresis, log_options,
+                       fit_data=None):
     """The :class:`CollisionThresholds` of :func:`observe` (module docstring), or a refusal; ``log_options``
     are the calibration logs' reading options."""
     if threshold is not None:
@@ -168,6 +171,11 @@ def resolve_thresholds(arm, gain, false_alarms, calibrate, threshold, min_durati
     if calibrate is not None:
         return calibrate_thresholds(arm, calibrate, gain, false_alarms, min_duration=min_duration,
                                     hysteresis=hysteresis, **log_options)
+    if fit_data is not None:
+        from .heldout import held_out_thresholds
+
+        return held_out_thresholds(arm, fit_data, gain, false_alarms, min_duration=min_duration,
+                                   hysteresis=hysteresis)
     carried = carried_thresholds(arm)
     if carried is None:
         raise ModelError("thresholds: the model carries no collision thresholds (its trust record has no "
@@ -184,13 +192,16 @@ def resolve_thresholds(arm, gain, false_alarms, calibrate, threshold, min_durati
 
 def observe(arm, log_or_arrays, gain: float = DEFAULT_GAIN, *, false_alarms: float = DEFAULT_RATE, calibrate=None,
             threshold=None, min_duration: float = DEFAULT_MIN_DURATION, hysteresis: float = DEFAULT_HYSTERESIS,
-            direct: bool = True, wrench: bool = True, calibrate_t_range=None, **log_options) -> "ObserveResult":
+            direct: bool = True, wrench: bool = True, calibrate_t_range=None, fit_data=None,
+            **log_options) -> "ObserveResult":
     """Watch a log for collisions: residuals, thresholds and events (module docstring).
 
     ``log_or_arrays``: a log path (CSV, bag), a list of them, or arrays (a dict or an object with ``t``
     (N,) s, uniform; ``q``, ``qd``, ``tau`` (N, n); optionally ``qdd``).  ``gain``: the momentum observer's
     K, 1/s.  ``false_alarms``: false events per hour the thresholds allow (all joints together).
     ``calibrate``: collision-free logs or arrays for the thresholds; ``threshold``: N m per joint.
+    ``fit_data``: the log the model was identified from (its trust record checks the sha256): thresholds
+    from blocked hold-outs of it, as the band's (:mod:`.heldout`).
     ``calibrate_t_range``: ``(t0, t1)`` s (or ``"T0:T1"``) of the calibration logs, in place of ``t_range``
     (one file cut into a calibration window and a watched window).
     ``min_duration`` s and ``hysteresis`` define an event (:mod:`.events`).  ``direct``: also the
@@ -201,7 +212,8 @@ def observe(arm, log_or_arrays, gain: float = DEFAULT_GAIN, *, false_alarms: flo
 
     K = check_gain(gain)
     cal_options = dict(log_options, t_range=calibrate_t_range) if calibrate_t_range is not None else log_options
-    thr = resolve_thresholds(arm, K, false_alarms, calibrate, threshold, min_duration, hysteresis, cal_options)
+    thr = resolve_thresholds(arm, K, false_alarms, calibrate, threshold, min_duration, hysteresis, cal_options,
+                             fit_data)
     runs = []
     for obs in read_observed(arm, log_or_arrays, **log_options):
         r = _residual(arm, obs, K)
