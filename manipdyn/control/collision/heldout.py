@@ -30,6 +30,7 @@ from ...identification.uncertainty.bands import DEFAULT_FOLDS
 from ...identification.uncertainty.thresholds import (DEFAULT_GAIN, DEFAULT_HYSTERESIS, DEFAULT_MIN_DURATION,
                                                       DEFAULT_RATE, CollisionThresholds, fit_thresholds)
 from .observer import check_gain, momentum_residual
+from .reading import read_observed
 
 __all__ = ["held_out_thresholds"]
 
@@ -54,7 +55,6 @@ def held_out_thresholds(arm, log, gain: float = DEFAULT_GAIN, false_alarms: floa
     from ...formats.logs.read import read_log
     from ...identification.estimation.fitting import fit
     from ...identification.results.provenance import file_sha256
-    from .observe import read_observed
 
     K = check_gain(gain)
     record = getattr(arm, "trust", None)
