@@ -234,3 +234,14 @@ def test_lwr4_held_out_run_has_no_false_event():
     assert res.events == []                   # 1 false event per hour asked, 25 s watched
     peak = np.abs(res.residuals[0]).max(axis=0) / res.thresholds.threshold
     assert np.all(peak < 1.0) and np.max(peak) > 0.1      # measured 0.17 to 0.37 of the thresholds
+
+
+def test_the_benchmark_runs(tmp_path):
+    bench = pytest.importorskip("benchmarks.bench_observer", reason="the benchmarks folder is absent")
+    out = tmp_path / "obs.json"
+    assert bench.main(["--arms", "ur5", "--minutes", "0.2", "--contacts", "2", "--rounds", "2",
+                       "--json", str(out)]) == 0
+    res = json.loads(out.read_text())["arms"]["ur5"]
+    assert all(c["found"] for c in res["detection"]["contacts"])
+    assert res["detection"]["false_events_free"] == 0
+    assert res["cost"]["online_vs_offline_max_nm"] < 1.0      # the steps of the contact; measured 0.6 N m

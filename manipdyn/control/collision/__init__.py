@@ -3,12 +3,14 @@
 Layer 6 (control: collision).  May import: everything below control (``identification``, ``check``,
 ``engines``, ``formats``, ``model``, ``_support``).
 
-* :mod:`.observer`: the generalized-momentum observer (offline :func:`momentum_residual`, online
+* :mod:`manipdyn.control.collision.observer`: the generalized-momentum observer (offline :func:`momentum_residual`, online
   :class:`MomentumObserver`) and the direct residual;
-* :mod:`.events`: crossings that last, with hysteresis; isolation (the last link touched) and the
+* :mod:`manipdyn.control.collision.events`: crossings that last, with hysteresis; isolation (the last link touched) and the
   wrench at the tool ``f = pinv(J^T) r``;
-* :mod:`.observe`: :func:`observe`, a log's residuals, thresholds and events (:class:`ObserveResult`),
-  and :func:`calibrate_thresholds` (the thresholds themselves live in
+* :mod:`manipdyn.control.collision.observe`: :func:`observe`, a log's residuals, thresholds and events
+  (:class:`ObserveResult`, :mod:`manipdyn.control.collision.report`), and :func:`calibrate_thresholds`;
+  :mod:`manipdyn.control.collision.holdouts`: thresholds from the fit data's blocked hold-outs;
+  :mod:`manipdyn.control.collision.reading`: the logs as the observer reads them (the thresholds themselves live in
   :mod:`manipdyn.identification.uncertainty.thresholds`, beside the band they share hold-outs with).
 """
 

@@ -4,17 +4,17 @@ Layer 6 (control: collision).
 
 Where the thresholds come from, in this order (none: a :class:`ModelError`, never a silent default):
 
-1. ``threshold=`` given: per joint, N m (one number: every joint);
-2. ``calibrate=`` given: collision-free logs (or arrays) **the model was not fitted on**; the observer
-   runs on them and :func:`~manipdyn.identification.uncertainty.thresholds.fit_thresholds` reads the
-   thresholds off its residual for ``false_alarms`` per hour;
-2b. ``fit_data=`` given: the log the model was identified from; its blocked hold-outs, the band's, each
-   block watched by the observer of a refit on the others (:mod:`.heldout`);
-3. the model's trust record, key ``collision`` (written by :func:`with_thresholds`, ``manipdyn observe
-   --calibrate ... --save-model`` or ``--fit-data ... --save-model``), at the same gain (another rate is
-   read off the stored tail, no data needed).
+* ``threshold=`` given: per joint, N m (one number: every joint);
+* ``calibrate=`` given: collision-free logs (or arrays) **the model was not fitted on**; the observer
+  runs on them and :func:`~manipdyn.identification.uncertainty.thresholds.fit_thresholds` reads the
+  thresholds off its residual for ``false_alarms`` per hour;
+* ``fit_data=`` given: the log the model was identified from; its blocked hold-outs, the band's, each
+  block watched by the observer of a refit on the others (:mod:`manipdyn.control.collision.holdouts`);
+* the model's trust record, key ``collision`` (written by :func:`with_thresholds`, ``manipdyn observe
+  --calibrate ... --save-model`` or ``--fit-data ... --save-model``), at the same gain (another rate is
+  read off the stored tail, no data needed).
 
-A log is read nearly as logged, every sample kept (:mod:`.reading`).
+A log is read nearly as logged, every sample kept (:mod:`manipdyn.control.collision.reading`).
 """
 
 from __future__ import annotations
@@ -98,7 +98,7 @@ def resolve_thresholds(arm, gain, false_alarms, calibrate, threshold, min_durati
         return calibrate_thresholds(arm, calibrate, gain, false_alarms, min_duration=min_duration,
                                     hysteresis=hysteresis, **log_options)
     if fit_data is not None:
-        from .heldout import held_out_thresholds
+        from .holdouts import held_out_thresholds
 
         return held_out_thresholds(arm, fit_data, gain, false_alarms, min_duration=min_duration,
                                    hysteresis=hysteresis)
@@ -127,10 +127,10 @@ def observe(arm, log_or_arrays, gain: float = DEFAULT_GAIN, *, false_alarms: flo
     K, 1/s.  ``false_alarms``: false events per hour the thresholds allow (all joints together).
     ``calibrate``: collision-free logs or arrays for the thresholds; ``threshold``: N m per joint.
     ``fit_data``: the log the model was identified from (its trust record checks the sha256): thresholds
-    from blocked hold-outs of it, as the band's (:mod:`.heldout`).
+    from blocked hold-outs of it, as the band's (:mod:`manipdyn.control.collision.holdouts`).
     ``calibrate_t_range``: ``(t0, t1)`` s (or ``"T0:T1"``) of the calibration logs, in place of ``t_range``
     (one file cut into a calibration window and a watched window).
-    ``min_duration`` s and ``hysteresis`` define an event (:mod:`.events`).  ``direct``: also the
+    ``min_duration`` s and ``hysteresis`` define an event (:mod:`manipdyn.control.collision.events`).  ``direct``: also the
     direct residual (needs ``qdd``).  ``log_options``: :func:`~manipdyn.identification.read_log`'s.
     Returns :class:`ObserveResult`; raises :class:`ModelError` when no thresholds can be had.
     """

@@ -5,7 +5,7 @@ Layer 6 (control: collision).
 The prediction band (:mod:`manipdyn.identification.uncertainty.bands`) cuts the fit data into
 ``folds`` contiguous blocks in time and predicts each from a fit on the others.  The thresholds
 do the same, but score each block with the **momentum observer** of that refit on the log as it
-was logged (nearly raw, :mod:`.observe`): the band's residuals live on identify's filtered and
+was logged (nearly raw, :mod:`manipdyn.control.collision.reading`): the band's residuals live on identify's filtered and
 decimated data (a cut-off of a few Hz), where the observer's noise is not, and thresholds read
 off them would be several times too low.
 
