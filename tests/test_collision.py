@@ -139,8 +139,12 @@ def test_thresholds_hold_their_rate_on_new_noise():
 
 def test_observe_refuses_without_thresholds(ur5):
     log = _log(ur5, 0.5)
-    with pytest.raises(md.ModelError, match="no collision thresholds.*calibrate.*threshold"):
+    with pytest.raises(md.ModelError, match="no collision thresholds.*calibrate.*fit_data.*threshold"):
         observe(ur5, log)
+    with pytest.raises(md.ModelError, match="hysteresis: expected a fraction"):
+        observe(ur5, log, threshold=1.0, hysteresis=1.5)
+    with pytest.raises(md.ModelError, match="min_duration: expected seconds"):
+        observe(ur5, log, threshold=1.0, min_duration=-0.1)
 
 
 # -- events ------------------------------------------------------------------------------------------------------

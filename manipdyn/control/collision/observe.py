@@ -92,6 +92,16 @@ def resolve_thresholds(arm, gain, false_alarms, calibrate, threshold, min_durati
                        fit_data=None):
     """The :class:`CollisionThresholds` of :func:`observe` (module docstring), or a refusal; ``log_options``
     are the calibration logs' reading options."""
+    gain = check_gain(gain)
+    for name, v, ok in (("min_duration", min_duration, lambda x: x >= 0), ("hysteresis", hysteresis,
+                                                                          lambda x: 0 <= x < 1)):
+        try:
+            good = np.isfinite(float(v)) and ok(float(v))
+        except (TypeError, ValueError):
+            good = False
+        if not good:
+            raise ModelError(f"{name}: expected " + ("seconds >= 0" if name == "min_duration" else
+                                                     "a fraction in [0, 1) of the threshold") + f", got {v!r}")
     if threshold is not None:
         return _explicit(threshold, arm.n, gain, false_alarms, min_duration, hysteresis)
     if calibrate is not None:

@@ -140,10 +140,13 @@ class CollisionThresholds:
             object.__setattr__(self, k, a)
         if np.any(self.threshold <= 0):
             raise ModelError(f"collision thresholds: threshold: expected numbers > 0, got {self.threshold.tolist()}")
-        if not (self.false_alarms_per_hour > 0 and self.hours > 0 and 0 <= self.hysteresis < 1
-                and self.min_duration >= 0 and self.gain >= 0):
-            raise ModelError("collision thresholds: expected false_alarms_per_hour > 0, hours > 0, "
-                             "0 <= hysteresis < 1, min_duration >= 0, gain >= 0")
+        for name, ok in (("false_alarms_per_hour", self.false_alarms_per_hour > 0), ("hours", self.hours > 0),
+                         ("hysteresis", 0 <= self.hysteresis < 1), ("min_duration", self.min_duration >= 0),
+                         ("gain", self.gain >= 0)):
+            if not ok:
+                raise ModelError(f"collision thresholds: {name}: expected " + {
+                    "hysteresis": "a fraction in [0, 1)", "min_duration": "seconds >= 0", "gain": "1/s >= 0"}.get(
+                        name, "a number > 0") + f", got {getattr(self, name)!r}")
 
     @property
     def n(self) -> int:
