@@ -116,7 +116,8 @@ def resolve_thresholds(arm, gain, false_alarms, calibrate, threshold, min_durati
     if carried is None:
         raise ModelError("thresholds: the model carries no collision thresholds (its trust record has no "
                          f"{TRUST_KEY!r} key); give calibrate= (--calibrate LOG...: collision-free logs the model was "
-                         "not fitted on) or threshold= (--threshold N_M...)")
+                         "not fitted on), fit_data= (--fit-data LOG: the log it was identified from, for blocked "
+                         "hold-outs) or threshold= (--threshold N_M...)")
     if abs(carried.gain - gain) > 1e-9 * gain:
         raise ModelError(f"gain: the model's thresholds are for gain {carried.gain:g} 1/s, not {gain:g}; use that "
                          "gain, or calibrate= / threshold= for this one")
