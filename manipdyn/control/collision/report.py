@@ -53,7 +53,6 @@ class ObserveResult:
 
     def format(self) -> str:
         thr = self.thresholds
-        n = thr.n
         lines = [f"collision thresholds, N m (momentum observer, gain {thr.gain:g} 1/s; {thr.false_alarms_per_hour:g} "
                  f"false events/h; events last >= {1e3 * thr.min_duration:g} ms; {thr.source}):",
                  "  " + "  ".join(f"j{j + 1} {x:.3g}" for j, x in enumerate(thr.threshold))]
@@ -70,7 +69,6 @@ class ObserveResult:
                     s += (f"; tool force [{f[0]:.3g}, {f[1]:.3g}, {f[2]:.3g}] N +- [{u[0]:.2g}, {u[1]:.2g}, "
                           f"{u[2]:.2g}], moment [{f[3]:.3g}, {f[4]:.3g}, {f[5]:.3g}] N m (base frame)")
                 lines.append(s)
-        del n
         return "\n".join(lines)
 
     def write_predictions(self, path) -> None:
