@@ -104,6 +104,10 @@ def __getattr__(name):
         from . import identification
 
         return getattr(identification, name)
+    if name in ("observe", "MomentumObserver"):   # collision detection (control/collision), imported on first use
+        from .control import collision
+
+        return getattr(collision, name)
     if name == "montecarlo":  # ``from manipdyn import montecarlo as mc`` (README); imported on first use
         from .control import montecarlo
 
@@ -117,7 +121,7 @@ __all__ = ["Transmission", "Friction", "FrictionTerms",
     "Arm", "ChainJoint", "Convention", "CompareReport", "CrosscheckReport", "DHLink", "DynamicsEngine", "JacobianEngine",
     "LinkInertia", "Manipulator", "ModelError", "ModelNoteWarning", "PhysicalConsistencyWarning", "SingularMassMatrixError",
     "StateError", "SuspiciousValueWarning", "URDFArm", "UnreachablePoseError", "codegen", "compare", "crosscheck", "linearize", "load", "load_with_notes", "models", "save",
-    "simulate", "replay", "identify", "validate", "to_mjcf", "to_toml", "to_urdf", "transform_inverse", "write_mjcf", "write_urdf",
+    "simulate", "replay", "identify", "validate", "observe", "MomentumObserver", "to_mjcf", "to_toml", "to_urdf", "transform_inverse", "write_mjcf", "write_urdf",
 ]
 
 

@@ -46,6 +46,7 @@ def _pipelines():
         "compare/compare": (md.compare, same("samples", "seed")),
         "identify/identify": (identify, same(*IDENTIFY_OPTIONS, *LOG_OPTIONS)),
         "validate/validate": (validate, same("tip", "predictions", *LOG_OPTIONS)),
+        "observe/observe": (md.observe, same("false_alarms", "min_duration", "hysteresis")),
     }
 
 

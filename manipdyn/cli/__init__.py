@@ -20,7 +20,7 @@ import sys
 import warnings
 
 from .._support.errors import MissingExtraError, ModelError, SingularMassMatrixError, StateError
-from . import (bench, check, codegen, compare, excite, identify, mjcf, models, montecarlo, replay, synthesize, track,
+from . import (bench, check, codegen, compare, excite, identify, mjcf, models, montecarlo, observe, replay, synthesize, track,
                urdf, validate)
 from .._support.threads import blas_threads
 from .common import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, one_line
@@ -28,7 +28,7 @@ from .common import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, one_line
 __all__ = ["main", "build_parser", "COMMANDS"]
 
 #: the subcommands, in the order ``manipdyn --help`` lists them
-COMMANDS = (check, urdf, mjcf, models, compare, track, montecarlo, excite, synthesize, identify, validate, replay,
+COMMANDS = (check, urdf, mjcf, models, compare, track, montecarlo, excite, synthesize, identify, validate, observe, replay,
             bench, codegen)
 
 

@@ -25,7 +25,7 @@ def run(args) -> int:
     from ..formats.logs.data import write_measurements_csv
     from ..model.arm import Manipulator
     from ..identification.experiments.demo import true_arm
-    from ..identification.experiments.synthesize import read_trajectory, synthesize
+    from ..identification.experiments.synthesize import contact_torques, parse_contact, read_trajectory, synthesize
 
     if not (args.noise >= 0 and args.noise < float("inf")):
         raise ModelError(f"--noise: expected a finite fraction >= 0 of each joint's peak torque, got {args.noise}")
@@ -36,7 +36,10 @@ def run(args) -> int:
     if args.truth is not None and not str(args.truth).endswith(".toml"):
         raise ModelError(f"--truth: expected a model file name ending in .toml (what md.load reads), "
                          f"got {args.truth!r}")
-    check_outputs([("-o", args.output), ("--truth", args.truth)],
+    sidecar = None
+    if args.contact:
+        sidecar = (args.output[:-4] if args.output.lower().endswith(".csv") else args.output) + ".contacts.json"
+    check_outputs([("-o", args.output), ("--truth", args.truth), ("--contact", sidecar)],
                   [("MODEL", args.model), ("TRAJ.csv", args.trajectory)])
     arm, _notes = load_arm(args.model, args.tip)
     if args.perturb and not isinstance(arm, Manipulator):
@@ -49,13 +52,21 @@ def run(args) -> int:
                                      f"around {args.model} (masses, centres of mass and friction off), whose "
                                      f"torques it logged to {args.output}"), args.truth)
     traj = read_trajectory(args.trajectory, arm.n)
+    contacts = [parse_contact(c, robot) for c in (args.contact or [])]
     tau = synthesize(robot, traj.q, traj.qd, traj.qdd, noise=args.noise, seed=args.seed)
+    if contacts:
+        from .._support.files import atomic_write_text
+
+        tau = tau - contact_torques(robot, traj.t, traj.q, contacts)   # the drives give J^T f less
+        atomic_write_text(sidecar, json.dumps({"log": args.output, "contacts": [c.to_dict() for c in contacts],
+                                               "note": "forces the environment applies to the arm; the logged "
+                                                       "torque is the model's minus J^T f"}, indent=2) + "\n")
     if args.derivatives:
         write_measurements_csv(args.output, traj.t, traj.q, tau, traj.qd, traj.qdd)
     else:
         write_measurements_csv(args.output, traj.t, traj.q, tau)
     out = {"model": args.model, "robot": robot.name, "trajectory": args.trajectory, "output": args.output,
-           "truth": args.truth,
+           "truth": args.truth, "contacts": sidecar,
            "samples": int(len(traj.t)), "noise": args.noise, "seed": args.seed,
            "peak_torque": [float(x) for x in abs(tau).max(axis=0)]}
     if args.json:
@@ -63,7 +74,8 @@ def run(args) -> int:
     else:
         print(f"wrote {args.output}: {out['samples']} samples of {robot.name!r} along {args.trajectory}, "
               f"torque noise {args.noise:g} of each joint's peak (seed {args.seed})"
-              + (f"; the true arm written to {args.truth}" if args.truth else ""))
+              + (f"; the true arm written to {args.truth}" if args.truth else "")
+              + (f"; {len(contacts)} contact(s), their truth in {sidecar}" if contacts else ""))
     return EXIT_OK
 
 
@@ -93,5 +105,9 @@ def register(sub) -> None:
                         "command read it), to check an identification against (default: not written)")
     p.add_argument("--derivatives", action="store_true",
                    help="also write qd and qdd (exact); by default identify derives them from q")
+    p.add_argument("--contact", action="append", default=None, metavar="T0:T1:FX,FY,FZ[@LINK]",
+                   help="a force in N (base frame) applied to the arm from T0 to T1 s of the file's time, at the "
+                        "tool unless a link (1..n or its name) is named; the drives' logged torque lacks J^T f. "
+                        "Repeatable; the truth goes to DATA.contacts.json beside the log")
     p.add_argument("--json", action="store_true", help="print a JSON object instead of text")
     p.set_defaults(func=run)

@@ -29,6 +29,7 @@ The record's keys (all optional but ``format``; JSON types; SI units)::
     prediction_band   {"method", "level", "folds", "samples", "half_width", "held_out_rms", ...}
     leverage          the extrapolation measure's reference (identification.trust)
     doubts            [strings]: degenerate inertias, contradicted payloads, runs far off
+    collision         collision thresholds (manipdyn.control.collision): {"threshold", "gain", ...}
 
 A record that does not read is a :class:`ModelError` naming the file and the key.
 """

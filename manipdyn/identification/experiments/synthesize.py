@@ -14,9 +14,19 @@ each joint's peak torque, the way :mod:`manipdyn.identification.experiments.demo
 :func:`manipdyn.identification.experiments.demo.true_arm` gives an arm around a prior
 (masses +-20 %, centres of mass moved by up to 2 cm, friction added), for a
 log that the prior does not fit exactly (``manipdyn synthesize --perturb``).
+
+Contacts (:func:`parse_contact`, :func:`contact_torques`; ``manipdyn synthesize --contact
+T0:T1:FX,FY,FZ[@LINK]``): a force ``f`` in newtons, in the base (world) frame, that the environment
+applies to the arm from ``T0`` to ``T1`` s at the tool's origin, or at link LINK's frame origin.  The
+arm still follows the trajectory, so its drives give ``J^T f`` less: the logged torque is
+``tau_model - J^T f``, and ``J^T f`` is the external joint torque a collision detector estimates
+(:mod:`manipdyn.control.collision`).
 """
 
 from __future__ import annotations
+
+import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -24,7 +34,7 @@ from ..._support import limits
 from ..._support.errors import ModelError
 from ...formats.logs.trajectory import Trajectory, read_trajectory
 
-__all__ = ["Trajectory", "read_trajectory", "synthesize"]
+__all__ = ["Trajectory", "read_trajectory", "synthesize", "Contact", "parse_contact", "contact_torques"]
 
 
 def synthesize(arm, q, qd, qdd, noise: float = 0.01, seed: int = 0) -> np.ndarray:
@@ -42,3 +52,57 @@ def synthesize(arm, q, qd, qdd, noise: float = 0.01, seed: int = 0) -> np.ndarra
         raise ModelError("synthesize: the torques along this trajectory overflow; check the model's units")
     peak = np.abs(tau).max(axis=0)
     return tau + noise * peak * np.random.default_rng(seed).standard_normal(tau.shape)
+
+
+@dataclass(frozen=True)
+class Contact:
+    """A force ``force`` (3,) N in the base frame, applied to the arm for ``t0 <= t < t1`` s at the tool's
+    origin (``link`` None) or at link ``link``'s frame origin (1..n)."""
+
+    t0: float
+    t1: float
+    force: tuple
+    link: int | None = None
+
+    def to_dict(self) -> dict:
+        return {"t0": self.t0, "t1": self.t1, "force": list(self.force), "frame": "world",
+                "at": "tool" if self.link is None else f"link {self.link}"}
+
+
+def parse_contact(text: str, arm, where: str = "--contact") -> Contact:
+    """``"T0:T1:FX,FY,FZ[@LINK]"`` as a :class:`Contact`; LINK is 1..n or one of ``arm.link_names``."""
+    body, _, link = str(text).partition("@")
+    parts = body.split(":")
+    form = "T0:T1:FX,FY,FZ[@LINK] (seconds, newtons in the base frame; LINK a number 1..n or a link name)"
+    try:
+        t0, t1 = float(parts[0]), float(parts[1])
+        f = tuple(float(x) for x in parts[2].split(","))
+    except (IndexError, ValueError):
+        raise ModelError(f"{where}: expected {form}, got {text!r}") from None
+    if len(parts) != 3 or len(f) != 3 or not all(math.isfinite(x) for x in (t0, t1) + f) or not t1 > t0:
+        raise ModelError(f"{where}: expected {form} with T0 < T1, got {text!r}")
+    k = None
+    if link:
+        names = getattr(arm, "link_names", None)
+        names = list((names() if callable(names) else names) or [])
+        if link.strip().isdigit():
+            k = int(link)
+        elif link in names:
+            k = names.index(link) + 1
+        if k is None or not 1 <= k <= arm.n:
+            raise ModelError(f"{where}: LINK: expected 1..{arm.n} or a link name, got {link!r}")
+    return Contact(t0, t1, f, k)
+
+
+def contact_torques(arm, t, q, contacts) -> np.ndarray:
+    """``sum J_c(q)^T f_c`` (N, n), N m, over the contacts held at each time ``t`` (N,): the external joint
+    torque of the :class:`Contact` list ``contacts`` along ``q`` (N, n)."""
+    t = np.asarray(t, dtype=np.float64)
+    out = np.zeros((len(t), arm.n))
+    for c in contacts:
+        on = (t >= c.t0) & (t < c.t1)
+        if not np.any(on):
+            continue
+        J = arm.jacobian(q[on]) if c.link is None else arm.jacobian(q[on], link=c.link)
+        out[on] += np.einsum("kij,i->kj", J[:, :3, :], np.asarray(c.force, dtype=np.float64))
+    return out

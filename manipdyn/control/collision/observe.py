@@ -1,0 +1,160 @@
+"""``md.observe``: a log's residuals against thresholds with a stated false-alarm rate, and its events.
+
+Layer 6 (control: collision).
+
+Where the thresholds come from, in this order (none: a :class:`ModelError`, never a silent default):
+
+* ``threshold=`` given: per joint, N m (one number: every joint);
+* ``calibrate=`` given: collision-free logs (or arrays) **the model was not fitted on**; the observer
+  runs on them and :func:`~manipdyn.identification.uncertainty.thresholds.fit_thresholds` reads the
+  thresholds off its residual for ``false_alarms`` per hour;
+* ``fit_data=`` given: the log the model was identified from; its blocked hold-outs, the band's, each
+  block watched by the observer of a refit on the others (:mod:`manipdyn.control.collision.holdouts`);
+* the model's trust record, key ``collision`` (written by :func:`with_thresholds`, ``manipdyn observe
+  --calibrate ... --save-model`` or ``--fit-data ... --save-model``), at the same gain (another rate is
+  read off the stored tail, no data needed).
+
+A log is read nearly as logged, every sample kept (:mod:`manipdyn.control.collision.reading`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..._support.errors import ModelError
+from ...identification.uncertainty.thresholds import (DEFAULT_GAIN, DEFAULT_HYSTERESIS, DEFAULT_MIN_DURATION,
+                                                      DEFAULT_RATE, CollisionThresholds, fit_thresholds)
+from .events import detect_events
+from .observer import check_gain, direct_residual, momentum_residual
+from .reading import Observed, read_observed
+
+__all__ = ["observe", "calibrate_thresholds", "with_thresholds", "carried_thresholds", "resolve_thresholds",
+           "TRUST_KEY"]
+
+#: the trust record's key of the collision thresholds
+TRUST_KEY = "collision"
+
+
+
+def _residual(arm, obs: Observed, gain) -> np.ndarray:
+    return momentum_residual(arm, obs.q, obs.qd, obs.tau, obs.dt, gain)
+
+
+def calibrate_thresholds(arm, logs, gain: float = DEFAULT_GAIN, false_alarms: float = DEFAULT_RATE, *,
+                         min_duration: float = DEFAULT_MIN_DURATION, hysteresis: float = DEFAULT_HYSTERESIS,
+                         **log_options) -> CollisionThresholds:
+    """Thresholds from collision-free ``logs`` the model was not fitted on (paths or arrays, as
+    :func:`observe` takes them), for ``false_alarms`` events per hour (the detector's, all joints)."""
+    K = check_gain(gain)
+    parts = read_observed(arm, logs, **log_options)
+    res = [_residual(arm, p, K) for p in parts]
+    dts = [p.dt for p in parts]
+    if max(dts) > 1.01 * min(dts):
+        raise ModelError(f"calibrate: the logs' sample periods differ ({min(dts):.4g} to {max(dts):.4g} s); "
+                         "resample them to one rate (--resample)")
+    return fit_thresholds(np.vstack(res), dts[0], false_alarms, gain=K, min_duration=min_duration,
+                          hysteresis=hysteresis, source="calibration logs " + ", ".join(p.label for p in parts))
+
+
+def carried_thresholds(arm) -> CollisionThresholds | None:
+    """The thresholds in ``arm.trust`` (key ``collision``), or None."""
+    rec = getattr(arm, "trust", None)
+    if not isinstance(rec, dict) or rec.get(TRUST_KEY) is None:
+        return None
+    return CollisionThresholds.from_dict(rec[TRUST_KEY], arm.n, f"the model's trust record: key {TRUST_KEY!r}")
+
+
+def with_thresholds(arm, thresholds: CollisionThresholds):
+    """A shallow copy of ``arm`` whose trust record holds ``thresholds`` (``md.save`` writes it)."""
+    import copy
+
+    from ...formats.trust import TRUST_FORMAT
+
+    out = copy.copy(arm)
+    out._engines = {}
+    rec = dict(getattr(arm, "trust", None) or {"format": TRUST_FORMAT})
+    rec[TRUST_KEY] = thresholds.to_dict()
+    out.trust = rec
+    return out
+
+
+def _explicit(threshold, n, gain, rate, min_duration, hysteresis) -> CollisionThresholds:
+    T = np.atleast_1d(np.asarray(threshold, dtype=np.float64)).reshape(-1)
+    if len(T) == 1:
+        T = np.full(n, T[0])
+    if len(T) != n or not np.all(np.isfinite(T)) or np.any(T <= 0):
+        raise ModelError(f"threshold: expected 1 or {n} numbers > 0 (N m per joint), got {np.asarray(threshold)!r}")
+    return CollisionThresholds(T, rate, gain, min_duration, hysteresis, 1.0, np.zeros(n), np.zeros(n), T,
+                               "given (threshold=)")
+
+
+def resolve_thresholds(arm, gain, false_alarms, calibrate, threshold, min_duration, hysteresis, log_options,
+                       fit_data=None):
+    """The :class:`CollisionThresholds` of :func:`observe` (module docstring), or a refusal; ``log_options``
+    are the calibration logs' reading options."""
+    gain = check_gain(gain)
+    for name, v, ok in (("min_duration", min_duration, lambda x: x >= 0), ("hysteresis", hysteresis,
+                                                                          lambda x: 0 <= x < 1)):
+        try:
+            good = np.isfinite(float(v)) and ok(float(v))
+        except (TypeError, ValueError):
+            good = False
+        if not good:
+            raise ModelError(f"{name}: expected " + ("seconds >= 0" if name == "min_duration" else
+                                                     "a fraction in [0, 1) of the threshold") + f", got {v!r}")
+    if threshold is not None:
+        return _explicit(threshold, arm.n, gain, false_alarms, min_duration, hysteresis)
+    if calibrate is not None:
+        return calibrate_thresholds(arm, calibrate, gain, false_alarms, min_duration=min_duration,
+                                    hysteresis=hysteresis, **log_options)
+    if fit_data is not None:
+        from .holdouts import held_out_thresholds
+
+        return held_out_thresholds(arm, fit_data, gain, false_alarms, min_duration=min_duration,
+                                   hysteresis=hysteresis)
+    carried = carried_thresholds(arm)
+    if carried is None:
+        raise ModelError("thresholds: the model carries no collision thresholds (its trust record has no "
+                         f"{TRUST_KEY!r} key); give calibrate= (--calibrate LOG...: collision-free logs the model was "
+                         "not fitted on), fit_data= (--fit-data LOG: the log it was identified from, for blocked "
+                         "hold-outs) or threshold= (--threshold N_M...)")
+    if abs(carried.gain - gain) > 1e-9 * gain:
+        raise ModelError(f"gain: the model's thresholds are for gain {carried.gain:g} 1/s, not {gain:g}; use that "
+                         "gain, or calibrate= / threshold= for this one")
+    out = carried.for_rate(false_alarms)
+    return CollisionThresholds(out.threshold, out.false_alarms_per_hour, out.gain, min_duration, hysteresis,
+                               out.hours, out.tail_a, out.tail_b, out.observed_max,
+                               out.source or "the model's trust record")
+
+
+def observe(arm, log_or_arrays, gain: float = DEFAULT_GAIN, *, false_alarms: float = DEFAULT_RATE, calibrate=None,
+            threshold=None, min_duration: float = DEFAULT_MIN_DURATION, hysteresis: float = DEFAULT_HYSTERESIS,
+            direct: bool = True, wrench: bool = True, calibrate_t_range=None, fit_data=None,
+            **log_options) -> "ObserveResult":
+    """Watch a log for collisions: residuals, thresholds and events (module docstring).
+
+    ``log_or_arrays``: a log path (CSV, bag), a list of them, or arrays (a dict or an object with ``t``
+    (N,) s, uniform; ``q``, ``qd``, ``tau`` (N, n); optionally ``qdd``).  ``gain``: the momentum observer's
+    K, 1/s.  ``false_alarms``: false events per hour the thresholds allow (all joints together).
+    ``calibrate``: collision-free logs or arrays for the thresholds; ``threshold``: N m per joint.
+    ``fit_data``: the log the model was identified from (its trust record checks the sha256): thresholds
+    from blocked hold-outs of it, as the band's (:mod:`manipdyn.control.collision.holdouts`).
+    ``calibrate_t_range``: ``(t0, t1)`` s (or ``"T0:T1"``) of the calibration logs, in place of ``t_range``
+    (one file cut into a calibration window and a watched window).
+    ``min_duration`` s and ``hysteresis`` define an event (:mod:`manipdyn.control.collision.events`).  ``direct``: also the
+    direct residual (needs ``qdd``).  ``log_options``: :func:`~manipdyn.identification.read_log`'s.
+    Returns :class:`ObserveResult`; raises :class:`ModelError` when no thresholds can be had.
+    """
+    from .report import ObserveResult
+
+    K = check_gain(gain)
+    cal_options = dict(log_options, t_range=calibrate_t_range) if calibrate_t_range is not None else log_options
+    thr = resolve_thresholds(arm, K, false_alarms, calibrate, threshold, min_duration, hysteresis, cal_options,
+                             fit_data)
+    runs = []
+    for obs in read_observed(arm, log_or_arrays, **log_options):
+        r = _residual(arm, obs, K)
+        d = direct_residual(arm, obs.q, obs.qd, obs.qdd, obs.tau) if direct and obs.qdd is not None else None
+        ev = detect_events(arm, obs.t, obs.q, r, thr.threshold, thr.min_duration, thr.hysteresis, wrench=wrench)
+        runs.append((obs, r, d, ev))
+    return ObserveResult(arm=arm, thresholds=thr, runs=runs)

@@ -1,0 +1,184 @@
+"""The residuals a collision detector watches: the generalized-momentum observer and the direct residual.
+
+Layer 6 (control: collision).
+
+Both estimate the **external joint torque** ``tau_ext``, the torque that something other than the
+drives applies to the arm (a force ``f`` at the tool gives ``tau_ext = J^T f``), N m (N for a
+prismatic joint), so that with ``tau_meas`` the drives' measured torque::
+
+    M(q) qdd + C(q, qd) qd + g(q) + tau_f(qd) = tau_meas + tau_ext
+
+``M`` holds the rotor inertia and ``tau_f`` is the model's own friction law, as in every other
+call (``arm.inverse_dynamics``).
+
+* :func:`direct_residual`: ``tau_model(q, qd, qdd) - tau_meas``, sample by sample; it needs the
+  acceleration, so its noise is the differentiated signal's.
+* :func:`momentum_residual`: De Luca and Mattone's observer on ``p = M(q) qd``::
+
+      r = K (p(t) - p(0) - integral of (tau_meas + C(q, qd)^T qd - g(q) - tau_f + r) dt)
+
+  since ``dp/dt = tau_meas + tau_ext + C^T qd - g - tau_f``, ``dr/dt = K (tau_ext - r)``: a first-order
+  follower of ``tau_ext`` with time constant ``1/K``, and no acceleration.  Offline it is evaluated
+  as written, ``C^T qd`` from Pinocchio's ``computeCoriolisMatrix``, the integral by the trapezoid
+  rule over each sample period, and the loop ``r' = K (x - r)`` discretized exactly for an input
+  held over the period (``r_k = r_(k-1) + (1 - exp(-K dt)) (x_k - r_(k-1))``; forward Euler's
+  ``K dt`` in place of ``1 - exp(-K dt)`` is unstable for ``K dt > 2``).
+* :class:`MomentumObserver`: the same observer one sample at a time, for a controller's loop.  The
+  momentum change over a period less the integral of ``C^T qd`` is, by ``dM/dt = C + C^T``,
+  ``M (qd_k - qd_(k-1)) + integral of C qd dt`` (to second order in ``dt``), so each step is one
+  inverse-dynamics call, ``tau_model(q_k, qd_k, (qd_k - qd_(k-1)) / dt)``, the engine's fast path with
+  friction and rotors: the RNEA identity, no ``C`` matrix.  tests/test_collision.py holds it to the
+  offline observer.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..._support.errors import ModelError
+from ...identification.uncertainty.thresholds import DEFAULT_GAIN, low_pass
+
+__all__ = ["MomentumObserver", "momentum_residual", "direct_residual", "coriolis_transpose_qd", "check_gain"]
+
+#: samples per chunk of the offline observer's batched calls (memory: chunk * n * n floats)
+CHUNK = 4096
+_mul, _sub = np.multiply, np.subtract
+
+
+def check_gain(gain) -> float:
+    try:
+        K = float(gain)
+    except (TypeError, ValueError):
+        raise ModelError(f"gain: expected the observer's gain K in 1/s, a number > 0, got {gain!r}") from None
+    if not (math.isfinite(K) and K > 0):
+        raise ModelError(f"gain: expected the observer's gain K in 1/s, a number > 0, got {gain!r}")
+    return K
+
+
+def _dt(dt) -> float:
+    try:
+        d = float(dt)
+    except (TypeError, ValueError):
+        raise ModelError(f"dt: expected the sample period in s, a number > 0, got {dt!r}") from None
+    if not (math.isfinite(d) and d > 0):
+        raise ModelError(f"dt: expected the sample period in s, a number > 0, got {dt!r}")
+    return d
+
+
+def coriolis_transpose_qd(arm, q, qd) -> np.ndarray:
+    """``C(q, qd)^T qd`` (N, n), N m: the momentum observer's Coriolis term (Pinocchio's
+    ``computeCoriolisMatrix``, chunked).  ``q``, ``qd`` (N, n)."""
+    eng = arm.engine("pinocchio")
+    out = np.empty_like(q)
+    for a in range(0, len(q), CHUNK):
+        C = eng.coriolis_matrix(q[a:a + CHUNK], qd[a:a + CHUNK])
+        out[a:a + CHUNK] = np.einsum("kji,kj->ki", C, qd[a:a + CHUNK])
+    return out
+
+
+def _friction(arm, qd) -> np.ndarray:
+    return np.asarray(arm.engine("pinocchio").friction_torque(qd), dtype=np.float64).reshape(qd.shape)
+
+
+def _states(q, qd, tau, n):
+    q, qd, tau = (np.asarray(x, dtype=np.float64) for x in (q, qd, tau))
+    for name, x in (("q", q), ("qd", qd), ("tau", tau)):
+        if x.ndim != 2 or x.shape[1] != n:
+            raise ModelError(f"{name}: expected shape (N, {n}), got {x.shape}")
+        if not np.all(np.isfinite(x)):
+            raise ModelError(f"{name}: expected finite numbers")
+    if not len(q) == len(qd) == len(tau):
+        raise ModelError(f"q, qd, tau: expected the same number of samples, got {len(q)}, {len(qd)}, {len(tau)}")
+    if len(q) < 2:
+        raise ModelError("q: expected at least 2 samples")
+    return q, qd, tau
+
+
+def momentum_residual(arm, q, qd, tau, dt: float, gain: float = DEFAULT_GAIN) -> np.ndarray:
+    """The momentum observer's residual ``r`` (N, n), N m, on samples every ``dt`` s (module docstring).
+
+    ``q`` (N, n) rad (m), ``qd`` (N, n) rad/s, ``tau`` (N, n) the measured joint torques, N m; ``gain``
+    K, 1/s.  ``r(0) = 0``: the observer starts at the first sample.
+    """
+    K, dt = check_gain(gain), _dt(dt)
+    q, qd, tau = _states(q, qd, tau, arm.n)
+    p = np.empty_like(q)
+    for a in range(0, len(q), CHUNK):
+        p[a:a + CHUNK] = np.einsum("kij,kj->ki", arm.mass_matrix(q[a:a + CHUNK]), qd[a:a + CHUNK])
+    beta = tau + coriolis_transpose_qd(arm, q, qd) - arm.gravity_torque(q) - _friction(arm, qd)
+    x = np.zeros_like(q)
+    x[1:] = (p[1:] - p[:-1]) / dt - 0.5 * (beta[1:] + beta[:-1])     # tau_ext over each period
+    return low_pass(x, dt, K)
+
+
+def direct_residual(arm, q, qd, qdd, tau) -> np.ndarray:
+    """``tau_model(q, qd, qdd) - tau`` (N, n), N m: the external torque sample by sample, no filter."""
+    q, qd, tau = _states(q, qd, tau, arm.n)
+    qdd = np.asarray(qdd, dtype=np.float64)
+    if qdd.shape != q.shape:
+        raise ModelError(f"qdd: expected shape {q.shape}, got {qdd.shape}")
+    return np.asarray(arm.inverse_dynamics(q, qd, qdd), dtype=np.float64) - tau
+
+
+class MomentumObserver:
+    """The momentum observer for a controller's loop: ``r = obs.update(q, qd, tau)`` every ``dt`` s.
+
+    ``arm``: the model (friction law and rotor inertia included); ``dt``: the loop's period, s;
+    ``gain``: K, 1/s (``r`` follows the external torque with time constant ``1/K``).  Each
+    :meth:`update` takes ``q``, ``qd``, ``tau`` as ``(n,)`` ndarrays of native float64 (rad or m,
+    rad/s or m/s, N m or N) and returns the residual ``r`` (n,), N m, the estimated external joint
+    torque (module docstring).  The first call starts the observer (``r = 0``).
+
+    For the loop's rate, :meth:`update` allocates nothing of its own: ``r`` is the observer's own
+    buffer, overwritten by the next call (copy it to keep it), and the inputs are not validated
+    (like ``engine.unchecked``: a wrong dtype or length is the caller's error, a NaN propagates
+    into ``r``, and :meth:`reset` clears it).  One call costs one ``arm.inverse_dynamics`` and a
+    few array operations (benchmarks/bench_observer.py).
+    """
+
+    def __init__(self, arm, dt: float, gain: float = DEFAULT_GAIN):
+        self.dt, self.gain = _dt(dt), check_gain(gain)
+        self.n = int(arm.n)
+        eng = arm.engine("pinocchio")
+        self._id = eng.unchecked.inverse_dynamics      # the engine's friction and rotors, no validation
+        self._alpha = 1.0 - math.exp(-self.gain * self.dt)
+        self._inv_dt = 1.0 / self.dt
+        self._r = np.zeros(self.n)
+        self._prev = np.zeros(self.n)         # qd_(k-1) / dt
+        self._cur = np.zeros(self.n)
+        self._acc = np.zeros(self.n)
+        self._started = False
+
+    def reset(self) -> None:
+        """Forget the past: the next :meth:`update` starts the observer again."""
+        self._r[:] = 0.0
+        self._started = False
+
+    @property
+    def residual(self) -> np.ndarray:
+        """The last residual (n,), N m (the buffer :meth:`update` returns)."""
+        return self._r
+
+    def update(self, q, qd, tau) -> np.ndarray:
+        """One sample: the residual (n,), N m (the observer's buffer; class docstring)."""
+        cur = self._cur
+        _mul(qd, self._inv_dt, cur)           # qd_k / dt
+        if not self._started:
+            self._started = True
+            self._prev, self._cur = cur, self._prev
+            return self._r
+        acc = self._acc
+        _sub(cur, self._prev, acc)            # (qd_k - qd_(k-1)) / dt
+        self._prev, self._cur = cur, self._prev
+        y = self._id(q, qd, acc)              # tau_model(q, qd, dqd/dt): a new array of Pinocchio's
+        y -= tau
+        r = self._r
+        y -= r
+        y *= self._alpha
+        r += y
+        return r
+
+    def __repr__(self) -> str:
+        return f"<MomentumObserver n={self.n} dt={self.dt:g} s gain={self.gain:g} 1/s>"

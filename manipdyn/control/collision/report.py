@@ -1,0 +1,168 @@
+"""What :func:`manipdyn.observe` returns: residuals, thresholds and events, as text, JSON, CSV, figure, HTML.
+
+Layer 6 (control: collision).
+"""
+
+from __future__ import annotations
+
+import io
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["ObserveResult"]
+
+
+@dataclass
+class ObserveResult:
+    """The answer of :func:`manipdyn.observe`.
+
+    ``thresholds``: :class:`~manipdyn.identification.uncertainty.thresholds.CollisionThresholds`;
+    ``runs``: per log ``(observed, residual, direct, events)``: the log (``t``, ``q``, ``qd``, ``tau``),
+    the momentum observer's residual (N, n) N m, the direct residual (N, n) or None, and the
+    :class:`~manipdyn.control.collision.events.Event` list.
+    """
+
+    arm: object
+    thresholds: object
+    runs: list
+
+    @property
+    def events(self) -> list:
+        """Every event of every log, in order."""
+        return [e for run in self.runs for e in run[3]]
+
+    @property
+    def residuals(self) -> list:
+        """The momentum observer's residual (N, n) of each log, N m."""
+        return [run[1] for run in self.runs]
+
+    def to_dict(self) -> dict:
+        thr = self.thresholds
+        return {"model": getattr(self.arm, "name", ""), "gain": thr.gain,
+                "false_alarms_per_hour": thr.false_alarms_per_hour, "min_duration": thr.min_duration,
+                "hysteresis": thr.hysteresis, "threshold": [float(x) for x in thr.threshold],
+                "threshold_source": thr.source,
+                "logs": [{"log": obs.label, "samples": int(len(obs.t)), "duration": float(obs.t[-1] - obs.t[0]),
+                          "rate": 1.0 / obs.dt,
+                          "peak_residual": [float(x) for x in np.abs(r).max(axis=0)],
+                          "peak_direct": None if d is None else [float(x) for x in np.abs(d).max(axis=0)],
+                          "events": [e.to_dict() for e in ev], "notes": list(obs.notes)}
+                         for obs, r, d, ev in self.runs]}
+
+    def format(self) -> str:
+        thr = self.thresholds
+        lines = [f"collision thresholds, N m (momentum observer, gain {thr.gain:g} 1/s; {thr.false_alarms_per_hour:g} "
+                 f"false events/h; events last >= {1e3 * thr.min_duration:g} ms; {thr.source}):",
+                 "  " + "  ".join(f"j{j + 1} {x:.3g}" for j, x in enumerate(thr.threshold))]
+        for obs, r, d, ev in self.runs:
+            lines.append(f"{obs.label}: {len(obs.t)} samples, {obs.t[-1] - obs.t[0]:.3g} s at {1 / obs.dt:.4g} Hz; "
+                         f"peak |r| / threshold " + " ".join(f"{x:.2f}" for x in np.abs(r).max(axis=0) / thr.threshold)
+                         + f"; {len(ev)} event(s)")
+            for k, e in enumerate(ev):
+                s = (f"  event {k + 1}: {e.onset:.4f} to {e.end:.4f} s (detected {e.detected:.4f} s), peak at "
+                     f"{e.peak_time:.4f} s, {e.peak_ratio:.2f} x threshold; joints "
+                     f"{','.join(map(str, e.joints))}; last link touched <= {e.link}")
+                if e.wrench is not None:
+                    f, u = e.wrench, e.wrench_uncertainty
+                    s += (f"; tool force [{f[0]:.3g}, {f[1]:.3g}, {f[2]:.3g}] N +- [{u[0]:.2g}, {u[1]:.2g}, "
+                          f"{u[2]:.2g}], moment [{f[3]:.3g}, {f[4]:.3g}, {f[5]:.3g}] N m (base frame)")
+                lines.append(s)
+        return "\n".join(lines)
+
+    def write_predictions(self, path) -> None:
+        """CSV per sample: ``log, t, r1..rn`` (momentum residual), ``d1..dn`` (direct, empty without qdd),
+        ``T1..Tn`` (thresholds), ``event`` (1 inside an event), written atomically."""
+        from ..._support.files import atomic_write_text
+
+        n = self.thresholds.n
+        buf = io.StringIO()
+        buf.write(",".join(["log", "t"] + [f"r{j + 1}" for j in range(n)] + [f"d{j + 1}" for j in range(n)]
+                           + [f"T{j + 1}" for j in range(n)] + ["event"]) + "\n")
+        T = ",".join(repr(float(x)) for x in self.thresholds.threshold)
+        for obs, r, d, ev in self.runs:
+            inside = np.zeros(len(obs.t), dtype=int)
+            for e in ev:
+                inside[e.samples[0]:e.samples[1]] = 1
+            label = obs.label.replace(",", "_")
+            for k in range(len(obs.t)):
+                dd = ",".join(repr(float(x)) for x in d[k]) if d is not None else "," * (n - 1)
+                buf.write(f"{label},{obs.t[k]!r},{','.join(repr(float(x)) for x in r[k])},{dd},{T},{inside[k]}\n")
+        atomic_write_text(os.fspath(path), buf.getvalue())
+
+    def figure(self, run: int = 0):
+        """A matplotlib figure: per joint the residual (and the direct one, light) against +-threshold, the
+        events shaded."""
+        from ..._support.figures import pyplot
+
+        plt = pyplot()
+        obs, r, d, ev = self.runs[run]
+        n, T = self.thresholds.n, self.thresholds.threshold
+        fig, axes = plt.subplots(n, 1, figsize=(9, 1.3 * n + 1), sharex=True, squeeze=False)
+        for j in range(n):
+            ax = axes[j, 0]
+            if d is not None:
+                ax.plot(obs.t, d[:, j], color="0.75", lw=0.5, label="direct")
+            ax.plot(obs.t, r[:, j], color="C0", lw=0.8, label="momentum observer")
+            ax.axhline(T[j], color="C3", lw=0.8, ls="--")
+            ax.axhline(-T[j], color="C3", lw=0.8, ls="--", label="threshold")
+            for e in ev:
+                ax.axvspan(e.onset, e.end, color="C1", alpha=0.25, lw=0)
+            ax.set_ylabel(f"j{j + 1}, N m", fontsize=8)
+            lim = 1.6 * max(T[j], float(np.max(np.abs(r[:, j]))))
+            ax.set_ylim(-lim, lim)
+        axes[0, 0].legend(loc="upper right", fontsize=7, ncol=3)
+        axes[-1, 0].set_xlabel("t, s")
+        fig.suptitle(f"{obs.label}: residual against thresholds ({self.thresholds.false_alarms_per_hour:g} false "
+                     f"events/h), {len(ev)} event(s) shaded", fontsize=9)
+        fig.tight_layout()
+        return fig
+
+    def plot(self, path) -> None:
+        """:meth:`figure` of the first log, saved to ``path`` (PNG) atomically."""
+        from ..._support.figures import save_figure
+
+        fig = self.figure(0)
+        save_figure(fig, os.fspath(path))
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+
+    def report_html(self, path, command: str = "") -> None:
+        """One self-contained HTML page: what was done, thresholds, events, the figure per log."""
+        from ..._support import html as H
+
+        thr = self.thresholds
+        n = thr.n
+        parts = [H.facts([("command", command or "md.observe"), ("model", getattr(self.arm, "name", "")),
+                          ("observer", f"generalized momentum, gain {thr.gain:g} 1/s"),
+                          ("thresholds from", thr.source),
+                          ("false events per hour asked", f"{thr.false_alarms_per_hour:g}"),
+                          ("an event", f"a crossing lasting >= {1e3 * thr.min_duration:g} ms; ends below "
+                                       f"{thr.hysteresis:g} x threshold")])]
+        total = len(self.events)
+        parts.append(H.verdict(f"{total} event(s) in {len(self.runs)} log(s)", "ok" if total == 0 else "warn"))
+        parts.append(H.section("Thresholds", H.table(["joint", "threshold, N m", "highest calibration level, N m"],
+                                                     [[f"j{j + 1}", float(thr.threshold[j]),
+                                                       float(thr.observed_max[j])] for j in range(n)],
+                                                     name="thresholds")))
+        for i, (obs, r, d, ev) in enumerate(self.runs):
+            rows = []
+            for k, e in enumerate(ev):
+                f = e.wrench
+                rows.append([k + 1, e.onset, e.detected, e.end, e.peak_ratio, ",".join(map(str, e.joints)), e.link,
+                             "" if f is None else f"[{f[0]:.3g}, {f[1]:.3g}, {f[2]:.3g}]",
+                             "" if f is None else float(np.linalg.norm(f[:3]))])
+            blocks = [H.table(["event", "onset, s", "detected, s", "end, s", "peak / threshold", "joints",
+                               "last link", "tool force (base), N", "|f|, N"], rows, name=f"events-{i + 1}")
+                      if rows else H.paragraph("no events")]
+            try:
+                blocks.append(H.figure(self.figure(i), alt=f"residuals of {obs.label} against thresholds"))
+            except Exception as exc:          # no matplotlib: the page without the figure, said so
+                blocks.append(H.paragraph(f"figure not drawn: {exc}"))
+            if obs.notes:
+                blocks.append(H.bullets(obs.notes))
+            parts.append(H.section(f"{obs.label}", *blocks))
+        H.write_page(path, H.page("Collision detection", f"{getattr(self.arm, 'name', '')}: manipdyn observe",
+                                  parts, generator=f"manipdyn {H.version()}"))
