@@ -14,6 +14,7 @@ Exit codes: 0 written, 2 usage, model or data error.
 from __future__ import annotations
 
 import json
+import os
 
 from .._support.errors import ModelError
 from .common import EXIT_OK, TIP_HELP, check_outputs, load_arm
@@ -42,18 +43,28 @@ def run(args) -> int:
     if args.perturb and not isinstance(arm, Manipulator):
         raise ModelError(f"--perturb: only for DH models (a bundled name or a .toml file), not {args.model!r}")
     robot = true_arm(arm, args.seed) if args.perturb else arm
-    if args.truth is not None:
-        from ..formats.save import save
-        save(Manipulator(robot.links, convention=robot.convention, gravity=robot.gravity, name=robot.name,
-                         source=robot.source, sources=robot.sources, description=f"the true arm that manipdyn synthesize --perturb --seed {args.seed} drew "
-                                     f"around {args.model} (masses, centres of mass and friction off), whose "
-                                     f"torques it logged to {args.output}"), args.truth)
     traj = read_trajectory(args.trajectory, arm.n)
     tau = synthesize(robot, traj.q, traj.qd, traj.qdd, noise=args.noise, seed=args.seed)
-    if args.derivatives:
-        write_measurements_csv(args.output, traj.t, traj.q, tau, traj.qd, traj.qdd)
-    else:
-        write_measurements_csv(args.output, traj.t, traj.q, tau)
+    derivatives = (traj.qd, traj.qdd) if args.derivatives else ()
+    if args.truth is None:
+        write_measurements_csv(args.output, traj.t, traj.q, tau, *derivatives)
+    else:      # both or neither: the truth is written once the log is on disk, before the log's rename
+        from ..formats.save import save
+
+        def write_truth():
+            save(Manipulator(robot.links, convention=robot.convention, gravity=robot.gravity, name=robot.name,
+                             source=robot.source, sources=robot.sources,
+                             description=f"the true arm that manipdyn synthesize --perturb --seed {args.seed} drew "
+                                         f"around {args.model} (masses, centres of mass and friction off), whose "
+                                         f"torques it logged to {args.output}"), args.truth)
+
+        truth_is_new = not os.path.lexists(args.truth)
+        try:
+            write_measurements_csv(args.output, traj.t, traj.q, tau, *derivatives, then=write_truth)
+        except BaseException:
+            if truth_is_new and os.path.lexists(args.truth):     # the log's rename failed after the truth's
+                os.unlink(args.truth)
+            raise
     out = {"model": args.model, "robot": robot.name, "trajectory": args.trajectory, "output": args.output,
            "truth": args.truth,
            "samples": int(len(traj.t)), "noise": args.noise, "seed": args.seed,

@@ -124,7 +124,12 @@ class Leverage:
         if Z.shape[2] != self.basis.shape[0]:
             raise ModelError(f"leverage: the model's regressor has {Z.shape[2]} columns, the fit's reference "
                              f"{self.basis.shape[0]}: not the arm it was fitted on")
-        return _h(Z, self.basis, self.scale, self.weights)
+        with np.errstate(over="ignore", invalid="ignore"):
+            h = _h(Z, self.basis, self.scale, self.weights)
+        if not np.all(np.isfinite(h)):
+            raise ModelError("leverage: the reference's basis, scale or weights overflow float64 on these states "
+                             "(not a reference a fit wrote)")
+        return h
 
     def ratio(self, arm, q, qd, qdd) -> tuple[np.ndarray, np.ndarray]:
         """``(u, beyond)``, each (N, n): the leverage over the fit samples' mean, and whether it exceeds
