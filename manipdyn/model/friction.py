@@ -58,7 +58,7 @@ import numpy as np
 from .._support import limits
 from .._support.errors import ModelError, StateError
 
-__all__ = ["Friction", "FrictionTerms", "friction_spec", "law_parameters", "FRICTION_TERMS", "DEFAULT_SMOOTHING", "SIDES"]
+__all__ = ["Friction", "FrictionTerms", "friction_spec", "law_parameters", "FRICTION_TERMS", "DEFAULT_SMOOTHING", "MIN_SMOOTHING", "SIDES"]
 
 #: the terms of a friction law, in parameter-vector order
 FRICTION_TERMS = ("viscous", "coulomb", "asymmetric", "offset", "stribeck", "sigmoid")
@@ -66,6 +66,10 @@ FRICTION_TERMS = ("viscous", "coulomb", "asymmetric", "offset", "stribeck", "sig
 SIDES = ("joint", "motor")
 #: default ``smoothing`` v_s of the sign, rad/s (m/s): see the module docstring
 DEFAULT_SMOOTHING = 0.01
+#: smallest ``smoothing`` other than 0 (a sharp sign), rad/s (m/s): below it ``tanh(v / smoothing)`` is the
+#: sign at every velocity a log resolves, and ``v / smoothing`` and its derivative ``1 / smoothing`` overflow
+#: float64 (1e-320 is a subnormal: 1 / 1e-320 is inf)
+MIN_SMOOTHING = 1e-9
 
 #: parameter names per term (one per actuator each; "offset" is per joint)
 _NAMES = {"viscous": ("fv",), "coulomb": ("fc",), "asymmetric": ("fc_pos", "fc_neg"), "offset": ("offset",),
@@ -186,6 +190,9 @@ class Friction:
         set_(self, "n", int(n))
         set_(self, "side", side)
         set_(self, "smoothing", _scalar(smoothing, w, "smoothing"))
+        if 0 < self.smoothing < MIN_SMOOTHING:
+            raise ModelError(f"{w}: 'smoothing' must be 0 (a sharp sign) or at least {MIN_SMOOTHING:g} rad/s "
+                             f"(manipdyn.model.friction.MIN_SMOOTHING), got {self.smoothing:g}")
         set_(self, "deadband", _scalar(deadband, w, "deadband"))
         set_(self, "stribeck_exponent", _scalar(stribeck_exponent, w, "stribeck_exponent", positive=True))
         set_(self, "viscous", arr.get("viscous"))
