@@ -73,3 +73,34 @@ def test_matrix_to_rpy_at_the_lock_puts_it_all_in_roll():
     R = rpy_to_matrix((0.7, math.pi / 2, 0.2))      # only roll - yaw = 0.5 is defined
     roll, pitch, yaw = matrix_to_rpy(R)
     assert yaw == 0.0 and pitch == math.pi / 2 and abs(roll - 0.5) < 1e-15
+
+
+# -- 26. one way to hash a file ----------------------------------------------------------------
+def test_every_file_sha256_is_hashlibs_file_digest(tmp_path):
+    """Issue 38 item 26: "four copies of a chunked sha256 loop: hashlib.file_digest (Python 3.11, the
+    project's floor)".  The four give hashlib's digest of the bytes (a bag's: of each file after its
+    name), and none reads in blocks by hand any more."""
+    import hashlib
+    import inspect
+    import os
+    from pathlib import Path
+
+    from manipdyn._support.html import sha256_of
+    from manipdyn.engines.c.cache import file_sha256 as library_sha256
+    from manipdyn.formats.logs import rosbag
+    from manipdyn.identification.results.provenance import file_sha256
+
+    blob = bytes(np.random.default_rng(0).integers(0, 256, 3 * (1 << 20) + 17, dtype=np.uint8))
+    a, b = tmp_path / "a.bin", tmp_path / "b.bin"
+    a.write_bytes(blob)
+    b.write_bytes(blob[::-1])
+    ref = hashlib.sha256(blob).hexdigest()
+    assert sha256_of(a) == library_sha256(str(a)) == file_sha256(a) == ref
+    assert sha256_of(tmp_path) is None
+    bag = hashlib.sha256()
+    for p in (a, b):
+        bag.update(os.fsencode(p.name) + b"\0" + p.read_bytes())
+    assert rosbag._sha256([Path(a), Path(b)]) == bag.hexdigest()
+    for f in (sha256_of, library_sha256, file_sha256, rosbag._sha256):
+        src = inspect.getsource(f)
+        assert "file_digest" in src and "iter(lambda" not in src, f.__qualname__
