@@ -10,6 +10,7 @@ on the code before the change.
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -104,3 +105,46 @@ def test_every_file_sha256_is_hashlibs_file_digest(tmp_path):
     for f in (sha256_of, library_sha256, file_sha256, rosbag._sha256):
         src = inspect.getsource(f)
         assert "file_digest" in src and "iter(lambda" not in src, f.__qualname__
+
+
+# -- 27. one progress bar --------------------------------------------------------------------
+def test_one_progress_bar_with_rate_time_left_throttling_and_terminal_detection():
+    """Issue 38 item 27: "three progress bars (cli/common.py Progress, demo.py _Stages, cli/identify.py
+    stages): one implementation, with rate and time left, throttled redraws and terminal detection"."""
+    import io
+
+    from manipdyn._support import progress as support
+    from manipdyn.cli import common, identify
+    from manipdyn.identification.experiments import demo
+
+    assert common.Progress is support.Progress and not hasattr(demo, "_Stages")
+    now = [0.0]
+    out = io.StringIO()
+    bar = support.Progress("runs", True, unit="runs", stream=out, clock=lambda: now[0])
+    for k in range(101):                   # 100 steps in 2 s: every 20 ms, five times the redraw interval's rate
+        now[0] = 0.02 * k
+        bar(k, 100)
+    text = out.getvalue()
+    draws = text.split("\r")[1:]
+    assert 15 <= len(draws) <= 25, len(draws)         # ~ 2 s / REDRAW_SECONDS, not 101
+    for draw in draws[2:-1]:               # the rate and the time left the rate gives
+        done, left = re.search(r"\] (\d+)/100 runs .*, 50 runs/s, ([\d.]+) s left", draw).groups()
+        assert abs(float(left) - (100 - int(done)) / 50) < 0.051, draw
+    assert draws[-1].startswith("runs             [" + "#" * 30 + "] 100/100 runs    2.0 s, 50 runs/s")
+    assert draws[-1].endswith("\n") and "left" not in draws[-1]
+    assert len(draws[-1].rstrip("\n")) == len(draws[-2])            # padded over the longer line before
+    bar.stage("fit")
+    assert out.getvalue().endswith("[   2.0 s] fit\n")
+    # terminal detection: a pipe (StringIO) is not a terminal, so nothing by default
+    quiet = io.StringIO()
+    auto = support.Progress("x", stream=quiet)
+    auto(1, 2)
+    auto.stage("s")
+    assert not auto.enabled and quiet.getvalue() == ""
+
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+
+    assert support.Progress("x", stream=Tty()).enabled
+    assert identify.stages(False) is None
