@@ -82,8 +82,8 @@ MAX_STUDY_STEPS = 1e9
 #: largest trajectory CSV read by ``manipdyn synthesize`` (64 MiB: 100 000 samples
 #: of a 7-joint arm, 22 columns of full-precision numbers, are about 40 MB)
 MAX_TRAJECTORY_BYTES = 64 * 1024 * 1024
-#: longest demo path of a Monte-Carlo run (s; as ``manipdyn track``): its via-point
-#: spline is solved densely, at a cost that grows with the square of the duration
+#: longest demo path of a Monte-Carlo run (s; as ``manipdyn track``): its via points, and the
+#: run's steps, grow with the duration
 MAX_DEMO_DURATION = 300.0
 #: largest controller bandwidth (rad/s): the gains grow with its square, and a loop
 #: this fast is far beyond any real arm's (it diverges at any practical step anyway)
