@@ -214,7 +214,7 @@ def test_a_subnormal_smoothing_is_refused(tmp_path, log, capsys):
     assert err_line(capsys).startswith("manipdyn identify: error: --smoothing: expected 0 (a sharp sign) or a "
                                        "velocity of at least 1e-09 rad/s")
     assert not (tmp_path / "i.toml").exists()
-    with pytest.raises(md.ModelError, match=r"'smoothing' must be 0 \(a sharp sign\) or at least 1e-09"):
+    with pytest.raises(md.ModelError, match=r"'smoothing' must be a finite number >= 0 \(0, or at least 1e-09: manipdyn.limits.MIN_SMOOTHING\), got 1e-320"):
         md.Friction(viscous=np.zeros(2), coulomb=np.ones(2), smoothing=1e-320)
 
 

@@ -58,7 +58,7 @@ import numpy as np
 from .._support import limits
 from .._support.errors import ModelError, StateError
 
-__all__ = ["Friction", "FrictionTerms", "friction_spec", "law_parameters", "FRICTION_TERMS", "DEFAULT_SMOOTHING", "MIN_SMOOTHING", "SIDES"]
+__all__ = ["Friction", "FrictionTerms", "friction_spec", "law_parameters", "FRICTION_TERMS", "DEFAULT_SMOOTHING", "SIDES"]
 
 #: the terms of a friction law, in parameter-vector order
 FRICTION_TERMS = ("viscous", "coulomb", "asymmetric", "offset", "stribeck", "sigmoid")
@@ -66,10 +66,6 @@ FRICTION_TERMS = ("viscous", "coulomb", "asymmetric", "offset", "stribeck", "sig
 SIDES = ("joint", "motor")
 #: default ``smoothing`` v_s of the sign, rad/s (m/s): see the module docstring
 DEFAULT_SMOOTHING = 0.01
-#: smallest ``smoothing`` other than 0 (a sharp sign), rad/s (m/s): below it ``tanh(v / smoothing)`` is the
-#: sign at every velocity a log resolves, and ``v / smoothing`` and its derivative ``1 / smoothing`` overflow
-#: float64 (1e-320 is a subnormal: 1 / 1e-320 is inf)
-MIN_SMOOTHING = 1e-9
 
 #: parameter names per term (one per actuator each; "offset" is per joint)
 _NAMES = {"viscous": ("fv",), "coulomb": ("fc",), "asymmetric": ("fc_pos", "fc_neg"), "offset": ("offset",),
@@ -102,15 +98,15 @@ def _logistic(x):
     return np.exp(-np.logaddexp(0.0, -x))
 
 
-def _scalar(value, where, field, positive=False):
+def _scalar(value, where, field, positive=False, least=0.0):
     if isinstance(value, bool):
         raise ModelError(f"{where}: '{field}' must be a number, got {value!r}")
     try:
         v = float(value)
     except (TypeError, ValueError, OverflowError):
         raise ModelError(f"{where}: '{field}' must be a number, got {value!r:.60}") from None
-    if not np.isfinite(v) or v < 0 or (positive and v == 0):
-        raise ModelError(f"{where}: '{field}' must be a finite number {'> 0' if positive else '>= 0'}, got {v}")
+    if not np.isfinite(v) or v < 0 or (positive and v == 0) or 0 < v < least:     # least: 0 or at least that
+        raise ModelError(f"{where}: '{field}' must be a finite number {'> 0' if positive else '>= 0'}{least and f' (0, or at least {least:g}: manipdyn.limits.MIN_SMOOTHING)' or ''}, got {v!r}")
     limits.check_magnitude(v, where, field)
     return v
 
@@ -189,10 +185,7 @@ class Friction:
                          positive=k in ("stribeck_velocity", "sigmoid_alpha")) for k, v in given.items()}
         set_(self, "n", int(n))
         set_(self, "side", side)
-        set_(self, "smoothing", _scalar(smoothing, w, "smoothing"))
-        if 0 < self.smoothing < MIN_SMOOTHING:
-            raise ModelError(f"{w}: 'smoothing' must be 0 (a sharp sign) or at least {MIN_SMOOTHING:g} rad/s "
-                             f"(manipdyn.model.friction.MIN_SMOOTHING), got {self.smoothing:g}")
+        set_(self, "smoothing", _scalar(smoothing, w, "smoothing", least=limits.MIN_SMOOTHING))
         set_(self, "deadband", _scalar(deadband, w, "deadband"))
         set_(self, "stribeck_exponent", _scalar(stribeck_exponent, w, "stribeck_exponent", positive=True))
         set_(self, "viscous", arr.get("viscous"))

@@ -97,7 +97,7 @@ def friction_option(arm, friction: bool = False, friction_terms=None, friction_s
     :class:`manipdyn.Friction` holding the shapes' starting values (``stribeck_velocity``
     rad/s, ``sigmoid_alpha`` s/rad, on the law's side).
     """
-    from ...model.friction import DEFAULT_SMOOTHING, FRICTION_TERMS, MIN_SMOOTHING, FrictionTerms
+    from ...model.friction import DEFAULT_SMOOTHING, FRICTION_TERMS, FrictionTerms
 
     if friction_side not in (None, "joint", "motor"):
         raise OptionError("{}: expected 'joint' or 'motor', got " + brace_safe(repr(friction_side)), "friction_side")
@@ -116,8 +116,8 @@ def friction_option(arm, friction: bool = False, friction_terms=None, friction_s
     v = DEFAULT_SMOOTHING if smoothing is None else smoothing
     if not 0 <= v < float("inf"):
         raise OptionError("{}: expected a finite velocity >= 0, got " + f"{v}", "smoothing")
-    if 0 < v < MIN_SMOOTHING:
-        raise OptionError("{}: expected 0 (a sharp sign) or a velocity of at least " + f"{MIN_SMOOTHING:g} rad/s "
+    if 0 < v < limits.MIN_SMOOTHING:
+        raise OptionError("{}: expected 0 (a sharp sign) or a velocity of at least " + f"{limits.MIN_SMOOTHING:g} rad/s "
                           f"(below it tanh(v / smoothing) is the sign, and 1 / smoothing overflows), got {v!r}",
                           "smoothing")
     if isinstance(friction_terms, str):
