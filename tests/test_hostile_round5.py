@@ -98,6 +98,9 @@ def test_a_leverage_reference_that_overflows_is_a_note_not_inf():
     with pytest.raises(md.ModelError, match="^leverage: .*overflow float64"):
         ref.leverage(arm, q, q, q)
     assert np.all(np.isfinite(Leverage.from_dict(rec, 6, "leverage").leverage(arm, q, q, q)))
+    # a mean of 0 divides the leverage into inf (exit 3 in validate --json before): refused, so ignored with a note
+    with pytest.raises(md.ModelError, match=r"^leverage: mean: expected finite numbers > 0, got \[0\.0"):
+        Leverage.from_dict(dict(rec, mean=[0.0] * 6), 6, "leverage")
 
 
 def test_a_urdf_trust_comment_nested_10000_deep_is_refused_by_name(tmp_path, capsys):
