@@ -205,7 +205,8 @@ def atomic_write(path, write, binary: bool = False, encoding: str = "utf-8") -> 
             else:
                 os.kill(os.getpid(), signal.SIGTERM)
             raise KeyboardInterrupt("SIGTERM while writing " + path) from None
-        if isinstance(exc, OSError) and exc.filename == tmp:
+        if isinstance(exc, OSError) and exc.filename in (tmp, None) and exc.errno is not None:
+            # the temporary file's name, or none (a write, flush or fsync: EFBIG, ENOSPC): the file asked for
             raise type(exc)(exc.errno, exc.strerror, path) from None
         raise
     finally:

@@ -206,11 +206,8 @@ def sha256_of(path) -> str | None:
     try:
         if not os.path.isfile(path):
             return None
-        h = hashlib.sha256()
         with open(path, "rb") as fh:
-            for block in iter(lambda: fh.read(1 << 20), b""):
-                h.update(block)
-        return h.hexdigest()
+            return hashlib.file_digest(fh, "sha256").hexdigest()
     except (OSError, TypeError, ValueError):
         return None
 

@@ -22,7 +22,7 @@ __all__ = ["MAX_FILE_BYTES", "MAX_MODEL_FILE_BYTES", "MAX_LINKS", "MAX_JOINTS", 
            "MAX_MAGNITUDE", "MAX_DATA_BYTES", "MAX_DATA_FIELD_BYTES", "MAX_HARMONICS", "MAX_EXCITATION_SAMPLES",
            "MAX_RUN_STEPS", "MAX_STUDY_STEPS", "MAX_BANDWIDTH", "MAX_DEMO_DURATION", "MAX_TRAJECTORY_BYTES",
            "MAX_GRID_VALUES", "MAX_FIT_ENTRIES", "MAX_BOOTSTRAP", "MAX_PRIOR_WEIGHT", 
-           "MAX_JSON_DEPTH", "MAX_SIGNAL", "MAX_CODEGEN_OPERATIONS", "codegen_operations", "MIN_TORQUE_PEAK", "MAX_SCHEDULER_WAIT_S", "MAX_PEER_MESSAGE_BYTES", "MAX_RUNS", "MAX_PAYLOAD_MASS", "MAX_TORQUE_CONSTANT", "CLI_RAISE", "over_limit", "check_fit_size", "check_signals", "check_count", "check_magnitude", "check_range", "open_regular"]
+           "MAX_JSON_DEPTH", "MAX_SIGNAL", "MIN_SMOOTHING", "MAX_CODEGEN_OPERATIONS", "codegen_operations", "MIN_TORQUE_PEAK", "MAX_SCHEDULER_WAIT_S", "MAX_PEER_MESSAGE_BYTES", "MAX_RUNS", "MAX_PAYLOAD_MASS", "MAX_TORQUE_CONSTANT", "CLI_RAISE", "over_limit", "check_fit_size", "check_signals", "check_count", "check_magnitude", "check_range", "open_regular"]
 
 #: largest URDF or model file read, bytes (16 MiB; real ones are under 1 MiB)
 MAX_FILE_BYTES = 16 * 1024 * 1024
@@ -82,8 +82,8 @@ MAX_STUDY_STEPS = 1e9
 #: largest trajectory CSV read by ``manipdyn synthesize`` (64 MiB: 100 000 samples
 #: of a 7-joint arm, 22 columns of full-precision numbers, are about 40 MB)
 MAX_TRAJECTORY_BYTES = 64 * 1024 * 1024
-#: longest demo path of a Monte-Carlo run (s; as ``manipdyn track``): its via-point
-#: spline is solved densely, at a cost that grows with the square of the duration
+#: longest demo path of a Monte-Carlo run (s; as ``manipdyn track``): its via points, and the
+#: run's steps, grow with the duration
 MAX_DEMO_DURATION = 300.0
 #: largest controller bandwidth (rad/s): the gains grow with its square, and a loop
 #: this fast is far beyond any real arm's (it diverges at any practical step anyway)
@@ -111,6 +111,10 @@ MAX_PRIOR_WEIGHT = 1e6
 #: arm's are under 1e5; squares of 1e9 summed over a long log stay far from overflow, while
 #: a cell of 1e300 overflows the fit's sums
 MAX_SIGNAL = 1e9
+#: smallest Coulomb ``smoothing`` other than 0 (a sharp sign), rad/s (m/s): below it ``tanh(v / smoothing)``
+#: is the sign at every velocity a log resolves, and ``v / smoothing`` and the derivative's
+#: ``1 / smoothing`` overflow float64 (1e-320 is a subnormal: 1 / 1e-320 is inf)
+MIN_SMOOTHING = 1e-9
 #: smallest peak torque of a log (N m or N): below it the torques are not in N m (or the
 #: column is empty), and the fit's squares underflow
 MIN_TORQUE_PEAK = 1e-20

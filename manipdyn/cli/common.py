@@ -8,10 +8,10 @@ from __future__ import annotations
 import os
 import re
 import sys
-import time
 
 from .._support.figures import pyplot
 from .._support.errors import ModelError, TipError
+from .._support.progress import Progress
 from ..formats.loading import load_with_notes
 
 __all__ = ["check_outputs", "check_plot_target", "check_report_target", "command_line", "check_output_file", "require_numbers", "add_progress_options", "progress_wanted", "EXIT_OK", "EXIT_DISAGREE", "EXIT_USAGE", "EXIT_INTERNAL", "Progress", "output_folder",
@@ -58,28 +58,6 @@ def usage_error(command: str, message: str) -> int:
     """Print ``manipdyn COMMAND: error: MESSAGE`` on stderr and return :data:`EXIT_USAGE`."""
     print(f"manipdyn {command}: error: {one_line(message)}", file=sys.stderr)
     return EXIT_USAGE
-
-
-class Progress:
-    """A one-line progress bar on stderr (only when stderr is a terminal, or forced).
-
-    Call it as ``progress(done, total)``; ``unit`` names what is counted.
-    """
-
-    def __init__(self, label: str, enabled: bool, width: int = 30, unit: str = "states"):
-        self.label, self.enabled, self.width, self.unit = label, enabled, width, unit
-        self.t0 = time.perf_counter()
-
-    def __call__(self, done: int, total: int) -> None:
-        if not self.enabled:
-            return
-        frac = done / total if total else 1.0
-        bar = "#" * int(self.width * frac) + "-" * (self.width - int(self.width * frac))
-        el = time.perf_counter() - self.t0
-        sys.stderr.write(f"\r{self.label:<16} [{bar}] {done}/{total} {self.unit}  {el:5.1f} s")
-        if done >= total:
-            sys.stderr.write("\n")
-        sys.stderr.flush()
 
 
 def urdf_target(outdir: str, arm, seen: dict, option: str, inputs=(), ext: str = "urdf") -> str:

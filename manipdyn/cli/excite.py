@@ -128,6 +128,9 @@ def check_options(args) -> None:
             raise ModelError(f"--ramp: expected seconds >= 0 or 'auto', got {args.ramp!r:.40}") from None
         if not (math.isfinite(args.ramp) and args.ramp >= 0):
             raise ModelError(f"--ramp: expected seconds >= 0 or 'auto', got {args.ramp}")
+        if 0 < args.ramp < 1.0 / args.rate:
+            raise ModelError(f"--ramp: {args.ramp:g} s is shorter than one sample (1 / --rate = {1.0 / args.rate:g} "
+                             "s); expected 0 (no ramp), 'auto', or at least one sample")
         limits.check_count((args.period + 2 * args.ramp) * args.rate, f"--rate x ({opt} + 2 --ramp)",
                            "the number of samples", "MAX_EXCITATION_SAMPLES", cli=True)
     for name in ("vmax", "amax"):

@@ -136,13 +136,11 @@ def stages(enabled: bool):
     stage with the time since the start, and a bar over the bootstrap's refits; None when off."""
     if not enabled:
         return None
-    import time
-
-    t0, bars = time.perf_counter(), {}
+    lines, bars = Progress("identify", True), {}
 
     def tell(stage, done=None, total=None):
         if done is None:
-            print(f"[{time.perf_counter() - t0:6.1f} s] identify: {stage}", file=sys.stderr, flush=True)
+            lines.stage(f"identify: {stage}")
         else:
             bars.setdefault(stage, Progress(stage, True, unit="refits"))(done, total)
     return tell

@@ -14,6 +14,7 @@ Exit codes: 0 written, 2 usage, model or data error.
 from __future__ import annotations
 
 import json
+import os
 
 from .._support.errors import ModelError
 from .common import EXIT_OK, TIP_HELP, check_outputs, load_arm
@@ -45,26 +46,40 @@ def run(args) -> int:
     if args.perturb and not isinstance(arm, Manipulator):
         raise ModelError(f"--perturb: only for DH models (a bundled name or a .toml file), not {args.model!r}")
     robot = true_arm(arm, args.seed) if args.perturb else arm
-    if args.truth is not None:
-        from ..formats.save import save
-        save(Manipulator(robot.links, convention=robot.convention, gravity=robot.gravity, name=robot.name,
-                         source=robot.source, sources=robot.sources, description=f"the true arm that manipdyn synthesize --perturb --seed {args.seed} drew "
-                                     f"around {args.model} (masses, centres of mass and friction off), whose "
-                                     f"torques it logged to {args.output}"), args.truth)
     traj = read_trajectory(args.trajectory, arm.n)
     contacts = [parse_contact(c, robot) for c in (args.contact or [])]
     tau = synthesize(robot, traj.q, traj.qd, traj.qdd, noise=args.noise, seed=args.seed)
     if contacts:
-        from .._support.files import atomic_write_text
-
         tau = tau - contact_torques(robot, traj.t, traj.q, contacts)   # the drives give J^T f less
-        atomic_write_text(sidecar, json.dumps({"log": args.output, "contacts": [c.to_dict() for c in contacts],
-                                               "note": "forces the environment applies to the arm; the logged "
-                                                       "torque is the model's minus J^T f"}, indent=2) + "\n")
-    if args.derivatives:
-        write_measurements_csv(args.output, traj.t, traj.q, tau, traj.qd, traj.qdd)
-    else:
-        write_measurements_csv(args.output, traj.t, traj.q, tau)
+    derivatives = (traj.qd, traj.qdd) if args.derivatives else ()
+    extras = [path for path in (args.truth, sidecar) if path is not None]
+    if not extras:
+        write_measurements_csv(args.output, traj.t, traj.q, tau, *derivatives)
+    else:      # all or nothing: the truth and the contacts are written once the log is on disk, before its rename
+        from .._support.files import atomic_write_text
+        from ..formats.save import save
+
+        def write_extras():
+            if args.truth is not None:
+                save(Manipulator(robot.links, convention=robot.convention, gravity=robot.gravity, name=robot.name,
+                                 source=robot.source, sources=robot.sources,
+                                 description=f"the true arm that manipdyn synthesize --perturb --seed {args.seed} "
+                                             f"drew around {args.model} (masses, centres of mass and friction off), "
+                                             f"whose torques it logged to {args.output}"), args.truth)
+            if sidecar is not None:
+                atomic_write_text(sidecar, json.dumps(
+                    {"log": args.output, "contacts": [c.to_dict() for c in contacts],
+                     "note": "forces the environment applies to the arm; the logged torque is the model's minus "
+                             "J^T f"}, indent=2) + "\n")
+
+        new = [path for path in extras if not os.path.lexists(path)]
+        try:
+            write_measurements_csv(args.output, traj.t, traj.q, tau, *derivatives, then=write_extras)
+        except BaseException:
+            for path in new:                     # the log's rename failed after the extras were written
+                if os.path.lexists(path):
+                    os.unlink(path)
+            raise
     out = {"model": args.model, "robot": robot.name, "trajectory": args.trajectory, "output": args.output,
            "truth": args.truth, "contacts": sidecar,
            "samples": int(len(traj.t)), "noise": args.noise, "seed": args.seed,

@@ -174,18 +174,63 @@ class Quintic(PiecewisePolynomial):
 
 
 # -- via points: quintic spline, C4, rest at both ends --------------------------
+def _solve_banded(lu: tuple[int, int], ab: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``x`` (N, n) of ``A x = b`` for a band matrix ``A`` (N, N) of ``l`` sub- and ``u`` super-diagonals
+    (``lu = (l, u)``), given in LAPACK's form ``ab`` (l + u + 1, N): ``ab[u + i - j, j] = A[i, j]``.
+
+    ``scipy.linalg.solve_banded`` (LAPACK's banded LU with partial pivoting) when SciPy is installed;
+    else the same elimination in NumPy, a column at a time (the core needs no SciPy).  Either is
+    O(N l (l + u)), where a dense solve is O(N^3)."""
+    try:
+        from scipy.linalg import solve_banded
+    except ImportError:
+        solve_banded = None
+    if solve_banded is not None:
+        return solve_banded(lu, ab, b)
+    l, u = lu
+    N = ab.shape[1]
+    w = np.zeros((2 * l + u + 1, N))              # room for the pivots' fill-in: U gets l + u super-diagonals
+    w[l:] = ab
+    top = l + u                                   # w[top + i - j, j] = A[i, j]
+    x = np.array(b, dtype=np.float64)
+    for j in range(N):
+        last = min(N - 1, j + l)                  # candidate rows j..last
+        cols = np.arange(j, min(N, j + l + u + 1))
+        p = j + int(np.argmax(np.abs(w[top:top + last - j + 1, j])))
+        if p != j:                                # swap rows j and p over the columns they may hold
+            rj, rp = top + j - cols, top + p - cols
+            w[rj, cols], w[rp, cols] = w[rp, cols].copy(), w[rj, cols].copy()
+            x[[j, p]] = x[[p, j]]
+        pivot = w[top, j]
+        if pivot == 0.0:
+            raise np.linalg.LinAlgError("singular band matrix")
+        if last > j:                              # every row below at once
+            rows = np.arange(j + 1, last + 1)
+            f = w[top + rows - j, j] / pivot
+            w[top + rows[:, None] - cols, cols] -= f[:, None] * w[top + j - cols, cols]
+            x[j + 1:last + 1] -= f[:, None] * x[j]
+    for i in range(N - 1, -1, -1):                # U x = y, U with l + u super-diagonals
+        cols = np.arange(i + 1, min(N, i + l + u + 1))
+        x[i] = (x[i] - w[top + i - cols, cols] @ x[cols]) / w[top, i]
+    return x
+
+
 def _quintic_spline(t: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Coefficients (m, 6, n) of the C4 quintic spline through ``y`` (m + 1, n) at ``t``.
 
     6m unknowns; 2m interpolation conditions, 4(m - 1) continuity conditions
     (derivatives 1 to 4 at the inner knots) and 4 end conditions (zero
-    velocity and acceleration at both ends): a square linear system, solved
-    densely (fine for a few hundred via points).
+    velocity and acceleration at both ends): a square linear system.  Its rows
+    taken segment by segment (the start's end conditions, then per segment its two
+    points and the continuity at its end, then the end's) make it a band matrix of
+    7 sub- and 7 super-diagonals, solved banded (:func:`_solve_banded`): O(m), where
+    the dense solve it replaces was O(m^3) (150 ms at 300 points).
     """
     m = len(t) - 1
     h = np.diff(t)
-    A = np.zeros((6 * m, 6 * m))
-    b = np.zeros((6 * m, y.shape[1]))
+    N = 6 * m
+    ab = np.zeros((15, N))                        # ab[7 + i - j, j] = A[i, j]
+    b = np.zeros((N, y.shape[1]))
     fact = np.array([math.factorial(i) for i in range(6)], dtype=float)
 
     def drow(r, u):  # d^r/du^r of [1, u, ..., u^5]
@@ -194,24 +239,23 @@ def _quintic_spline(t: np.ndarray, y: np.ndarray) -> np.ndarray:
             out[jj] = fact[jj] / fact[jj - r] * u ** (jj - r)
         return out
 
-    row = 0
-    for k in range(m):
-        cols = slice(6 * k, 6 * k + 6)
-        A[row, cols] = drow(0, 0.0)
-        b[row] = y[k]
-        A[row + 1, cols] = drow(0, 1.0)
-        b[row + 1] = y[k + 1]
-        row += 2
-    for k in range(1, m):  # d^r q/dt^r continuous at t_k, r = 1..4 (scaled by h_{k-1}^r)
-        for r in range(1, 5):
-            A[row, 6 * (k - 1):6 * k] = drow(r, 1.0)
-            A[row, 6 * k:6 * k + 6] = -drow(r, 0.0) * (h[k - 1] / h[k]) ** r
-            row += 1
-    for r in (1, 2):
-        A[row, 0:6] = drow(r, 0.0)
-        A[row + 1, 6 * (m - 1):6 * m] = drow(r, 1.0)
-        row += 2
-    return np.linalg.solve(A, b).reshape(m, 6, -1)
+    def put(rows, cols0, values):                 # A[rows[k], cols0[k] + c] = values[k, c]
+        cols = cols0[:, None] + np.arange(values.shape[1])
+        ab[7 + rows[:, None] - cols, cols] = values
+
+    seg = np.arange(m)
+    for r in (1, 2):                              # rows 0, 1: at rest at the start
+        put(np.array([r - 1]), np.array([0]), drow(r, 0.0)[None])
+    for side in (0, 1):                           # per segment, its two points: rows 2 + 6k, 3 + 6k
+        put(2 + 6 * seg + side, 6 * seg, np.tile(drow(0, float(side)), (m, 1)))
+        b[2 + 6 * seg + side] = y[seg + side]
+    inner = seg[:-1]                              # d^r q/dt^r continuous at t_k+1, r = 1..4 (scaled by h_k^r)
+    for r in range(1, 5):
+        ratio = ((h[:-1] / h[1:]) ** r)[:, None]
+        put(3 + 6 * inner + r, 6 * inner, np.hstack([np.tile(drow(r, 1.0), (m - 1, 1)), -drow(r, 0.0) * ratio]))
+    for r in (1, 2):                              # the last two rows: at rest at the end
+        put(np.array([N - 3 + r]), np.array([6 * (m - 1)]), drow(r, 1.0)[None])
+    return _solve_banded((7, 7), ab, b).reshape(m, 6, -1)
 
 
 class ViaPoints(PiecewisePolynomial):
@@ -247,29 +291,19 @@ _HERMITE5 = np.linalg.inv(np.array([
 
 
 def _natural_cubic(t: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Second derivatives (m + 1, n) of the natural cubic spline (Thomas algorithm)."""
+    """Second derivatives (m + 1, n) of the natural cubic spline: its tridiagonal, diagonally dominant
+    system solved banded (:func:`_solve_banded`)."""
     m = len(t) - 1
     h = np.diff(t)
     M = np.zeros_like(y)
     if m < 2:
         return M
     slope = np.diff(y, axis=0) / h[:, None]
-    rhs = 6.0 * (slope[1:] - slope[:-1])                      # (m - 1, n)
-    diag = 2.0 * (h[:-1] + h[1:])
-    sub = h[1:-1]                                             # off-diagonals
-    cp = np.zeros(m - 1)
-    dp = np.zeros_like(rhs)
-    cp[0] = sub[0] / diag[0] if m > 2 else 0.0
-    dp[0] = rhs[0] / diag[0]
-    for i in range(1, m - 1):
-        den = diag[i] - h[i] * cp[i - 1]
-        cp[i] = (sub[i] / den) if i < m - 2 else 0.0
-        dp[i] = (rhs[i] - h[i] * dp[i - 1]) / den
-    x = np.zeros_like(rhs)
-    x[-1] = dp[-1]
-    for i in range(m - 3, -1, -1):
-        x[i] = dp[i] - cp[i] * x[i + 1]
-    M[1:-1] = x
+    ab = np.zeros((3, m - 1))                     # the super-diagonal, the diagonal, the sub-diagonal
+    ab[0, 1:] = h[1:-1]
+    ab[1] = 2.0 * (h[:-1] + h[1:])
+    ab[2, :-1] = h[1:-1]
+    M[1:-1] = _solve_banded((1, 1), ab, 6.0 * (slope[1:] - slope[:-1]))
     return M
 
 

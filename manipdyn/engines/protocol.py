@@ -132,8 +132,9 @@ class JacobianEngine(Protocol):
         ``[v; w] = J qd``, SI units."""
         ...
 
-    def jacobian_dot(self, q, qd) -> np.ndarray:
-        """``dJ/dt`` along ``qd``: (6, n) or (N, 6, n); the tool's acceleration is ``J qdd + Jdot qd``."""
+    def jacobian_dot(self, q, qd, link=None) -> np.ndarray:
+        """``dJ/dt`` along ``qd``: (6, n) or (N, 6, n); the tool's acceleration is ``J qdd + Jdot qd``
+        (link ``link``'s, 1..n, when given)."""
         ...
 
 

@@ -73,7 +73,6 @@ from __future__ import annotations
 
 import math
 import os
-import re
 import tomllib
 from importlib import resources
 
@@ -86,6 +85,7 @@ from .._support.errors import ModelError, SuspiciousValueWarning, warn_notes
 from ..model.links import DHLink
 from .modelfile_drive import drive_to_toml, parse_drive, parse_poses, poses_to_toml
 from .modelfile_urdf import parse_urdf_model, urdf_model_to_toml
+from .tomltext import toml_key, toml_list, toml_num, toml_str
 from .trust import trust_from_toml, trust_to_toml
 
 __all__ = ["models", "load_bundled", "load_model_file", "parse_model", "save_model", "model_to_toml", "FORMAT"]
@@ -397,88 +397,51 @@ def _gyration_notes(origin: str, units: dict, links: list) -> list[str]:
 # Writing
 # ---------------------------------------------------------------------------
 #: the short escapes of TOML basic strings; every other control character is written \uXXXX
-_TOML_ESCAPES = {"\\": "\\\\", '"': '\\"', "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
-
-
-def _toml_str(s: str, where: str = "text") -> str:
-    """A TOML basic string holding ``s`` exactly: every control character (U+0000 to U+001F,
-    U+007F) escaped, so that the file reads back; a ModelError naming ``where`` for a value
-    that is not a string or holds a lone surrogate (not Unicode text: no file can hold it)."""
-    if not isinstance(s, str):
-        raise ModelError(f"save: {where} must be a string, got {type(s).__name__} {s!r:.60}")
-    out = []
-    for k, ch in enumerate(s):
-        o = ord(ch)
-        if ch in _TOML_ESCAPES:
-            out.append(_TOML_ESCAPES[ch])
-        elif o < 0x20 or o == 0x7F:
-            out.append(f"\\u{o:04X}")
-        elif 0xD800 <= o <= 0xDFFF:
-            raise ModelError(f"save: {where} holds the lone surrogate U+{o:04X} at index {k} "
-                             f"({s[max(0, k - 20):k + 20]!r}), which is not Unicode text: no file can hold it")
-        else:
-            out.append(ch)
-    return '"' + "".join(out) + '"'
-
-
-def _toml_key(k: str) -> str:
-    """A TOML key: bare when it can be, quoted otherwise."""
-    return k if isinstance(k, str) and re.fullmatch(r"[A-Za-z0-9_-]+", k) else _toml_str(k, "a key of sources")
-
-
-def _toml_num(x: float) -> str:
-    return repr(float(x))
-
-
-def _toml_list(xs) -> str:
-    return "[" + ", ".join(_toml_num(x) for x in xs) + "]"
-
-
 def model_to_toml(arm: Manipulator) -> str:
     """Model-file text for a DH arm, in SI units (m, rad, kg), floats written exactly; for a URDF
     arm, its URDF text with the drive (:mod:`manipdyn.formats.modelfile_urdf`)."""
     if getattr(arm, "urdf_text", None) is not None:
-        return urdf_model_to_toml(arm, FORMAT, _toml_str, _toml_num, _toml_list)
+        return urdf_model_to_toml(arm, FORMAT, toml_str, toml_num, toml_list)
     if not isinstance(arm, Manipulator):
         raise ModelError(f"save: only DH arms (Manipulator) have a model file; "
                          f"{type(arm).__name__} {arm.name!r} can be written with write_urdf()")
     lines = [
-        f"format = {_toml_str(FORMAT)}",
-        f"name = {_toml_str(arm.name, 'name')}",
-        f"convention = {_toml_str(arm.convention)}",
-        f"gravity = {_toml_list(arm.gravity)}",
-        f"source = {_toml_str(arm.source, 'source')}",
+        f"format = {toml_str(FORMAT)}",
+        f"name = {toml_str(arm.name, 'name')}",
+        f"convention = {toml_str(arm.convention)}",
+        f"gravity = {toml_list(arm.gravity)}",
+        f"source = {toml_str(arm.source, 'source')}",
     ]
     if arm.description:
-        lines.append(f"description = {_toml_str(arm.description, 'description')}")
+        lines.append(f"description = {toml_str(arm.description, 'description')}")
     sources = arm.sources
     if sources:
         if not isinstance(sources, dict):
             raise ModelError(f"save: sources must be a dict of strings, got {type(sources).__name__}")
-        lines += ["", "[sources]"] + [f"{_toml_key(k)} = {_toml_str(v, f'sources[{k!r}]')}"
+        lines += ["", "[sources]"] + [f"{toml_key(k, 'a key of sources')} = {toml_str(v, f'sources[{k!r}]')}"
                                       for k, v in sources.items()]
     lines += ["", "[units]", 'length = "m"', 'angle = "rad"', 'mass = "kg"']
     for l in arm.links:
         I = l.inertia
         lines += [
             "", "[[links]]",
-            *( [f"name = {_toml_str(l.name, 'a link name')}"] if l.name else [] ),
-            f"joint = {_toml_str(l.joint)}",
-            f"a = {_toml_num(l.a)}", f"alpha = {_toml_num(l.alpha)}",
-            f"d = {_toml_num(l.d)}", f"theta = {_toml_num(l.theta)}",
-            *( [f"qlim = {_toml_list(l.qlim)}"] if l.qlim is not None else [] ),
-            f"mass = {_toml_num(l.mass)}",
-            f"com = {_toml_list(l.com)}",
+            *( [f"name = {toml_str(l.name, 'a link name')}"] if l.name else [] ),
+            f"joint = {toml_str(l.joint)}",
+            f"a = {toml_num(l.a)}", f"alpha = {toml_num(l.alpha)}",
+            f"d = {toml_num(l.d)}", f"theta = {toml_num(l.theta)}",
+            *( [f"qlim = {toml_list(l.qlim)}"] if l.qlim is not None else [] ),
+            f"mass = {toml_num(l.mass)}",
+            f"com = {toml_list(l.com)}",
             "inertia = { " + ", ".join(
-                f"{k} = {_toml_num(v)}" for k, v in zip(
+                f"{k} = {toml_num(v)}" for k, v in zip(
                     _INERTIA_KEYS, (I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]))) + " }",
         ]
         if l.motor_inertia or l.gear_ratio != 1.0:
-            lines += [f"motor_inertia = {_toml_num(l.motor_inertia)}", f"gear_ratio = {_toml_num(l.gear_ratio)}"]
+            lines += [f"motor_inertia = {toml_num(l.motor_inertia)}", f"gear_ratio = {toml_num(l.gear_ratio)}"]
         if l.friction_viscous or l.friction_coulomb:
-            lines += [f"friction_viscous = {_toml_num(l.friction_viscous)}",
-                      f"friction_coulomb = {_toml_num(l.friction_coulomb)}"]
-    lines += drive_to_toml(arm, _toml_num, _toml_list) + poses_to_toml(arm, _toml_list)
+            lines += [f"friction_viscous = {toml_num(l.friction_viscous)}",
+                      f"friction_coulomb = {toml_num(l.friction_coulomb)}"]
+    lines += drive_to_toml(arm, toml_num, toml_list) + poses_to_toml(arm, toml_list)
     lines += trust_to_toml(getattr(arm, "trust", None))
     return "\n".join(lines) + "\n"
 

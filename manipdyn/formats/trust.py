@@ -40,7 +40,9 @@ import json
 import math
 import re
 
+from .._support import limits
 from .._support.errors import ModelError
+from .tomltext import toml_key, toml_str
 
 __all__ = ["TRUST_FORMAT", "check_trust", "trust_to_toml", "trust_from_toml", "trust_comment", "trust_from_urdf",
            "strip_trust_comments", "without_trust_comment", "trust_to_json", "trust_from_json"]
@@ -49,34 +51,60 @@ TRUST_FORMAT = "manipdyn-trust/1"
 _COMMENT_HEAD = " " + TRUST_FORMAT + " "
 
 
-def _plain(value, where: str):
-    """``value`` checked to be JSON-ready and TOML-writable: str, bool, int, finite float, lists, string-keyed
-    dicts (TOML has no null: None values are dropped from dicts, and written ``"none"`` in lists, e.g. an open
-    ``t_range``)."""
+#: the record's numbers that are widths, scales or weights: a negative one is no record manipdyn wrote
+_NONNEGATIVE = {"prediction_band": ("half_width", "held_out_rms", "leverage_gain"),
+                "leverage": ("weights", "scale", "mean", "largest", "smoothing")}
+
+
+def _plain(value, where: str, depth: int = 0):
+    """``value`` checked to be JSON-ready and TOML-writable: str, bool, int, finite float of at most
+    :data:`manipdyn.limits.MAX_MAGNITUDE`, lists, string-keyed dicts, nested at most
+    :data:`manipdyn.limits.MAX_JSON_DEPTH` deep (TOML has no null: None values are dropped from dicts, and
+    written ``"none"`` in lists, e.g. an open ``t_range``)."""
+    if depth > limits.MAX_JSON_DEPTH:
+        raise ModelError(f"{where}: nested deeper than the limit of {limits.MAX_JSON_DEPTH} "
+                         "(manipdyn.limits.MAX_JSON_DEPTH)")
     if isinstance(value, bool) or isinstance(value, str):
         return value
-    if isinstance(value, int):
-        return int(value)
-    if isinstance(value, float) or hasattr(value, "dtype"):
+    if isinstance(value, (int, float)) or hasattr(value, "dtype"):
         try:
             v = float(value)
-        except (TypeError, ValueError):
-            raise ModelError(f"{where}: expected a number, got {value!r:.60}") from None
+        except (TypeError, ValueError, OverflowError):
+            raise ModelError(f"{where}: expected a number float64 holds, got {value!r:.60}") from None
         if not math.isfinite(v):
             raise ModelError(f"{where}: expected a finite number, got {v}")
-        return v
+        if abs(v) > limits.MAX_MAGNITUDE:
+            raise ModelError(f"{where}: {v:g} is beyond the largest number a trust record may hold, "
+                             f"{limits.MAX_MAGNITUDE:g} (manipdyn.limits.MAX_MAGNITUDE)")
+        return int(value) if isinstance(value, int) else v
     if isinstance(value, (list, tuple)) or (hasattr(value, "tolist") and not isinstance(value, dict)):
         items = value.tolist() if hasattr(value, "tolist") else value
-        return [("none" if x is None else _plain(x, f"{where}[{k}]")) for k, x in enumerate(items)]
+        return [("none" if x is None else _plain(x, f"{where}[{k}]", depth + 1)) for k, x in enumerate(items)]
     if isinstance(value, dict):
         out = {}
         for k, v in value.items():
             if not isinstance(k, str):
                 raise ModelError(f"{where}: keys must be strings, got {k!r}")
             if v is not None:
-                out[k] = _plain(v, f"{where}.{k}")
+                out[k] = _plain(v, f"{where}.{k}", depth + 1)
         return out
     raise ModelError(f"{where}: expected numbers, strings, lists or tables, got {type(value).__name__}")
+
+
+def _nonnegative(record: dict, where: str) -> None:
+    """A ModelError naming the key when one of :data:`_NONNEGATIVE`'s numbers is negative."""
+    for table, keys in _NONNEGATIVE.items():
+        sub = record.get(table)
+        if not isinstance(sub, dict):
+            continue
+        for key in keys:
+            stack = [(sub.get(key), f"{where}.{table}.{key}")]
+            while stack:
+                x, name = stack.pop()
+                if isinstance(x, list):
+                    stack.extend((y, f"{name}[{k}]") for k, y in enumerate(x))
+                elif isinstance(x, (int, float)) and not isinstance(x, bool) and x < 0:
+                    raise ModelError(f"{name}: expected a number >= 0, got {x!r}")
 
 
 def check_trust(value, where: str = "trust") -> dict:
@@ -87,16 +115,14 @@ def check_trust(value, where: str = "trust") -> dict:
     fmt = value.get("format")
     if fmt != TRUST_FORMAT:
         raise ModelError(f"{where}: key 'format' is {fmt!r}; this manipdyn reads {TRUST_FORMAT!r}")
-    return _plain(value, where)
+    record = _plain(value, where)
+    _nonnegative(record, where)
+    return record
 
 
 # -- TOML -------------------------------------------------------------------------------------------------------
-def _toml_str(s: str) -> str:
-    return json.dumps(s, ensure_ascii=False).replace("\x7f", "\\u007f")   # JSON strings are TOML basic strings
-
-
 def _toml_key(k: str) -> str:
-    return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else _toml_str(k)
+    return toml_key(k, "a key of the trust record")
 
 
 def _toml_value(v) -> str:
@@ -107,7 +133,7 @@ def _toml_value(v) -> str:
     if isinstance(v, float):
         return repr(v)
     if isinstance(v, str):
-        return _toml_str(v)
+        return toml_str(v, "a string of the trust record")
     if isinstance(v, list):
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
     return "{ " + ", ".join(f"{_toml_key(k)} = {_toml_value(x)}" for k, x in v.items()) + " }"
@@ -170,6 +196,9 @@ def trust_from_urdf(root, label: str):
             except ValueError as exc:
                 raise ModelError(f"{label}, line {node.sourceline}: the {TRUST_FORMAT} comment is not JSON "
                                  f"({exc})") from None
+            except RecursionError:
+                raise ModelError(f"{label}, line {node.sourceline}: the {TRUST_FORMAT} comment is nested deeper "
+                                 f"than the limit of {limits.MAX_JSON_DEPTH} (manipdyn.limits.MAX_JSON_DEPTH)") from None
             return check_trust(value, f"{label}: the {TRUST_FORMAT} comment")
     return None
 

@@ -82,13 +82,17 @@ class ArmCalls:
         """
         return self._engine_with(engine, "jacobian")(q, frame=frame, link=link)
 
-    def jacobian_dot(self, q, qd, engine: str = "pinocchio") -> np.ndarray:
+    def jacobian_dot(self, q, qd, engine: str = "pinocchio", *, link=None) -> np.ndarray:
         """``dJ/dt`` of :meth:`jacobian` along ``qd``: (6, n) or (N, 6, n).
 
         The tool's acceleration (origin, base axes) is ``J qdd + Jdot qd``: what
-        operational-space control needs.
+        operational-space control needs.  ``link`` (1..n): the rate of link k's Jacobian
+        (``jacobian(q, link=k)``, base axes) instead, so its frame's acceleration is
+        ``J_k qdd + Jdot_k qd``.
         """
-        return self._engine_with(engine, "jacobian_dot")(q, qd)
+        if link is None:
+            return self._engine_with(engine, "jacobian_dot")(q, qd)
+        return self._engine_with(engine, "jacobian_dot")(q, qd, link=link)
 
     def manipulability(self, q, axes: str = "all", engine: str = "pinocchio"):
         """Yoshikawa's manipulability ``sqrt(det(J_a J_a^T))``: float, or (N,) for a batch.

@@ -98,15 +98,15 @@ def _logistic(x):
     return np.exp(-np.logaddexp(0.0, -x))
 
 
-def _scalar(value, where, field, positive=False):
+def _scalar(value, where, field, positive=False, least=0.0):
     if isinstance(value, bool):
         raise ModelError(f"{where}: '{field}' must be a number, got {value!r}")
     try:
         v = float(value)
     except (TypeError, ValueError, OverflowError):
         raise ModelError(f"{where}: '{field}' must be a number, got {value!r:.60}") from None
-    if not np.isfinite(v) or v < 0 or (positive and v == 0):
-        raise ModelError(f"{where}: '{field}' must be a finite number {'> 0' if positive else '>= 0'}, got {v}")
+    if not np.isfinite(v) or v < 0 or (positive and v == 0) or 0 < v < least:     # least: 0 or at least that
+        raise ModelError(f"{where}: '{field}' must be a finite number {'> 0' if positive else '>= 0'}{least and f' (0, or at least {least:g}: manipdyn.limits.MIN_SMOOTHING)' or ''}, got {v!r}")
     limits.check_magnitude(v, where, field)
     return v
 
@@ -185,7 +185,7 @@ class Friction:
                          positive=k in ("stribeck_velocity", "sigmoid_alpha")) for k, v in given.items()}
         set_(self, "n", int(n))
         set_(self, "side", side)
-        set_(self, "smoothing", _scalar(smoothing, w, "smoothing"))
+        set_(self, "smoothing", _scalar(smoothing, w, "smoothing", least=limits.MIN_SMOOTHING))
         set_(self, "deadband", _scalar(deadband, w, "deadband"))
         set_(self, "stribeck_exponent", _scalar(stribeck_exponent, w, "stribeck_exponent", positive=True))
         set_(self, "viscous", arr.get("viscous"))

@@ -67,19 +67,24 @@ def rpy_to_matrix(rpy) -> np.ndarray:
 
 def matrix_to_rpy(R: np.ndarray) -> tuple[float, float, float]:
     """Inverse of :func:`rpy_to_matrix` (pitch in [-pi/2, pi/2]); exact round trip
-    to rounding, including the gimbal-lock case."""
+    to rounding, including the gimbal-lock case.
+
+    Pitch is ``atan2(-R20, hypot(R00, R10))`` (an ``asin`` of ``-R20`` loses half the digits
+    near +-pi/2: 1e-7 at 1e-7 rad from the lock), yaw ``atan2(R10, R00)``, and roll from
+    ``Rz(yaw)^T R = Ry(pitch) Rx(roll)``, whose rows 1 are ``[0, cos roll, -sin roll]`` whatever
+    the pitch: so roll takes up what yaw leaves, and at the lock (``hypot(R00, R10)`` lost
+    in rounding) yaw is 0 and roll is all of ``roll -/+ yaw``, the one angle defined there."""
     R = np.asarray(R, dtype=np.float64)
-    sp = -R[2, 0]
-    sp = max(-1.0, min(1.0, sp))
-    pitch = math.asin(sp)
-    if abs(sp) < 1.0 - 1e-12:
-        roll = math.atan2(R[2, 1], R[2, 2])
-        yaw = math.atan2(R[1, 0], R[0, 0])
-    else:  # gimbal lock: only roll -/+ yaw is defined; put it all in roll
-        yaw = 0.0
-        roll = math.atan2(-R[1, 2], R[1, 1])
-        pitch = math.copysign(math.pi / 2, sp)
+    cp = math.hypot(R[0, 0], R[1, 0])
+    pitch = math.atan2(-R[2, 0], cp)
+    yaw = math.atan2(R[1, 0], R[0, 0]) if cp > _GIMBAL_LOCK else 0.0
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    roll = math.atan2(sy * R[0, 2] - cy * R[1, 2], cy * R[1, 1] - sy * R[0, 1])
     return roll, pitch, yaw
+
+
+#: ``cos(pitch)`` below which :func:`matrix_to_rpy` calls it gimbal lock (four float64 roundings of 1)
+_GIMBAL_LOCK = 1e-15
 
 
 def transform_inverse(T: np.ndarray) -> np.ndarray:

@@ -25,6 +25,7 @@ import math
 
 import numpy as np
 
+from .._support import limits
 from .._support.errors import ModelError, StateError, UnreachablePoseError
 from .._support.state import as_state
 
@@ -71,16 +72,21 @@ def wrench_torque(J: np.ndarray, f: np.ndarray) -> np.ndarray:
 
 
 def rotation_vector(R: np.ndarray) -> np.ndarray:
-    """The rotation vector ``theta * axis`` (3,) of a rotation matrix (3, 3): ``log(R)``, ``|theta| <= pi``."""
+    """The rotation vector ``theta * axis`` (3,) of a rotation matrix (3, 3): ``log(R)``, ``|theta| <= pi``.
+
+    ``R = c I + s [a]x + (1 - c) a a^T`` (``c = cos theta``, ``s = sin theta``): up to pi/2 the axis is taken
+    from the skew part ``w = 2 s a``, beyond it from the symmetric part ``(1 - c) a a^T`` (signed by ``w``),
+    where ``w`` is small and its direction would carry its rounding (3.6e-13 at ``pi - 1e-3`` when taken
+    from ``w``); either way the answer is good to some 1e-16 (as ``pin.log3``)."""
     c = min(1.0, max(-1.0, (np.trace(R) - 1.0) / 2.0))
     w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
     s = 0.5 * np.linalg.norm(w)                                   # sin(theta)
     theta = math.atan2(s, c)
     if theta < 1e-6:
         return 0.5 * w                                            # theta ~ sin(theta)
-    if math.pi - theta > 1e-4:
+    if c >= 0.0:
         return w * (theta / (2.0 * s))
-    # near pi: the axis from the symmetric part, R = 2 a a^T - I (+ O(pi - theta)), signed by w
+    # beyond pi/2: the axis from the symmetric part, B - c I = (1 - c) a a^T, its largest column, signed by w
     B = (R + R.T) / 2.0 - c * np.eye(3)
     a = B[int(np.argmax(np.diag(B)))]
     a = a / np.linalg.norm(a)
@@ -97,11 +103,19 @@ def pose_error(T_goal: np.ndarray, T: np.ndarray) -> np.ndarray:
 def _as_poses(T) -> tuple[np.ndarray, bool]:
     """``T`` as (N, 4, 4) homogeneous transforms, checked; and whether it was one (4, 4)."""
     try:
+        kind = np.asarray(T).dtype.kind
+        if kind in "bcSUMm":      # numpy would drop an imaginary part, read True as 1 or a date as a number
+            what = {"b": "bool", "c": "complex"}.get(kind, "non-numeric")
+            raise ModelError(f"T: expected a homogeneous transform of real numbers, got a {what} array "
+                             f"(dtype {np.asarray(T).dtype})")
         arr = np.array(T, dtype=np.float64)
-    except (TypeError, ValueError, OverflowError):
+    except (TypeError, ValueError, OverflowError) as exc:
+        if isinstance(exc, ModelError):
+            raise
         raise ModelError(f"T: expected a 4x4 homogeneous transform (or a stack (N, 4, 4)), got {T!r:.80}") from None
     if arr.shape[-2:] != (4, 4) or arr.ndim not in (2, 3) or not np.all(np.isfinite(arr)):
         raise ModelError(f"T: expected a finite 4x4 homogeneous transform (or (N, 4, 4)), got shape {arr.shape}")
+    limits.check_magnitude(arr[..., :3, 3], "T", "translation", " m")
     single = arr.ndim == 2
     arr = arr[None] if single else arr
     for k, Tk in enumerate(arr):

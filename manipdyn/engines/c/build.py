@@ -80,10 +80,15 @@ def compile_shared(cc: str, cpath: str, sopath: str, extra=()) -> None:
 
 
 def cache_dir() -> str:
-    """The folder of manipdyn's build cache (module docstring); not created here."""
+    """The folder of manipdyn's build cache (module docstring); not created here.  A relative
+    ``$MANIPDYN_CACHE_DIR`` is a :class:`ModelError` naming it."""
     env = os.environ.get(CACHE_ENV, "").strip()
     if env:
-        return os.path.abspath(os.path.expanduser(env))
+        path = os.path.expanduser(env)
+        if not os.path.isabs(path):       # it would make a cache in whatever folder the program runs in
+            raise ModelError(f"${CACHE_ENV}: expected an absolute folder (or one under ~), got {env!r:.200}, "
+                             "which is relative to the current folder")
+        return os.path.normpath(path)
     xdg = os.environ.get("XDG_CACHE_HOME", "").strip()
     base = xdg if xdg and os.path.isabs(xdg) else os.path.join(os.path.expanduser("~"), ".cache")
     return os.path.join(base, "manipdyn")

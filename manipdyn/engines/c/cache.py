@@ -107,11 +107,8 @@ def private_root() -> str:
 
 def file_sha256(path: str) -> str:
     """Hex sha256 of the file ``path``."""
-    h = hashlib.sha256()
     with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
+        return hashlib.file_digest(f, "sha256").hexdigest()
 
 
 def _private_file(path: str) -> tuple[str, os.stat_result | None]:

@@ -249,10 +249,13 @@ def codegen(arm, dir, prefix: str | None = None, compile_check: bool = True):
                     "test-compiled")
         else:
             with tempfile.TemporaryDirectory(prefix="manipdyn-codegen-") as tmp:
-                with open(os.path.join(tmp, gen.prefix + ".h"), "w", encoding="utf-8") as f:
-                    f.write(gen.header)
-                with open(os.path.join(tmp, gen.prefix + ".c"), "w", encoding="utf-8") as f:
-                    f.write(gen.source)
+                for ext, text in ((".h", gen.header), (".c", gen.source)):
+                    name = os.path.join(tmp, gen.prefix + ext)
+                    try:
+                        with open(name, "w", encoding="utf-8") as f:
+                            f.write(text)
+                    except OSError as exc:     # EFBIG, ENOSPC: name the file (a write's error names none)
+                        raise type(exc)(exc.errno, f"{exc.strerror} (the copy to test-compile)", name) from None
                 build.check_compiles(cc, os.path.join(tmp, gen.prefix + ".c"))
             note = f"test-compiled with {os.path.basename(cc)} {' '.join(build.STRICT_FLAGS)}"
     os.makedirs(os.fspath(dir), exist_ok=True)

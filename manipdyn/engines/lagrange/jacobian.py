@@ -21,7 +21,8 @@ only); ``frame="tool"`` gives the rows in the frame's own axes, ``R^T v`` and
 ``R^T w`` (``R`` the frame's rotation, eq. 2.2).  Its time derivative follows from
 ``dDelta_j/dt = [S_{j-1}, Delta_j]`` and ``dT/dt = S_n T`` with
 ``S_m = sum_{k <= m} Delta_k qd_k`` (the same identity as the engine's Coriolis
-matrix): ``d(Delta_j T)/dt = ([S_{j-1}, Delta_j] + Delta_j S_n) T``.
+matrix): ``d(Delta_j T)/dt = ([S_{j-1}, Delta_j] + Delta_j S_n) T``; link ``k``'s, with
+``T_k`` and ``S_k`` for ``T`` and ``S_n``.
 """
 
 from __future__ import annotations
@@ -57,12 +58,14 @@ class TraceFormJacobian:
         k = None if link is None else check_link(link, self.n)
         return self._call(lambda qb: self._k_jacobian(qb, local, k), "jacobian", q=q)
 
-    def jacobian_dot(self, q, qd) -> np.ndarray:
-        """``dJ/dt`` along ``qd`` of :meth:`jacobian`: (6, n) or (N, 6, n), SI per second.
+    def jacobian_dot(self, q, qd, link=None) -> np.ndarray:
+        """``dJ/dt`` along ``qd`` of :meth:`jacobian`: (6, n) or (N, 6, n), SI per second; of link
+        ``link``'s frame ``T_k`` when ``link`` (1..n) is given.
 
-        The tool's spatial acceleration (same point and axes) is ``J qdd + Jdot qd``.
+        The frame's spatial acceleration (same point and axes) is ``J qdd + Jdot qd``.
         """
-        return self._call(self._k_jacobian_dot, "jacobian_dot", q=q, qd=qd)
+        k = None if link is None else check_link(link, self.n)
+        return self._call(lambda qb, qdb: self._k_jacobian_dot(qb, qdb, k), "jacobian_dot", q=q, qd=qd)
 
     def _k_jacobian(self, q, local=False, link=None):
         T, Delta = self._kin.frames(q)
@@ -75,12 +78,16 @@ class TraceFormJacobian:
             J = np.concatenate((Rt @ J[:, :3], Rt @ J[:, 3:]), axis=1)
         return J
 
-    def _k_jacobian_dot(self, q, qd):
+    def _k_jacobian_dot(self, q, qd, link=None):
         T, Delta = self._kin.frames(q)
-        Tt = self._kin.tool(T)
+        Tt = self._kin.tool(T) if link is None else T[:, link - 1]
         V = Delta * qd[:, :, None, None]                          # Delta_k qd_k
         S = np.cumsum(V, axis=1)                                  # S_m
         Sprev = S - V                                             # S_{j-1}
         Ddot = Sprev @ Delta - Delta @ Sprev                      # dDelta_j/dt
-        X = (Ddot + Delta @ S[:, -1:]) @ Tt[:, None]              # d(Delta_j T)/dt
-        return _columns(X, Ddot)
+        m = S.shape[1] if link is None else link                  # dT_k/dt = S_k T_k
+        X = (Ddot + Delta @ S[:, m - 1:m]) @ Tt[:, None]          # d(Delta_j T)/dt
+        Jd = _columns(X, Ddot)
+        if link is not None:
+            Jd[:, :, link:] = 0.0                                 # columns after k stay zero
+        return Jd

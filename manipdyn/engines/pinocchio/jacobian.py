@@ -4,12 +4,11 @@ Layer 3 (engines: pinocchio), part of the Pinocchio engine (:mod:`manipdyn.engin
 ``computeFrameJacobian`` and ``getFrameJacobianTimeVariation`` in
 ``LOCAL_WORLD_ALIGNED`` (linear velocity of the frame's origin on top, then
 angular velocity, both in base-frame axes), or ``LOCAL`` (the tool's own axes,
-``frame="tool"``).  Link ``k``'s Jacobian is joint ``k``'s (``getJointJacobian``,
-at the URDF link frame ``L_k``) moved to the frame ``link_poses`` gives,
-``T_k = L_k S_k`` (``S_k`` from :meth:`manipdyn.Arm.urdf_link_offsets`): the same
-angular rows, and ``v_p = v_o + w x (p - o)`` for its origin ``p``.  The trace form derives the same
-matrices from ``dT/dq`` (:mod:`manipdyn.engines.lagrange.jacobian`); ``md.crosscheck``
-compares them.
+``frame="tool"``).  Link ``k``'s Jacobian and its rate are those of a Pinocchio frame at
+``T_k = L_k S_k`` on joint ``k`` (``L_k`` the URDF link frame, ``S_k`` from
+:meth:`manipdyn.Arm.urdf_link_offsets`), added to a copy of the model once per set of offsets.
+The trace form derives the same matrices from ``dT/dq``
+(:mod:`manipdyn.engines.lagrange.jacobian`); ``md.crosscheck`` compares them.
 """
 
 from __future__ import annotations
@@ -24,12 +23,6 @@ __all__ = ["PinocchioJacobian"]
 
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 _LOCAL = pin.ReferenceFrame.LOCAL
-
-
-def _skew(p):
-    """(B, 3) -> (B, 3, 3) with ``skew(p) w = p x w``."""
-    z = np.zeros(p.shape[0])
-    return np.stack((z, -p[:, 2], p[:, 1], p[:, 2], z, -p[:, 0], -p[:, 1], p[:, 0], z), axis=1).reshape(-1, 3, 3)
 
 
 class PinocchioJacobian:
@@ -66,30 +59,42 @@ class PinocchioJacobian:
         J = one(q) if q.ndim == 1 else np.array([one(qi) for qi in q]).reshape(len(q), 6, self.n)
         return check_result(J, "jacobian", q=q)
 
+    def _link_frames(self):
+        """``(model, data, ids)``: a copy of the model with a frame at ``T_k`` on joint k for every link
+        (``ids[k - 1]``), built once per ``link_offsets`` (module docstring)."""
+        S = self.link_offsets
+        key = None if S is None else np.asarray(S, dtype=np.float64).tobytes()
+        cached = getattr(self, "_link_frames_cache", None)
+        if cached is not None and cached[0] == key:
+            return cached[1:]
+        m = pin.Model(self.model)
+        ids = []
+        for k in range(1, self.n + 1):
+            place = pin.SE3.Identity() if S is None else pin.SE3(np.array(S[k - 1][:3, :3]), np.array(S[k - 1][:3, 3]))
+            ids.append(m.addFrame(pin.Frame(f"manipdyn_link_{k}", k, place, pin.FrameType.OP_FRAME)))
+        self._link_frames_cache = (key, m, m.createData(), ids)
+        return self._link_frames_cache[1:]
+
     def _link_jacobian(self, q, frame: str, link) -> np.ndarray:
-        m, d, k = self.model, self.data, check_link(link, self.n)
+        k = check_link(link, self.n)
+        m, d, ids = self._link_frames()
+        ref = _LWA if frame == "world" else _LOCAL
         qb = q[None] if q.ndim == 1 else q
-        J, T = np.empty((len(qb), 6, self.n)), np.empty((len(qb), 4, 4))
-        for b, qi in enumerate(qb):
-            pin.computeJointJacobians(m, d, qi)                    # also the joint placements oMi
-            J[b] = pin.getJointJacobian(m, d, k, _LWA).reshape(6, self.n)
-            T[b] = d.oMi[k].homogeneous
-        if self.link_offsets is not None:                          # L_k -> T_k = L_k S_k
-            S = self.link_offsets[k - 1]
-            J[:, :3] -= _skew(T[:, :3, :3] @ S[:3, 3]) @ J[:, 3:]     # v_p = v_o + w x (p - o)
-            T = T @ S
-        if frame == "tool":                                        # rows in T_k's own axes: R^T v, R^T w
-            Rt = np.swapaxes(T[:, :3, :3], 1, 2)
-            J = np.concatenate((Rt @ J[:, :3], Rt @ J[:, 3:]), axis=1)
+        J = np.array([pin.computeFrameJacobian(m, d, qi, ids[k - 1], ref) for qi in qb]).reshape(len(qb), 6, self.n)
         return check_result(J[0] if q.ndim == 1 else J, "jacobian", q=q)
 
-    def jacobian_dot(self, q, qd) -> np.ndarray:
+    def jacobian_dot(self, q, qd, link=None) -> np.ndarray:
         """``dJ/dt`` of :meth:`jacobian` along ``qd``: (6, n) or (N, 6, n)
-        (``pin.getFrameJacobianTimeVariation``, ``LOCAL_WORLD_ALIGNED``)."""
+        (``pin.getFrameJacobianTimeVariation``, ``LOCAL_WORLD_ALIGNED``); of link ``link``'s frame
+        ``T_k`` when ``link`` (1..n) is given, as :meth:`jacobian`."""
         q = as_state(q, "q", self.n)
         qd = as_state(qd, "qd", self.n)
         same_batch((q, "q"), (qd, "qd"))
-        m, d, fid = self.model, self.data, self._tool_id()
+        if link is None:
+            m, d, fid = self.model, self.data, self._tool_id()
+        else:
+            m, d, ids = self._link_frames()
+            fid = ids[check_link(link, self.n) - 1]
 
         def one(qi, vi):
             pin.computeJointJacobiansTimeVariation(m, d, qi, vi)

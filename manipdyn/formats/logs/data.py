@@ -39,10 +39,11 @@ from __future__ import annotations
 
 import csv
 import io
+import os
 
 import numpy as np
 
-from ..._support.files import atomic_write_text
+from ..._support.files import atomic_write, atomic_write_text
 from .filtering import zero_phase
 from .read import read_log
 from .measurements import Measurements
@@ -74,8 +75,11 @@ def write_trajectory_csv(path, t, q, qd, qdd) -> None:
     atomic_write_text(path, _to_text(header, [t, q, qd, qdd]))
 
 
-def write_measurements_csv(path, t, q, tau, qd=None, qdd=None) -> None:
-    """Write ``t,q1..qn,[qd..,qdd..,]tau1..taun`` atomically."""
+def write_measurements_csv(path, t, q, tau, qd=None, qdd=None, then=None) -> None:
+    """Write ``t,q1..qn,[qd..,qdd..,]tau1..taun`` atomically.
+
+    ``then``: a callable run once the log is on disk beside ``path`` but before it is renamed into place
+    (a second file that goes with the log): when it raises, ``path`` is left as it was."""
     n = q.shape[1]
     header, cols = ["t"] + _columns("q", n), [t, q]
     if qd is not None:
@@ -86,7 +90,18 @@ def write_measurements_csv(path, t, q, tau, qd=None, qdd=None) -> None:
         cols.append(qdd)
     header += _columns("tau", n)
     cols.append(tau)
-    atomic_write_text(path, _to_text(header, cols))
+    text = _to_text(header, cols)
+    if then is None:
+        atomic_write_text(path, text)
+        return
+
+    def write(fh):
+        fh.write(text)
+        fh.flush()
+        os.fsync(fh.fileno())
+        then()
+
+    atomic_write(path, write)
 
 
 def derivatives(t, q, tau=None, cutoff: float | None = None, order: int = 4):

@@ -177,12 +177,13 @@ def zero_phase(t, q, cutoff: float, *, qd=None, others=(), decimate: int = 1, or
     if not (math.isfinite(fc) and 0 < fc < rate / 2):
         raise ModelError(f"{where}: cutoff: expected 0 < cutoff < {rate / 2:g} Hz (the Nyquist frequency "
                          f"of the {rate:g} Hz samples), got {fc:g}")
+    if len(t) <= EDGE_PAD * rate / fc:       # checked as a float: 1e-300 Hz would need a 300-digit count
+        raise ModelError(f"{where}: {len(t)} samples are too few to filter at {fc:g} Hz; that needs more than "
+                         f"{EDGE_PAD / fc:.4g} s of samples; these allow cutoffs above "
+                         f"{EDGE_PAD * rate / len(t):.4g} Hz")
     trim = edge_samples(rate, fc)
     fit = max(EDGE_DEGREE + 2, int(math.ceil(EDGE_FIT * rate / fc)))
     pad = int(math.ceil(EDGE_PAD * rate / fc))
-    if len(t) <= pad:
-        raise ModelError(f"{where}: {len(t)} samples are too few to filter at {fc:g} Hz; need more than "
-                         f"{pad} ({EDGE_PAD / fc:g} s)")
     sos = signal.butter(order, fc / (rate / 2), output="sos")
 
     def smooth(x):

@@ -79,8 +79,7 @@ def _sha256(files) -> str:
     for p in files:
         h.update(os.fsencode(p.name) + b"\0")
         with limits.open_regular(os.fspath(p), f"{p}: cannot read") as fh:
-            for chunk in iter(lambda: fh.read(1 << 20), b""):
-                h.update(chunk)
+            hashlib.file_digest(fh, lambda: h)      # on into the same hash: every file, each after its name
     return h.hexdigest()
 
 

@@ -66,8 +66,10 @@ class _Parser:
         self.blocks, self.rowblocks = [], []
 
     def feed(self, raw: bytes, first: bool) -> None:
-        if first and raw.startswith((b"\xff\xfe", b"\xfe\xff")):
-            raise ModelError(f"{self.where}: row 1: the file is UTF-16 text; save it as CSV UTF-8 "
+        if first and raw.startswith((b"\xff\xfe", b"\xfe\xff", b"\x00\x00\xfe\xff")):
+            # UTF-32 LE's byte-order mark begins with UTF-16 LE's: test the longer one first
+            wide = "UTF-32" if raw.startswith((b"\xff\xfe\x00\x00", b"\x00\x00\xfe\xff")) else "UTF-16"
+            raise ModelError(f"{self.where}: row 1: the file is {wide} text; save it as CSV UTF-8 "
                              "(or plain CSV) instead")
         try:
             text = raw.decode("utf-8")

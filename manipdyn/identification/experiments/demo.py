@@ -30,6 +30,7 @@ import warnings
 
 import numpy as np
 
+from ..._support.progress import Progress
 from ..._support.threads import blas_threads
 from ...model.arm import Manipulator
 from ..._support.errors import ModelError, PhysicalConsistencyWarning
@@ -75,31 +76,6 @@ def measure(arm, traj, rng, tau_noise: float = 0.01, q_noise: float = 1e-4, peak
     return Measurements(t, qf, qd, qdd, tf, derived=True), tau_m[keep], peak
 
 
-class _Stages:
-    """Progress of the demo on ``stream`` (stderr): one line per stage with the elapsed time,
-    and a bar for the excitation optimiser's iterations."""
-
-    def __init__(self, enabled: bool, stream=None):
-        import time
-
-        self.enabled, self.stream, self.t0, self.clock = enabled, stream or sys.stderr, time.perf_counter(), time.perf_counter
-        self.last = None
-
-    def stage(self, text: str) -> None:
-        if self.enabled:
-            self.stream.write(f"[{self.clock() - self.t0:6.1f} s] {text}\n")
-            self.stream.flush()
-
-    def iterations(self, done: int, total: int) -> None:
-        if self.enabled and total and (done, total) != self.last:
-            self.last = (done, total)
-            bar = "#" * (20 * done // total) + "-" * (20 - 20 * done // total)
-            self.stream.write(f"\r[{self.clock() - self.t0:6.1f} s]   optimiser [{bar}] {done}/{total} iterations")
-            if done >= total:
-                self.stream.write("\n")
-            self.stream.flush()
-
-
 def run_demo(name: str = "ur5", seed: int = 0, iterations: int = 15, plot: str | None = None,
              out=sys.stdout, progress: bool = False) -> dict:
     """Run the demo; print the figures to ``out`` and return them as a dict.
@@ -110,7 +86,7 @@ def run_demo(name: str = "ur5", seed: int = 0, iterations: int = 15, plot: str |
     from ..estimation.fitting import fit
     from .trajectory import Excitation, excitation, fourier_trajectory
 
-    stages = _Stages(progress)
+    stages = Progress("optimiser", bool(progress), width=20, unit="iterations")
     stages.stage(f"loading {name} and drawing the true arm")
     prior = load(name)
     truth = true_arm(prior, seed)
@@ -121,7 +97,7 @@ def run_demo(name: str = "ur5", seed: int = 0, iterations: int = 15, plot: str |
     # no start from rest, and the published figures stay reproducible)
     kw = dict(duration=10.0, harmonics=5, rate=200.0, friction=True, base=base, ramp=0)
     stages.stage(f"optimising the excitation trajectory ({iterations} iterations)")
-    train = excitation(prior, seed=seed, iterations=iterations, progress=stages.iterations, **kw)
+    train = excitation(prior, seed=seed, iterations=iterations, progress=stages, **kw)
     stages.stage("measuring the true arm along it, and along a held-out trajectory")
     test = excitation(prior, seed=seed + 1, iterations=0, **kw)     # held out: not optimised
     data, _, peak = measure(truth, train, rng)

@@ -130,13 +130,18 @@ def _ramp_peaks(a, b, period: float, ramp: float, points: int = 4000):
     return np.abs(qd).max(axis=0) + gap * sup[3], np.abs(qdd).max(axis=0) + gap * sup[4]
 
 
-def _check_ramp(ramp) -> None:
-    """A :class:`ModelError` naming ``ramp`` unless it is ``"auto"`` or finite seconds >= 0."""
+def _check_ramp(ramp, rate: float) -> None:
+    """A :class:`ModelError` naming ``ramp`` unless it is ``"auto"``, 0 or finite seconds of at least one
+    sample (``1 / rate``): a shorter ramp is a jump, whose acceleration (1 / ramp^2) would scale the
+    series down to nothing, or overflow."""
     if isinstance(ramp, str) and ramp == "auto":
         return
     if isinstance(ramp, (bool, np.bool_)) or not isinstance(ramp, numbers.Real) or not (
             math.isfinite(float(ramp)) and ramp >= 0):
         raise ModelError(f"ramp: expected seconds >= 0 or 'auto', got {ramp!r:.40}")
+    if 0 < ramp < 1.0 / rate:
+        raise ModelError(f"ramp: {float(ramp):g} s is shorter than one sample (1 / rate = {1.0 / rate:g} s); "
+                         "expected 0 (no ramp), 'auto', or at least one sample")
 
 
 def _with_ramp(a, b, period: float, ramp, vmax, amax):
@@ -386,7 +391,8 @@ def excitation(arm, duration: float = 10.0, harmonics: int = 5, rate: float = 10
     ramp : float or "auto"
         Seconds of the ramp in and of the ramp out, from and to rest at ``q0`` (module
         docstring); ``"auto"`` (the default) the shortest that keeps ``vmax`` and ``amax``;
-        0 for the bare periodic series (which starts moving).  The samples cover
+        0 for the bare periodic series (which starts moving); otherwise at least one sample
+        (``1 / rate``).  The samples cover
         ``ramp + duration + ramp`` seconds.
     """
     from ..._support.deps import require
@@ -402,7 +408,7 @@ def excitation(arm, duration: float = 10.0, harmonics: int = 5, rate: float = 10
         if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) or v < 1:
             raise ModelError(f"{name}: expected a positive integer, got {v!r}")
     harmonics, grid = int(harmonics), int(grid)
-    _check_ramp(ramp)
+    _check_ramp(ramp, rate)
     longest = (5.0 if isinstance(ramp, str) else 1.0 + 2.0 * float(ramp) / duration) * duration * rate
     if longest > limits.MAX_EXCITATION_SAMPLES:          # refused before minutes of optimisation
         raise limits.over_limit("ramp", "the number of samples", f"up to {longest:.0f} with the ramps "

@@ -116,6 +116,10 @@ def friction_option(arm, friction: bool = False, friction_terms=None, friction_s
     v = DEFAULT_SMOOTHING if smoothing is None else smoothing
     if not 0 <= v < float("inf"):
         raise OptionError("{}: expected a finite velocity >= 0, got " + f"{v}", "smoothing")
+    if 0 < v < limits.MIN_SMOOTHING:
+        raise OptionError("{}: expected 0 (a sharp sign) or a velocity of at least " + f"{limits.MIN_SMOOTHING:g} rad/s "
+                          f"(below it tanh(v / smoothing) is the sign, and 1 / smoothing overflows), got {v!r}",
+                          "smoothing")
     if isinstance(friction_terms, str):
         terms = tuple(t.strip() for t in friction_terms.split(","))
     else:

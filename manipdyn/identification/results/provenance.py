@@ -46,16 +46,13 @@ __all__ = ["file_sha256", "provenance", "model_metadata", "fit_record", "carried
 
 
 def file_sha256(path, label: str | None = None) -> str:
-    """Hex sha256 of the regular file ``path`` (read in 1 MiB blocks; a FIFO is refused)."""
+    """Hex sha256 of the regular file ``path`` (``hashlib.file_digest``; a FIFO is refused)."""
     where = label or os.fspath(path)
-    h = hashlib.sha256()
     try:
         with limits.open_regular(os.fspath(path), f"{where}: cannot read the data file") as fh:
-            for block in iter(lambda: fh.read(1 << 20), b""):
-                h.update(block)
+            return hashlib.file_digest(fh, "sha256").hexdigest()
     except OSError as exc:
         raise ModelError(f"{where}: cannot read the data file: {exc.strerror or exc}") from None
-    return h.hexdigest()
 
 
 def provenance(data_path, method: str, options: dict, prior_label: str, rms_residual,

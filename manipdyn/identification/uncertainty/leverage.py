@@ -124,13 +124,22 @@ class Leverage:
         if Z.shape[2] != self.basis.shape[0]:
             raise ModelError(f"leverage: the model's regressor has {Z.shape[2]} columns, the fit's reference "
                              f"{self.basis.shape[0]}: not the arm it was fitted on")
-        return _h(Z, self.basis, self.scale, self.weights)
+        with np.errstate(over="ignore", invalid="ignore"):
+            h = _h(Z, self.basis, self.scale, self.weights)
+        if not np.all(np.isfinite(h)):
+            raise ModelError("leverage: the reference's basis, scale or weights overflow float64 on these states "
+                             "(not a reference a fit wrote)")
+        return h
 
     def ratio(self, arm, q, qd, qdd) -> tuple[np.ndarray, np.ndarray]:
         """``(u, beyond)``, each (N, n): the leverage over the fit samples' mean, and whether it exceeds
         every fit sample's (the sample is beyond the fit on that joint)."""
         h = self.leverage(arm, q, qd, qdd)
-        return h / self.mean, h > self.largest * (1.0 + _SAME)
+        with np.errstate(over="ignore"):
+            u = h / self.mean
+        if not np.all(np.isfinite(u)):
+            raise ModelError("leverage: the ratio to the reference's mean overflows float64 (not a reference a fit wrote)")
+        return u, h > self.largest * (1.0 + _SAME)
 
     def to_dict(self) -> dict:
         def r(a):
@@ -156,4 +165,8 @@ class Leverage:
             raise ModelError(f"{where}: malformed leverage reference ({exc})") from None
         if out.n != n or out.mean.shape != (n,) or out.largest.shape != (n,) or len(scale) != 14 * n:
             raise ModelError(f"{where}: expected {n} joints and {14 * n} columns, got {out.n} and {len(scale)}")
+        for key in ("weights", "scale", "mean"):          # divisors and weights: a fit writes them > 0
+            a = getattr(out, key)
+            if not np.all(np.isfinite(a) & (a > 0)):
+                raise ModelError(f"{where}: {key}: expected finite numbers > 0, got {a[~(np.isfinite(a) & (a > 0))][:3].tolist()}")
         return out
