@@ -1,20 +1,17 @@
 """The arm: an immutable description of a serial manipulator.
 
-Layer 1 (model).  ``Arm`` is the common base; :class:`Manipulator` is an
-arm described by a DH table (the user-facing constructor), and
-:class:`URDFArm` an arm read from a URDF chain (built by
-:func:`manipdyn.formats.urdf.reader.load_urdf`).  The model knows nothing of files, of how
-an engine is built, of the cross-check or of the CLI.  Engines plug in from
-above through :func:`register_engine`; each arm builds each engine lazily, on
-first use, and keeps it:
+Layer 1 (model).  ``Arm`` is the common base; :class:`Manipulator` is an arm described by a DH table (the
+user-facing constructor), and :class:`URDFArm` an arm read from a URDF chain (built by
+:func:`manipdyn.formats.urdf.reader.load_urdf`).  The model knows nothing of files, of how an engine is
+built, of the cross-check or of the CLI.  Engines plug in from above through :func:`register_engine`;
+each arm builds each engine lazily, on first use, and keeps it:
 
 * ``arm.lagrange``: the trace-form Lagrange-Euler engine (slow, independent);
 * ``arm.pinocchio``: the Pinocchio engine on the arm's URDF (fast);
-* ``arm.mass_matrix``, ``arm.coriolis_torque``, ``arm.gravity_torque``,
-  ``arm.inverse_dynamics``, ``arm.forward_dynamics`` (:mod:`manipdyn.model.arm_calls`,
-  with a tool wrench ``f_tool``), ``arm.potential_energy``: the fast path.
+* ``arm.mass_matrix``, ``arm.coriolis_torque``, ``arm.gravity_torque``, ``arm.inverse_dynamics``,
+  ``arm.forward_dynamics`` (:mod:`manipdyn.model.arm_calls`, with a tool wrench ``f_tool``),
+  ``arm.potential_energy``: the fast path.
 """
-
 from __future__ import annotations
 
 import math
@@ -154,8 +151,7 @@ class Arm(ArmCalls, ReachCalls):  # jacobian, inverse_dynamics, poses, ...: .arm
         except KeyError:
             raise ModelError(f"engine: no engine {name!r} is registered "
                              f"(registered: {', '.join(sorted(_ENGINES)) or 'none'}); import manipdyn") from None
-        eng = factory(self)
-        self.set_engine(name, eng)
+        self.set_engine(name, eng := factory(self))
         return eng
 
     def set_engine(self, name: str, engine) -> None:
@@ -163,9 +159,8 @@ class Arm(ArmCalls, ReachCalls):  # jacobian, inverse_dynamics, poses, ...: .arm
 
         For an engine built by hand: a custom Pinocchio model, or a planted
         bug in a mutation test.  It must answer :class:`manipdyn.DynamicsEngine`.
-        The Pinocchio engine's ``mass_matrix``, ``coriolis_torque`` and ``gravity_torque``
-        (its checked single-state shortcuts) are bound on the arm itself: a method of the
-        arm forwarding to them cost some 0.16 of CRBA's own time (issue 38 item 23).
+        Pinocchio's checked ``mass_matrix``, ``coriolis_torque``, ``gravity_torque`` are bound on the arm
+        itself (a forwarding method cost 0.16 of CRBA's own time, issue 38 item 23).
         """
         self._engines[name] = engine
         if name == "pinocchio":
@@ -222,11 +217,9 @@ class Arm(ArmCalls, ReachCalls):  # jacobian, inverse_dynamics, poses, ...: .arm
     def linearize(self, q, qd, tau, dt=None, engine="pinocchio"): return _SERVICES["linearize"](self, q, qd, tau, dt, engine)
 
     def with_payload(self, mass: float, com=(0.0, 0.0, 0.0), inertia=None, name=None) -> "Arm":
-        """A new arm of the same kind carrying a payload rigidly attached at the tool.
-
-        ``mass`` kg (>= 0); ``com`` (3,) m in the tool frame (:meth:`fkine`'s); ``inertia`` (3, 3) or (3,)
-        kg m^2 about that COM, tool axes (default 0); ``name`` default ``"<arm>+<mass>kg"``.
-        Any arm, DH or URDF (:func:`manipdyn.model.variants.with_payload`)."""
+        """A new arm of the same kind (DH or URDF) carrying a payload fixed at the tool: ``mass`` kg, ``com``
+        (3,) m in the tool frame; ``inertia`` (3, 3) or (3,) kg m^2 about that COM, tool axes (default 0)
+        (:func:`manipdyn.model.variants.with_payload`; ``name`` default ``"<arm>+<mass>kg"``)."""
         return _SERVICES["with_payload"](self, mass, com, inertia, name)
 
     # -- kinematics ---------------------------------------------------------
