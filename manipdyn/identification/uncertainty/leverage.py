@@ -70,7 +70,7 @@ RTOL = 1e-10
 _DIGITS = 10
 #: a leverage within this fraction of the fit's largest is the same sample's (the basis is stored rounded)
 _SAME = 1e-6
-#: near rest: |qd| under this many times the Coulomb smoothing v_s (module docstring)
+#: near rest: a speed under this many times the Coulomb smoothing v_s (module docstring)
 REST_SPEEDS = 1.0
 #: the fit data visited rest on a joint when at least this fraction of its samples were that slow
 REST_FRACTION = 0.01
