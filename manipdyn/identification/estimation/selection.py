@@ -24,7 +24,9 @@ score (``mean over joints of log RMS_j`` on that fold), and a candidate replaces
 **default** (weight 0, the data alone) only when it wins by more than the spread of the
 folds: when the mean over the folds of ``score_default - score_candidate`` exceeds its
 standard error (:func:`one_se_choice`, paired by fold, since the folds differ in difficulty
-far more than the candidates do).  A candidate that wins by less than that is noise: on a
+far more than the candidates do), and by at least :data:`MIN_GAIN` (0.005 in mean log RMS, half a percent
+of the held-out error: less changes no prediction a user would see, and with two folds the standard
+error of two differences can itself be next to nothing).  A candidate that wins by less than that is noise: on a
 6-joint arm a Coulomb smoothing ten times the noise level won by 0.006 in score, well inside
 the folds' spread, and predicted the next run worse.  Among the candidates that clear it, the
 best mean score is taken.
@@ -44,10 +46,12 @@ import numpy as np
 from ..._support.errors import ModelError
 
 __all__ = ["choose_prior_weight", "DEFAULT_WEIGHTS", "fold_masks", "one_se_choice", "describe_choice",
-           "fold_factors", "fold_kind"]
+           "fold_factors", "fold_kind", "MIN_GAIN"]
 
 #: the weights tried by default (0: the data alone)
 DEFAULT_WEIGHTS = (0.0, 0.01, 0.1, 1.0, 10.0)
+#: the least gain in score (mean log held-out RMS) that lets a candidate replace the default (module docstring)
+MIN_GAIN = 0.005
 
 
 def fold_masks(N: int, folds: int = 5, labels=None, least: int = 2, segments=None) -> list[np.ndarray]:
@@ -96,13 +100,14 @@ def one_se_choice(table, key: str, default) -> tuple[dict, str]:
         d = d0 - np.asarray(row["fold_scores"], dtype=np.float64)
         row["gain"] = float(np.mean(d))
         row["spread"] = float(np.std(d, ddof=1) / np.sqrt(len(d))) if len(d) > 1 else float("inf")
-        if row is not base and row["gain"] > row["spread"]:
+        if row is not base and row["gain"] > max(row["spread"], MIN_GAIN):
             winners.append(row)
     if not winners:
-        return base, "no candidate beats the default by more than one standard error of the folds"
+        return base, (f"no candidate beats the default by more than one standard error of the folds and "
+                      f"{MIN_GAIN:g}")
     best = min(winners, key=lambda row: row["score"])
     return best, (f"it beats the default by {best['gain']:.4f} in score, more than one standard error of the "
-                  f"folds ({best['spread']:.4f})")
+                  f"folds ({best['spread']:.4f}) and {MIN_GAIN:g}")
 
 
 def describe_choice(what: str, unit: str, table, key: str, chosen, default, why: str, how: str) -> str:
