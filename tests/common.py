@@ -1,4 +1,5 @@
-"""Helpers the test files share: the real Panda log's place and its skip, and a refused command's line.
+"""Helpers the test files share: the real logs' places (Panda, KUKA LWR4+) and their skips, and a refused
+command's line.
 
 The real-data logs live beside the project in ``../shared/realdata`` (measured by others, with their
 sources in that folder's README), or wherever ``$MANIPDYN_REALDATA`` points (``benchmarks/realdata.py``);
@@ -24,6 +25,15 @@ PANDA_SKIP = (f"the real-data folder is absent (panda_as_logged.csv not found in
               f"set {ENV} to the folder that holds panda_gaz2019/)")
 #: mark a test (or ``pytestmark`` a module) that reads the real Panda log
 needs_panda_log = pytest.mark.skipif(not PANDA_LOG.is_file(), reason=PANDA_SKIP)
+
+
+#: the KUKA LWR4+ runs (FloBaRoID's): ``run1.csv`` .. ``run3.csv`` and the two published URDFs
+LWR4_DIR = ROOT.parent / "shared" / "realdata" / "lwr4_flobaroid"
+LWR4_SKIP = ("the real-data folder is absent (run1.csv .. run3.csv and kuka_lwr4_gaz.urdf not found beside the "
+             "project in shared/realdata/lwr4_flobaroid)")
+#: mark a test (or ``pytestmark`` a module) that reads the LWR4 runs
+needs_lwr4 = pytest.mark.skipif(not all((LWR4_DIR / f).is_file() for f in (
+    "run1.csv", "run2.csv", "run3.csv", "kuka_lwr4_gaz.urdf", "kuka_lwr4_identified.urdf")), reason=LWR4_SKIP)
 
 
 def err_line(capsys) -> str:

@@ -284,12 +284,15 @@ def test_the_pipelines_carry_the_band_and_write_the_predictions(tmp_path, monkey
     from manipdyn.identification.uncertainty.bands import _blocks
 
     assert calls[0] == (2000, [1000, 1000])             # the fit itself, then one refit per block
-    edges = _blocks(2000, 3)
-    held = [(edges[k], edges[k + 1]) for k in range(3)]
-    kept = [[1000 - max(0, min(1000, hi) - lo), 1000 - max(0, hi - max(1000, lo))] for lo, hi in held]
-    assert [seg for _, seg in calls[1:]] == kept and all(len(seg) == 2 for seg in kept)
+    edges = _blocks(1000, 3)         # block k is the k-th third of every run (issue 37: repeats held out together)
+    kept = [[1000 - (edges[k + 1] - edges[k])] * 2 for k in range(3)]
+    assert [seg for _, seg in calls[1:4]] == kept
+    # two distinct trajectories: then each run predicted by a fit on the other
+    assert [seg for _, seg in calls[4:6]] == [[1000], [1000]] and len(calls) == 6
     assert all(sum(seg) == n for n, seg in calls)
-    assert "95 % prediction band from 3 blocked hold-outs" in r.format()
+    assert band.trajectories == 2
+    assert "95 % prediction band from 2 held-out trajectories" in r.format()
+    assert "at least the within-run band of 3 blocked hold-outs" in r.format()
     assert "fitted_range" in r.provenance
     assert "prediction_band" not in md.identify(arm, [a], method="wls", band_folds=0).provenance
     with pytest.raises(ModelError, match="band_folds: expected 0"):
@@ -306,7 +309,8 @@ def test_the_pipelines_carry_the_band_and_write_the_predictions(tmp_path, monkey
     assert len(table) == len(res.t)
     np.testing.assert_array_equal(table[:, 7:13], res.predicted)
     np.testing.assert_allclose(table[:, 19:25] - table[:, 7:13], res.band, rtol=1e-12)
-    np.testing.assert_array_equal(table[:, 25:31], res.extrapolation.beyond)
+    np.testing.assert_array_equal(table[:, 25:31], res.extrapolation.flags)
+    assert not np.any(res.extrapolation.beyond & ~res.extrapolation.flags)     # a sample beyond by leverage is flagged
     # the half-width is the band's at each sample's leverage ratio (constant where its gain is 0)
     from manipdyn.identification.results.provenance import carried_trust
 

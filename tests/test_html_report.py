@@ -339,9 +339,10 @@ def test_library_calls_write_the_same_pages(idv, tmp_path):
     assert lib == cli
     r = res.results[0]
     mask = beyond_mask(r, res.data)
-    # the shading follows the mask the extrapolation carries (issue 30's leverage): its per-joint fraction
-    # is --json's beyond_fit_fraction; without a mask, the range rule's far_outside_fraction
-    far = [e.get("beyond_fit_fraction", e["far_outside_fraction"]) for e in idv["validate"][1]["extrapolation"]]
+    # the shading follows the mask the extrapolation carries (issue 37's per-sample flags, the x columns): its
+    # per-joint fraction is --json's flagged_fraction; without a mask, the range rule's far_outside_fraction
+    far = [e.get("flagged_fraction", e.get("beyond_fit_fraction", e["far_outside_fraction"]))
+           for e in idv["validate"][1]["extrapolation"]]
     np.testing.assert_allclose(mask.mean(axis=0), far, rtol=0, atol=1e-12)
     carried = np.zeros_like(mask)
     carried[::7, 3] = True

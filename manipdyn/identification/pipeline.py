@@ -15,13 +15,17 @@ In order:
    (:mod:`.torque_constants`), the torques rescaled, the prior's ``[transmission]``
    given them;
 4. the known payloads' torques moved to the known side; the runs stacked;
-5. the Coulomb smoothing, unless given, by blocked held-out error among candidates around the
-   log's velocity noise (:mod:`.inputs.smoothing`); the friction shapes by variable projection
-   (:mod:`.varpro`) when the friction terms have any, the prior weight by cross-validation when ``"auto"``;
+5. which runs repeat one trajectory (:mod:`.inputs.trajectories`): the groups held out together;
+   the Coulomb smoothing, unless given, by held-out error among candidates around the log's
+   velocity noise, the noise level kept unless a candidate wins by more than the folds' spread
+   (:mod:`.inputs.smoothing`; folds: the trajectories when there are two or more, else blocks);
+   the friction shapes by variable projection (:mod:`.varpro`) when the friction terms have any,
+   the prior weight by the same held-out folds and rule when ``"auto"``;
 6. :func:`.fit` with each run's joints weighed by their noise in that run;
 7. with ``band_folds`` (default 5): ``band_folds`` refits, each on all but one block of the
-   stacked data in time and keeping the runs' boundaries, whose held-out residuals give the 95 %
-   prediction band (:mod:`.bands`); with the states the fit saw (:mod:`.coverage`) it goes into
+   stacked data in time and keeping the runs' boundaries, and with two or more trajectories a
+   refit per trajectory left out, whose held-out residuals give the 95 % prediction band
+   (:mod:`.bands`); with the states the fit saw (:mod:`.coverage`) it goes into
    the provenance (:func:`.provenance.fit_record`), so the written model carries what
    ``validate`` scores on new data;
 8. what the fit should doubt (:mod:`.results.doubts`: degenerate bodies, a run far off, a declared
@@ -264,11 +268,14 @@ def _identify(prior, logs, o) -> IdentifyResult:
         arm, runs, tc = _torque_constants(arm, runs, law, o["armature"], o["torque_constant_reference"])
     payload_logs = [os.path.basename(str(d.source)) for d, p in runs if p is not None]
     data = _known_payloads(arm, runs)
+    labels, group_note = _trajectory_groups(runs, data)
     smoothing_table = None
     if o["smoothing"] is None and o["friction_terms"] is not None and smoothing is not None:
-        tell("Coulomb smoothing by blocked held-out error (a refit per candidate and fold)")
-        smoothing, law, smoothing_table, note = _held_out_smoothing(arm, data, o, side, smoothing, bounds, weight)
-        law_notes.append(note)
+        tell("Coulomb smoothing by held-out error (a refit per candidate and fold)")
+        smoothing, law, smoothing_table, note = _held_out_smoothing(arm, data, o, side, smoothing, bounds, weight,
+                                                                    labels)
+        # one note: the held-out choice names the noise level it started from (no second, contradicting one)
+        law_notes = [x for x in law_notes if not x.startswith("Coulomb smoothing")] + [note]
     shapes = None
     from ..model.friction import Friction
     from .inputs.options import SHAPED
@@ -286,9 +293,16 @@ def _identify(prior, logs, o) -> IdentifyResult:
     if weight == "auto":
         from .estimation.selection import choose_prior_weight
 
-        tell("prior weight by blocked cross-validation (a refit per weight and fold)")
+        from .estimation.selection import describe_choice, fold_kind, fold_masks, one_se_choice
+
+        tell("prior weight by held-out error (a refit per weight and fold)")
         weight, selection = choose_prior_weight(arm, data.q, data.qd, data.qdd, data.tau, friction=law,
-                                                armature=o["armature"], bounds=bounds)
+                                                armature=o["armature"], bounds=bounds, labels=labels,
+                                                segments=data.segments)
+        _, why = one_se_choice(selection, "prior_weight", 0.0)
+        law_notes.append(describe_choice("prior weight", "", selection, "prior_weight", weight, 0.0, why,
+                                         fold_kind(fold_masks(len(data.q), 5, labels, segments=data.segments),
+                                                   labels)))
     given_name = o["name"]
     name = given_name or _name_from(o["output"]) or f"{arm.name or 'arm'}_identified"
     segments = data.segments if len(data.segments) > 1 else None
@@ -308,13 +322,14 @@ def _identify(prior, logs, o) -> IdentifyResult:
         tell(f"prediction band ({int(folds)} blocked hold-outs, a refit each)")
     record, record_notes = fit_record(arm, data, folds=int(folds), smoothing=smoothing, method=o["method"],
                                       friction=law, armature=o["armature"], bounds=bounds, prior_weight=weight,
-                                      segments=segments)
+                                      segments=segments, labels=labels)
     prov.update(record)
     doubts = _doubts(result, data, runs)
     if doubts:
         prov["doubts"] = doubts
     rep = dict(result.report)
-    rep["fit_notes"] = law_notes + list(rep.get("fit_notes", [])) + record_notes + doubts
+    rep["fit_notes"] = ([group_note] if group_note else []) + law_notes + list(rep.get("fit_notes", [])) \
+        + record_notes + doubts
     rep["doubts"] = doubts
     if smoothing_table is not None:
         rep["smoothing_selection"] = smoothing_table
@@ -352,7 +367,21 @@ def _doubts(result, data, runs) -> list[str]:
             + payload_doubts(result.arm, runs))
 
 
-def _held_out_smoothing(arm, data, o, side, v0, bounds, weight):
+def _trajectory_groups(runs, data):
+    """``(labels, note)``: the held-out group of every stacked sample (runs repeating one trajectory share one,
+    :mod:`.inputs.trajectories`), None with a single run; ``note`` names the groups."""
+    from .inputs.trajectories import describe_groups, group_labels, repeat_groups
+
+    if len(runs) < 2:
+        return None, None
+    groups = repeat_groups([(d.t, d.q) for d, _ in runs])
+    names = [os.path.basename(str(d.source)) if d.source else f"run {k + 1}" for k, (d, _) in enumerate(runs)]
+    note = "runs: " + describe_groups(groups, names) + (
+        "; the band and the options are held out by trajectory" if len(groups) > 1 else "")
+    return group_labels(data.segments, groups), note
+
+
+def _held_out_smoothing(arm, data, o, side, v0, bounds, weight, labels=None):
     """``(smoothing, law, table, note)``: the Coulomb smoothing by blocked held-out error
     (:mod:`.inputs.smoothing`), starting from the noise-level choice ``v0``."""
     from .inputs.options import friction_option
@@ -363,7 +392,7 @@ def _held_out_smoothing(arm, data, o, side, v0, bounds, weight):
                                o["sigmoid_alpha"])
 
     v, table, note = choose_smoothing(arm, data, law_of, v0, method=o["method"], armature=o["armature"],
-                                      bounds=bounds, prior_weight=0.0 if weight == "auto" else weight)
+                                      bounds=bounds, prior_weight=0.0 if weight == "auto" else weight, labels=labels)
     return v, law_of(v), table, note
 
 

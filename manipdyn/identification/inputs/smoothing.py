@@ -13,18 +13,23 @@ already (:mod:`..uncertainty.bands`, :mod:`..estimation.selection`).  So
 
     ``v_0 x (1/10, 1, 10)``, then the best of these ``x (1/3, 3)``
 
-(``v_0`` the noise-level choice, which stays the starting point and a candidate: five fits
-cover ``v_0 / 30`` to ``30 v_0`` on a grid of factors of about 3), fits each
-on four of five contiguous blocks of the fit data with the user's method and options,
-predicts the fifth, and keeps the candidate with the lowest
+(``v_0`` the noise-level choice, which stays the starting point and the **default**: five fits
+cover ``v_0 / 30`` to ``30 v_0`` on a grid of factors of about 3), fits each on all folds but
+one with the user's method and options, predicts the one left out, and scores each fold by
 
-    ``score = mean over joints of log(held-out RMS_j)``
+    ``mean over joints of log(held-out RMS_j)``
 
-(every joint counts alike whatever its torque scale; the prior weight's criterion).  Ties go
-to the larger ``v_s`` (the smoother law).  The note lists every candidate with its score and
-held-out RMS per joint, and the choice; ``--smoothing`` overrides all of it.
+(every joint counts alike whatever its torque scale; the prior weight's criterion).  The folds
+are the held-out trajectories when the runs hold two or more (``labels``,
+:mod:`.trajectories`: a fit on some trajectories predicting another, which is what the next
+run asks), else five contiguous blocks of the fit data.  A candidate replaces ``v_0`` only when
+it beats it by more than one standard error of the paired fold differences
+(:func:`..estimation.selection.one_se_choice`): on a 6-joint arm the blocked hold-outs picked ten
+times the noise level for a gain of 0.006, well inside that spread, and two joints then predicted
+a point-to-point run worse.  The single note lists every candidate with its score, its gain and
+spread, and the choice; ``--smoothing`` overrides all of it.
 
-Cost: ``5 x folds`` fits, each on precomputed per-block least-squares factors (the rigid-body
+Cost: ``5 x folds`` fits (folds: blocks or trajectories), each on precomputed per-block least-squares factors (the rigid-body
 regressor of the whole window is built once, each candidate adds its friction columns; no fit
 runs a QR over the samples).
 The runs' separate noise weights are not used inside the folds (one weight per joint over the
@@ -53,41 +58,28 @@ def smoothing_candidates(v0: float, best: float | None = None) -> list[float]:
     return sorted({float(f"{best * f:.3g}") for f in REFINE})
 
 
-def _factors(Yb, y, edges):
-    from ..estimation.fitting import joint_factors
-
-    folds = len(edges) - 1
-    blocks = [joint_factors(Yb[edges[b]:edges[b + 1]], y[edges[b]:edges[b + 1]]) for b in range(folds)]
-    train = []
-    for f in range(folds):
-        rest = np.concatenate([blocks[b] for b in range(folds) if b != f], axis=1)
-        F = np.zeros_like(blocks[f])
-        for j in range(F.shape[0]):
-            Rj = np.linalg.qr(rest[j], mode="r")
-            F[j, :Rj.shape[0]] = Rj
-        train.append(F)
-    return train
-
-
-def choose_smoothing(arm, data, law_of, v0: float, folds: int = 5, progress=None,
+def choose_smoothing(arm, data, law_of, v0: float, folds: int = 5, progress=None, labels=None,
                      **fit_kwargs) -> tuple[float, list, str]:
     """``(v_s, table, note)``: the Coulomb smoothing with the lowest blocked held-out error (module docstring).
 
     ``data``: the stacked Measurements (``q, qd, qdd, tau`` (N, n)); ``law_of(v)``: the friction law
     (what :func:`.fit` takes as ``friction=``) with smoothing ``v``; ``v0``: the noise-level choice,
-    rad/s; ``fit_kwargs``: ``method``, ``armature``, ``bounds``, ``prior_weight``.  ``table``: one
-    ``{"smoothing", "score", "rms"}`` per candidate (``rms`` (n,), N m).  A candidate whose fits
+    rad/s; ``labels`` (N,): the held-out group of each sample (two or more: the folds are the groups);
+    ``fit_kwargs``: ``method``, ``armature``, ``bounds``, ``prior_weight``.  ``table``: one
+    ``{"smoothing", "score", "fold_scores", "gain", "spread", "rms"}`` per candidate (``rms`` (n,), N m).  A candidate whose fits
     fail is left out (the table says why); all failing: a :class:`ModelError`.
     """
     from ..estimation.base import base_parameters
     from ..estimation.fitting import fit, known_torque
+    from ..estimation.selection import describe_choice, fold_factors, fold_kind, fold_masks, one_se_choice
     from ...model.parameters import with_extra_columns
 
     q, qd, qdd, tau = (np.asarray(x, dtype=np.float64) for x in (data.q, data.qd, data.qdd, data.tau))
     N = len(q)
-    edges = np.linspace(0, N, int(folds) + 1).astype(int)
-    if np.min(np.diff(edges)) < 20:
-        raise ModelError(f"data: {N} samples are too few for {folds} blocks to choose the smoothing")
+    try:
+        masks = fold_masks(N, folds, labels, least=20, segments=getattr(data, "segments", None))
+    except ModelError as exc:
+        raise ModelError(f"{exc} to choose the smoothing") from None
     armature = fit_kwargs.get("armature", False)
     Y0 = arm.lagrange.regressor(q, qd, qdd)            # the rigid-body columns, common to every candidate
     table = []
@@ -99,14 +91,14 @@ def choose_smoothing(arm, data, law_of, v0: float, folds: int = 5, progress=None
             Y = with_extra_columns(Y0, qd, qdd, armature, law, arm.transmission)
             known = known_torque(arm, qd, qdd, armature, law)
             Yb = base.regressor(Y)
-            train = _factors(Yb, tau - known, edges)
-            sq = np.zeros(q.shape[1])
-            for f in range(int(folds)):
-                test = np.zeros(N, dtype=bool)
-                test[edges[f]:edges[f + 1]] = True
+            train = fold_factors(Yb, tau - known, masks)
+            sq, fold_scores = np.zeros(q.shape[1]), []
+            for f, test in enumerate(masks):
                 r = fit(arm, q[~test], qd[~test], qdd[~test], tau[~test], friction=law, base=base,
                         regressor=Y[~test], factors=train[f], **fit_kwargs)
-                sq += np.sum((tau[test] - Yb[test] @ r.beta - known[test]) ** 2, axis=0)
+                e2 = np.sum((tau[test] - Yb[test] @ r.beta - known[test]) ** 2, axis=0)
+                sq += e2
+                fold_scores.append(float(np.mean(np.log(np.maximum(np.sqrt(e2 / np.sum(test)), 1e-300)))))
         except ModelError as exc:
             table.append({"smoothing": v, "score": None, "rms": None, "error": str(exc)})
             return
@@ -114,7 +106,7 @@ def choose_smoothing(arm, data, law_of, v0: float, folds: int = 5, progress=None
             if progress is not None:
                 progress()
         rms = np.sqrt(sq / N)
-        table.append({"smoothing": v, "score": float(np.mean(np.log(np.maximum(rms, 1e-300)))),
+        table.append({"smoothing": v, "score": float(np.mean(fold_scores)), "fold_scores": fold_scores,
                       "rms": [float(x) for x in rms]})
 
     def best_so_far():
@@ -131,11 +123,9 @@ def choose_smoothing(arm, data, law_of, v0: float, folds: int = 5, progress=None
     scored = [row for row in table if row["score"] is not None]
     if not scored:
         raise ModelError("smoothing: every candidate's fit failed: " + "; ".join(row["error"] for row in table))
-    best = min(scored, key=lambda row: (row["score"], -row["smoothing"]))
-    note = (f"Coulomb smoothing tanh(v / {best['smoothing']:.3g}) chosen by {folds}-fold blocked hold-outs of the "
-            "fit data (score: mean over the joints of log held-out RMS, lower is better): " + "; ".join(
-                f"{row['smoothing']:.3g} rad/s " + (f"score {row['score']:.4f} (RMS " + " ".join(
-                    f"{x:.3g}" for x in row["rms"]) + ")" if row["score"] is not None else "failed")
-                for row in table) + f" -> {best['smoothing']:.3g} (the noise level gave {v0:.3g}); "
-            "--smoothing to override")
+    default = float(f"{v0:.3g}")
+    best, why = one_se_choice(table, "smoothing", default)
+    note = describe_choice("Coulomb smoothing tanh(v / V): V =", " rad/s", table, "smoothing", best["smoothing"],
+                           default, why + f" (default: the velocity's noise level on the log, {default:.3g} rad/s); "
+                           "--smoothing to override", fold_kind(masks, labels))
     return best["smoothing"], table, note

@@ -45,13 +45,16 @@ def _logs(data, extra=()) -> list:
 
 def beyond_mask(result, data) -> np.ndarray | None:
     """(N, n) bool: the samples beyond the fit, per joint; the mask the extrapolation carries
-    (``beyond``, per-sample trust data) when it has one, else the samples whose ``q_j``,
+    (``flags``, the ``x{i}`` columns of ``validate --predictions``, else ``beyond``) when it has one, else
+    the samples whose ``q_j``,
     ``qd_j`` or ``tau_j`` lies beyond the fitted interval by more than the flag's margin
     (what :class:`.coverage.Extrapolation` counts as ``far_fraction``); None without a fitted range."""
     ex = getattr(result, "extrapolation", None)
     if ex is None:
         return None
-    mask = getattr(ex, "beyond", None)
+    mask = getattr(ex, "flags", None)
+    if mask is None:
+        mask = getattr(ex, "beyond", None)
     if mask is not None:
         mask = np.asarray(mask, dtype=bool)
         if mask.shape == result.measured.shape:
@@ -141,8 +144,9 @@ def torque_figure(t, measured, series, units, beyond, what: str, flagged_text: s
     alt = (f"{what}: measured and predicted torque of each of the {n} joints against time, with the 95 % "
            f"prediction band where there is one and the residual (measured minus predicted) under each; "
            f"{flagged_text}")
-    shaded = (" Hatched yellow stretches: the samples beyond the states the fit saw (by over 10 % of the "
-              "fitted interval's width in q, qd or tau)." if beyond is not None and beyond.any() else
+    shaded = (" Hatched yellow stretches: the samples flagged beyond the fit before their torque is seen (their "
+              "q or qd beyond the fitted interval by over 10 % of its width, their leverage beyond the held-out "
+              "data's, or at rest where the fit never rested)." if beyond is not None and beyond.any() else
               f" Nothing is shaded: {flagged_text}.")
     banded = any(len(s) > 2 and s[2] is not None for s in series)
     return H.figure(fig, alt=alt, caption=f"{what}. Grey: measured; coloured: predicted"

@@ -104,16 +104,19 @@ def model_metadata(prov: dict) -> tuple[str, dict, str]:
     return source, sources, description
 
 
-def fit_record(arm, data, folds: int | None = None, smoothing: float | None = None, **fit_kwargs) -> tuple[dict, list]:
+def fit_record(arm, data, folds: int | None = None, smoothing: float | None = None, labels=None,
+               **fit_kwargs) -> tuple[dict, list]:
     """``(record, notes)``: what a fit on ``data`` (``q``, ``qd``, ``qdd``, ``tau`` (N, n)) adds
     to its provenance: ``fitted_range`` (:func:`.coverage.fitted_range`) and, unless
     ``folds`` is 0, ``prediction_band`` (:func:`.bands.calibrate_band` with ``fit_kwargs``,
     the fit's own options; ``folds`` None: the default 5) and ``leverage``, the extrapolation
     measure's reference (:class:`.leverage.Leverage`, features with the Coulomb smoothing
     ``smoothing``, joints weighed by their held-out RMS).  When the band cannot be had (data
-    too short for the blocks, a refit failing) it is left out and ``notes`` says why.
+    too short for the blocks, a refit failing) it is left out and ``notes`` says why.  ``labels`` (N,):
+    the held-out trajectory group of each sample (two or more: the band is calibrated on held-out
+    runs, :mod:`.bands`); a band within one trajectory says so in ``notes``.
     """
-    from ..uncertainty.bands import DEFAULT_FOLDS, calibrate_band
+    from ..uncertainty.bands import DEFAULT_FOLDS, WITHIN_ONE_TRAJECTORY, calibrate_band
     from ..uncertainty.coverage import fitted_range
     from ..uncertainty.leverage import Leverage
 
@@ -123,11 +126,13 @@ def fit_record(arm, data, folds: int | None = None, smoothing: float | None = No
     if folds:
         try:
             band = calibrate_band(arm, data.q, data.qd, data.qdd, data.tau, folds=folds, smoothing=smoothing,
-                                  **fit_kwargs)
+                                  labels=labels, **fit_kwargs)
             record["prediction_band"] = band.to_dict()
             weights = 1.0 / np.maximum(band.held_out_rms, 1e-12 * max(float(np.max(band.held_out_rms)), 1e-300))
-            record["leverage"] = Leverage.of_fit(arm, data.q, data.qd, data.qdd, weights,
-                                                 smoothing or 0.01).to_dict()
+            record["leverage"] = Leverage.of_fit(arm, data.q, data.qd, data.qdd, weights, smoothing or 0.01,
+                                                 threshold=band.flag_leverage).to_dict()
+            if band.within_one_trajectory:
+                notes.append(WITHIN_ONE_TRAJECTORY)
         except ModelError as exc:
             notes.append(f"no prediction band from blocked hold-outs: {exc}")
     return record, notes

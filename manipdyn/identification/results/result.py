@@ -197,8 +197,13 @@ class IdentifyResult:
             lines.append(format_bootstrap(self.bootstrap, rep["base_parameters"]))
         band = self.provenance.get("prediction_band")
         if band:
-            lines.append(f"95 % prediction band from {band['folds']} blocked hold-outs of the fit data (validate "
-                         "scores it on new data): +- " + ", ".join(f"{x:.3g}" for x in band["half_width"]))
+            k = int(band.get("trajectories", 1))
+            how = (f"{k} held-out trajectories (each predicted by a fit on the others), at least the within-run "
+                   f"band of {band['folds']} blocked hold-outs" if k > 1 else
+                   f"{band['folds']} blocked hold-outs of the fit data, WITHIN ONE TRAJECTORY (it has not seen how "
+                   "another trajectory differs)")
+            lines.append(f"95 % prediction band from {how} (validate scores it on new data): +- "
+                         + ", ".join(f"{x:.3g}" for x in band["half_width"]))
         if self.output:
             lines.append(f"wrote {self.output}")
         if self.base_model:

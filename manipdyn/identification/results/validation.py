@@ -103,7 +103,9 @@ class ValidationResult:
         ``mean_error`` (per joint); with a band ``band_95_coverage`` (per joint), ``band_95_pooled``,
         ``band_method``, ``band_95_half_width`` (at a typical fitted sample), ``band_95_leverage_gain``,
         ``band_95_mean_half_width`` (over these samples), ``band_95_missed`` (1-based joints under
-        80 %); ``extrapolation`` (one object per joint: ``extrapolates``, ``range_extrapolates``,
+        80 %); with per-sample flags, ``flagged_fraction``, ``band_95_coverage_flagged`` and
+        ``band_95_coverage_unflagged`` (per joint, None where no sample is so) and ``band_95_pooled_flagged``,
+        ``band_95_pooled_unflagged``; ``extrapolation`` (one object per joint: ``extrapolates``, ``range_extrapolates``,
         ``leverage_extrapolates``, ``beyond_fit_fraction``, ``leverage_ratio``, and per quantity),
         ``beyond_fit_fraction`` (samples beyond the fit on any joint), ``model_notes``.
         """
@@ -123,6 +125,19 @@ class ValidationResult:
                                                 else clean(self.carried_band.leverage_gain))
             out["band_95_mean_half_width"] = clean(np.mean(self.band, axis=0))
             out["band_95_missed"] = [int(j + 1) for j in np.flatnonzero(self.band_missed)]
+            flags = None if self.extrapolation is None else self.extrapolation.flags
+            if flags is not None:       # does a flag predict the misses?
+                inside = np.abs(self.measured - self.predicted) <= self.band
+
+                def held(mask):
+                    return [float(np.mean(inside[mask[:, j], j])) if np.any(mask[:, j]) else None
+                            for j in range(mask.shape[1])]
+
+                out["flagged_fraction"] = clean(np.mean(flags, axis=0))
+                out["band_95_coverage_flagged"] = held(flags)
+                out["band_95_coverage_unflagged"] = held(~flags)
+                out["band_95_pooled_flagged"] = float(np.mean(inside[flags])) if np.any(flags) else None
+                out["band_95_pooled_unflagged"] = float(np.mean(inside[~flags])) if np.any(~flags) else None
         out["extrapolation"] = None if self.extrapolation is None else self.extrapolation.to_list()
         ex = self.extrapolation
         out["beyond_fit_fraction"] = (None if ex is None or ex.beyond is None
@@ -206,10 +221,22 @@ def validate(model, data, name: str | None = None) -> ValidationResult:
         method = COVARIANCE_BAND
     if band is not None:
         coverage = np.mean(np.abs(err) <= band, axis=0)
+    if held_out is not None and held_out.within_one_trajectory:
+        from ..uncertainty.bands import WITHIN_ONE_TRAJECTORY
+
+        notes.append(WITHIN_ONE_TRAJECTORY)
+    extrapolation = _extrapolation(fitted, data, u, beyond)
+    if extrapolation is not None:
+        flags = fitted.far_samples(data)
+        if beyond is not None:
+            flags = flags | beyond
+        if trust.leverage is not None:
+            flags = flags | trust.leverage.rest_flags(data.qd)
+        extrapolation.flags = flags
     return ValidationResult(model=name or getattr(model, "name", "model"), rms=rms, relative_rms=rel,
                             r2=r2, mean_error=err.mean(axis=0), t=np.asarray(data.t), measured=data.tau,
                             predicted=pred, band=band, coverage=coverage, band_method=method, carried_band=held_out,
-                            extrapolation=_extrapolation(fitted, data, u, beyond), notes=notes)
+                            extrapolation=extrapolation, notes=notes)
 
 
 def _feature_arm(model):
@@ -231,7 +258,9 @@ def _extrapolation(fitted, data, u, beyond):
 
 def write_predictions(result: ValidationResult, path) -> None:
     """Write ``t, tau1..taun`` (measured), ``pred1..predn``, with a band ``lo1..lon, hi1..hin``, and with a
-    leverage reference ``x1..xn`` (1 where the sample is beyond the fit on that joint, :mod:`.leverage`)
+    fitted range ``x1..xn`` (1 where the sample is flagged on that joint before its torque is seen: its own q or
+    qd beyond the fitted range, its leverage beyond the held-out data's, near rest where the fit never rested;
+    :mod:`.coverage`, :mod:`.leverage`)
     per sample as CSV, atomically (s, N m or N): anyone can check the band with it."""
     from ..._support.files import atomic_write_text
 
@@ -242,8 +271,8 @@ def write_predictions(result: ValidationResult, path) -> None:
         cols += [result.predicted - result.band, result.predicted + result.band]
         names += [f"{k}{j + 1}" for k in ("lo", "hi") for j in range(n)]
     ex = result.extrapolation
-    if ex is not None and ex.beyond is not None:     # 1 where the sample is beyond the fit (leverage)
-        cols.append(ex.beyond.astype(np.float64))
+    if ex is not None and ex.flags is not None:     # 1 where the sample is flagged, before its torque is seen
+        cols.append(ex.flags.astype(np.float64))
         names += [f"x{j + 1}" for j in range(n)]
     table = np.hstack(cols)
     lines = [",".join(names)] + [",".join(repr(float(x)) for x in row) for row in table]

@@ -70,6 +70,42 @@ Choosing ``g`` among a few values on the same scores costs a little coverage opt
 synthetic logs of the right model class a gain picked for a 1-3 % narrower band lost 0.5-1.2 %
 of coverage on the next trajectory, which is why a gain must buy 5 %.
 
+Runs are the unit of trust: held-out trajectories
+-------------------------------------------------
+Blocks cut in time measure the error **within** a trajectory: with several runs stacked, every
+refit still sees most of every run.  On a KUKA LWR4+ fitted on two different trajectories that
+band held 86 % of a third run (joint 2: 74 %), while a band calibrated on held-out **runs** held
+about 96 %.  So when the fit data hold two or more distinct trajectories (``labels``: the group
+of each sample, runs that repeat one trajectory held out together, found from the positions by
+:mod:`..inputs.trajectories`), each group is predicted by a fit, with the same method and
+options, on the other groups, and the conformal quantile is taken over those residuals.
+
+Combining them with the blocks (where trajectories are few).  Two or three trajectories give
+two or three held-out experiments: a joint may happen to carry over well from one trajectory
+to the other, and its held-out-trajectory quantile then falls below what the noise and the
+within-run model error alone give on any run.  The blocks measure that floor on every sample.
+So the half-width per joint is the **larger** of the two quantiles, the held-out trajectories'
+and the blocks' (the blocks' constant band, at ``u = 1``), and it is constant per joint (the
+trajectories' residuals already hold the extrapolation the leverage gain stands for; where a
+new run leaves even them, the flags say so, below).  Each held-out trajectory is predicted by a
+fit on fewer runs than the model's, so the band errs on the wide side, the safe one for a
+collision threshold; with many trajectories the difference fades.
+
+With a single trajectory (one run, or runs that only repeat it) only the blocks remain, and the
+band is labelled **within one trajectory** (``trajectories == 1``): ``validate`` says it has
+not seen how another trajectory differs.
+
+Flags calibrated on the same hold-outs
+--------------------------------------
+``validate``'s per-sample flags (:mod:`.coverage`) include a leverage threshold per joint,
+``flag_leverage``: the :data:`FLAG_LEVEL` conformal quantile of the held-out samples' leverage
+ratios ``u`` (the held-out trajectories' when there are two or more, else the blocks'), each
+against the Gram matrix of the data its refit saw.  A new sample beyond it is farther from the
+fit data than 99 % of the samples the band was calibrated on: the band has not been checked
+there.  (The older rule, "beyond every fitted sample", compared a new sample with the fit data
+themselves, whose own leverage is small by construction, and flagged nearly everything on a
+new trajectory.)
+
 ``PredictionBand.half_width`` stays the width at a typical fitted sample (``u = 1``);
 :meth:`PredictionBand.interval` takes ``u`` per sample.
 
@@ -89,7 +125,7 @@ import numpy as np
 from ..._support.errors import ModelError
 
 __all__ = ["PredictionBand", "calibrate_band", "held_out_residuals", "held_out_leverage", "DEFAULT_FOLDS",
-           "DEFAULT_LEVEL", "GAINS"]
+           "DEFAULT_LEVEL", "GAINS", "FLAG_LEVEL", "WITHIN_ONE_TRAJECTORY"]
 
 DEFAULT_FOLDS = 5
 DEFAULT_LEVEL = 0.95
@@ -99,6 +135,12 @@ MIN_BLOCK = 20
 GAINS = (0.0, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0)
 #: a gain is taken only when its band is this much narrower on average than the constant one
 GAIN_BENEFIT = 0.05
+#: the held-out leverage quantile past which a sample is flagged (module docstring)
+FLAG_LEVEL = 0.99
+#: what a band calibrated on one trajectory says of itself (validate and identify print it)
+WITHIN_ONE_TRAJECTORY = ("the band is calibrated within one trajectory (blocked hold-outs of one run, or of runs "
+                         "repeating it): it has not seen how another trajectory differs; log at least two different "
+                         "trajectories to calibrate it on held-out runs")
 
 
 @dataclass(frozen=True)
@@ -108,7 +150,9 @@ class PredictionBand:
     ``level``: the nominal coverage (0.95); ``half_width`` (n,), N m (N for a prismatic joint);
     ``folds``: the number of blocks; ``samples``: held-out residuals it was computed from;
     ``held_out_rms`` (n,): their RMS per joint; ``leverage_gain`` (n,) or None: ``g_j`` of
-    ``c_j sqrt(1 + g_j u)`` (module docstring; None or 0: constant).
+    ``c_j sqrt(1 + g_j u)`` (module docstring; None or 0: constant); ``trajectories``: the distinct
+    trajectories held out (1: the band is within one trajectory, from the blocks alone);
+    ``flag_leverage`` (n,) or None: the leverage ratio past which a sample is flagged (module docstring).
     """
 
     level: float
@@ -117,9 +161,11 @@ class PredictionBand:
     samples: int
     held_out_rms: np.ndarray
     leverage_gain: np.ndarray | None = None
+    trajectories: int = 1
+    flag_leverage: np.ndarray | None = None
 
     def __post_init__(self):
-        for k in ("half_width", "held_out_rms", "leverage_gain"):
+        for k in ("half_width", "held_out_rms", "leverage_gain", "flag_leverage"):
             if getattr(self, k) is None:
                 continue
             a = np.asarray(getattr(self, k), dtype=np.float64).reshape(-1)
@@ -133,6 +179,16 @@ class PredictionBand:
             raise ModelError("prediction band: held_out_rms and half_width differ in length")
         if self.leverage_gain is not None and len(self.leverage_gain) != len(self.half_width):
             raise ModelError("prediction band: leverage_gain and half_width differ in length")
+        if self.flag_leverage is not None and len(self.flag_leverage) != len(self.half_width):
+            raise ModelError("prediction band: flag_leverage and half_width differ in length")
+        if int(self.trajectories) != self.trajectories or self.trajectories < 1:
+            raise ModelError(f"prediction band: trajectories: expected an integer >= 1, got {self.trajectories!r}")
+        object.__setattr__(self, "trajectories", int(self.trajectories))
+
+    @property
+    def within_one_trajectory(self) -> bool:
+        """Whether the band saw a single trajectory (module docstring)."""
+        return self.trajectories < 2
 
     @property
     def n(self) -> int:
@@ -159,15 +215,22 @@ class PredictionBand:
     def describe(self) -> str:
         grows = ", growing with the leverage on joint(s) " + ", ".join(
             str(j + 1) for j in np.flatnonzero(self.leverage_gain > 0)) if self.grows else ""
-        return (f"blocked hold-outs of the fit data ({self.folds} blocks, {self.samples} held-out samples): "
-                f"model error and correlated noise{grows}")
+        if not self.within_one_trajectory:
+            return (f"held-out trajectories ({self.trajectories} distinct, each predicted by a fit on the others, "
+                    f"{self.samples} held-out samples), at least the {self.folds} blocks' within-run band: model "
+                    "error between runs and correlated noise")
+        return (f"blocked hold-outs of the fit data ({self.folds} blocks, {self.samples} held-out samples), within "
+                f"one trajectory: model error and correlated noise{grows}")
 
     def to_dict(self) -> dict:
-        out = {"method": "blocked hold-out", "level": float(self.level), "folds": int(self.folds),
+        out = {"method": "blocked hold-out" if self.within_one_trajectory else "held-out trajectories",
+               "trajectories": int(self.trajectories), "level": float(self.level), "folds": int(self.folds),
                "samples": int(self.samples), "half_width": [float(x) for x in self.half_width],
                "held_out_rms": [float(x) for x in self.held_out_rms]}
         if self.leverage_gain is not None:
             out["leverage_gain"] = [float(x) for x in self.leverage_gain]
+        if self.flag_leverage is not None:
+            out["flag_leverage"] = [float(x) for x in self.flag_leverage]
         return out
 
     @classmethod
@@ -179,7 +242,10 @@ class PredictionBand:
                        folds=int(value["folds"]), samples=int(value["samples"]),
                        held_out_rms=np.array(value["held_out_rms"], dtype=np.float64),
                        leverage_gain=(None if value.get("leverage_gain") is None
-                                      else np.array(value["leverage_gain"], dtype=np.float64)))
+                                      else np.array(value["leverage_gain"], dtype=np.float64)),
+                       trajectories=int(value.get("trajectories", 1)),
+                       flag_leverage=(None if value.get("flag_leverage") is None
+                                      else np.array(value["flag_leverage"], dtype=np.float64)))
         except (KeyError, TypeError, ValueError, OverflowError) as exc:
             raise ModelError(f"{where}: malformed prediction band ({exc})") from None
         if band.n != n:
@@ -191,14 +257,16 @@ class PredictionBand:
         def nums(a):
             return "[" + ", ".join(f"{x:.6g}" for x in a) + "]"
 
-        return (f"{100 * self.level:g} % band half-width per joint from {self.folds} blocked hold-outs of "
+        how = ("" if self.within_one_trajectory else
+               f" (at least; {self.trajectories} held-out trajectories set it where wider)")
+        return (f"{100 * self.level:g} % band half-width per joint{how} from {self.folds} blocked hold-outs of "
                 f"{self.samples} samples of the fit data: {nums(self.half_width)}; held-out RMS "
                 f"{nums(self.held_out_rms)}" + (f"; growing as sqrt(1 + g u) with the leverage ratio u, g "
                                                 f"{nums(self.leverage_gain)}" if self.grows else ""))
 
     @classmethod
     def from_text(cls, text: str, n: int, where: str) -> "PredictionBand":
-        m = re.match(r"\s*([0-9.eE+-]+) % band half-width per joint from (\d+) blocked hold-outs of (\d+) "
+        m = re.match(r"\s*([0-9.eE+-]+) % band half-width per joint(?: \([^)]*\))? from (\d+) blocked hold-outs of (\d+) "
                      r"samples[^:]*:\s*\[([^\]]*)\];\s*held-out RMS\s*\[([^\]]*)\]", text)
         if m is None:
             raise ModelError(f"{where}: expected '95 % band half-width per joint from K blocked hold-outs of "
@@ -232,7 +300,28 @@ def _kept_segments(segments, test) -> list | None:
     return [k for k in kept if k > 0]
 
 
-def held_out_residuals(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, segments=None, **fit_kwargs) -> np.ndarray:
+def _masks(N: int, folds: int, masks, segments=None) -> list:
+    """The folds' test samples: ``masks`` as given, else ``folds`` blocks in time; with several runs
+    (``segments``, their sample counts) block k is the k-th part of **every** run, so a run that repeats
+    another's trajectory is held out with it at the same phase (a refit that kept the repeat's block would
+    have seen the held-out states)."""
+    if masks is not None:
+        return list(masks)
+    counts = [int(c) for c in segments] if segments is not None and len(segments) > 1 else [N]
+    if sum(counts) != N:
+        raise ModelError(f"segments: expected sample counts adding up to the {N} samples, got {counts}")
+    out = [np.zeros(N, dtype=bool) for _ in range(int(folds))]
+    start = 0
+    for c in counts:
+        edges = _blocks(c, folds) if len(counts) == 1 or c >= MIN_BLOCK * folds else np.linspace(0, c, int(folds) + 1).astype(int)
+        for k in range(int(folds)):
+            out[k][start + edges[k]:start + edges[k + 1]] = True
+        start += c
+    return out
+
+
+def held_out_residuals(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, segments=None, masks=None,
+                       **fit_kwargs) -> np.ndarray:
     """Measured minus predicted torque (N, n), each block predicted by a fit on the others.
 
     ``q, qd, qdd, tau`` (N, n) in time order (one log; several logs: stacked in order, a block
@@ -240,17 +329,16 @@ def held_out_residuals(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, segment
     did not see it).  ``segments``: the stacked runs' sample counts, when the fit takes them
     (each refit gets the counts of what it keeps).  ``fit_kwargs`` go to
     :func:`manipdyn.identification.fit` (``method``, ``friction``, ``armature``, ``bounds``,
-    ``prior_weight``): the refits are the fit the user asked for, on less data.
+    ``prior_weight``): the refits are the fit the user asked for, on less data.  ``masks``: the
+    folds' test samples, (N,) bool each, partitioning the samples (the held-out trajectories),
+    instead of ``folds`` blocks in time.
     """
     from ..estimation.fitting import fit
 
     q, qd, qdd, tau = (np.asarray(x, dtype=np.float64) for x in (q, qd, qdd, tau))
     N = len(q)
-    edges = _blocks(N, folds)
     res = np.empty_like(tau)
-    for k in range(len(edges) - 1):
-        test = np.zeros(N, dtype=bool)
-        test[edges[k]:edges[k + 1]] = True
+    for test in _masks(N, folds, masks, segments):
         kept = _kept_segments(segments, test)
         extra = {} if kept is None else {"segments": kept}
         r = fit(arm, q[~test], qd[~test], qdd[~test], tau[~test], **fit_kwargs, **extra)
@@ -267,18 +355,15 @@ def conformal_half_width(residuals, level: float = DEFAULT_LEVEL) -> np.ndarray:
     return np.sort(r, axis=0)[rank - 1]
 
 
-def held_out_leverage(arm, q, qd, qdd, folds: int, weights, smoothing) -> np.ndarray:
+def held_out_leverage(arm, q, qd, qdd, folds: int, weights, smoothing, masks=None, segments=None) -> np.ndarray:
     """The leverage ratio ``u`` (N, n) of each held-out sample against the rows of the blocks its refit saw
-    (:mod:`.leverage`; the blocks of :func:`held_out_residuals`), over their own mean."""
+    (:mod:`.leverage`; the blocks, or the ``masks``, of :func:`held_out_residuals`), over their own mean."""
     from .leverage import features, gram_basis
 
     Z = features(arm, q, qd, qdd, smoothing)
-    edges = _blocks(len(Z), folds)
     u = np.empty(Z.shape[:2])
     w = np.asarray(weights, dtype=np.float64)
-    for k in range(len(edges) - 1):
-        test = np.zeros(len(Z), dtype=bool)
-        test[edges[k]:edges[k + 1]] = True
+    for test in _masks(len(Z), folds, masks, segments):
         B, scale = gram_basis(Z[~test], w)
         h_fit = w**2 * np.sum(((Z[~test] / scale) @ B) ** 2, axis=2)
         h = w**2 * np.sum(((Z[test] / scale) @ B) ** 2, axis=2)
@@ -300,27 +385,47 @@ def _gain(r, u, level) -> tuple[float, float]:
     return g, c
 
 
-def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: float = DEFAULT_LEVEL,
-                   smoothing: float | None = None, leverage: bool = True, **fit_kwargs) -> PredictionBand:
-    """The :class:`PredictionBand` of a fit on ``q, qd, qdd, tau`` (N, n) by blocked hold-outs.
+def _weights(rms) -> np.ndarray:
+    return 1.0 / np.maximum(rms, 1e-12 * max(float(np.max(rms)), 1e-300))
 
-    With ``leverage`` (default) the half-width grows with each sample's leverage ratio where the
-    held-out errors say it should (module docstring; ``smoothing`` v_s of the features, rad/s,
-    default 0.01); without, a constant band per joint.  Costs ``folds`` refits.  Raises
-    :class:`ModelError` when the data is too short for the blocks or a refit fails.
+
+def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: float = DEFAULT_LEVEL,
+                   smoothing: float | None = None, leverage: bool = True, labels=None, **fit_kwargs) -> PredictionBand:
+    """The :class:`PredictionBand` of a fit on ``q, qd, qdd, tau`` (N, n) by blocked hold-outs, and by held-out
+    trajectories when ``labels`` (N,) gives two or more groups (module docstring).
+
+    With ``leverage`` (default) the half-width of a single trajectory's band grows with each sample's
+    leverage ratio where the held-out errors say it should, and ``flag_leverage`` is calibrated (module
+    docstring; ``smoothing`` v_s of the features, rad/s, default 0.01); without, a constant band per
+    joint.  Costs ``folds`` refits, and one per held-out group.  Raises :class:`ModelError` when the
+    data is too short for the blocks or a refit fails.
     """
     if not 0 < float(level) < 1:
         raise ModelError(f"level: expected a fraction in (0, 1), got {level}")
     res = held_out_residuals(arm, q, qd, qdd, tau, folds=folds, **fit_kwargs)
     rms = np.sqrt(np.mean(res**2, axis=0))
+    groups = None if labels is None else np.unique(np.asarray(labels))
+    if groups is not None and len(labels) != len(q):
+        raise ModelError(f"labels: expected {len(q)} group labels, one per sample, got {len(labels)}")
+    if groups is not None and len(groups) >= 2:
+        masks = [np.asarray(labels) == g for g in groups]
+        res_t = held_out_residuals(arm, q, qd, qdd, tau, masks=masks, **fit_kwargs)
+        rms_t = np.sqrt(np.mean(res_t**2, axis=0))
+        width = np.maximum(conformal_half_width(res_t, level), conformal_half_width(res, level))
+        flag = None
+        if leverage:
+            u = held_out_leverage(arm, q, qd, qdd, folds, _weights(rms_t), smoothing, masks=masks)
+            flag = conformal_half_width(u, FLAG_LEVEL)
+        return PredictionBand(level=float(level), half_width=width, folds=int(folds), samples=len(res_t),
+                              held_out_rms=rms_t, leverage_gain=np.zeros(len(width)) if leverage else None,
+                              trajectories=len(groups), flag_leverage=flag)
     if not leverage:
         return PredictionBand(level=float(level), half_width=conformal_half_width(res, level), folds=int(folds),
                               samples=len(res), held_out_rms=rms)
-    weights = 1.0 / np.maximum(rms, 1e-12 * max(float(np.max(rms)), 1e-300))
-    u = held_out_leverage(arm, q, qd, qdd, folds, weights, smoothing)
+    u = held_out_leverage(arm, q, qd, qdd, folds, _weights(rms), smoothing, segments=fit_kwargs.get("segments"))
     gains, widths = np.zeros(res.shape[1]), np.zeros(res.shape[1])
     for j in range(res.shape[1]):
         g, c = _gain(np.abs(res[:, j]), u[:, j], level)
         gains[j], widths[j] = g, c * np.sqrt(1.0 + g)          # the width at u = 1
     return PredictionBand(level=float(level), half_width=widths, folds=int(folds), samples=len(res),
-                          held_out_rms=rms, leverage_gain=gains)
+                          held_out_rms=rms, leverage_gain=gains, flag_leverage=conformal_half_width(u, FLAG_LEVEL))

@@ -154,6 +154,17 @@ class StateRange:
                              margin=float(margin))
 
 
+    def far_samples(self, data, margin: float = FLAG_MARGIN) -> np.ndarray:
+        """(N, n) bool: the sample's own ``q_j`` or ``qd_j`` lies beyond the fitted interval by more than
+        ``margin`` of its width (what is known before the torque is measured; module docstring)."""
+        far = np.zeros(np.shape(data.q), dtype=bool)
+        for k in ("q", "qd"):
+            x, box = np.asarray(getattr(data, k), dtype=np.float64), getattr(self, k)
+            pad = margin * (box[:, 1] - box[:, 0])
+            far |= (x < box[:, 0] - pad) | (x > box[:, 1] + pad)
+        return far
+
+
 def fitted_range(q, qd, tau) -> StateRange:
     """The :class:`StateRange` of the fitted samples ``q``, ``qd``, ``tau`` (N, n), SI."""
     arrays = {}
@@ -183,8 +194,9 @@ class Extrapolation:
     far_fraction: np.ndarray
     flag_fraction: float = FLAG_FRACTION
     margin: float = FLAG_MARGIN
-    beyond: np.ndarray | None = None        # (N, n) bool: the sample's leverage beyond every fit sample's
+    beyond: np.ndarray | None = None        # (N, n) bool: the sample's leverage beyond the fit's (.leverage)
     leverage_ratio: np.ndarray | None = None  # (N, n): leverage over the fit samples' mean (.leverage)
+    flags: np.ndarray | None = None         # (N, n) bool: the sample's flag, before its torque is seen
 
     @property
     def range_flagged(self) -> np.ndarray:
@@ -204,9 +216,19 @@ class Extrapolation:
         return np.zeros(len(self.fraction), dtype=bool) if b is None else b > self.flag_fraction
 
     @property
+    def flagged_fraction(self) -> np.ndarray | None:
+        """(n,): the fraction of samples flagged (``flags``), None without per-sample flags."""
+        return None if self.flags is None else np.mean(self.flags, axis=0)
+
+    @property
     def flagged(self) -> np.ndarray:
-        """(n,) bool: the joint extrapolates, by its own range or by its regressor row's leverage."""
-        return self.range_flagged | self.leverage_flagged
+        """(n,) bool: the joint extrapolates, by its own range (q, qd or tau), by its regressor row's leverage, or
+        by over ``flag_fraction`` of its samples flagged (the ``x{i}`` columns): the verdict and the
+        per-sample flags say the same thing."""
+        out = self.range_flagged | self.leverage_flagged
+        if self.flags is not None:
+            out = out | (self.flagged_fraction > self.flag_fraction)
+        return out
 
     def to_list(self) -> list:
         """JSON-ready, one object per joint."""
@@ -216,6 +238,8 @@ class Extrapolation:
                    "far_outside_fraction": float(self.far_fraction[j]), "extrapolates": bool(self.flagged[j]),
                    "range_extrapolates": bool(self.range_flagged[j]),
                    "leverage_extrapolates": bool(self.leverage_flagged[j])}
+            if self.flags is not None:
+                row["flagged_fraction"] = float(self.flagged_fraction[j])
             if self.beyond is not None:
                 row["beyond_fit_fraction"] = float(self.beyond_fraction[j])
                 u = self.leverage_ratio[:, j]
@@ -245,10 +269,18 @@ class Extrapolation:
                          + ", ".join(f"j{j + 1} {100 * f:.1f} %" for j, f in enumerate(self.beyond_fraction)))
             for j in np.flatnonzero(self.leverage_flagged & ~self.range_flagged):
                 lines.append(f"EXTRAPOLATES joint {j + 1}: its own q, qd and tau stay near the fitted range, but "
-                             f"{100 * self.beyond_fraction[j]:.0f} % of its samples lie beyond every fitted sample by "
-                             "the leverage of its regressor row (the other joints' states its torque depends on; "
+                             f"{100 * self.beyond_fraction[j]:.0f} % of its samples lie beyond the fit by "
+                             "the leverage of its regressor row, farther than the held-out data the band was checked on (the other joints' states its torque depends on; "
                              f"up to {np.max(self.leverage_ratio[:, j]):.3g} times the fit's mean): trust this joint's "
                              "prediction less")
+        if self.flags is not None:
+            lines.append("samples flagged before their torque is seen (x columns: own q or qd beyond the fitted range, "
+                         "leverage beyond the held-out data's, or near rest where the fit never rested): " + ", ".join(
+                             f"j{j + 1} {100 * f:.1f} %" for j, f in enumerate(self.flagged_fraction)))
+            for j in np.flatnonzero(self.flagged & ~self.leverage_flagged & ~self.range_flagged):
+                lines.append(f"EXTRAPOLATES joint {j + 1}: {100 * self.flagged_fraction[j]:.0f} % of its samples are "
+                             "flagged (its q or qd beyond the fitted range, or near rest where the fit data never "
+                             "rested): trust this joint's prediction less there")
         for j in np.flatnonzero(self.range_flagged):
             revolute = units is None or units[j] != "N"
             why = []

@@ -32,9 +32,23 @@ of ``G`` are cut at ``1e-10`` of the largest (directions the regressor never has
 What is kept (:class:`Leverage`, in the trust record's ``leverage``): the basis
 ``B = V diag(lambda)^(-1/2)`` of the kept eigenvectors (so ``h = w^2 |z^T B|^2``), the column
 scales, the weights, and per joint the mean and the largest leverage over the fit samples.
-A sample is **beyond the fit** on joint j when ``h_j(x)`` exceeds that largest value: no fitted
-sample was that far out (``validate --predictions``' ``x{i}`` columns, ``--json``
-``extrapolation[j].beyond_fit_fraction``).  The ratio ``u_j = h_j / mean_j`` (1 on a typical
+A sample is **beyond the fit** on joint j when ``u_j(x)`` exceeds ``threshold_j``, the leverage
+ratio calibrated on the held-out runs or blocks of the band (:mod:`.bands`, ``flag_leverage``: farther
+than 99 % of the samples the band was checked on; ``validate --predictions``' ``x{i}`` columns,
+``--json`` ``extrapolation[j].beyond_fit_fraction``).  A reference written before that threshold
+existed keeps the older rule, ``h_j(x)`` over every fitted sample's.
+
+States near rest
+----------------
+Where a joint barely moves, its torque is decided by the Coulomb friction's smoothed sign
+``tanh(qd / v_s)``, which the fit can only have learnt where the fit data were near rest.  The
+reference keeps, per joint, ``rest_speed`` (:data:`REST_SPEEDS` ``x v_s``: below it the smoothed sign is
+in its linear part, ``tanh(1) = 0.76``, and the Coulomb torque there is what the smoothing assumes,
+not what the data showed) and whether the fit data **visited** it (at least :data:`REST_FRACTION` of
+the fitted samples that slow: an excitation only crosses it at its reversals, well under 1 % of the
+time, a log that rests spends seconds there).  A new sample slower than that on a joint
+whose fit data never rested is flagged too (:meth:`Leverage.rest_flags`): a log that pauses where
+the excitation never did.  The ratio ``u_j = h_j / mean_j`` (1 on a typical
 fitted sample) is what the band grows with (:mod:`.bands`).
 """
 
@@ -56,6 +70,10 @@ RTOL = 1e-10
 _DIGITS = 10
 #: a leverage within this fraction of the fit's largest is the same sample's (the basis is stored rounded)
 _SAME = 1e-6
+#: near rest: a speed under this many times the Coulomb smoothing v_s (module docstring)
+REST_SPEEDS = 1.0
+#: the fit data visited rest on a joint when at least this fraction of its samples were that slow
+REST_FRACTION = 0.01
 
 
 def features(arm, q, qd, qdd, smoothing: float) -> np.ndarray:
@@ -94,7 +112,10 @@ class Leverage:
     """The extrapolation measure's reference from the fit data (module docstring).
 
     ``basis`` (p, k), ``scale`` (p,), ``weights`` (n,) 1 / (N m), ``smoothing`` v_s (rad/s),
-    ``mean`` and ``largest`` (n,): per joint, the mean and the largest leverage of the fit samples.
+    ``mean`` and ``largest`` (n,): per joint, the mean and the largest leverage of the fit samples;
+    ``threshold`` (n,) or None: the leverage ratio past which a sample is beyond the fit (calibrated on
+    held-out data, :mod:`.bands`); ``rest_speed`` (n,) rad/s and ``rest_visited`` (n,) bool, or None:
+    the near-rest speeds and whether the fit data visited them (module docstring).
     """
 
     basis: np.ndarray
@@ -103,16 +124,31 @@ class Leverage:
     smoothing: float
     mean: np.ndarray
     largest: np.ndarray
+    threshold: np.ndarray | None = None
+    rest_speed: np.ndarray | None = None
+    rest_visited: np.ndarray | None = None
 
     @classmethod
-    def of_fit(cls, arm, q, qd, qdd, weights, smoothing) -> "Leverage":
-        """The reference of the fit samples ``q, qd, qdd`` (N, n)."""
+    def of_fit(cls, arm, q, qd, qdd, weights, smoothing, threshold=None) -> "Leverage":
+        """The reference of the fit samples ``q, qd, qdd`` (N, n); ``threshold`` (n,): the held-out
+        leverage ratio past which a sample is flagged (None: the older rule)."""
         Z = features(arm, q, qd, qdd, smoothing)
         weights = np.asarray(weights, dtype=np.float64)
         B, scale = gram_basis(Z, weights)
         h = _h(Z, B, scale, weights)
+        rest = np.full(Z.shape[1], REST_SPEEDS * float(smoothing))
+        visited = np.mean(np.abs(np.asarray(qd, dtype=np.float64)) < rest, axis=0) >= REST_FRACTION
         return cls(basis=B, scale=scale, weights=weights, smoothing=float(smoothing),
-                   mean=np.maximum(np.mean(h, axis=0), 1e-300), largest=np.max(h, axis=0))
+                   mean=np.maximum(np.mean(h, axis=0), 1e-300), largest=np.max(h, axis=0),
+                   threshold=None if threshold is None else np.asarray(threshold, dtype=np.float64),
+                   rest_speed=rest, rest_visited=visited)
+
+    def rest_flags(self, qd) -> np.ndarray:
+        """(N, n) bool: the sample is near rest on a joint whose fit data never rested (module docstring)."""
+        qd = np.asarray(qd, dtype=np.float64)
+        if self.rest_speed is None or self.rest_visited is None:
+            return np.zeros(qd.shape, dtype=bool)
+        return (np.abs(qd) < self.rest_speed) & ~np.asarray(self.rest_visited, dtype=bool)
 
     @property
     def n(self) -> int:
@@ -132,13 +168,16 @@ class Leverage:
         return h
 
     def ratio(self, arm, q, qd, qdd) -> tuple[np.ndarray, np.ndarray]:
-        """``(u, beyond)``, each (N, n): the leverage over the fit samples' mean, and whether it exceeds
-        every fit sample's (the sample is beyond the fit on that joint)."""
+        """``(u, beyond)``, each (N, n): the leverage over the fit samples' mean, and whether the sample is
+        beyond the fit on that joint: ``u`` over the held-out ``threshold``, or (a reference without one)
+        ``h`` over every fit sample's."""
         h = self.leverage(arm, q, qd, qdd)
         with np.errstate(over="ignore"):
             u = h / self.mean
         if not np.all(np.isfinite(u)):
             raise ModelError("leverage: the ratio to the reference's mean overflows float64 (not a reference a fit wrote)")
+        if self.threshold is not None:
+            return u, u > self.threshold
         return u, h > self.largest * (1.0 + _SAME)
 
     def to_dict(self) -> dict:
@@ -148,6 +187,9 @@ class Leverage:
         return {"features": "rigid-body regressor + per joint [qd, tanh(qd/v_s), 1, qdd]",
                 "smoothing": float(self.smoothing), "weights": r(self.weights), "scale": r(self.scale),
                 "mean": r(self.mean), "largest": r(self.largest),
+                **({} if self.threshold is None else {"threshold": r(self.threshold)}),
+                **({} if self.rest_speed is None else {"rest_speed": r(self.rest_speed),
+                                                      "rest_visited": [bool(x) for x in self.rest_visited]}),
                 "basis": [r(col) for col in self.basis.T]}
 
     @classmethod
@@ -160,7 +202,10 @@ class Leverage:
             out = cls(basis=basis.reshape(len(scale), -1), scale=scale,
                       weights=np.array(value["weights"], dtype=np.float64), smoothing=float(value["smoothing"]),
                       mean=np.array(value["mean"], dtype=np.float64),
-                      largest=np.array(value["largest"], dtype=np.float64))
+                      largest=np.array(value["largest"], dtype=np.float64),
+                      threshold=_optional(value, "threshold", np.float64),
+                      rest_speed=_optional(value, "rest_speed", np.float64),
+                      rest_visited=_optional(value, "rest_visited", bool))
         except (KeyError, TypeError, ValueError) as exc:
             raise ModelError(f"{where}: malformed leverage reference ({exc})") from None
         if out.n != n or out.mean.shape != (n,) or out.largest.shape != (n,) or len(scale) != 14 * n:
@@ -169,4 +214,18 @@ class Leverage:
             a = getattr(out, key)
             if not np.all(np.isfinite(a) & (a > 0)):
                 raise ModelError(f"{where}: {key}: expected finite numbers > 0, got {a[~(np.isfinite(a) & (a > 0))][:3].tolist()}")
+        for k in ("threshold", "rest_speed", "rest_visited"):
+            a = getattr(out, k)
+            if a is not None and (a.shape != (n,) or (a.dtype != bool and not np.all(np.isfinite(a)))):
+                raise ModelError(f"{where}: {k}: expected {n} finite values, got {a.tolist()}")
+        if (out.rest_speed is None) != (out.rest_visited is None):
+            raise ModelError(f"{where}: rest_speed and rest_visited go together")
         return out
+
+
+def _optional(value, key, dtype):
+    if value.get(key) is None:
+        return None
+    if dtype is bool and not all(isinstance(x, bool) for x in value[key]):
+        raise ValueError(f"{key}: expected true or false per joint")
+    return np.array(value[key], dtype=dtype)

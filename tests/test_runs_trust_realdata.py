@@ -1,0 +1,130 @@
+"""Issue 37 on the real KUKA LWR4+ (../shared/realdata/lwr4_flobaroid): runs are the unit of trust.
+
+The vendor route with the README's recommended command and no hand-set option:
+``manipdyn identify kuka_lwr4_gaz.urdf RUNS... --friction-terms viscous,coulomb,offset -o M.toml``,
+then ``manipdyn validate M.toml runK.csv --predictions P.csv --json``.  Runs 1 and 2 repeat one
+trajectory, run 3 is another.  Two cases, each fitted once (module fixtures):
+
+* fit on runs 2 and 3 (two trajectories), validate on run 1: the band from held-out runs;
+* fit on run 3 (one trajectory), validate on run 1: the band within one trajectory, and the flags.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import re
+
+import numpy as np
+import pytest
+
+from common import LWR4_DIR, needs_lwr4
+
+pytestmark = needs_lwr4
+pytest.importorskip("cvxpy", reason="identification needs the identify extra")
+
+
+def _cli(*args):
+    from manipdyn.cli import main
+
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        code = main([str(a) for a in args])
+    return code, buf.getvalue()
+
+
+def _identify(out, *runs):
+    code, text = _cli("identify", LWR4_DIR / "kuka_lwr4_gaz.urdf", *(LWR4_DIR / r for r in runs),
+                      "--friction-terms", "viscous,coulomb,offset", "-o", out, "--json", "--no-progress")
+    assert code == 0
+    return json.loads(text)
+
+
+def _validate(model, run, pred):
+    code, text = _cli("validate", model, LWR4_DIR / run, "--predictions", pred, "--json")
+    assert code == 0
+    out = json.loads(text)
+    table = np.genfromtxt(pred, delimiter=",", names=True)
+    n = 7
+    inside = np.stack([(table[f"lo{j}"] <= table[f"tau{j}"]) & (table[f"tau{j}"] <= table[f"hi{j}"])
+                       for j in range(1, n + 1)], axis=1)
+    flags = np.stack([table[f"x{j}"] == 1.0 for j in range(1, n + 1)], axis=1)
+    return out, inside, flags
+
+
+def _published_rms(run):
+    """RMS per joint of the two published models on ``run``: Gaz's (its rigid part, as ``validate`` loads it) and
+    FloBaRoID's with its viscous and Coulomb friction (its <dynamics> tags; one of its Coulomb coefficients is
+    negative, which a URDF may not hold, so the tags are applied here to the rigid part)."""
+    import manipdyn as md
+    from manipdyn.identification import read_log
+    from manipdyn.formats.urdf.reader import load_urdf
+
+    data = read_log(str(LWR4_DIR / run), 7)
+    out = {}
+    gaz = md.load(str(LWR4_DIR / "kuka_lwr4_gaz.urdf"))
+    out["gaz"] = np.sqrt(np.mean((data.tau - gaz.inverse_dynamics(data.q, data.qd, data.qdd)) ** 2, axis=0))
+    text = (LWR4_DIR / "kuka_lwr4_identified.urdf").read_text()
+    tags = [(float(a), float(b)) for a, b in re.findall(r'<dynamics damping="([^"]+)" friction="([^"]+)"', text)]
+    assert len(tags) == 7
+    rigid = load_urdf(re.sub(r"<dynamics[^>]*/>", "", text))
+    damping, coulomb = (np.array(x) for x in zip(*tags))
+    pred = rigid.inverse_dynamics(data.q, data.qd, data.qdd) + damping * data.qd + coulomb * np.sign(data.qd)
+    out["flobaroid"] = np.sqrt(np.mean((data.tau - pred) ** 2, axis=0))
+    return out
+
+
+@pytest.fixture(scope="module")
+def two_trajectories(tmp_path_factory):
+    d = tmp_path_factory.mktemp("lwr4_23")
+    rep = _identify(d / "m.toml", "run2.csv", "run3.csv")
+    return rep, _validate(d / "m.toml", "run1.csv", d / "p.csv")
+
+
+@pytest.fixture(scope="module")
+def one_trajectory(tmp_path_factory):
+    d = tmp_path_factory.mktemp("lwr4_3")
+    rep = _identify(d / "m.toml", "run3.csv")
+    return rep, _validate(d / "m.toml", "run1.csv", d / "p.csv")
+
+
+def test_two_trajectories_give_a_band_that_holds_on_the_next_run(two_trajectories):
+    """The issue's first target.  Measured: RMS 0.392 0.243 0.287 0.252 0.268 0.194 0.228 N m (Gaz 1.32 4.11
+    1.49 2.62 0.94 0.78 0.27; FloBaRoID 0.925 0.368 0.449 0.695 1.53 1.54 0.396); the band holds 100 100 91.3
+    98.1 93.7 100 94.0 %, 96.7 % pooled (86.0 % from blocks in time before); no sample flagged."""
+    rep, (out, inside, flags) = two_trajectories
+    band = rep["provenance"]["prediction_band"]
+    assert band["method"] == "held-out trajectories" and band["trajectories"] == 2
+    assert any(x.startswith("runs: 2 distinct trajectories among 2 runs") for x in rep["fit_notes"])
+    published = _published_rms("run1.csv")
+    rms = np.array(out["rms"])
+    assert np.all(rms <= published["gaz"]) and np.all(rms <= published["flobaroid"]), (rms, published)
+    # the issue's targets: 90-98 % pooled, 85 % on every joint, at most 10 % flagged on any joint
+    assert 0.90 <= out["band_95_pooled"] <= 0.98, out["band_95_coverage"]
+    assert min(out["band_95_coverage"]) >= 0.85, out["band_95_coverage"]
+    assert max(out["flagged_fraction"]) <= 0.10, out["flagged_fraction"]
+    np.testing.assert_allclose(np.mean(inside, axis=0), out["band_95_coverage"], atol=1e-12)
+    np.testing.assert_allclose(np.mean(flags, axis=0), out["flagged_fraction"], atol=1e-12)
+
+
+def test_one_trajectory_says_so_and_its_flags_point_at_the_misses(one_trajectory):
+    """Fit on run 3 alone, validate on run 1 (the band held 75 % pooled, joint 1 34 %, in either design).
+    The band says it is within one trajectory; the flags are 1 where run 1 leaves what run 3 showed
+    (q2 and q4 beyond its range, the leverage of joints 3 and 7), and there the band misses more.  Measured:
+    13.6 % of the samples flagged; flagged samples miss 44.7 %, unflagged 21.7 % (2.06x); the flags cover
+    0.55 times as many samples as the band misses.  Not met (the closing note says so): the unflagged
+    samples hold 78 %, not 90 %, because joint 1's misses (34 % held) follow the whole trajectory, not a
+    state the fit did not see."""
+    rep, (out, inside, flags) = one_trajectory
+    assert rep["provenance"]["prediction_band"]["trajectories"] == 1
+    assert any("within one trajectory" in x for x in out["model_notes"])
+    miss = ~inside
+    flagged_miss, unflagged_miss = float(np.mean(miss[flags])), float(np.mean(miss[~flags]))
+    # the issue's targets: flagged samples miss at least twice as often; the flags cover at most 3x the misses
+    assert flagged_miss >= 2.0 * unflagged_miss, (flagged_miss, unflagged_miss)
+    assert np.sum(flags) <= 3 * np.sum(miss)
+    for j in range(7):       # the json's split is the CSV's
+        if flags[:, j].any():
+            assert out["band_95_coverage_flagged"][j] == pytest.approx(float(np.mean(inside[flags[:, j], j])))
+        assert out["band_95_coverage_unflagged"][j] == pytest.approx(float(np.mean(inside[~flags[:, j], j])))
