@@ -21,8 +21,14 @@ MuJoCo: the text is built with lxml.  What it writes:
 * an opening comment naming the model, its sha256, its source and the manipdyn version, then
   what MJCF cannot hold (:func:`manipdyn.formats.losses.format_losses`).
 
-Non-physical inertias (MuJoCo's compiler refuses them) are written as they are, with a
-:class:`~manipdyn.PhysicalConsistencyWarning` at export.
+A body MuJoCo's compiler refuses (:func:`manipdyn.model.completion.mujoco_refusal`: a mass or a
+principal moment at or below mjMINVAL, a triangle inequality broken) is written **completed**
+(:func:`manipdyn.model.completion.complete_bodies`): a physical body with the same base parameters,
+so the simulated arm's ``M``, ``h``, ``g`` and ``tau`` are the model's (to rounding), and the file's
+comment says, per body, what was completed and why.  Where no physical arm has the model's base
+parameters, the file holds the nearest one and its comment gives the largest torque difference on
+the model's states.  ``as_published=True`` writes the raw values instead, with a
+:class:`~manipdyn.PhysicalConsistencyWarning` at export (MuJoCo's compiler then refuses the file).
 """
 
 from __future__ import annotations
@@ -37,7 +43,7 @@ from .._support.errors import ModelError, PhysicalConsistencyWarning
 from .losses import format_losses, friction_held, nonphysical_inertias
 from .urdf.writer import round_off_text, xml_comment
 
-__all__ = ["arm_to_mjcf", "mjcf_losses", "model_sha256", "quaternion", "TOOL_SITE", "ENGINE_OPTIONS"]
+__all__ = ["arm_to_mjcf", "mjcf_losses", "mjcf_bodies", "model_sha256", "quaternion", "TOOL_SITE", "ENGINE_OPTIONS"]
 
 #: name of the site at the tool frame
 TOOL_SITE = "tool"
@@ -146,10 +152,52 @@ def _drive(arm):
     return armature, damping, loss, tendons
 
 
-def mjcf_losses(arm) -> list:
+_COMPLETIONS: list = []        # the last few (arm, bodies, completion): the writer and the losses share one
+
+
+def mjcf_bodies(arm, as_published: bool = False):
+    """``(bodies, completion)``: the chain bodies the MJCF of ``arm`` holds (URDF link frames) and the
+    :class:`manipdyn.model.completion.Completion` that made them (None with ``as_published``, or when
+    MuJoCo accepts every body as it is)."""
+    from ..model.completion import complete_bodies, mujoco_refusal
+
+    joints, _tool = arm.chain()
+    if as_published or not any(mujoco_refusal(j.body) is not None for j in joints):
+        return [j.body for j in joints], None
+    for a, bodies, c in _COMPLETIONS:
+        if a is arm:
+            return bodies, c
+    from .._support.errors import MissingExtraError
+
+    try:
+        bodies, c = complete_bodies(arm)
+    except MissingExtraError as exc:
+        raise MissingExtraError(f"{arm.name or 'the arm'}: {exc}; or write the bodies as published "
+                                "(manipdyn mjcf --as-published, md.to_mjcf(arm, as_published=True)), which "
+                                "MuJoCo's compiler refuses") from None
+    _COMPLETIONS.insert(0, (arm, bodies, c))
+    del _COMPLETIONS[4:]
+    return bodies, c
+
+
+def completion_lines(completion) -> list:
+    """The lines a completion adds to the file's comment and the command's output."""
+    if completion is None:
+        return []
+    head = ("bodies MuJoCo refuses were completed: physical bodies with the model's base parameters, so M, h, g "
+            f"and tau are the model's (largest torque difference on the model's states "
+            f"{completion.torque_difference:.2g} N m)" if completion.exact else
+            "bodies MuJoCo refuses were replaced by the nearest physical arm: " + completion.summary())
+    return [head] + [x for x in completion.notes if not x.startswith("no physical arm")]
+
+
+def mjcf_losses(arm, as_published: bool = False) -> list:
     """What MJCF does not hold of ``arm`` (:func:`manipdyn.formats.losses.format_losses`), plus the
-    limits the file leaves out: one line each."""
+    limits the file leaves out, plus the bodies completed (:func:`mjcf_bodies`): one line each."""
     lines = list(format_losses(arm, "mjcf"))
+    _bodies, completion = mjcf_bodies(arm, as_published)
+    if completion is not None:
+        lines = [x for x in lines if "is no physical body" not in x] + completion_lines(completion)
     joints, _tool = arm.chain()
     no_effort = [j.name for j in joints if j.effort is None]
     if no_effort:
@@ -170,15 +218,20 @@ def _unique(name: str, used: set) -> str:
     return out
 
 
-def arm_to_mjcf(arm, warn: bool = True) -> str:
+def arm_to_mjcf(arm, warn: bool = True, as_published: bool = False) -> str:
     """MJCF text of ``arm`` (any :class:`manipdyn.model.arm.Arm`); module docstring.
 
-    ``warn``: a :class:`~manipdyn.PhysicalConsistencyWarning` names each link MuJoCo's compiler
-    will refuse (its inertia is no physical body's).
+    ``as_published``: write every body as the model has it, even one MuJoCo's compiler refuses
+    (default: such bodies are completed, :func:`mjcf_bodies`).  ``warn``: with ``as_published``, a
+    :class:`~manipdyn.PhysicalConsistencyWarning` names each link MuJoCo's compiler will refuse.
+    Completing a body needs cvxpy (the ``identify`` extra); without it a
+    :class:`~manipdyn._support.errors.MissingExtraError` gives the install command (or pass
+    ``as_published=True``).
     """
     from lxml import etree
 
     joints, tool = arm.chain()
+    bodies, _completion = mjcf_bodies(arm, as_published)
     name = arm.name or "arm"
     armature, damping, loss, tendons = _drive(arm)
     root = etree.Element("mujoco", model=name)
@@ -199,7 +252,7 @@ def arm_to_mjcf(arm, warn: bool = True) -> str:
         for attr, value in (("armature", armature[k]), ("damping", damping[k]), ("frictionloss", loss[k])):
             if value:
                 jel.set(attr, _r(value))
-        b = j.body
+        b = bodies[k]
         I = np.asarray(b.inertia, dtype=np.float64)
         if b.mass > 0 or np.any(I):
             etree.SubElement(body, "inertial", pos=round_off_text(b.com), mass=_r(b.mass),
@@ -224,11 +277,11 @@ def arm_to_mjcf(arm, warn: bool = True) -> str:
     head = [f"{name}: written by manipdyn {_version()}", f"model sha256 {model_sha256(arm)}"]
     if getattr(arm, "source", ""):
         head.append(f"source: {arm.source}")
-    lost = mjcf_losses(arm)
+    lost = mjcf_losses(arm, as_published)
     head += (["what MJCF does not hold of this model:"] + [f"  - {x}" for x in lost]) if lost else \
         ["MJCF holds all of this model"]
     root.insert(0, etree.Comment(" " + xml_comment("\n     ".join(head)) + " "))
-    if warn:
+    if warn and (as_published or _completion is None):
         for _k, lname, why in nonphysical_inertias(arm):
             warnings.warn(f"{name}: link {lname!r} is no physical body ({why}): MuJoCo's compiler refuses the "
                           "MJCF (and URDF) of this model; fix the inertia or let MuJoCo change it with "

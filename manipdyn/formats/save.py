@@ -47,15 +47,17 @@ register_service("write_urdf", write_urdf)
 register_service("to_urdf", to_urdf)
 
 
-def to_mjcf(arm) -> str:
+def to_mjcf(arm, as_published: bool = False) -> str:
     """The arm as MJCF text, MuJoCo's model format (:mod:`manipdyn.formats.mjcf`): bodies with their
     inertials at full precision, joints with range, ``armature``, ``damping`` and ``frictionloss``,
     one ``motor`` per joint, a ``tool`` site and the model's gravity; its opening comment names the
-    model (sha256, source, manipdyn version) and says what MJCF does not hold of it.  Warns
-    (:class:`~manipdyn.PhysicalConsistencyWarning`) for each link MuJoCo's compiler will refuse."""
-    return arm_to_mjcf(arm)
+    model (sha256, source, manipdyn version) and says what MJCF does not hold of it.  A body MuJoCo's
+    compiler refuses is written completed, with the model's base parameters (the same dynamics), and
+    the comment says per body what was completed and why; ``as_published=True`` keeps the raw values
+    and warns (:class:`~manipdyn.PhysicalConsistencyWarning`) for each link MuJoCo will refuse."""
+    return arm_to_mjcf(arm, as_published=as_published)
 
 
-def write_mjcf(arm, path) -> None:
+def write_mjcf(arm, path, as_published: bool = False) -> None:
     """Write :func:`to_mjcf` to ``path`` atomically (no partial file on failure)."""
-    atomic_write_text(path, arm_to_mjcf(arm))
+    atomic_write_text(path, arm_to_mjcf(arm, as_published=as_published))

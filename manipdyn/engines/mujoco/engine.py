@@ -101,7 +101,7 @@ class MujocoEngine:
     def __init__(self, arm):
         mj = self._mj = mujoco_module()
         self.n = arm.n
-        self.mjcf = arm_to_mjcf(arm, warn=False)
+        self.mjcf = arm_to_mjcf(arm, warn=False, as_published=True)   # the model's own bodies
         bad = nonphysical_inertias(arm)
         text = self.mjcf if not bad else _stand_in(self.mjcf, {k + 1 for k, _name, _why in bad})
         try:
