@@ -79,7 +79,9 @@ def write_models(args, command: str, ext: str, write, losses) -> int:
 
 
 def run(args) -> int:
-    return write_models(args, "urdf", "urdf", to_urdf, urdf_losses)
+    raw = bool(args.as_published)
+    return write_models(args, "urdf", "urdf", lambda arm: to_urdf(arm, as_published=raw),
+                        lambda arm: urdf_losses(arm, as_published=raw))
 
 
 def add_model_arguments(u, ext: str) -> None:
@@ -95,11 +97,15 @@ def add_model_arguments(u, ext: str) -> None:
 def register(sub) -> None:
     """Add ``manipdyn urdf``."""
     u = sub.add_parser("urdf", help="write the URDF of arms",
-                       usage="manipdyn urdf [-h] [--all] [--tip LINK] [MODEL_OR_FILE ...] OUTDIR  (options first)",
+                       usage="manipdyn urdf [-h] [--all] [--tip LINK] [--as-published] [MODEL_OR_FILE ...] OUTDIR  (options first)",
                        description="Write <name>.urdf for each arm into OUTDIR (created if needed). "
                                    "The URDF carries the arm's joint limits and says in a comment which "
                                    "values are manipdyn's defaults and what URDF cannot hold of the model "
-                                   "(printed too, one 'not held:' line each). "
+                                   "(printed too, one 'not held:' line each). A body MuJoCo refuses is written "
+                                   "completed, with the model's base parameters (--as-published: as given). "
                                    "Exit 0 written, 2 usage or model error.")
     add_model_arguments(u, "urdf")
+    u.add_argument("--as-published", action="store_true",
+                   help="write every body as the model has it, even one MuJoCo's URDF reader refuses (default: "
+                        "such bodies are completed with the model's base parameters)")
     u.set_defaults(func=run)

@@ -40,10 +40,10 @@ import warnings
 import numpy as np
 
 from .._support.errors import ModelError, PhysicalConsistencyWarning
-from .losses import format_losses, friction_held, nonphysical_inertias
+from .losses import completion_lines, format_losses, friction_held, nonphysical_inertias, written_bodies
 from .urdf.writer import round_off_text, xml_comment
 
-__all__ = ["arm_to_mjcf", "mjcf_losses", "mjcf_bodies", "model_sha256", "quaternion", "TOOL_SITE", "ENGINE_OPTIONS"]
+__all__ = ["arm_to_mjcf", "mjcf_losses", "model_sha256", "quaternion", "TOOL_SITE", "ENGINE_OPTIONS"]
 
 #: name of the site at the tool frame
 TOOL_SITE = "tool"
@@ -152,50 +152,11 @@ def _drive(arm):
     return armature, damping, loss, tendons
 
 
-_COMPLETIONS: list = []        # the last few (arm, bodies, completion): the writer and the losses share one
-
-
-def mjcf_bodies(arm, as_published: bool = False):
-    """``(bodies, completion)``: the chain bodies the MJCF of ``arm`` holds (URDF link frames) and the
-    :class:`manipdyn.model.completion.Completion` that made them (None with ``as_published``, or when
-    MuJoCo accepts every body as it is)."""
-    from ..model.completion import complete_bodies, mujoco_refusal
-
-    joints, _tool = arm.chain()
-    if as_published or not any(mujoco_refusal(j.body) is not None for j in joints):
-        return [j.body for j in joints], None
-    for a, bodies, c in _COMPLETIONS:
-        if a is arm:
-            return bodies, c
-    from .._support.errors import MissingExtraError
-
-    try:
-        bodies, c = complete_bodies(arm)
-    except MissingExtraError as exc:
-        raise MissingExtraError(f"{arm.name or 'the arm'}: {exc}; or write the bodies as published "
-                                "(manipdyn mjcf --as-published, md.to_mjcf(arm, as_published=True)), which "
-                                "MuJoCo's compiler refuses") from None
-    _COMPLETIONS.insert(0, (arm, bodies, c))
-    del _COMPLETIONS[4:]
-    return bodies, c
-
-
-def completion_lines(completion) -> list:
-    """The lines a completion adds to the file's comment and the command's output."""
-    if completion is None:
-        return []
-    head = ("bodies MuJoCo refuses were completed: physical bodies with the model's base parameters, so M, h, g "
-            f"and tau are the model's (largest torque difference on the model's states "
-            f"{completion.torque_difference:.2g} N m)" if completion.exact else
-            "bodies MuJoCo refuses were replaced by the nearest physical arm: " + completion.summary())
-    return [head] + [x for x in completion.notes if not x.startswith("no physical arm")]
-
-
 def mjcf_losses(arm, as_published: bool = False) -> list:
     """What MJCF does not hold of ``arm`` (:func:`manipdyn.formats.losses.format_losses`), plus the
     limits the file leaves out, plus the bodies completed (:func:`mjcf_bodies`): one line each."""
     lines = list(format_losses(arm, "mjcf"))
-    _bodies, completion = mjcf_bodies(arm, as_published)
+    _bodies, completion = written_bodies(arm, as_published)
     if completion is not None:
         lines = [x for x in lines if "is no physical body" not in x] + completion_lines(completion)
     joints, _tool = arm.chain()
@@ -222,7 +183,7 @@ def arm_to_mjcf(arm, warn: bool = True, as_published: bool = False) -> str:
     """MJCF text of ``arm`` (any :class:`manipdyn.model.arm.Arm`); module docstring.
 
     ``as_published``: write every body as the model has it, even one MuJoCo's compiler refuses
-    (default: such bodies are completed, :func:`mjcf_bodies`).  ``warn``: with ``as_published``, a
+    (default: such bodies are completed, :func:`manipdyn.formats.losses.written_bodies`).  ``warn``: with ``as_published``, a
     :class:`~manipdyn.PhysicalConsistencyWarning` names each link MuJoCo's compiler will refuse.
     Completing a body needs cvxpy (the ``identify`` extra); without it a
     :class:`~manipdyn._support.errors.MissingExtraError` gives the install command (or pass
@@ -231,7 +192,7 @@ def arm_to_mjcf(arm, warn: bool = True, as_published: bool = False) -> str:
     from lxml import etree
 
     joints, tool = arm.chain()
-    bodies, _completion = mjcf_bodies(arm, as_published)
+    bodies, _completion = written_bodies(arm, as_published)
     name = arm.name or "arm"
     armature, damping, loss, tendons = _drive(arm)
     root = etree.Element("mujoco", model=name)

@@ -28,18 +28,20 @@ def to_toml(arm) -> str:
     return model_to_toml(arm)
 
 
-def to_urdf(arm) -> str:
+def to_urdf(arm, as_published: bool = False) -> str:
     """The arm as URDF text (built through yourdfpy's objects).
 
     For an arm read from a URDF this is the regenerated chain (fixed joints
-    lumped), not the original file.
+    lumped), not the original file.  A body MuJoCo's URDF reader refuses is written completed,
+    with the model's base parameters (the same dynamics; :func:`to_mjcf`), and the comment says
+    so; ``as_published=True`` keeps the raw values.
     """
-    return arm_to_urdf(arm)
+    return arm_to_urdf(arm, as_published=as_published)
 
 
-def write_urdf(arm, path) -> None:
+def write_urdf(arm, path, as_published: bool = False) -> None:
     """Write :func:`to_urdf` to ``path`` atomically (no partial file on failure)."""
-    atomic_write_text(path, arm_to_urdf(arm))
+    atomic_write_text(path, arm_to_urdf(arm, as_published=as_published))
 
 
 register_service("save", save)

@@ -326,7 +326,11 @@ def complete_parameters(arm, pi=None, *, K=None, prior=None, links=None, floor=N
 
     cp = require("cvxpy", "completing a body that no rigid body can be (manipdyn.model.completion)")
     A = K if K is not None else np.concatenate([W, np.zeros((W.shape[0], p - 10 * n))], axis=1)
-    attempts = ([bad] if links is not None and len(bad) < n else []) + [list(range(n))]
+    # the refused bodies alone; with the links before them (a link's mass is grouped with its parent's
+    # parameters); then every link
+    near = sorted(set(bad) | {i - 1 for i in bad if i > 0})
+    attempts = [a for a in (bad, near) if links is not None and len(a) < n] + [list(range(n))]
+    attempts = [a for k, a in enumerate(attempts) if a not in attempts[:k]]
     notes: list = []
     result = None
     for free_links in attempts:
@@ -337,6 +341,10 @@ def complete_parameters(arm, pi=None, *, K=None, prior=None, links=None, floor=N
     exact = result is not None
     if result is None:       # the nearest physical arm, then the bodies closest to the prior among its kind
         result = _nearest(cp, pi, prior, s, n, p, W, K, MARGIN, nonnegative)
+        keep = [i for i in range(n) if refused[i] is None and _physical(pi, [i], m_ref, L, MARGIN)
+                and np.abs((result[0] - pi)[10 * i:10 * i + 10] / s[10 * i:10 * i + 10]).max() < 1e-11]
+        for i in keep:         # solver noise on a body that needs no change: the body as given
+            result[0][10 * i:10 * i + 10] = pi[10 * i:10 * i + 10]
     new, solver = result
     return _finish(arm, pi, new, n, W, K, exact, solver, refused, notes, bodies)
 
@@ -396,7 +404,7 @@ def _nearest(cp, pi, prior, s, n, p, W, K, margin, nonnegative):
     if solver is None or y.value is None:
         raise ModelError("completion: the solver found no physical arm at all (is the arm's scale extreme?)")
     d1 = float(np.linalg.norm(A @ (np.asarray(y.value) - y0))) / scale
-    # step 2: among the arms as near (to 1e-3 of the distance, plus the solver's 1e-9), the one closest to
+    # step 2: among the arms as near (to 1e-3 of the distance), the one closest to
     # the prior: the bodies the data (or the model) do not constrain stay where they were
     y2 = cp.Variable(p)
     cons2 = _body_constraints(cp, y2, range(n), None, None, margin)
@@ -404,7 +412,7 @@ def _nearest(cp, pi, prior, s, n, p, W, K, margin, nonnegative):
         idx = 10 * n + np.flatnonzero(np.asarray(nonnegative, dtype=bool))
         if idx.size:
             cons2.append(y2[idx] >= 0)
-    cons2.append(cp.norm(A @ (y2 - y0)) / scale <= d1 * (1 + 1e-3) + 1e-9)
+    cons2.append(cp.norm(A @ (y2 - y0)) / scale <= d1 * (1 + 1e-3) + 1e-12)
     first = np.asarray(y.value, dtype=np.float64)
     if _solve(cp, cp.Problem(cp.Minimize(cp.sum_squares(y2 - yprior)), cons2)) is not None and y2.value is not None:
         y = y2
@@ -466,19 +474,28 @@ def _finish(arm, pi, new, n, W, K, exact, solver, refused, notes, bodies) -> Com
         exact = exact and tdiff <= EXACT_RTOL * big
     changed = []
     out_notes = []
+    slight = []
     joints, _tool = arm.chain()
+    m_ref, L = arm_scale(arm)
+    s = _scales(n, 10 * n, m_ref, L)
     for i in range(n):
         nb = _body(new, i)
-        if np.allclose(new[10 * i:10 * i + 10], pi[10 * i:10 * i + 10], rtol=0, atol=0):
+        if np.array_equal(new[10 * i:10 * i + 10], pi[10 * i:10 * i + 10]):
             continue
         changed.append(i)
         name = getattr(joints[i], "link_name", "") or f"link {i + 1}"
         why = refused[i]
+        if why is None and np.abs(d[10 * i:10 * i + 10] / s[10 * i:10 * i + 10]).max() < 1e-4:
+            slight.append(name)
+            continue
         reason = (f"MuJoCo refuses the body as given: {why}" if why is not None else
                   "it moved with the refused bodies, which share base parameters with it")
         out_notes.append(f"link {name!r} (joint {i + 1}) completed ({reason}): {_describe(bodies[i], nb)}; "
                          + ("the base parameters are kept, so the dynamics are the model's"
                             if exact else "part of the nearest physical arm"))
+    if slight:
+        out_notes.append(f"link{'s' if len(slight) > 1 else ''} {', '.join(map(repr, slight))} moved with them by "
+                         f"under 1e-4 of the arm's units ({m_ref:.3g} kg, {L:.3g} m)")
     out_notes += notes
     c = Completion(parameters=new, exact=bool(exact), changed=changed, notes=out_notes, torque_difference=tdiff,
                    torque_rtol=tdiff / big, base_error=base_err, worst_base=0.0 if exact else worst, solver=solver)
