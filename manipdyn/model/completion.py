@@ -113,8 +113,8 @@ class Completion:
                     f"base parameters (torques agree to {self.torque_difference:.2g} on the model's states)")
         return (f"no physical arm has these base parameters; the nearest one differs by up to "
                 f"{self.torque_difference:.3g} N m (N) on the model's states ({self.torque_rtol:.2g} of the "
-                f"largest torque), its base parameters by {self.base_error:.2g} relative"
-                + (f" (the worst by {self.worst_base:.2g})" if self.worst_base != self.base_error else "") + ")")
+                f"largest torque); its base parameters differ by {self.base_error:.2g} relative"
+                + (f" (the worst one by {self.worst_base:.2g})" if self.worst_base != self.base_error else ""))
 
 
 def arm_scale(arm) -> tuple[float, float]:

@@ -112,9 +112,10 @@ def urdf_losses(arm, as_published: bool = True) -> list:
     (:func:`manipdyn.formats.losses.written_bodies`): one line each (the file's opening comment, and
     what ``manipdyn urdf`` prints)."""
     lines = list(format_losses(arm, "urdf"))
-    _bodies, completion = written_bodies(arm, as_published)
+    _bodies, completion = written_bodies(arm, as_published, exact_only=True)
     if completion is not None:
-        lines = [x for x in lines if "is no physical body" not in x] + completion_lines(completion)
+        lines = [x for x in lines if "is no physical body" not in x or not completion.exact] \
+            + completion_lines(completion, used=completion.exact)
     joints, _tool = arm.chain()
     placeholders = [j.name for j in joints if j.effort is None or j.velocity is None]
     if placeholders:
@@ -135,7 +136,7 @@ def arm_to_urdf(arm, as_published: bool = True) -> str:
     from lxml import etree
 
     joints, tool = arm.chain()
-    bodies, _completion = written_bodies(arm, as_published)
+    bodies, _completion = written_bodies(arm, as_published, exact_only=True)
     links = [yourdfpy.Link(name="base_link")]
     ujoints = []
     parent = "base_link"
