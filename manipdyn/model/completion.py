@@ -288,9 +288,9 @@ def complete_parameters(arm, pi=None, *, K=None, prior=None, links=None, floor=N
         Ask for the floor and a radius of gyration at most the arm's size (best effort).
     nonnegative : (p - 10 n,) bool array, optional
         Which extra entries must stay >= 0 (default: none constrained).
-    W : (rows, 10 n) array, optional
-        The stacked link regressor on which differences are measured (default
-        :func:`stacked_link_regressor`).
+    W : (rows, 10 n) or (rows, p) array, optional
+        The stacked regressor on which differences are measured, the "model's states" (default
+        :func:`stacked_link_regressor`; an identification passes its data's).
 
     Returns a :class:`Completion`; raises :class:`ModelError` for parameters of the wrong shape and
     :class:`~manipdyn._support.errors.MissingExtraError` when a body needs the solver and cvxpy is missing.
@@ -325,7 +325,8 @@ def complete_parameters(arm, pi=None, *, K=None, prior=None, links=None, floor=N
     from .._support.deps import require
 
     cp = require("cvxpy", "completing a body that no rigid body can be (manipdyn.model.completion)")
-    A = K if K is not None else np.concatenate([W, np.zeros((W.shape[0], p - 10 * n))], axis=1)
+    W = _full_width(W, p)
+    A = K if K is not None else W
     # the refused bodies alone; with the links before them (a link's mass is grouped with its parent's
     # parameters); then every link
     near = sorted(set(bad) | {i - 1 for i in bad if i > 0})
@@ -390,10 +391,7 @@ def _nearest(cp, pi, prior, s, n, p, W, K, margin, nonnegative):
     """The physical arm whose torques on the states differ least from ``pi``'s (no exact one exists)."""
     y0, yprior = pi / s, prior / s
     y = cp.Variable(p)
-    if K is not None:
-        A = K * s[None, :]
-    else:
-        A = np.concatenate([W, np.zeros((W.shape[0], p - 10 * n))], axis=1) * s[None, :]
+    A = (K if K is not None else _full_width(W, p)) * s[None, :]
     scale = max(float(np.linalg.norm(A @ y0)), 1e-300)
     cons = _body_constraints(cp, y, range(n), None, None, margin)
     if nonnegative is not None and p > 10 * n:
@@ -457,10 +455,17 @@ def _describe(old: LinkInertia, new: LinkInertia) -> str:
     return ", ".join(parts) or "unchanged beyond rounding"
 
 
+def _full_width(W, p):
+    """The stacked regressor ``W`` with zero columns for the extras it does not have: (rows, p)."""
+    W = np.asarray(W, dtype=np.float64)
+    return W if W.shape[1] == p else np.concatenate([W, np.zeros((W.shape[0], p - W.shape[1]))], axis=1)
+
+
 def _finish(arm, pi, new, n, W, K, exact, solver, refused, notes, bodies) -> Completion:
     d = new - pi
-    tau = W @ pi[:10 * n]
-    dt = W @ d[:10 * n]
+    W = _full_width(W, pi.shape[0])
+    tau = W @ pi
+    dt = W @ d
     big = max(float(np.abs(tau).max()), 1e-300)
     tdiff = float(np.abs(dt).max())
     if K is not None:

@@ -39,6 +39,7 @@ import numpy as np
 from ..._support.errors import ModelError
 from ...model.parameters import PARAMETER_BASIS
 from ...model.inertia import pseudo_inertia_from_parameters
+from ...model.completion import gyration_floor
 from ..._support.deps import require
 
 __all__ = ["Bounds", "consistent_fit", "solve_problem", "EPS"]
@@ -126,8 +127,10 @@ class Bounds:
           frame (default 0.1 m: a centre of mass stays on its link);
         * the total mass within ``+-total`` (fraction) of the prior's (default 0.25);
         * every radius of gyration about a body's COM at least ``gyration`` (default 0.01) of the
-          arm's size (joint offsets and tool summed), or half the prior body's own if less: else,
-          where the data do not decide a body's shape, the fit ends on ``J_i >= 0`` (issue 30).
+          arm's size (joint offsets and tool summed), or half the prior body's own if less; from the
+          geometry alone where the prior body is degenerate (massless, a rod or a plate): never 0 m
+          (:func:`manipdyn.model.completion.gyration_floor`).  Else, where the data do not decide a
+          body's shape, the fit ends on ``J_i >= 0`` (issue 30).
 
         A bound given as None is left out.  Why: ten seconds of data rarely pin down every
         parameter direction, and an unbounded physically consistent fit can put a 79 kg
@@ -150,11 +153,8 @@ class Bounds:
             if not 0 <= total < 1:
                 raise ModelError(f"total: expected a fraction in [0, 1), got {total}")
             kw["total_mass"] = (float(m.sum()) * (1 - total), float(m.sum()) * (1 + total))
-        if gyration:       # never above half the prior body's own: a flat link stays feasible
-            size = sum(float(np.linalg.norm(j.origin[:3, 3])) for j in joints) + float(np.linalg.norm(_[:3, 3]))
-            own = [np.sqrt(max(np.trace(j.body.inertia) / 2 - np.linalg.eigvalsh(j.body.inertia)[-1], 0.0)
-                           / j.body.mass) if j.body.mass > 0 else 0.0 for j in joints]
-            kw["gyration"] = np.minimum(gyration * size, 0.5 * np.array(own))
+        if gyration:       # never above half a prior body's own (a flat link stays feasible), never 0 m
+            kw["gyration"] = gyration_floor(arm, gyration)
         return cls(**kw)
 
     def scaled(self, factor: float) -> "Bounds":
@@ -215,9 +215,10 @@ class Bounds:
             tot = float(m.sum())
             if tot <= lo + rtol * hi or tot >= hi - rtol * hi:
                 out.append(f"total mass {tot:.4g} kg at its bound [{lo:.4g}, {hi:.4g}] kg")
-        if self.gyration is not None:
-            out += [f"link {i + 1} radius of gyration at its floor {self.gyration[i]:.3g} m"
-                    for i in np.flatnonzero(_floor_gap(pi, n, self.gyration) < 1e-3)]
+        if self.gyration is not None:      # the body's own radius, as the model on disk has it (issue 38)
+            rg = smallest_gyration(pi, n)
+            out += [f"link {i + 1} radius of gyration {rg[i]:.3g} m at its floor {self.gyration[i]:.3g} m"
+                    for i in range(n) if m[i] > 0 and rg[i] <= self.gyration[i] * (1 + FLOOR_RTOL)]
         return out
 
     @classmethod
@@ -272,11 +273,25 @@ def solve_problem(problem, what: str, solvers=("CLARABEL", "SCS")) -> str:
     return _solve(cp, problem, what, solvers)
 
 
-def _floor_gap(pi, n, r):
-    """Per body, the smallest eigenvalue of ``J - r^2 m D`` over the largest of ``J``."""
+#: a body whose smallest radius of gyration is within this fraction above its floor sits on it
+FLOOR_RTOL = 0.02
+
+
+def smallest_gyration(pi, n: int) -> np.ndarray:
+    """Per body, its smallest radius of gyration about its centre of mass (m), (n,): the square root of
+    the smallest principal second moment over the mass (0 for a massless body); the number the
+    doubts (:func:`manipdyn.identification.results.doubts.degenerate_links`) give of the model."""
+    from ...model.inertia import tensor_from_pseudo_inertia
+
     J = pseudo_inertia_from_parameters(np.asarray(pi, dtype=np.float64)[:10 * n].reshape(n, 10))
-    shifted = J - (np.asarray(r) ** 2 * J[:, 3, 3])[:, None, None] * np.diag([1.0, 1, 1, 0])
-    return np.linalg.eigvalsh(shifted)[:, 0] / np.maximum(np.linalg.eigvalsh(J)[:, -1], 1e-300)
+    out = np.zeros(n)
+    for i in range(n):
+        m = float(J[i, 3, 3])
+        if m > 0:
+            _m, _c, I = tensor_from_pseudo_inertia(0.5 * (J[i] + J[i].T))
+            w = np.linalg.eigvalsh(0.5 * (I + I.T))
+            out[i] = float(np.sqrt(max(float((0.5 * np.sum(w) - w).min()), 0.0) / m))
+    return out
 
 
 def _constraints(cp, x, n, extra, bounds, eps=EPS, nonnegative=None):

@@ -105,7 +105,7 @@ def choose_smoothing(arm, data, law_of, v0: float, folds: int = 5, progress=None
                 test = np.zeros(N, dtype=bool)
                 test[edges[f]:edges[f + 1]] = True
                 r = fit(arm, q[~test], qd[~test], qdd[~test], tau[~test], friction=law, base=base,
-                        regressor=Y[~test], factors=train[f], **fit_kwargs)
+                        regressor=Y[~test], factors=train[f], complete=False, **fit_kwargs)
                 sq += np.sum((tau[test] - Yb[test] @ r.beta - known[test]) ** 2, axis=0)
         except ModelError as exc:
             table.append({"smoothing": v, "score": None, "rms": None, "error": str(exc)})
