@@ -35,7 +35,7 @@ def write_models(args, command: str, ext: str, write, losses) -> int:
                                         f"write into; usage: manipdyn {command} MODEL_OR_FILE ... OUTDIR")
         return usage_error(command, "name at least one model or pass --all")
     if os.path.exists(args.outdir) and not os.path.isdir(args.outdir):
-        raise ModelError(f"OUTDIR {args.outdir}: not a folder")
+        raise ModelError(f"OUTDIR {args.outdir}: cannot create the folder: a file of that name exists")
     loaded = load_all(dict.fromkeys(specs), args.tip)   # each spec once, all loaded before writing
     seen: dict = {}
     exists = os.path.isdir(args.outdir)

@@ -376,7 +376,7 @@ def _exact(cp, pi, prior, A, s, n, p, free_links, floor, plausible, nonnegative,
         solver = _solve(cp, cp.Problem(cp.Minimize(cp.sum_squares(y - yprior)), cons))
         if solver is None or z.value is None:
             continue
-        new = pi + N @ np.asarray(z.value, dtype=np.float64)
+        new = _snap(pi + N @ np.asarray(z.value, dtype=np.float64), pi, N, s)
         if not _physical(new, free_links, m_ref, L, 0.5 * margin):
             continue
         if plausible and not plaus:
@@ -385,6 +385,20 @@ def _exact(cp, pi, prior, A, s, n, p, free_links, floor, plausible, nonnegative,
                          "has no body with these base parameters: dropped, the bodies are physical only")
         return new, solver
     return None
+
+
+def _snap(new, pi, N, s, rtol=1e-11):
+    """``new`` with the solver's round-off (entries under ``rtol`` of their unit) moved to exactly 0
+    within the null space ``N``: a product of inertia of 5e-14 kg m^2
+    is the interior-point solver's rounding, not a body.  The move is the least-squares one in the
+    null space (the base parameters stay), then the entries are set to 0 (a change at rounding level)."""
+    E = np.flatnonzero((np.abs(new) < rtol * s) & (new != 0))
+    if E.size == 0:
+        return new
+    w = np.linalg.lstsq(N[E], -new[E], rcond=None)[0]
+    out = new + N @ w
+    out[E] = 0.0
+    return out
 
 
 def _nearest(cp, pi, prior, s, n, p, W, K, margin, nonnegative):
