@@ -34,9 +34,7 @@ cvxpy (the ``identify`` extra) solves the semidefinite programs, imported throug
 :class:`~manipdyn._support.errors.MissingExtraError` with the install command.  A body that needs no
 change never calls the solver.
 
-What MuJoCo refuses (:func:`mujoco_refusal`): a mass or a principal moment at or below ``mjMINVAL``,
-or a triangle inequality broken; measured with MuJoCo 3 and 4 (``A + B = C`` is accepted, ``C`` 1e-7
-above ``A + B`` refused, a moment of 1e-14 accepted, 0 or 1e-16 refused).
+What MuJoCo refuses, and the floor: :mod:`manipdyn.model.plausible`.
 """
 
 from __future__ import annotations
@@ -47,18 +45,15 @@ import numpy as np
 
 from .._support.errors import ModelError
 from .inertia import LinkInertia, parameters_from_pseudo_inertia, pseudo_inertia_from_parameters
+from .plausible import GYRATION_FLOOR, MJ_MINVAL, arm_scale, gyration_floor, mujoco_refusal
 
 __all__ = ["Completion", "complete_parameters", "complete_bodies", "gyration_floor", "mujoco_refusal",
            "arm_scale", "stacked_link_regressor", "MARGIN", "MJ_MINVAL", "GYRATION_FLOOR", "EXACT_RTOL"]
 
-#: MuJoCo's mjMINVAL: a mass or principal moment at or below it is refused by MuJoCo's compiler
-MJ_MINVAL = 1e-15
 #: the margin of a changed body, ``J >= MARGIN I`` in the arm's units (module docstring): a changed
 #: body of a 1 kg, 1 m arm has mass and second moments of at least 1e-9 (kg, kg m^2), six decades
 #: above mjMINVAL
 MARGIN = 1e-9
-#: the radius-of-gyration floor, as a fraction of the arm's size (:func:`gyration_floor`)
-GYRATION_FLOOR = 0.01
 #: a completion counts as exact when ``|W (pi' - pi)|`` is under this fraction of ``|W pi|`` (the null
 #: space is exact to rounding: measured 1e-16 to 1e-14 on the bundled arms; 1e-6 is the fit's target)
 EXACT_RTOL = 1e-9
@@ -115,60 +110,6 @@ class Completion:
                 f"{self.torque_difference:.3g} N m (N) on the model's states ({self.torque_rtol:.2g} of the "
                 f"largest torque); its base parameters differ by {self.base_error:.2g} relative"
                 + (f" (the worst one by {self.worst_base:.2g})" if self.worst_base != self.base_error else ""))
-
-
-def arm_scale(arm) -> tuple[float, float]:
-    """``(m_ref, L)``: the mean link mass (kg; 1 for a massless arm) and the arm's size (m: its joint
-    offsets and tool summed, at least 1 mm), the units of :func:`complete_parameters`."""
-    joints, tool = arm.chain()
-    masses = np.array([float(j.body.mass) for j in joints])
-    total = float(masses.sum())
-    m_ref = total / len(joints) if total > 0 and np.isfinite(total) else 1.0
-    L = sum(float(np.linalg.norm(j.origin[:3, 3])) for j in joints) + float(np.linalg.norm(tool[:3, 3]))
-    return m_ref, max(L, 1e-3)
-
-
-def _own_gyration(body) -> float:
-    """Smallest radius of gyration about the COM (m) of a body, 0 for a massless or flat one."""
-    m = float(body.mass)
-    if not m > 0:
-        return 0.0
-    I = np.linalg.eigvalsh(0.5 * (body.inertia + body.inertia.T))
-    S = 0.5 * float(np.sum(I)) - I          # principal second moments about the COM
-    return float(np.sqrt(max(float(S.min()), 0.0) / m))
-
-
-def gyration_floor(arm, fraction: float = GYRATION_FLOOR) -> np.ndarray:
-    """Per link, the floor (m) under the radii of gyration of a plausible body, (n,).
-
-    ``fraction`` of the arm's size (:func:`arm_scale`), or half the prior body's own smallest
-    radius when that is less and the prior body is a body at all; when the prior body is
-    degenerate (massless, or its own radius under half of ``fraction`` of the size: a rod or a
-    plate), the floor comes from the geometry alone, ``fraction`` of the size.  Never 0 m.
-    """
-    joints, _tool = arm.chain()
-    _m, L = arm_scale(arm)
-    geometric = float(fraction) * L
-    out = []
-    for j in joints:
-        own = _own_gyration(j.body)
-        out.append(geometric if own < 0.5 * geometric else min(geometric, 0.5 * own))
-    return np.array(out)
-
-
-def mujoco_refusal(body) -> str | None:
-    """Why MuJoCo's compiler refuses ``body`` (a :class:`LinkInertia`) on a moving link, or None."""
-    m = float(body.mass)
-    I = np.asarray(body.inertia, dtype=np.float64)
-    w = np.linalg.eigvalsh(0.5 * (I + I.T))
-    if not m > MJ_MINVAL:
-        what = "no mass and no inertia" if m == 0 and not np.any(I) else f"mass {m!r} kg"
-        return f"{what} (MuJoCo needs a mass above mjMINVAL = 1e-15 on a moving body)"
-    if not w[0] > MJ_MINVAL:
-        return f"principal moments {[float(x) for x in w]} kg m^2 are not all above mjMINVAL"
-    if w[0] + w[1] < w[2] * (1 - 1e-12):      # MuJoCo accepts A + B = C to rounding
-        return f"principal moments {[float(x) for x in w]} kg m^2 break the triangle inequality A + B >= C"
-    return None
 
 
 def stacked_link_regressor(arm, samples: int = 60, seed: int = 0) -> np.ndarray:
@@ -392,7 +333,7 @@ def _snap(new, pi, N, s, rtol=1e-11):
     within the null space ``N``: a product of inertia of 5e-14 kg m^2
     is the interior-point solver's rounding, not a body.  The move is the least-squares one in the
     null space (the base parameters stay), then the entries are set to 0 (a change at rounding level)."""
-    E = np.flatnonzero((np.abs(new) < rtol * s) & (new != 0))
+    E = np.flatnonzero((np.abs(new) < rtol * s) & (new != 0) & np.any(N != 0, axis=1))   # free entries only
     if E.size == 0:
         return new
     w = np.linalg.lstsq(N[E], -new[E], rcond=None)[0]

@@ -39,10 +39,10 @@ import numpy as np
 from ..._support.errors import ModelError
 from ...model.parameters import PARAMETER_BASIS
 from ...model.inertia import pseudo_inertia_from_parameters
-from ...model.completion import gyration_floor
+from ...model.plausible import gyration_floor, smallest_gyration
 from ..._support.deps import require
 
-__all__ = ["Bounds", "consistent_fit", "solve_problem", "EPS"]
+__all__ = ["Bounds", "consistent_fit", "solve_problem", "smallest_gyration", "EPS"]
 
 #: margin of the PSD constraints, J_i >= EPS * I (see the module docstring)
 EPS = 1e-8
@@ -275,23 +275,6 @@ def solve_problem(problem, what: str, solvers=("CLARABEL", "SCS")) -> str:
 
 #: a body whose smallest radius of gyration is within this fraction above its floor sits on it
 FLOOR_RTOL = 0.02
-
-
-def smallest_gyration(pi, n: int) -> np.ndarray:
-    """Per body, its smallest radius of gyration about its centre of mass (m), (n,): the square root of
-    the smallest principal second moment over the mass (0 for a massless body); the number the
-    doubts (:func:`manipdyn.identification.results.doubts.degenerate_links`) give of the model."""
-    from ...model.inertia import tensor_from_pseudo_inertia
-
-    J = pseudo_inertia_from_parameters(np.asarray(pi, dtype=np.float64)[:10 * n].reshape(n, 10))
-    out = np.zeros(n)
-    for i in range(n):
-        m = float(J[i, 3, 3])
-        if m > 0:
-            _m, _c, I = tensor_from_pseudo_inertia(0.5 * (J[i] + J[i].T))
-            w = np.linalg.eigvalsh(0.5 * (I + I.T))
-            out[i] = float(np.sqrt(max(float((0.5 * np.sum(w) - w).min()), 0.0) / m))
-    return out
 
 
 def _constraints(cp, x, n, extra, bounds, eps=EPS, nonnegative=None):
