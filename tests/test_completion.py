@@ -353,6 +353,7 @@ def test_the_active_gyration_bounds_give_the_radius_of_the_model_on_disk(tmp_pat
     q, qd, qdd, tau = _data(_perturbed_ur5(5), 2, 0.02)
     r = fit(prior, q, qd, qdd, tau, method="consistent")
     lines = [b for b in r.report["active_bounds"] if "radius of gyration" in b]
+    assert lines, "no body on its floor: this test did not test"
     path = tmp_path / "m.toml"
     md.save(r.arm, path)
     disk = smallest_gyration(arm_parameters(md.load(str(path))), prior.n)

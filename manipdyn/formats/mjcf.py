@@ -154,7 +154,7 @@ def _drive(arm):
 
 def mjcf_losses(arm, as_published: bool = False) -> list:
     """What MJCF does not hold of ``arm`` (:func:`manipdyn.formats.losses.format_losses`), plus the
-    limits the file leaves out, plus the bodies completed (:func:`mjcf_bodies`): one line each."""
+    limits the file leaves out, plus the bodies completed (:func:`manipdyn.formats.losses.written_bodies`): one line each."""
     lines = list(format_losses(arm, "mjcf"))
     _bodies, completion = written_bodies(arm, as_published)
     if completion is not None:

@@ -292,7 +292,7 @@ def complete_parameters(arm, pi=None, *, K=None, prior=None, links=None, floor=N
 
 
 def _exact(cp, pi, prior, A, s, n, p, free_links, floor, plausible, nonnegative, extras_move, m_ref, L, margin,
-           notes, keep_physical=False):
+           notes):
     """``(pi', solver)``: ``pi`` moved within the null space of ``A`` (only the ``free_links``' entries, and
     the extras when ``extras_move``) to physical bodies closest to ``prior``; None when there are none."""
     free = np.zeros(p, dtype=bool)
@@ -306,10 +306,14 @@ def _exact(cp, pi, prior, A, s, n, p, free_links, floor, plausible, nonnegative,
     N[free] = Nf
     Ny = N / s[:, None]
     y0, yprior = pi / s, prior / s
-    for plaus in ((True, False) if plausible else (False,)):
+    # the solver is asked for 100 times the margin (its own feasibility tolerance is about 1e-8 in these
+    # units, above MARGIN), then for the margin itself, accepting a tenth of it (still 1e-10 of the arm's
+    # units, five decades above mjMINVAL for a 1 kg, 1 m arm)
+    for plaus, ask, accept in ([(True, 100 * margin, margin)] if plausible else []) + [
+            (False, 100 * margin, margin), (False, margin, 0.1 * margin)]:
         z = cp.Variable(N.shape[1])
         y = y0 + Ny @ z
-        cons = _body_constraints(cp, y, free_links, floor / L if plaus else None, 1.0 if plaus else None, margin)
+        cons = _body_constraints(cp, y, free_links, floor / L if plaus else None, 1.0 if plaus else None, ask)
         if nonnegative is not None and p > 10 * n:
             idx = 10 * n + np.flatnonzero(np.asarray(nonnegative, dtype=bool))
             if idx.size:
@@ -318,7 +322,7 @@ def _exact(cp, pi, prior, A, s, n, p, free_links, floor, plausible, nonnegative,
         if solver is None or z.value is None:
             continue
         new = _snap(pi + N @ np.asarray(z.value, dtype=np.float64), pi, N, s)
-        if not _physical(new, free_links, m_ref, L, 0.5 * margin):
+        if not _physical(new, free_links, m_ref, L, accept):
             continue
         if plausible and not plaus:
             notes.append("the plausible shape (radii of gyration between "
@@ -338,6 +342,8 @@ def _snap(new, pi, N, s, rtol=1e-11):
         return new
     w = np.linalg.lstsq(N[E], -new[E], rcond=None)[0]
     out = new + N @ w
+    if np.abs((out - new) / s).max() > 1e-9:     # the null space cannot zero them without moving the body
+        return new
     out[E] = 0.0
     return out
 

@@ -1,7 +1,8 @@
 """MuJoCo as an engine of the cross-check: ``arm.engine("mujoco")`` on the arm's own MJCF.
 
 Layer 3 (engines: mujoco).  :func:`mujoco_engine` compiles the MJCF that
-:func:`manipdyn.to_mjcf` writes (so a planted error in the writer shows in the cross-check)
+:func:`manipdyn.to_mjcf` writes, with the model's own bodies (``as_published=True``: the engine
+answers for the model, not for a completion of it; so a planted error in the writer shows in the cross-check)
 and :class:`MujocoEngine` answers :class:`manipdyn.DynamicsEngine` with MuJoCo's own
 algorithms: ``mj_fullM`` (D, rotor inertia as joint and tendon ``armature``), ``qfrc_bias``
 (``h`` on a copy of the model without gravity, ``g`` at rest), ``mj_inverse`` (tau),
@@ -85,7 +86,7 @@ class MujocoEngine:
     Attributes
     ----------
     mjcf : str
-        The MJCF text compiled (``md.to_mjcf(arm)``).
+        The MJCF text compiled (``md.to_mjcf(arm, as_published=True)``).
     model : mujoco.MjModel
         The compiled model, constraints disabled (limits and frictionloss).
     notes : list of str

@@ -95,7 +95,7 @@ def floor_doubts(active_bounds) -> list[str]:
     if not links:
         return []
     return [", ".join(links) + ": radius of gyration at the plausibility floor (1 % of the arm's size, or half the "
-            "prior's own): the data do "
+            "prior's own; from the geometry where the prior's body is degenerate): the data do "
             "not decide these bodies' shapes, the floor does (their smallest principal moments are not measured)"]
 
 
