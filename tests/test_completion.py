@@ -363,3 +363,16 @@ def test_the_active_gyration_bounds_give_the_radius_of_the_model_on_disk(tmp_pat
     floor = np.asarray(C.gyration_floor(prior))
     on_floor = [i + 1 for i in range(prior.n) if disk[i] <= floor[i] * 1.02]
     assert sorted(int(re.match(r"link (\d+)", x).group(1)) for x in lines) == on_floor
+
+
+def test_without_cvxpy_the_writer_says_how_to_install_it_or_to_write_as_published(monkeypatch):
+    from manipdyn._support.errors import MissingExtraError
+    from manipdyn.formats import losses
+
+    monkeypatch.setitem(sys.modules, "cvxpy", None)          # import cvxpy now raises ImportError
+    monkeypatch.setattr(losses, "_COMPLETIONS", [])
+    arm = _load("puma560_akb")
+    with pytest.raises(MissingExtraError, match=r"pip install .*identify.*--as-published"):
+        md.to_mjcf(arm)
+    assert "completed" not in _quiet(md.to_mjcf, arm, as_published=True)
+    md.to_mjcf(md.load("ur5"))            # a physical arm needs no solver
