@@ -164,11 +164,13 @@ def test_physical_bundled_arms_load_in_mujoco_without_a_warning():
 
 
 @pytest.mark.parametrize("name", ["puma560", "puma560_akb", "stanford"])
-def test_bodies_mujoco_refuses_are_warned_at_export_and_refused_by_mujoco(name):
+def test_bodies_mujoco_refuses_as_published_are_warned_at_export_and_refused_by_mujoco(name):
+    # as published (issue 40: --as-published keeps the raw values); the default completes them
+    # (tests/test_completion.py)
     mujoco = _mujoco()
     arm = _load(name)
     with pytest.warns(md.PhysicalConsistencyWarning, match="MuJoCo's compiler refuses"):
-        text = md.to_mjcf(arm)
+        text = md.to_mjcf(arm, as_published=True)
     assert "MuJoCo's compiler refuses it" in _comment(text)
     with pytest.raises(ValueError, match="inertia must"):   # the warning is true
         mujoco.MjModel.from_xml_string(text)

@@ -112,7 +112,7 @@ def test_write_urdf_conversion_failure_leaves_no_file(tmp_path, monkeypatch):
     arm = _arm("standard")
     import manipdyn.formats.save as uo
 
-    def fail(_arm):
+    def fail(_arm, **_kw):
         raise md.ModelError("conversion failed")
 
     monkeypatch.setattr(uo, "arm_to_urdf", fail)

@@ -43,7 +43,7 @@ import time
 from .errors import ModelError
 
 __all__ = ["atomic_write", "atomic_write_text", "sweep_stale_temporaries", "overwrites", "replaceable",
-           "STALE_SECONDS"]
+           "link_out_of", "STALE_SECONDS"]
 
 #: a temporary file is swept only when its process is gone AND it is this old
 STALE_SECONDS = 60.0
@@ -108,6 +108,20 @@ def _target(path: str) -> tuple[str, os.stat_result | None]:
                 else "not a regular file")
         raise OSError(errno.EINVAL, f"refusing to replace {kind}; manipdyn writes regular files only", path)
     return real, st
+
+
+def link_out_of(folder, path) -> str | None:
+    """Where ``path`` leads when it is a symbolic link (or passes through one) to a place outside
+    ``folder``, else None.  A command that writes into a folder refuses such a file: writing through
+    it would replace a file the user never named (:func:`atomic_write` follows links)."""
+    path = os.fspath(path)
+    if not os.path.islink(path):
+        return None
+    real = os.path.realpath(path)
+    base = os.path.realpath(os.fspath(folder))
+    if real == base or real.startswith(base.rstrip(os.sep) + os.sep):
+        return None
+    return real
 
 
 def replaceable(path) -> str:

@@ -60,7 +60,7 @@ def usage_error(command: str, message: str) -> int:
     return EXIT_USAGE
 
 
-def urdf_target(outdir: str, arm, seen: dict, option: str, inputs=(), ext: str = "urdf") -> str:
+def urdf_target(outdir: str, arm, seen: dict, option: str, inputs=(), ext: str = "urdf", check: bool = True) -> str:
     """``outdir/<name>.urdf`` (``.<ext>``) for an arm, with the name made a safe file name.
 
     Refuses two arms that would write the same file, and a file that is one of
@@ -71,7 +71,8 @@ def urdf_target(outdir: str, arm, seen: dict, option: str, inputs=(), ext: str =
         raise ModelError(f"{option}: {seen[stem]!r} and {arm.name!r} would both be written to {stem}.{ext}")
     seen[stem] = arm.name
     path = os.path.join(outdir, f"{stem}.{ext}")
-    check_outputs([(option, path)], [("MODEL_OR_FILE", s) for s in inputs])
+    if check:            # (a folder still to be created holds no input and no link)
+        check_outputs([(option, path)], [("MODEL_OR_FILE", s) for s in inputs])
     return path
 
 

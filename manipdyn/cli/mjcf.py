@@ -6,20 +6,22 @@ Layer 7 (CLI, the top).
 from __future__ import annotations
 
 from ..formats.mjcf import mjcf_losses
-from ..formats.save import write_mjcf
+from ..formats.save import to_mjcf
 from .urdf import add_model_arguments, write_models
 
 __all__ = ["register", "run"]
 
 
 def run(args) -> int:
-    return write_models(args, "mjcf", "xml", write_mjcf, _losses_measured)
+    raw = bool(args.as_published)
+    return write_models(args, "mjcf", "xml", lambda arm: to_mjcf(arm, as_published=raw),
+                        lambda arm: _losses_measured(arm, raw))
 
 
-def _losses_measured(arm) -> list:
+def _losses_measured(arm, as_published: bool = False) -> list:
     """The file's losses, and, where the file holds Coulomb friction as frictionloss (a soft
     constraint), MuJoCo's forward dynamics on it measured against the model's (or why not)."""
-    lines = mjcf_losses(arm)
+    lines = mjcf_losses(arm, as_published=as_published)
     law = arm.friction_model
     from ..formats.losses import friction_held
 
@@ -48,13 +50,20 @@ def _losses_measured(arm) -> list:
 def register(sub) -> None:
     """Add ``manipdyn mjcf``."""
     u = sub.add_parser("mjcf", help="write the MJCF (MuJoCo) of arms",
-                       usage="manipdyn mjcf [-h] [--all] [--tip LINK] [MODEL_OR_FILE ...] OUTDIR  (options first)",
+                       usage="manipdyn mjcf [-h] [--all] [--tip LINK] [--as-published] [MODEL_OR_FILE ...] OUTDIR  (options first)",
                        description="Write <name>.xml, MuJoCo's MJCF, for each arm into OUTDIR (created if "
                                    "needed): bodies and inertials at full precision; joints with axis, range, "
                                    "armature (rotor inertia), damping and frictionloss; one motor per joint; a "
-                                   "'tool' site; gravity. What MJCF cannot hold of the model (friction terms, "
-                                   "limits, non-physical inertias MuJoCo refuses) is written in the file's comment "
-                                   "and printed, one 'not held:' line each. Any model `manipdyn load` reads, an "
+                                   "'tool' site; gravity. A body MuJoCo's compiler refuses (mass or a principal "
+                                   "moment at or below 1e-15, a triangle inequality broken) is written completed: a "
+                                   "physical body with the model's base parameters, so the dynamics are the "
+                                   "model's (or, where none exists, the nearest physical arm, with its largest "
+                                   "torque difference); --as-published keeps the raw values. What MJCF cannot hold "
+                                   "of the model (friction terms, limits, bodies completed) is written in the file's "
+                                   "comment and printed, one 'not held:' line each. Any model `manipdyn load` reads, an "
                                    "identified one included. Exit 0 written, 2 usage or model error.")
     add_model_arguments(u, "xml")
+    u.add_argument("--as-published", action="store_true",
+                   help="write every body as the model has it, even one MuJoCo's compiler refuses (default: "
+                        "such bodies are completed with the model's base parameters)")
     u.set_defaults(func=run)

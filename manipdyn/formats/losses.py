@@ -39,7 +39,7 @@ import numpy as np
 from .._support.errors import ModelError
 from ..model.friction import Friction
 
-__all__ = ["format_losses", "friction_held", "friction_difference", "nonphysical_inertias",
+__all__ = ["written_bodies", "completion_lines", "format_losses", "friction_held", "friction_difference", "nonphysical_inertias",
            "VELOCITY_RANGE", "URDF_GRAVITY", "TARGETS"]
 
 #: the formats :func:`format_losses` knows
@@ -141,6 +141,50 @@ def nonphysical_inertias(arm) -> list:
         elif w[0] + w[1] < w[2] * (1 - 1e-12):
             out.append((k, name, f"principal moments {[float(x) for x in w]} break A + B >= C"))
     return out
+
+
+_COMPLETIONS: list = []        # the last few (arm, bodies, completion): the writer and the losses share one
+
+
+def written_bodies(arm, as_published: bool = False, exact_only: bool = False):
+    """``(bodies, completion)``: the chain bodies the MJCF and URDF of ``arm`` hold (URDF link frames) and the
+    :class:`manipdyn.model.completion.Completion` that made them (None with ``as_published``, or when
+    MuJoCo accepts every body as it is).  ``exact_only`` (the URDF, read by every tool, not only by
+    simulators): where no physical arm has the model's base parameters, the model's own bodies, with
+    the completion that was not used (its ``exact`` False says so)."""
+    from ..model.completion import complete_bodies, mujoco_refusal
+
+    joints, _tool = arm.chain()
+    if as_published or not any(mujoco_refusal(j.body) is not None for j in joints):
+        return [j.body for j in joints], None
+    for a, bodies, c in _COMPLETIONS:
+        if a is arm:
+            return ([j.body for j in joints], c) if exact_only and not c.exact else (bodies, c)
+    from .._support.errors import MissingExtraError
+
+    try:
+        bodies, c = complete_bodies(arm)
+    except MissingExtraError as exc:
+        raise MissingExtraError(f"{arm.name or 'the arm'}: {exc}; or write the bodies as published "
+                                "(--as-published, as_published=True), which MuJoCo's compiler refuses") from None
+    _COMPLETIONS.insert(0, (arm, bodies, c))
+    del _COMPLETIONS[4:]
+    return ([j.body for j in joints], c) if exact_only and not c.exact else (bodies, c)
+
+
+def completion_lines(completion, used: bool = True) -> list:
+    """The lines a completion adds to the file's comment and the command's output (``used`` False: a
+    nearest arm the file does not hold, :func:`written_bodies` with ``exact_only``)."""
+    if completion is None:
+        return []
+    if not used:
+        return ["bodies MuJoCo refuses are written as the model has them (MuJoCo's compiler refuses this file): "
+                + completion.summary() + "; manipdyn mjcf writes that nearest arm"]
+    head = ("bodies MuJoCo refuses were completed: physical bodies with the model's base parameters, so M, h, g "
+            f"and tau are the model's (largest torque difference on the model's states "
+            f"{completion.torque_difference:.2g} N m)" if completion.exact else
+            "bodies MuJoCo refuses were replaced by the nearest physical arm: " + completion.summary())
+    return [head] + [x for x in completion.notes if not x.startswith("no physical arm")]
 
 
 def _drive_lines(arm, target) -> list:

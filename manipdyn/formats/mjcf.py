@@ -21,8 +21,14 @@ MuJoCo: the text is built with lxml.  What it writes:
 * an opening comment naming the model, its sha256, its source and the manipdyn version, then
   what MJCF cannot hold (:func:`manipdyn.formats.losses.format_losses`).
 
-Non-physical inertias (MuJoCo's compiler refuses them) are written as they are, with a
-:class:`~manipdyn.PhysicalConsistencyWarning` at export.
+A body MuJoCo's compiler refuses (:func:`manipdyn.model.completion.mujoco_refusal`: a mass or a
+principal moment at or below mjMINVAL, a triangle inequality broken) is written **completed**
+(:func:`manipdyn.model.completion.complete_bodies`): a physical body with the same base parameters,
+so the simulated arm's ``M``, ``h``, ``g`` and ``tau`` are the model's (to rounding), and the file's
+comment says, per body, what was completed and why.  Where no physical arm has the model's base
+parameters, the file holds the nearest one and its comment gives the largest torque difference on
+the model's states.  ``as_published=True`` writes the raw values instead, with a
+:class:`~manipdyn.PhysicalConsistencyWarning` at export (MuJoCo's compiler then refuses the file).
 """
 
 from __future__ import annotations
@@ -34,7 +40,7 @@ import warnings
 import numpy as np
 
 from .._support.errors import ModelError, PhysicalConsistencyWarning
-from .losses import format_losses, friction_held, nonphysical_inertias
+from .losses import completion_lines, format_losses, friction_held, nonphysical_inertias, written_bodies
 from .urdf.writer import round_off_text, xml_comment
 
 __all__ = ["arm_to_mjcf", "mjcf_losses", "model_sha256", "quaternion", "TOOL_SITE", "ENGINE_OPTIONS"]
@@ -146,10 +152,13 @@ def _drive(arm):
     return armature, damping, loss, tendons
 
 
-def mjcf_losses(arm) -> list:
+def mjcf_losses(arm, as_published: bool = False) -> list:
     """What MJCF does not hold of ``arm`` (:func:`manipdyn.formats.losses.format_losses`), plus the
-    limits the file leaves out: one line each."""
+    limits the file leaves out, plus the bodies completed (:func:`manipdyn.formats.losses.written_bodies`): one line each."""
     lines = list(format_losses(arm, "mjcf"))
+    _bodies, completion = written_bodies(arm, as_published)
+    if completion is not None:
+        lines = [x for x in lines if "is no physical body" not in x] + completion_lines(completion)
     joints, _tool = arm.chain()
     no_effort = [j.name for j in joints if j.effort is None]
     if no_effort:
@@ -170,15 +179,20 @@ def _unique(name: str, used: set) -> str:
     return out
 
 
-def arm_to_mjcf(arm, warn: bool = True) -> str:
+def arm_to_mjcf(arm, warn: bool = True, as_published: bool = False) -> str:
     """MJCF text of ``arm`` (any :class:`manipdyn.model.arm.Arm`); module docstring.
 
-    ``warn``: a :class:`~manipdyn.PhysicalConsistencyWarning` names each link MuJoCo's compiler
-    will refuse (its inertia is no physical body's).
+    ``as_published``: write every body as the model has it, even one MuJoCo's compiler refuses
+    (default: such bodies are completed, :func:`manipdyn.formats.losses.written_bodies`).  ``warn``: with ``as_published``, a
+    :class:`~manipdyn.PhysicalConsistencyWarning` names each link MuJoCo's compiler will refuse.
+    Completing a body needs cvxpy (the ``identify`` extra); without it a
+    :class:`~manipdyn._support.errors.MissingExtraError` gives the install command (or pass
+    ``as_published=True``).
     """
     from lxml import etree
 
     joints, tool = arm.chain()
+    bodies, _completion = written_bodies(arm, as_published)
     name = arm.name or "arm"
     armature, damping, loss, tendons = _drive(arm)
     root = etree.Element("mujoco", model=name)
@@ -199,7 +213,7 @@ def arm_to_mjcf(arm, warn: bool = True) -> str:
         for attr, value in (("armature", armature[k]), ("damping", damping[k]), ("frictionloss", loss[k])):
             if value:
                 jel.set(attr, _r(value))
-        b = j.body
+        b = bodies[k]
         I = np.asarray(b.inertia, dtype=np.float64)
         if b.mass > 0 or np.any(I):
             etree.SubElement(body, "inertial", pos=round_off_text(b.com), mass=_r(b.mass),
@@ -224,11 +238,11 @@ def arm_to_mjcf(arm, warn: bool = True) -> str:
     head = [f"{name}: written by manipdyn {_version()}", f"model sha256 {model_sha256(arm)}"]
     if getattr(arm, "source", ""):
         head.append(f"source: {arm.source}")
-    lost = mjcf_losses(arm)
+    lost = mjcf_losses(arm, as_published)
     head += (["what MJCF does not hold of this model:"] + [f"  - {x}" for x in lost]) if lost else \
         ["MJCF holds all of this model"]
     root.insert(0, etree.Comment(" " + xml_comment("\n     ".join(head)) + " "))
-    if warn:
+    if warn and (as_published or _completion is None):
         for _k, lname, why in nonphysical_inertias(arm):
             warnings.warn(f"{name}: link {lname!r} is no physical body ({why}): MuJoCo's compiler refuses the "
                           "MJCF (and URDF) of this model; fix the inertia or let MuJoCo change it with "

@@ -28,18 +28,20 @@ def to_toml(arm) -> str:
     return model_to_toml(arm)
 
 
-def to_urdf(arm) -> str:
+def to_urdf(arm, as_published: bool = False) -> str:
     """The arm as URDF text (built through yourdfpy's objects).
 
     For an arm read from a URDF this is the regenerated chain (fixed joints
-    lumped), not the original file.
+    lumped), not the original file.  A body MuJoCo's URDF reader refuses is written completed,
+    with the model's base parameters (the same dynamics; :func:`to_mjcf`), and the comment says
+    so; ``as_published=True`` keeps the raw values.
     """
-    return arm_to_urdf(arm)
+    return arm_to_urdf(arm, as_published=as_published)
 
 
-def write_urdf(arm, path) -> None:
+def write_urdf(arm, path, as_published: bool = False) -> None:
     """Write :func:`to_urdf` to ``path`` atomically (no partial file on failure)."""
-    atomic_write_text(path, arm_to_urdf(arm))
+    atomic_write_text(path, arm_to_urdf(arm, as_published=as_published))
 
 
 register_service("save", save)
@@ -47,15 +49,17 @@ register_service("write_urdf", write_urdf)
 register_service("to_urdf", to_urdf)
 
 
-def to_mjcf(arm) -> str:
+def to_mjcf(arm, as_published: bool = False) -> str:
     """The arm as MJCF text, MuJoCo's model format (:mod:`manipdyn.formats.mjcf`): bodies with their
     inertials at full precision, joints with range, ``armature``, ``damping`` and ``frictionloss``,
     one ``motor`` per joint, a ``tool`` site and the model's gravity; its opening comment names the
-    model (sha256, source, manipdyn version) and says what MJCF does not hold of it.  Warns
-    (:class:`~manipdyn.PhysicalConsistencyWarning`) for each link MuJoCo's compiler will refuse."""
-    return arm_to_mjcf(arm)
+    model (sha256, source, manipdyn version) and says what MJCF does not hold of it.  A body MuJoCo's
+    compiler refuses is written completed, with the model's base parameters (the same dynamics), and
+    the comment says per body what was completed and why; ``as_published=True`` keeps the raw values
+    and warns (:class:`~manipdyn.PhysicalConsistencyWarning`) for each link MuJoCo will refuse."""
+    return arm_to_mjcf(arm, as_published=as_published)
 
 
-def write_mjcf(arm, path) -> None:
+def write_mjcf(arm, path, as_published: bool = False) -> None:
     """Write :func:`to_mjcf` to ``path`` atomically (no partial file on failure)."""
-    atomic_write_text(path, arm_to_mjcf(arm))
+    atomic_write_text(path, arm_to_mjcf(arm, as_published=as_published))

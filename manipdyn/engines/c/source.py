@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..._support import limits
-from ..._support.files import atomic_write, atomic_write_text, overwrites, replaceable
+from ..._support.files import atomic_write, atomic_write_text, link_out_of, overwrites, replaceable
 from ..._support.errors import ModelError
 from . import build, emit
 from .derivatives import ROUTES
@@ -203,8 +203,8 @@ def check_arm(arm) -> None:
 
 def codegen_targets(arm, dir, prefix: str | None = None) -> tuple[str, str]:
     """``(dir/P.h, dir/P.c)`` for ``arm``, checked before any work: ``dir`` a folder or
-    creatable, each file absent or a regular file (a symbolic link's target), never the
-    same file twice.  A :class:`ModelError` names what is wrong."""
+    creatable, each file absent or a regular file (a symbolic link's target inside ``dir``; a link
+    leading outside it is refused, naming it), never the same file twice.  A :class:`ModelError` names what is wrong."""
     check_arm(arm)
     if not isinstance(dir, (str, os.PathLike)):
         raise ModelError(f"dir: expected a folder path, got {type(dir).__name__}")
@@ -217,6 +217,10 @@ def codegen_targets(arm, dir, prefix: str | None = None) -> tuple[str, str]:
     paths = (os.path.join(dir, prefix + ".h"), os.path.join(dir, prefix + ".c"))
     if os.path.isdir(dir):
         for path in paths:
+            far = link_out_of(dir, path)
+            if far is not None:
+                raise ModelError(f"{path}: a symbolic link to {far}, outside {dir}; writing through it would "
+                                 "replace that file: remove the link or choose another folder; nothing was written")
             try:
                 replaceable(path)
             except OSError as exc:

@@ -1,7 +1,8 @@
 """MuJoCo as an engine of the cross-check: ``arm.engine("mujoco")`` on the arm's own MJCF.
 
 Layer 3 (engines: mujoco).  :func:`mujoco_engine` compiles the MJCF that
-:func:`manipdyn.to_mjcf` writes (so a planted error in the writer shows in the cross-check)
+:func:`manipdyn.to_mjcf` writes, with the model's own bodies (``as_published=True``: the engine
+answers for the model, not for a completion of it; so a planted error in the writer shows in the cross-check)
 and :class:`MujocoEngine` answers :class:`manipdyn.DynamicsEngine` with MuJoCo's own
 algorithms: ``mj_fullM`` (D, rotor inertia as joint and tendon ``armature``), ``qfrc_bias``
 (``h`` on a copy of the model without gravity, ``g`` at rest), ``mj_inverse`` (tau),
@@ -85,7 +86,7 @@ class MujocoEngine:
     Attributes
     ----------
     mjcf : str
-        The MJCF text compiled (``md.to_mjcf(arm)``).
+        The MJCF text compiled (``md.to_mjcf(arm, as_published=True)``).
     model : mujoco.MjModel
         The compiled model, constraints disabled (limits and frictionloss).
     notes : list of str
@@ -101,7 +102,7 @@ class MujocoEngine:
     def __init__(self, arm):
         mj = self._mj = mujoco_module()
         self.n = arm.n
-        self.mjcf = arm_to_mjcf(arm, warn=False)
+        self.mjcf = arm_to_mjcf(arm, warn=False, as_published=True)   # the model's own bodies
         bad = nonphysical_inertias(arm)
         text = self.mjcf if not bad else _stand_in(self.mjcf, {k + 1 for k, _name, _why in bad})
         try:

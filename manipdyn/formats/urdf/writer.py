@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..losses import format_losses
+from ..losses import completion_lines, format_losses, written_bodies
 from ..trust import trust_comment
 
 __all__ = ["arm_to_urdf", "limit_provenance", "urdf_losses", "xml_comment", "round_off_text", "DEFAULT_EFFORT",
@@ -108,11 +108,16 @@ def limit_provenance(arm, k: int, joint) -> str:
     return f"{joint.name} limits: {bounds}; {rates}"
 
 
-def urdf_losses(arm) -> list:
+def urdf_losses(arm, as_published: bool = True) -> list:
     """What URDF does not hold of ``arm`` (:func:`manipdyn.formats.losses.format_losses`), plus the
-    placeholder limits the file carries: one line each (the file's opening comment, and what
-    ``manipdyn urdf`` prints)."""
+    placeholder limits the file carries, plus, unless ``as_published``, the bodies completed
+    (:func:`manipdyn.formats.losses.written_bodies`): one line each (the file's opening comment, and
+    what ``manipdyn urdf`` prints)."""
     lines = list(format_losses(arm, "urdf"))
+    _bodies, completion = written_bodies(arm, as_published, exact_only=True)
+    if completion is not None:
+        lines = [x for x in lines if "is no physical body" not in x or not completion.exact] \
+            + completion_lines(completion, used=completion.exact)
     joints, _tool = arm.chain()
     placeholders = [j.name for j in joints if j.effort is None or j.velocity is None]
     if placeholders:
@@ -131,23 +136,30 @@ def tool_link(arm) -> str:
     return tip if isinstance(tip, str) and tip and tip not in chain_links else TOOL_LINK
 
 
-def arm_to_urdf(arm) -> str:
-    """URDF text of ``arm`` (any :class:`manipdyn.model.arm.Arm`)."""
+def arm_to_urdf(arm, as_published: bool = True) -> str:
+    """URDF text of ``arm`` (any :class:`manipdyn.model.arm.Arm`).
+
+    ``as_published=False`` writes each body MuJoCo's compiler (and its URDF reader) refuses
+    completed, with the model's base parameters (:func:`manipdyn.formats.losses.written_bodies`), as
+    ``manipdyn urdf`` and :func:`manipdyn.to_urdf` do; the default keeps the model's own bodies (the
+    Pinocchio engine reads this text).
+    """
     import yourdfpy
     from lxml import etree
 
     joints, tool = arm.chain()
+    bodies, _completion = written_bodies(arm, as_published, exact_only=True)
     tool_name = tool_link(arm)
     links = [yourdfpy.Link(name="base_link")]
     ujoints = []
     parent = "base_link"
     used = {"base_link", tool_name}
-    for j in joints:
+    for k, j in enumerate(joints):
         lname = j.link_name or f"{j.name}_link"
         if lname in used:
             lname = f"{lname}_{len(used)}"
         used.add(lname)
-        b = j.body
+        b = bodies[k]
         inertial = None
         if b.mass > 0 or np.any(b.inertia):
             origin = np.eye(4)
@@ -185,7 +197,7 @@ def arm_to_urdf(arm) -> str:
     if tool_name != TOOL_LINK:               # a URDF arm's tip, kept by name: load it with tip='<that link>'
         comment += (f".\n     Tool frame (fkine, jacobian(frame='tool')): link '{tool_name}', the tip the arm "
                     f"was read with")
-    lost = urdf_losses(arm)
+    lost = urdf_losses(arm, as_published)
     if lost:
         comment += ".\n     What URDF does not hold of this model:\n" + "\n".join(f"       - {x}" for x in lost)
     _clean_numbers(root)

@@ -257,7 +257,7 @@ def _check(q, qd, qdd, tau, n):
 def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armature: bool = False,
         bounds: Bounds | str | None = "plausible", base: BaseParameters | None = None,
         name: str | None = None, prior_weight: float = 0.0, metadata=None, regressor=None,
-        factors=None, *, segments=None) -> FitResult:
+        factors=None, *, segments=None, complete: bool = True) -> FitResult:
     """Identify ``arm``'s parameters from samples (module docstring).
 
     Parameters
@@ -305,6 +305,12 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     segments : sequence of int, optional
         The runs' sample counts (:func:`.runs.stack`): each run's joints weighed by their noise in
         it (``report["noise_sigma_per_run"]``; ``sigma`` their RMS); not with ``factors``.
+    complete : bool
+        ``ols`` and ``wls``: when a body of the least-squares answer is no physical body, look for
+        physical bodies with the same base parameters (:func:`manipdyn.model.completion.complete_parameters`)
+        and write those (``report["completion"]`` says what was found, and how far the nearest physical
+        arm is when none has them).  Folds of a cross-validation, which need only the base
+        parameters, pass False.
     """
     if method not in METHODS:
         raise ModelError(f"method: expected one of {', '.join(METHODS)}, got {method!r}")
@@ -411,6 +417,9 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
                     dropped = str(exc).splitlines()[0]
             beta = base.from_full(pi)
     residuals = y - Yb @ beta
+    completion = None
+    if method != "consistent" and complete and np.any(link_min_eigenvalues(pi, n) <= 0):
+        pi, completion = _complete(arm, pi, base, prior, regressor)
     eig = link_min_eigenvalues(pi, n)
     consistent = bool(np.all(eig >= 0.0))
     out_arm, err = None, None
@@ -426,6 +435,8 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
                                           metadata=metadata)
     except ModelError as exc:
         err = str(exc)
+    if completion is not None and not completion.exact:
+        err = (f"{err}; " if err else "") + completion.summary().replace(" on the model's states", " on these data")
     result = FitResult(arm=out_arm, parameters=pi, base=base, beta=beta, residuals=residuals,
                        sigma=sigma, method=method, condition_number=cond, consistent=consistent,
                        prior=arm, arm_error=err, covariance=cov)
@@ -434,6 +445,11 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     result.report["prior_weight"] = float(prior_weight)
     result.report.update({"noise_sigma_per_run": sigmas.tolist()} if runs is not None else {})
     result.report["noise_floor_joints"] = floored
+    if completion is not None:
+        result.report["completion"] = {
+            "exact": completion.exact, "changed_links": [i + 1 for i in completion.changed],
+            "base_error": completion.base_error, "worst_base_error": completion.worst_base,
+            "torque_difference": completion.torque_difference, "notes": completion.notes}
     if method == "consistent":
         result.report.update(shortfall(R, c, rho_w, y * w, residuals * w, pi, n, nonnegative_extras(base.names, n),
                                        bounds, solver, result.report["active_bounds"]))
@@ -441,6 +457,29 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
             result.report["gyration_floor_dropped"] = True
             result.report["fit_notes"].insert(0, FLOOR_DROPPED.format(dropped))
     return result
+
+
+#: a completion reproduces the least-squares base parameters when it misses them by at most this (relative)
+COMPLETION_RTOL = 1e-6
+
+
+def _complete(arm, pi, base, prior, regressor):
+    """``(pi', completion)``: physical bodies with the base parameters of the least-squares ``pi``
+    (ols, wls) when some exist (to :data:`COMPLETION_RTOL`), else ``pi`` itself and the completion
+    saying how far the nearest physical arm is.  Differences are measured on the fit's own states
+    (at most 2000 of them, evenly spaced)."""
+    from ...model.completion import complete_parameters
+
+    N = regressor.shape[0]
+    rows = regressor[::max(1, N // 2000)].reshape(-1, regressor.shape[-1])
+    c = complete_parameters(arm, pi, K=base.K, prior=prior, W=rows)
+    if c.exact and c.base_error <= COMPLETION_RTOL:
+        return c.parameters, c
+    if c.exact:                      # the null space held to rounding only: say so, as a miss
+        import dataclasses
+
+        c = dataclasses.replace(c, exact=False)
+    return pi, c
 
 
 def _scale_hint(R, c, K, prior, bounds) -> str:

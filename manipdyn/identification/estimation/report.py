@@ -90,6 +90,11 @@ def format_report(rep: dict) -> str:
             extra = (f"  (+-{row['rel_std_percent']:.2g} %)" if row["rel_std_percent"] <= 1000
                      else f"  (+-{row['std']:.2g}: over 10 times its value, not determined)")
         lines.append(f"  {row['value']:+.6g} = {row['expression']}{extra}")
+    comp = rep.get("completion")
+    if comp and comp["exact"]:
+        lines.append(f"the least-squares bodies were no physical arm; physical bodies with the same base parameters "
+                     f"(to {comp['base_error']:.1g} relative) are the model: links "
+                     f"{', '.join(map(str, comp['changed_links']))} completed (model/completion.py)")
     if rep.get("arm_error"):
         lines.append(f"the identified parameters cannot be written as a model: {rep['arm_error']}")
     return "\n".join(lines)

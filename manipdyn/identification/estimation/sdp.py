@@ -39,10 +39,11 @@ import numpy as np
 from ..._support.errors import ModelError
 from ...model.parameters import PARAMETER_BASIS
 from ...model.inertia import pseudo_inertia_from_parameters
+from ...model.plausible import gyration_floor, smallest_gyration
 from ..._support.deps import require
 from .solvers import solve as _solve
 
-__all__ = ["Bounds", "consistent_fit", "solve_problem", "EPS"]
+__all__ = ["Bounds", "consistent_fit", "solve_problem", "smallest_gyration", "EPS"]
 
 #: margin of the PSD constraints, J_i >= EPS * I (see the module docstring)
 EPS = 1e-8
@@ -127,8 +128,10 @@ class Bounds:
           frame (default 0.1 m: a centre of mass stays on its link);
         * the total mass within ``+-total`` (fraction) of the prior's (default 0.25);
         * every radius of gyration about a body's COM at least ``gyration`` (default 0.01) of the
-          arm's size (joint offsets and tool summed), or half the prior body's own if less: else,
-          where the data do not decide a body's shape, the fit ends on ``J_i >= 0`` (issue 30).
+          arm's size (joint offsets and tool summed), or half the prior body's own if less; from the
+          geometry alone where the prior body is degenerate (massless, a rod or a plate): never 0 m
+          (:func:`manipdyn.model.completion.gyration_floor`).  Else, where the data do not decide a
+          body's shape, the fit ends on ``J_i >= 0`` (issue 30).
 
         A bound given as None is left out.  Why: ten seconds of data rarely pin down every
         parameter direction, and an unbounded physically consistent fit can put a 79 kg
@@ -151,11 +154,8 @@ class Bounds:
             if not 0 <= total < 1:
                 raise ModelError(f"total: expected a fraction in [0, 1), got {total}")
             kw["total_mass"] = (float(m.sum()) * (1 - total), float(m.sum()) * (1 + total))
-        if gyration:       # never above half the prior body's own: a flat link stays feasible
-            size = sum(float(np.linalg.norm(j.origin[:3, 3])) for j in joints) + float(np.linalg.norm(_[:3, 3]))
-            own = [np.sqrt(max(np.trace(j.body.inertia) / 2 - np.linalg.eigvalsh(j.body.inertia)[-1], 0.0)
-                           / j.body.mass) if j.body.mass > 0 else 0.0 for j in joints]
-            kw["gyration"] = np.minimum(gyration * size, 0.5 * np.array(own))
+        if gyration:       # never above half a prior body's own (a flat link stays feasible), never 0 m
+            kw["gyration"] = gyration_floor(arm, gyration)
         return cls(**kw)
 
     def scaled(self, factor: float) -> "Bounds":
@@ -216,9 +216,10 @@ class Bounds:
             tot = float(m.sum())
             if tot <= lo + rtol * hi or tot >= hi - rtol * hi:
                 out.append(f"total mass {tot:.4g} kg at its bound [{lo:.4g}, {hi:.4g}] kg")
-        if self.gyration is not None:
-            out += [f"link {i + 1} radius of gyration at its floor {self.gyration[i]:.3g} m"
-                    for i in np.flatnonzero(_floor_gap(pi, n, self.gyration) < 1e-3)]
+        if self.gyration is not None:      # the body's own radius, as the model on disk has it (issue 38)
+            rg = smallest_gyration(pi, n)
+            out += [f"link {i + 1} radius of gyration {rg[i]:.3g} m at its floor {self.gyration[i]:.3g} m"
+                    for i in range(n) if m[i] > 0 and rg[i] <= self.gyration[i] * (1 + FLOOR_RTOL)]
         return out
 
     @classmethod
@@ -242,11 +243,8 @@ def solve_problem(problem, what: str, solvers=("CLARABEL", "SCS")) -> str:
     return _solve(cp, problem, what, solvers)
 
 
-def _floor_gap(pi, n, r):
-    """Per body, the smallest eigenvalue of ``J - r^2 m D`` over the largest of ``J``."""
-    J = pseudo_inertia_from_parameters(np.asarray(pi, dtype=np.float64)[:10 * n].reshape(n, 10))
-    shifted = J - (np.asarray(r) ** 2 * J[:, 3, 3])[:, None, None] * np.diag([1.0, 1, 1, 0])
-    return np.linalg.eigvalsh(shifted)[:, 0] / np.maximum(np.linalg.eigvalsh(J)[:, -1], 1e-300)
+#: a body whose smallest radius of gyration is within this fraction above its floor sits on it
+FLOOR_RTOL = 0.02
 
 
 def _constraints(cp, x, n, extra, bounds, eps=EPS, nonnegative=None):

@@ -95,7 +95,7 @@ def choose_smoothing(arm, data, law_of, v0: float, folds: int = 5, progress=None
             sq, fold_scores = np.zeros(q.shape[1]), []
             for f, test in enumerate(masks):
                 r = fit(arm, q[~test], qd[~test], qdd[~test], tau[~test], friction=law, base=base,
-                        regressor=Y[~test], factors=train[f], **fit_kwargs)
+                        regressor=Y[~test], factors=train[f], complete=False, **fit_kwargs)
                 e2 = np.sum((tau[test] - Yb[test] @ r.beta - known[test]) ** 2, axis=0)
                 sq += e2
                 fold_scores.append(float(np.mean(np.log(np.maximum(np.sqrt(e2 / np.sum(test)), 1e-300)))))

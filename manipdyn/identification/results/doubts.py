@@ -101,11 +101,11 @@ def solver_doubts(report) -> list[str]:
 
 def floor_doubts(active_bounds) -> list[str]:
     """One sentence naming the bodies that sit on the radius-of-gyration floor (``report["active_bounds"]``)."""
-    links = [b.split(" radius")[0] for b in active_bounds or [] if "radius of gyration at its floor" in b]
+    links = [b.split(" radius")[0] for b in active_bounds or [] if "radius of gyration" in b and "at its floor" in b]
     if not links:
         return []
     return [", ".join(links) + ": radius of gyration at the plausibility floor (1 % of the arm's size, or half the "
-            "prior's own): the data do "
+            "prior's own; from the geometry where the prior's body is degenerate): the data do "
             "not decide these bodies' shapes, the floor does (their smallest principal moments are not measured)"]
 
 

@@ -341,7 +341,7 @@ def held_out_residuals(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, segment
     for test in _masks(N, folds, masks, segments):
         kept = _kept_segments(segments, test)
         extra = {} if kept is None else {"segments": kept}
-        r = fit(arm, q[~test], qd[~test], qdd[~test], tau[~test], **fit_kwargs, **extra)
+        r = fit(arm, q[~test], qd[~test], qdd[~test], tau[~test], **fit_kwargs, **extra, complete=False)
         res[test] = tau[test] - r.predict(q[test], qd[test], qdd[test])
     return res
 

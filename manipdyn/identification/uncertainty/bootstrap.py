@@ -144,7 +144,7 @@ def _replicates(spec: tuple, part) -> dict:
             idx = block_indices(len(arrays[0]), block, seed, k)
             q, qd, qdd, tau = (a[idx] for a in arrays)
             try:
-                r = fit(arm, q, qd, qdd, tau, method=method, base=base, **fit_kwargs)
+                r = fit(arm, q, qd, qdd, tau, method=method, base=base, complete=False, **fit_kwargs)
                 out[int(k)] = (np.asarray(r.beta), None)
             except ModelError as exc:
                 out[int(k)] = (None, str(exc))

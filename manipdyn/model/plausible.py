@@ -1,0 +1,96 @@
+"""What a body must be for MuJoCo, and what a plausible one is: the checks the completion and the
+identification share.
+
+Layer 1 (model).
+
+* :func:`mujoco_refusal`: why MuJoCo's compiler refuses a body (a mass or a principal moment at
+  or below ``mjMINVAL``, a triangle inequality broken); measured with MuJoCo 3 and 4 (``A + B = C``
+  is accepted, ``C`` 1e-7 above ``A + B`` refused, a moment of 1e-14 accepted, 0 or 1e-16 refused).
+* :func:`gyration_floor`: the radius of gyration under which a body is a rod or a plate, from the
+  arm's own geometry where the prior body is degenerate: never 0 m.
+* :func:`smallest_gyration`: each body's smallest radius of gyration about its centre of mass,
+  the one number the fit's active bounds and its doubts give of a model.
+* :func:`arm_scale`: the arm's units (mean link mass, size).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .inertia import pseudo_inertia_from_parameters, tensor_from_pseudo_inertia
+
+__all__ = ["mujoco_refusal", "gyration_floor", "smallest_gyration", "arm_scale", "MJ_MINVAL", "GYRATION_FLOOR"]
+
+#: MuJoCo's mjMINVAL: a mass or principal moment at or below it is refused by MuJoCo's compiler
+MJ_MINVAL = 1e-15
+#: the radius-of-gyration floor, as a fraction of the arm's size (:func:`gyration_floor`)
+GYRATION_FLOOR = 0.01
+
+
+def arm_scale(arm) -> tuple[float, float]:
+    """``(m_ref, L)``: the mean link mass (kg; 1 for a massless arm) and the arm's size (m: its joint
+    offsets and tool summed, at least 1 mm), the units of :func:`manipdyn.model.completion.complete_parameters`."""
+    joints, tool = arm.chain()
+    masses = np.array([float(j.body.mass) for j in joints])
+    total = float(masses.sum())
+    m_ref = total / len(joints) if total > 0 and np.isfinite(total) else 1.0
+    L = sum(float(np.linalg.norm(j.origin[:3, 3])) for j in joints) + float(np.linalg.norm(tool[:3, 3]))
+    return m_ref, max(L, 1e-3)
+
+
+def _own_gyration(body) -> float:
+    """Smallest radius of gyration about the COM (m) of a body, 0 for a massless or flat one."""
+    m = float(body.mass)
+    if not m > 0:
+        return 0.0
+    I = np.linalg.eigvalsh(0.5 * (body.inertia + body.inertia.T))
+    S = 0.5 * float(np.sum(I)) - I          # principal second moments about the COM
+    return float(np.sqrt(max(float(S.min()), 0.0) / m))
+
+
+def gyration_floor(arm, fraction: float = GYRATION_FLOOR) -> np.ndarray:
+    """Per link, the floor (m) under the radii of gyration of a plausible body, (n,).
+
+    ``fraction`` of the arm's size (:func:`arm_scale`), or half the prior body's own smallest
+    radius when that is less and the prior body is a body at all; when the prior body is
+    degenerate (massless, or its own radius under half of ``fraction`` of the size: a rod or a
+    plate), the floor comes from the geometry alone, ``fraction`` of the size.  Never 0 m.
+    """
+    joints, _tool = arm.chain()
+    _m, L = arm_scale(arm)
+    geometric = float(fraction) * L
+    out = []
+    for j in joints:
+        own = _own_gyration(j.body)
+        out.append(geometric if own < 0.5 * geometric else min(geometric, 0.5 * own))
+    return np.array(out)
+
+
+def mujoco_refusal(body) -> str | None:
+    """Why MuJoCo's compiler refuses ``body`` (a :class:`LinkInertia`) on a moving link, or None."""
+    m = float(body.mass)
+    I = np.asarray(body.inertia, dtype=np.float64)
+    w = np.linalg.eigvalsh(0.5 * (I + I.T))
+    if not m > MJ_MINVAL:
+        what = "no mass and no inertia" if m == 0 and not np.any(I) else f"mass {m!r} kg"
+        return f"{what} (MuJoCo needs a mass above mjMINVAL = 1e-15 on a moving body)"
+    if not w[0] > MJ_MINVAL:
+        return f"principal moments {[float(x) for x in w]} kg m^2 are not all above mjMINVAL"
+    if w[0] + w[1] < w[2] * (1 - 1e-12):      # MuJoCo accepts A + B = C to rounding
+        return f"principal moments {[float(x) for x in w]} kg m^2 break the triangle inequality A + B >= C"
+    return None
+
+
+def smallest_gyration(pi, n: int) -> np.ndarray:
+    """Per body, its smallest radius of gyration about its centre of mass (m), (n,): the square root of
+    the smallest principal second moment over the mass (0 for a massless body); the number the
+    doubts (``degenerate_links`` of the identification's doubts) give of the model."""
+    J = pseudo_inertia_from_parameters(np.asarray(pi, dtype=np.float64)[:10 * n].reshape(n, 10))
+    out = np.zeros(n)
+    for i in range(n):
+        m = float(J[i, 3, 3])
+        if m > 0:
+            _m, _c, I = tensor_from_pseudo_inertia(0.5 * (J[i] + J[i].T))
+            w = np.linalg.eigvalsh(0.5 * (I + I.T))
+            out[i] = float(np.sqrt(max(float((0.5 * np.sum(w) - w).min()), 0.0) / m))
+    return out
