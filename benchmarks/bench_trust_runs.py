@@ -18,7 +18,9 @@ import argparse
 import time
 from pathlib import Path
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "realdata" / "lwr4_flobaroid"
+from benchmarks.realdata import lwr4_dir
+
+DEFAULT = lwr4_dir()
 BOUND = 120.0
 
 

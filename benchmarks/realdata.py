@@ -24,6 +24,11 @@ def realdata_dir() -> Path:
     return Path(__file__).resolve().parents[1].parent / "shared" / "realdata"
 
 
+def lwr4_dir() -> Path:
+    """The KUKA LWR4+ runs and its two published URDFs: ``<realdata>/lwr4_flobaroid``."""
+    return realdata_dir() / "lwr4_flobaroid"
+
+
 def panda_log() -> Path:
     """The real Panda log as logged: ``<realdata>/panda_gaz2019/panda_as_logged.csv``."""
     return realdata_dir() / "panda_gaz2019" / "panda_as_logged.csv"

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from benchmarks.realdata import ENV, panda_log, realdata_dir
+from benchmarks.realdata import ENV, lwr4_dir, panda_log, realdata_dir
 
 ROOT = Path(__file__).resolve().parents[1]
 #: the real-data folder: ``$MANIPDYN_REALDATA`` when set, else ``../shared/realdata``
@@ -28,9 +28,9 @@ needs_panda_log = pytest.mark.skipif(not PANDA_LOG.is_file(), reason=PANDA_SKIP)
 
 
 #: the KUKA LWR4+ runs (FloBaRoID's): ``run1.csv`` .. ``run3.csv`` and the two published URDFs
-LWR4_DIR = ROOT.parent / "shared" / "realdata" / "lwr4_flobaroid"
-LWR4_SKIP = ("the real-data folder is absent (run1.csv .. run3.csv and kuka_lwr4_gaz.urdf not found beside the "
-             "project in shared/realdata/lwr4_flobaroid)")
+LWR4_DIR = lwr4_dir()
+LWR4_SKIP = (f"the real-data folder is absent (run1.csv .. run3.csv and kuka_lwr4_gaz.urdf not found in {LWR4_DIR}; "
+             f"set ${ENV} to the folder that holds lwr4_flobaroid/)")
 #: mark a test (or ``pytestmark`` a module) that reads the LWR4 runs
 needs_lwr4 = pytest.mark.skipif(not all((LWR4_DIR / f).is_file() for f in (
     "run1.csv", "run2.csv", "run3.csv", "kuka_lwr4_gaz.urdf", "kuka_lwr4_identified.urdf")), reason=LWR4_SKIP)

@@ -17,9 +17,9 @@ from manipdyn.identification.experiments.synthesize import Contact, contact_torq
 from manipdyn.identification.uncertainty.thresholds import (CollisionThresholds, count_events, fit_thresholds,
                                                             low_pass, sustained)
 
-from common import ROOT
+from common import REALDATA, ROOT
 
-REAL = ROOT.parent / "shared" / "realdata"
+REAL = REALDATA
 DT = 1e-3
 
 

@@ -27,7 +27,7 @@ from manipdyn.model import completion as C
 from manipdyn.model.parameters import arm_parameters
 from manipdyn.model.random_arms import random_arm
 
-from common import ROOT
+from common import LWR4_DIR, ROOT
 from mjcf_arms import mujoco_agreement
 
 pytest.importorskip("cvxpy", reason="cvxpy (the identify extra) is not installed: no completion")
@@ -129,7 +129,7 @@ def test_the_gyration_floor_is_never_zero_and_comes_from_the_geometry_for_a_dege
 
 
 def test_the_lwr4_gaz_urdf_gets_a_floor_from_its_geometry():
-    path = ROOT.parent / "shared" / "realdata" / "lwr4_flobaroid" / "kuka_lwr4_gaz.urdf"
+    path = LWR4_DIR / "kuka_lwr4_gaz.urdf"
     if not path.exists():
         pytest.skip(f"real-arm data absent ({path.parent}): the LWR4 floor is not checked")
     from manipdyn.identification.estimation.sdp import Bounds
