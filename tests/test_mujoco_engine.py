@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 
 import manipdyn as md
+from manipdyn._support.errors import MissingExtraError
 from manipdyn.model.random_arms import random_state
 
 from mjcf_arms import KINDS, drive_arm
@@ -207,3 +208,11 @@ def test_without_the_extra_the_engine_says_how_to_install_it(monkeypatch):
     with pytest.raises(MissingExtraError,
                        match=r"pip install 'manipdyn\[mujoco\]'.*pip install -e '\.\[mujoco\]'"):
         arm.engine("mujoco")
+
+
+def test_a_mujoco_older_than_the_bound_is_refused_by_name(monkeypatch):
+    # MuJoCo 3.13 takes this engine's MJCF but its D and h drift from the trace form by 3e-9 relative
+    # (principal axes of a full inertia off by 1e-7); the engine refuses it rather than disagree
+    monkeypatch.setattr(mujoco, "__version__", "3.13.0")
+    with pytest.raises(MissingExtraError, match=r"MuJoCo 3\.14 or later, not 3\.13\.0.*manipdyn\[mujoco\]"):
+        _quiet_load("puma560").engine("mujoco")

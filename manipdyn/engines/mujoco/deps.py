@@ -9,9 +9,13 @@ from __future__ import annotations
 
 import importlib
 
-from ..._support.deps import install_command, require
+from ..._support.deps import MissingExtraError, install_command, require
 
 __all__ = ["mujoco_module", "available", "INSTALL"]
+
+#: the oldest MuJoCo (major, minor) manipdyn runs on, as pyproject.toml's ``mujoco`` extra says: ``mj_fullM(m, d, dst)``
+#: is 3.10's; before 3.14 the compiler's principal axes of a full inertia are off by ~1e-7 (D, h: 3e-9 relative)
+MINIMUM = (3, 14)
 
 #: the command that installs MuJoCo for manipdyn
 INSTALL = install_command("mujoco")
@@ -28,4 +32,8 @@ def available() -> bool:
 
 def mujoco_module():
     """The ``mujoco`` module, or :class:`MissingExtraError` naming the extra to install."""
-    return require("mujoco", "MuJoCo as an engine ('mujoco') or as the simulator", "mujoco", "MuJoCo")
+    mj = require("mujoco", "MuJoCo as an engine ('mujoco') or as the simulator", "mujoco", "MuJoCo")
+    if tuple(map(int, mj.__version__.split(".")[:2])) < MINIMUM:       # why: MINIMUM's comment
+        raise MissingExtraError(f"manipdyn needs MuJoCo {MINIMUM[0]}.{MINIMUM[1]} or later, not {mj.__version__}: "
+                                f"{INSTALL}")
+    return mj
