@@ -435,7 +435,9 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
                                           metadata=metadata)
     except ModelError as exc:
         err = str(exc)
-    if completion is not None and not completion.exact:
+    if isinstance(completion, str):   # the completion's own solver failed: the raw parameters, and why
+        err, completion = (f"{err}; " if err else "") + f"no physical completion: {completion}", None
+    elif completion is not None and not completion.exact:
         err = (f"{err}; " if err else "") + completion.summary().replace(" on the model's states", " on these data")
     result = FitResult(arm=out_arm, parameters=pi, base=base, beta=beta, residuals=residuals,
                        sigma=sigma, method=method, condition_number=cond, consistent=consistent,
@@ -466,13 +468,16 @@ COMPLETION_RTOL = 1e-6
 def _complete(arm, pi, base, prior, regressor):
     """``(pi', completion)``: physical bodies with the base parameters of the least-squares ``pi``
     (ols, wls) when some exist (to :data:`COMPLETION_RTOL`), else ``pi`` itself and the completion
-    saying how far the nearest physical arm is.  Differences are measured on the fit's own states
+    saying how far the nearest physical arm is (or the reason, a string, when the completion failed).  Differences are measured on the fit's own states
     (at most 2000 of them, evenly spaced)."""
     from ...model.completion import complete_parameters
 
     N = regressor.shape[0]
     rows = regressor[::max(1, N // 2000)].reshape(-1, regressor.shape[-1])
-    c = complete_parameters(arm, pi, K=base.K, prior=prior, W=rows)
+    try:
+        c = complete_parameters(arm, pi, K=base.K, prior=prior, W=rows)
+    except ModelError as exc:        # e.g. data 1e30 times the prior's: the fit stands, unwritten as a model
+        return pi, str(exc)
     if c.exact and c.base_error <= COMPLETION_RTOL:
         return c.parameters, c
     if c.exact:                      # the null space held to rounding only: say so, as a miss
