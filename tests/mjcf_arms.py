@@ -15,6 +15,8 @@ import numpy as np
 import manipdyn as md
 from manipdyn.model.random_arms import random_arm
 
+from benchmarks.bench_completion import mujoco_agreement  # noqa: F401  (one implementation, the benchmark's)
+
 KINDS = ("joint", "motor", "coupled")
 
 
@@ -38,33 +40,3 @@ def drive_arm(seed: int, kind: str, n: int | None = None) -> md.Manipulator:
                               name=f"{base.name}_{kind}", transmission=transmission, friction=law)
 
 
-def mujoco_agreement(arm, text: str, states: int = 40, seed: int = 0) -> dict:
-    """MuJoCo on the MJCF ``text`` against manipdyn's trace form of ``arm``: the largest difference of
-    ``M`` and of the rigid-body torque ``M qdd + h + g`` (friction taken out on both sides: MuJoCo's
-    ``qfrc_passive`` and manipdyn's law), over ``states`` seeded random states, relative to
-    ``max(1, |reference|)`` per state (``tau_abs``: the largest absolute torque difference, N m; ``tau_max``: the largest torque);
-    constraints (frictionloss, limits) disabled."""
-    import mujoco
-
-    m = mujoco.MjModel.from_xml_string(text)
-    m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
-    d = mujoco.MjData(m)
-    rng = np.random.default_rng(seed)
-    q = arm.random_state(rng, states)
-    qd = rng.uniform(-2.0, 2.0, q.shape)
-    qdd = rng.uniform(-5.0, 5.0, q.shape)
-    tau_ref = arm.lagrange.inverse_dynamics(q, qd, qdd)
-    if arm.friction_model is not None:
-        tau_ref = tau_ref - arm.friction_model.torque(qd, arm.transmission)
-    M_ref = arm.lagrange.mass_matrix(q)
-    worst = {"M": 0.0, "tau": 0.0, "tau_abs": 0.0, "tau_max": float(np.abs(tau_ref).max())}
-    for k in range(states):
-        d.qpos[:], d.qvel[:], d.qacc[:] = q[k], qd[k], qdd[k]
-        mujoco.mj_inverse(m, d)
-        tau = d.qfrc_inverse + d.qfrc_passive
-        M = np.zeros((arm.n, arm.n))
-        mujoco.mj_fullM(m, d, M)
-        worst["tau_abs"] = max(worst["tau_abs"], float(np.abs(tau - tau_ref[k]).max()))
-        worst["tau"] = max(worst["tau"], float(np.abs(tau - tau_ref[k]).max() / max(1.0, np.abs(tau_ref[k]).max())))
-        worst["M"] = max(worst["M"], float(np.abs(M - M_ref[k]).max() / max(1.0, np.abs(M_ref[k]).max())))
-    return worst
