@@ -40,7 +40,7 @@ import numpy as np
 
 from .._support.errors import ModelError, StateError
 from .replay_page import BASELINE, figure, write_page
-from .simulate import DEFAULT_MAX_POSITION, DEFAULT_MAX_VELOCITY
+from .simulate import DEFAULT_MAX_POSITION, DEFAULT_MAX_VELOCITY, rk4_step
 
 __all__ = ["replay", "ReplayResult", "DEFAULT_HORIZONS", "DEFAULT_EVERY", "BASELINE"]
 
@@ -403,15 +403,7 @@ def _run_manipdyn(arm, m, starts, steps, dt, m_sub):
             x, v = q[idx], qd[idx]
             u = _torques(m.tau, starts[idx], j)
             for _ in range(m_sub):
-                a1 = f(x, v, u)
-                v2 = v + h2 * a1
-                a2 = f(x + h2 * v, v2, u)
-                v3 = v + h2 * a2
-                a3 = f(x + h2 * v2, v3, u)
-                v4 = v + h * a3
-                a4 = f(x + h * v3, v4, u)
-                x = x + h6 * (v + 2.0 * (v2 + v3) + v4)
-                v = v + h6 * (a1 + 2.0 * (a2 + a3) + a4)
+                x, v = rk4_step(f, x, v, u, h, h2, h6)
                 bad = ~(np.isfinite(x).all(axis=1) & np.isfinite(v).all(axis=1))
                 x[bad], v[bad] = 0.0, 0.0
                 bad |= (np.abs(x) > DEFAULT_MAX_POSITION).any(axis=1) | (np.abs(v) > DEFAULT_MAX_VELOCITY).any(axis=1)

@@ -357,6 +357,19 @@ class _Divergence:
             self.fail(k, "tau", tau, math.inf, "not finite")
 
 
+def rk4_step(fd, q, qd, tau, h, h2, h6):
+    """One classical Runge-Kutta step of ``qdd = fd(q, qd, tau)`` with ``tau`` held: ``(q, qd)`` after
+    ``h`` s (``h2 = h / 2``, ``h6 = h / 6``); the arrays may carry a leading batch axis."""
+    a1 = fd(q, qd, tau)
+    v2 = qd + h2 * a1
+    a2 = fd(q + h2 * qd, v2, tau)
+    v3 = qd + h2 * a2
+    a3 = fd(q + h2 * v2, v3, tau)
+    v4 = qd + h * a3
+    a4 = fd(q + h * v3, v4, tau)
+    return q + h6 * (qd + 2.0 * (v2 + v3) + v4), qd + h6 * (a1 + 2.0 * (a2 + a3) + a4)
+
+
 def _integrate(log, watch, plant, controller, trajectory, q, qd, progress) -> None:
     """The fixed-step RK4 loop with the torque held over each step; fills ``log`` in place.
 
@@ -393,17 +406,9 @@ def _integrate(log, watch, plant, controller, trajectory, q, qd, progress) -> No
             TAU[k] = tau
             for _ in range(m):       # the torque is held over the whole period
                 try:
-                    a1 = fd(q, qd, tau)
-                    v2 = qd + h2 * a1
-                    a2 = fd(q + h2 * qd, v2, tau)
-                    v3 = qd + h2 * a2
-                    a3 = fd(q + h2 * v2, v3, tau)
-                    v4 = qd + h * a3
-                    a4 = fd(q + h * v3, v4, tau)
+                    q, qd = rk4_step(fd, q, qd, tau, h, h2, h6)
                 except StateError:   # checked plant: a stage went non-finite, the step blew up
                     watch.fail(k + 1, "state", qd, math.inf, "an intermediate Runge-Kutta stage is not finite")
-                q = q + h6 * (qd + 2.0 * (v2 + v3) + v4)
-                qd = qd + h6 * (a1 + 2.0 * (a2 + a3) + a4)
             watch.check_state(k + 1, q, qd)
             if progress is not None and (k + 1) % every == 0:
                 progress(k + 1, N)
