@@ -68,10 +68,7 @@ def run(args) -> int:
         check_report_target(args.report)
         check_outputs([("--plot", args.plot), ("--report", args.report)],
                       [("MODEL", m) for m in models] + [("LOG", x) for x in logs], plots=("--plot",))
-        opts = log_options_from_args(args)
-        opts.pop("joint_names")          # a bag's joints: the first model's names (below)
-        if args.joint_names:
-            opts["joint_names"] = [x.strip() for x in args.joint_names.split(",") if x.strip()]
+        opts = log_options_from_args(args)     # joint_names None: a bag's joints by the first model's names
         res = replay(models, logs, horizons=args.horizon, every=args.every, simulator=args.simulator,
                      mujoco_plant=args.mujoco_plant or "model", tip=args.tip, **opts)
         if args.plot:

@@ -40,6 +40,7 @@ import numpy as np
 
 from .._support.errors import ModelError, StateError
 from .replay_page import BASELINE, figure, write_page
+from .mjsim import MUJOCO_PLANTS, SIMULATORS
 from .simulate import DEFAULT_MAX_POSITION, DEFAULT_MAX_VELOCITY, rk4_step
 
 __all__ = ["replay", "ReplayResult", "DEFAULT_HORIZONS", "DEFAULT_EVERY", "BASELINE"]
@@ -248,9 +249,9 @@ def replay(models, logs, horizons=DEFAULT_HORIZONS, every: int = DEFAULT_EVERY, 
     """
     from ..formats.logs.read import read_log
 
-    if simulator not in ("manipdyn", "mujoco"):
+    if simulator not in SIMULATORS:
         raise ModelError(f"simulator: expected 'manipdyn' or 'mujoco', got {simulator!r:.40}")
-    if mujoco_plant not in ("model", "file"):
+    if mujoco_plant not in MUJOCO_PLANTS:
         raise ModelError(f"mujoco_plant: expected 'model' or 'file', got {mujoco_plant!r:.40}")
     if isinstance(every, bool) or not isinstance(every, (int, np.integer)) or every < 1:
         raise ModelError(f"every: expected an integer >= 1 (log samples), got {every!r:.40}")

@@ -291,9 +291,8 @@ def _identify(prior, logs, o) -> IdentifyResult:
             data = _known_payloads(arm, runs)
     selection = None
     if weight == "auto":
-        from .estimation.selection import choose_prior_weight
-
-        from .estimation.selection import describe_choice, fold_kind, fold_masks, one_se_choice
+        from .estimation.selection import (PRIOR_WEIGHT_FOLDS, choose_prior_weight, describe_choice, fold_kind,
+                                           fold_masks, one_se_choice)
 
         tell("prior weight by held-out error (a refit per weight and fold)")
         weight, selection = choose_prior_weight(arm, data.q, data.qd, data.qdd, data.tau, friction=law,
@@ -301,7 +300,8 @@ def _identify(prior, logs, o) -> IdentifyResult:
                                                 segments=data.segments)
         _, why = one_se_choice(selection, "prior_weight", 0.0)
         law_notes.append(describe_choice("prior weight", "", selection, "prior_weight", weight, 0.0, why,
-                                         fold_kind(fold_masks(len(data.q), 5, labels, segments=data.segments),
+                                         fold_kind(fold_masks(len(data.q), PRIOR_WEIGHT_FOLDS, labels,
+                                                              segments=data.segments),
                                                    labels)))
     given_name = o["name"]
     name = given_name or _name_from(o["output"]) or f"{arm.name or 'arm'}_identified"

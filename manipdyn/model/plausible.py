@@ -19,7 +19,7 @@ import numpy as np
 
 from .inertia import pseudo_inertia_from_parameters, tensor_from_pseudo_inertia
 
-__all__ = ["mujoco_refusal", "gyration_floor", "smallest_gyration", "arm_scale", "MJ_MINVAL", "GYRATION_FLOOR"]
+__all__ = ["mujoco_refusal", "gyration_floor", "gyration_radius", "smallest_gyration", "arm_scale", "MJ_MINVAL", "GYRATION_FLOOR"]
 
 #: MuJoCo's mjMINVAL: a mass or principal moment at or below it is refused by MuJoCo's compiler
 MJ_MINVAL = 1e-15
@@ -38,13 +38,16 @@ def arm_scale(arm) -> tuple[float, float]:
     return m_ref, max(L, 1e-3)
 
 
-def _own_gyration(body) -> float:
-    """Smallest radius of gyration about the COM (m) of a body, 0 for a massless or flat one."""
-    m = float(body.mass)
+def gyration_radius(mass, inertia) -> float:
+    """Smallest radius of gyration about the COM (m) of a body of ``mass`` kg whose inertia tensor about
+    its COM is ``inertia`` (3, 3), kg m^2: the square root of the smallest principal second moment over
+    the mass; 0 for a massless or flat body."""
+    m = float(mass)
     if not m > 0:
         return 0.0
-    I = np.linalg.eigvalsh(0.5 * (body.inertia + body.inertia.T))
-    S = 0.5 * float(np.sum(I)) - I          # principal second moments about the COM
+    I = np.asarray(inertia, dtype=np.float64)
+    w = np.linalg.eigvalsh(0.5 * (I + I.T))
+    S = 0.5 * float(np.sum(w)) - w          # principal second moments about the COM
     return float(np.sqrt(max(float(S.min()), 0.0) / m))
 
 
@@ -61,7 +64,7 @@ def gyration_floor(arm, fraction: float = GYRATION_FLOOR) -> np.ndarray:
     geometric = float(fraction) * L
     out = []
     for j in joints:
-        own = _own_gyration(j.body)
+        own = gyration_radius(j.body.mass, j.body.inertia)
         out.append(geometric if own < 0.5 * geometric else min(geometric, 0.5 * own))
     return np.array(out)
 
@@ -88,9 +91,7 @@ def smallest_gyration(pi, n: int) -> np.ndarray:
     J = pseudo_inertia_from_parameters(np.asarray(pi, dtype=np.float64)[:10 * n].reshape(n, 10))
     out = np.zeros(n)
     for i in range(n):
-        m = float(J[i, 3, 3])
-        if m > 0:
-            _m, _c, I = tensor_from_pseudo_inertia(0.5 * (J[i] + J[i].T))
-            w = np.linalg.eigvalsh(0.5 * (I + I.T))
-            out[i] = float(np.sqrt(max(float((0.5 * np.sum(w) - w).min()), 0.0) / m))
+        if float(J[i, 3, 3]) > 0:
+            m, _c, I = tensor_from_pseudo_inertia(0.5 * (J[i] + J[i].T))
+            out[i] = gyration_radius(m, I)
     return out

@@ -114,7 +114,7 @@ def detect_events(arm, t, q, r, T, min_duration: float, hysteresis: float, wrenc
             J = arm.jacobian(q[plateau])                                  # (k, 6, n), world axes at the tool
             P = np.linalg.pinv(np.swapaxes(J, 1, 2))                      # (k, 6, n): pinv(J^T)
             ev.wrench = np.mean(np.einsum("kij,kj->ki", P, r[plateau]), axis=0)
-            Pp = np.linalg.pinv(arm.jacobian(q[kp]).T)
+            Pp = np.linalg.pinv(J[np.searchsorted(plateau, kp)].T)      # the peak is on the plateau
             ev.wrench_uncertainty = np.abs(Pp) @ T
             Pf = np.linalg.pinv(np.swapaxes(J[:, :3, :], 1, 2))                # a force alone, no moment
             ev.point_force = np.mean(np.einsum("kij,kj->ki", Pf, r[plateau]), axis=0)

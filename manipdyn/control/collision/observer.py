@@ -38,7 +38,7 @@ import math
 import numpy as np
 
 from ..._support.errors import ModelError
-from ...identification.uncertainty.thresholds import DEFAULT_GAIN, low_pass
+from ...identification.uncertainty.thresholds import DEFAULT_GAIN, low_pass, positive
 
 __all__ = ["MomentumObserver", "momentum_residual", "direct_residual", "coriolis_transpose_qd", "check_gain"]
 
@@ -48,23 +48,11 @@ _mul, _sub = np.multiply, np.subtract
 
 
 def check_gain(gain) -> float:
-    try:
-        K = float(gain)
-    except (TypeError, ValueError):
-        raise ModelError(f"gain: expected the observer's gain K in 1/s, a number > 0, got {gain!r}") from None
-    if not (math.isfinite(K) and K > 0):
-        raise ModelError(f"gain: expected the observer's gain K in 1/s, a number > 0, got {gain!r}")
-    return K
+    return positive(gain, "gain", "the observer's gain K in 1/s, a number > 0")
 
 
 def _dt(dt) -> float:
-    try:
-        d = float(dt)
-    except (TypeError, ValueError):
-        raise ModelError(f"dt: expected the sample period in s, a number > 0, got {dt!r}") from None
-    if not (math.isfinite(d) and d > 0):
-        raise ModelError(f"dt: expected the sample period in s, a number > 0, got {dt!r}")
-    return d
+    return positive(dt, "dt", "the sample period in s, a number > 0")
 
 
 def coriolis_transpose_qd(arm, q, qd) -> np.ndarray:

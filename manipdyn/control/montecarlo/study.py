@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..controllers import Controller
+from ..mjsim import MUJOCO_PLANTS, SIMULATORS      # who steps a study's plants, and which plant
 from ...check.scale import arm_from_text, model_text
 from .distributions import Distributions, draw
 from .diverged import cause, runaway
@@ -42,10 +43,6 @@ __all__ = ["Study", "RunSetup", "TorqueNoise", "run_chunk", "CONTROLLER_KEYS", "
 
 #: controller keys of a study, in report order (those of ``manipdyn track``)
 CONTROLLER_KEYS = ("pd", "pdg", "ct", "adaptive", "lqr")
-#: who steps a study's plants
-SIMULATORS = ("manipdyn", "mujoco")
-#: the plants a study in MuJoCo can step (:mod:`manipdyn.control.mjsim`)
-MUJOCO_PLANTS = ("model", "file")
 
 
 class TorqueNoise(Controller):

@@ -131,8 +131,12 @@ def fold_kind(masks, labels) -> str:
     return f"{len(masks)}-fold blocked hold-outs of the fit data"
 
 
-def choose_prior_weight(arm, q, qd, qdd, tau, weights=DEFAULT_WEIGHTS, folds: int = 5, labels=None, segments=None,
-                        **fit_kwargs):
+#: blocks of :func:`choose_prior_weight` when the runs do not give two or more held-out groups
+PRIOR_WEIGHT_FOLDS = 5
+
+
+def choose_prior_weight(arm, q, qd, qdd, tau, weights=DEFAULT_WEIGHTS, folds: int = PRIOR_WEIGHT_FOLDS, labels=None,
+                        segments=None, **fit_kwargs):
     """``(best_weight, table)``: the prior weight of ``consistent`` by blocked cross-validation.
 
     Parameters

@@ -71,14 +71,14 @@ def solve(cp, problem, what, solvers=("CLARABEL", "SCS")):
             errors.append(f"{solver}: {problem.status}")
     if candidates:
         feasible = [c for c in candidates if c[4] <= VIOLATION_TOL]
-        pool = feasible or sorted(candidates, key=lambda c: c[4])[:1]
-        solver, status, values, obj, viol = min(pool, key=lambda c: c[3])
+        pool = feasible or [min(candidates, key=lambda c: c[4])]
+        solver, status, values, _obj, viol = min(pool, key=lambda c: c[3])
         for v, val in zip(problem.variables(), values):
             v.value = val
         if status == "optimal":
             return solver
-        others = [c for c in candidates if c[0] != solver]
-        if viol <= VIOLATION_TOL and others and all(obj <= c[3] for c in others if c[4] <= VIOLATION_TOL):
+        # kept from the feasible pool by the smallest objective: no other feasible answer beats it
+        if viol <= VIOLATION_TOL and len(candidates) > 1:
             return f"{solver} (reduced accuracy, checked)"
         return f"{solver} (inaccurate)"
     raise ModelError(f"consistent fit, {what}: no solver succeeded ({'; '.join(errors)})"

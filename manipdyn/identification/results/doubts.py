@@ -41,6 +41,8 @@ import os
 
 import numpy as np
 
+from ...model.plausible import arm_scale, gyration_radius
+
 __all__ = ["degenerate_links", "floor_doubts", "solver_doubts", "run_doubts", "payload_doubts", "NOISE_FACTOR", "RUN_FACTOR", "PAYLOAD_RTOL",
            "GYRATION_FRACTION", "BOUNDARY_RTOL"]
 
@@ -58,10 +60,9 @@ BOUNDARY_RTOL = 1e-6
 
 
 def arm_size(arm) -> float:
-    """The arm's size, m: the lengths of its joints' offsets and the tool's, summed."""
-    joints, tool = arm.chain()
-    return max(sum(float(np.linalg.norm(j.origin[:3, 3])) for j in joints) + float(np.linalg.norm(tool[:3, 3])),
-               1e-3)
+    """The arm's size, m: the lengths of its joints' offsets and the tool's, summed (at least 1 mm;
+    :func:`manipdyn.model.plausible.arm_scale`'s)."""
+    return arm_scale(arm)[1]
 
 
 def degenerate_links(arm) -> list[str]:
@@ -75,9 +76,8 @@ def degenerate_links(arm) -> list[str]:
         if not m > 0:
             continue
         lam = np.linalg.eigvalsh(0.5 * (b.J + b.J.T))
-        I = np.linalg.eigvalsh(0.5 * (b.inertia + b.inertia.T))
-        S = 0.5 * np.trace(b.inertia) - I          # principal second moments about the COM
-        rg = float(np.sqrt(max(float(np.min(S)), 0.0) / m))
+        I = np.linalg.eigvalsh(0.5 * (b.inertia + b.inertia.T))     # principal moments, for the sentence
+        rg = gyration_radius(m, b.inertia)
         boundary = lam[0] < BOUNDARY_RTOL * max(float(lam[-1]), 1e-300)
         if rg < GYRATION_FRACTION * size or boundary:
             name = f"link {k + 1}" + (f" ({j.link_name})" if getattr(j, "link_name", "") else "")

@@ -185,14 +185,19 @@ class CollisionThresholds:
         return out
 
 
-def _rate(rate) -> float:
+def positive(value, name: str, what: str) -> float:
+    """``value`` as a finite float > 0, else a :class:`ModelError` "``name``: expected ``what``, got ..."."""
     try:
-        r = float(rate)
+        x = float(value)
     except (TypeError, ValueError):
-        raise ModelError(f"false_alarms: expected a rate of false events per hour > 0, got {rate!r}") from None
-    if not (math.isfinite(r) and r > 0):
-        raise ModelError(f"false_alarms: expected a rate of false events per hour > 0, got {rate!r}")
-    return r
+        raise ModelError(f"{name}: expected {what}, got {value!r}") from None
+    if not (math.isfinite(x) and x > 0):
+        raise ModelError(f"{name}: expected {what}, got {value!r}")
+    return x
+
+
+def _rate(rate) -> float:
+    return positive(rate, "false_alarms", "a rate of false events per hour > 0")
 
 
 def _levels(a, b, top, hours, per_joint_rate) -> np.ndarray:
