@@ -71,7 +71,9 @@ def with_thresholds(arm, thresholds: CollisionThresholds):
     from ...formats.trust import TRUST_FORMAT
 
     out = copy.copy(arm)
-    out._engines = {}
+    # the trust record does not touch the dynamics: the engines built so far serve the copy too (an empty
+    # cache would leave the arm's bound fast-path calls, Arm.set_engine, on the old engine beside a new one)
+    out._engines = dict(arm._engines)
     rec = dict(getattr(arm, "trust", None) or {"format": TRUST_FORMAT})
     rec[TRUST_KEY] = thresholds.to_dict()
     out.trust = rec

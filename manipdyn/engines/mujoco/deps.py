@@ -7,8 +7,6 @@ Layer 3 (engines: mujoco).  :func:`mujoco_module` imports MuJoCo or raises
 
 from __future__ import annotations
 
-import importlib
-
 from ..._support.deps import MissingExtraError, install_command, require
 
 __all__ = ["mujoco_module", "available", "INSTALL"]
@@ -22,10 +20,10 @@ INSTALL = install_command("mujoco")
 
 
 def available() -> bool:
-    """True when the ``mujoco`` package imports."""
+    """True when a MuJoCo manipdyn runs on imports (:func:`mujoco_module` would return it)."""
     try:
-        importlib.import_module("mujoco")
-    except ImportError:
+        mujoco_module()
+    except MissingExtraError:
         return False
     return True
 

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from .engine import mujoco_engine
 
 __all__ = ["forward_dynamics_difference", "SLIDING", "SAMPLES"]
 
@@ -47,7 +46,7 @@ def forward_dynamics_difference(arm, samples: int = SAMPLES, seed: int = 0) -> d
         ``"torque"`` (n,): largest ``|(M (qacc - qdd))_j|``, N m (N);
         ``"samples"``, ``"sliding"`` (the smallest ``|qd|``, rad/s or m/s).
     """
-    mj, m = mujoco_engine(arm).simulation_model(1e-3)
+    mj, m = arm.engine("mujoco").simulation_model(1e-3)     # the arm's own engine, compiled once per arm
     d = mj.MjData(m)
     rng = np.random.default_rng(seed)
     n = arm.n
