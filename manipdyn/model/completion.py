@@ -45,10 +45,11 @@ import numpy as np
 
 from .._support.errors import ModelError
 from .inertia import LinkInertia, parameters_from_pseudo_inertia, pseudo_inertia_from_parameters
+from .parameters import stacked_regressor
 from .plausible import GYRATION_FLOOR, MJ_MINVAL, arm_scale, gyration_floor, mujoco_refusal
 
 __all__ = ["Completion", "complete_parameters", "complete_bodies", "gyration_floor", "mujoco_refusal",
-           "arm_scale", "stacked_link_regressor", "MARGIN", "MJ_MINVAL", "GYRATION_FLOOR", "EXACT_RTOL"]
+           "arm_scale", "MARGIN", "MJ_MINVAL", "GYRATION_FLOOR", "EXACT_RTOL"]
 
 #: the margin of a changed body, ``J >= MARGIN I`` in the arm's units (module docstring): a changed
 #: body of a 1 kg, 1 m arm has mass and second moments of at least 1e-9 (kg, kg m^2), six decades
@@ -110,20 +111,6 @@ class Completion:
                 f"{self.torque_difference:.3g} N m (N) on the model's states ({self.torque_rtol:.2g} of the "
                 f"largest torque); its base parameters differ by {self.base_error:.2g} relative"
                 + (f" (the worst one by {self.worst_base:.2g})" if self.worst_base != self.base_error else ""))
-
-
-def stacked_link_regressor(arm, samples: int = 60, seed: int = 0) -> np.ndarray:
-    """The link regressor (10 n columns) stacked over ``samples`` seeded random states: (samples n, 10 n).
-
-    The states are those of base-parameter finding (q uniform in the joint limits, qd in +-2, qdd in
-    +-5); they are "the model's states" on which a difference is measured.
-    """
-    rng = np.random.default_rng(seed)
-    q = arm.random_state(rng, samples)
-    qd = rng.uniform(-2.0, 2.0, q.shape)
-    qdd = rng.uniform(-5.0, 5.0, q.shape)
-    Y = arm.lagrange.regressor(q, qd, qdd)
-    return Y.reshape(-1, Y.shape[-1])
 
 
 def _scales(n: int, p: int, m_ref: float, L: float) -> np.ndarray:
@@ -217,7 +204,8 @@ def complete_parameters(arm, pi=None, *, K=None, prior=None, links=None, floor=N
         after the 10 n link ones (armature, friction) may move only within ``K``'s null space too.
     K : (r, p) array, optional
         The base-parameter map ``beta = K pi`` (e.g. ``BaseParameters.K``); default: the regressor
-        over the arm's seeded states (:func:`stacked_link_regressor`), whose null space is the same.
+        over the arm's seeded states (:func:`manipdyn.model.parameters.stacked_regressor`), whose null
+        space is the same.
     prior : (p,) array, optional
         The body to stay close to (default ``pi``; the prior arm's parameters for an identification).
     links : sequence of int, optional
@@ -231,7 +219,7 @@ def complete_parameters(arm, pi=None, *, K=None, prior=None, links=None, floor=N
         Which extra entries must stay >= 0 (default: none constrained).
     W : (rows, 10 n) or (rows, p) array, optional
         The stacked regressor on which differences are measured, the "model's states" (default
-        :func:`stacked_link_regressor`; an identification passes its data's).
+        :func:`manipdyn.model.parameters.stacked_regressor`; an identification passes its data's).
 
     Returns a :class:`Completion`; raises :class:`ModelError` for parameters of the wrong shape and
     :class:`~manipdyn._support.errors.MissingExtraError` when a body needs the solver and cvxpy is missing.
@@ -253,7 +241,7 @@ def complete_parameters(arm, pi=None, *, K=None, prior=None, links=None, floor=N
     m_ref, L = arm_scale(arm)
     s = _scales(n, p, m_ref, L)
     if W is None:
-        W = stacked_link_regressor(arm)
+        W = stacked_regressor(arm, 60)
     if floor is None:
         floor = gyration_floor(arm)
     floor = np.asarray(floor, dtype=np.float64)

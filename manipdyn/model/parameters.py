@@ -44,7 +44,7 @@ from .._support.errors import ModelError
 from .friction import friction_spec, law_parameters
 from .inertia import LINK_PARAMETERS, parameters_from_pseudo_inertia, pseudo_inertia_from_parameters
 
-__all__ = ["parameter_names", "parameter_count", "arm_parameters", "with_extra_columns", "PARAMETER_BASIS"]
+__all__ = ["parameter_names", "parameter_count", "arm_parameters", "with_extra_columns", "PARAMETER_BASIS", "stacked_regressor"]
 
 #: ``PARAMETER_BASIS[k]`` (4, 4) is the pseudo-inertia of the unit vector e_k of
 #: the 10 parameters: J = sum_k p_k PARAMETER_BASIS[k] (the map is linear).
@@ -130,3 +130,17 @@ def with_extra_columns(Y: np.ndarray, qd: np.ndarray, qdd: np.ndarray, armature:
         spec = friction_spec(friction, qd.shape[-1])
         blocks.append(spec.columns(qd, transmission))
     return np.concatenate([Y] + blocks, axis=-1) if blocks else Y
+
+
+def stacked_regressor(arm, samples: int = 200, seed: int = 0, armature=False, friction=False,
+                      engine: str = "lagrange") -> np.ndarray:
+    """The regressor over ``samples`` seeded random states, stacked: (samples n, p).
+
+    The states (q uniform in the joint limits, qd in +-2, qdd in +-5) are those of base-parameter finding
+    and of :func:`manipdyn.model.completion.complete_parameters` ("the model's states")."""
+    rng = np.random.default_rng(seed)
+    q = arm.random_state(rng, samples)
+    qd = rng.uniform(-2.0, 2.0, q.shape)
+    qdd = rng.uniform(-5.0, 5.0, q.shape)
+    Y = getattr(arm, engine).regressor(q, qd, qdd, armature=armature, friction=friction)
+    return Y.reshape(-1, Y.shape[-1])

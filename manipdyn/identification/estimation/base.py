@@ -31,23 +31,12 @@ import numbers
 import numpy as np
 
 from ..._support.errors import ModelError
-from ...model.parameters import parameter_count, parameter_names
+from ...model.parameters import parameter_count, parameter_names, stacked_regressor
 
 __all__ = ["BaseParameters", "base_parameters", "check_base", "stacked_regressor"]
 
 #: default rank tolerance, relative to the largest pivot (see the module docstring)
 RTOL = 1e-8
-
-
-def stacked_regressor(arm, samples: int = 200, seed: int = 0, armature=False, friction=False,
-                      engine: str = "lagrange") -> np.ndarray:
-    """The regressor over ``samples`` seeded random states, stacked: (samples n, p)."""
-    rng = np.random.default_rng(seed)
-    q = arm.random_state(rng, samples)
-    qd = rng.uniform(-2.0, 2.0, q.shape)
-    qdd = rng.uniform(-5.0, 5.0, q.shape)
-    Y = getattr(arm, engine).regressor(q, qd, qdd, armature=armature, friction=friction)
-    return Y.reshape(-1, Y.shape[-1])
 
 
 @dataclass(frozen=True)
