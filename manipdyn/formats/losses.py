@@ -203,9 +203,11 @@ def _drive_lines(arm, target) -> list:
     return lines
 
 
-def format_losses(arm, target: str) -> list:
+def format_losses(arm, target: str, published_bodies: bool = True) -> list:
     """One line per thing of ``arm`` the ``target`` format (``"urdf"`` or ``"mjcf"``) does not hold
-    as it is, with the size of the difference where it is a number (module docstring)."""
+    as it is, with the size of the difference where it is a number (module docstring).
+    ``published_bodies`` False: the file holds completed bodies (:func:`written_bodies`), so the
+    bodies MuJoCo refuses are not among its losses (the completion's own lines say what became of them)."""
     if target not in TARGETS:
         raise ModelError(f"target: expected one of {', '.join(TARGETS)}, got {target!r:.40}")
     lines = []
@@ -232,7 +234,7 @@ def format_losses(arm, target: str) -> list:
         elif law.coulomb is not None and np.any(law.coulomb) and target == "mjcf":
             lines.append("Coulomb friction is held as frictionloss, a soft constraint in MuJoCo, "
                          "not a sign function: near qd = 0 MuJoCo's friction torque differs from the law's")
-    for k, name, why in nonphysical_inertias(arm):
+    for k, name, why in nonphysical_inertias(arm) if published_bodies else ():
         lines.append(f"link {name!r} (joint {k + 1}) is no physical body ({why}): MuJoCo's compiler refuses it "
                      "('inertia must have positive eigenvalues' or 'must satisfy A + B >= C'); the file holds "
                      "the model's values as they are")

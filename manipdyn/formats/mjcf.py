@@ -155,10 +155,8 @@ def _drive(arm):
 def mjcf_losses(arm, as_published: bool = False) -> list:
     """What MJCF does not hold of ``arm`` (:func:`manipdyn.formats.losses.format_losses`), plus the
     limits the file leaves out, plus the bodies completed (:func:`manipdyn.formats.losses.written_bodies`): one line each."""
-    lines = list(format_losses(arm, "mjcf"))
     _bodies, completion = written_bodies(arm, as_published)
-    if completion is not None:
-        lines = [x for x in lines if "is no physical body" not in x] + completion_lines(completion)
+    lines = format_losses(arm, "mjcf", published_bodies=completion is None) + completion_lines(completion)
     joints, _tool = arm.chain()
     no_effort = [j.name for j in joints if j.effort is None]
     if no_effort:

@@ -113,11 +113,9 @@ def urdf_losses(arm, as_published: bool = True) -> list:
     placeholder limits the file carries, plus, unless ``as_published``, the bodies completed
     (:func:`manipdyn.formats.losses.written_bodies`): one line each (the file's opening comment, and
     what ``manipdyn urdf`` prints)."""
-    lines = list(format_losses(arm, "urdf"))
     _bodies, completion = written_bodies(arm, as_published, exact_only=True)
-    if completion is not None:
-        lines = [x for x in lines if "is no physical body" not in x or not completion.exact] \
-            + completion_lines(completion, used=completion.exact)
+    used = completion is not None and completion.exact
+    lines = format_losses(arm, "urdf", published_bodies=not used) + completion_lines(completion, used=used)
     joints, _tool = arm.chain()
     placeholders = [j.name for j in joints if j.effort is None or j.velocity is None]
     if placeholders:
