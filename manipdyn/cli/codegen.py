@@ -10,7 +10,7 @@ import os
 from .._support.errors import ModelError
 from ..engines.c import codegen
 from ..engines.c.source import check_arm, codegen_targets
-from .common import EXIT_OK, TIP_HELP, check_outputs, load_all
+from .common import EXIT_OK, TIP_HELP, check_outputs, creatable_folder, load_all
 
 __all__ = ["register", "run"]
 
@@ -29,11 +29,7 @@ def run(args) -> int:
     if os.path.isdir(args.output):
         check_outputs([("-o", hpath), ("-o", cpath)], inputs=[("the model", args.model)])
     else:
-        parent = os.path.dirname(os.path.abspath(args.output))
-        while not os.path.isdir(parent) and os.path.dirname(parent) != parent:
-            parent = os.path.dirname(parent)
-        if not os.access(parent, os.W_OK | os.X_OK):
-            raise ModelError(f"-o {args.output}: cannot create the folder (no write access to {parent})")
+        creatable_folder(args.output, "-o")
     hpath, cpath, note = codegen(arm, args.output, prefix=args.prefix)
     print(f"wrote {hpath} and {cpath} ({arm.name or 'arm'}, {arm.n} joints){'; ' + note if note else ''}")
     for n in notes:                      # the model's notes, as check and track show them

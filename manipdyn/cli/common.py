@@ -76,6 +76,16 @@ def urdf_target(outdir: str, arm, seen: dict, option: str, inputs=(), ext: str =
     return path
 
 
+def creatable_folder(path: str, option: str) -> None:
+    """Refuse, in one line, a folder that does not exist and cannot be created (its nearest existing
+    parent not writable): checked before any work, creating nothing."""
+    parent = os.path.dirname(os.path.abspath(path))
+    while not os.path.isdir(parent) and os.path.dirname(parent) != parent:
+        parent = os.path.dirname(parent)
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise ModelError(f"{option} {path}: cannot create the folder (no write access to {parent})")
+
+
 def output_folder(path: str, option: str) -> str:
     """Create the output folder and make sure files can be written in it, or say in one
     line why not (before any work starts)."""

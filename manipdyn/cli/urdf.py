@@ -13,7 +13,7 @@ from .._support.files import atomic_write_text, link_out_of
 from ..formats.save import to_urdf
 from ..formats.loading import models
 from ..formats.urdf.writer import urdf_losses
-from .common import EXIT_OK, TIP_HELP, is_urdf, load_all, output_folder, urdf_target, usage_error
+from .common import EXIT_OK, TIP_HELP, creatable_folder, is_urdf, load_all, output_folder, urdf_target, usage_error
 
 __all__ = ["register", "run", "write_models"]
 
@@ -39,12 +39,8 @@ def write_models(args, command: str, ext: str, write, losses) -> int:
     loaded = load_all(dict.fromkeys(specs), args.tip)   # each spec once, all loaded before writing
     seen: dict = {}
     exists = os.path.isdir(args.outdir)
-    if not exists:              # created only once everything is read: its nearest existing parent writable?
-        parent = os.path.dirname(os.path.abspath(args.outdir))
-        while not os.path.isdir(parent) and os.path.dirname(parent) != parent:
-            parent = os.path.dirname(parent)
-        if not os.access(parent, os.W_OK | os.X_OK):
-            raise ModelError(f"OUTDIR {args.outdir}: cannot create the folder (no write access to {parent})")
+    if not exists:              # created only once everything is read
+        creatable_folder(args.outdir, "OUTDIR")
     paths = [urdf_target(args.outdir, arm, seen, "OUTDIR", specs, ext, check=exists) for _spec, arm, _notes in loaded]
     for path in paths:
         far = link_out_of(args.outdir, path)
@@ -57,7 +53,6 @@ def write_models(args, command: str, ext: str, write, losses) -> int:
         with warnings.catch_warnings():      # the losses printed below say it, once
             warnings.simplefilter("ignore", PhysicalConsistencyWarning)
             texts.append((write(arm), losses(arm)))
-    created = not exists
     output_folder(args.outdir, "OUTDIR")
     try:
         for path, (text, lost) in zip(paths, texts):
@@ -70,7 +65,7 @@ def write_models(args, command: str, ext: str, write, losses) -> int:
             for line in lost:
                 print(f"  not held: {line}")
     finally:
-        if created:
+        if not exists:
             try:
                 os.rmdir(args.outdir)            # only when nothing was written into it
             except OSError:
