@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 
 from .._support.errors import ModelError
-from ..formats.logs.read import as_t_range
+from ..formats.logs.read import as_t_range, model_joint_names
 
 __all__ = ["register_log_options", "log_options_from_args", "model_joint_names", "library_options", "DATA_HELP"]
 
@@ -72,16 +72,6 @@ def log_options_from_args(args, joint_names=None) -> dict:
                 rate=args.rate, time_scale=args.time_scale, resample=args.resample, cutoff=args.cutoff,
                 decimate=False if args.no_decimate else None, topic=args.topic, t_range=_t_range(args.t_range),
                 extra_joints=bool(getattr(args, "extra_joints", False)))
-
-
-def model_joint_names(arm):
-    """The model's joint names in order (ROS bags map by them), or None."""
-    names = getattr(arm, "joint_names", None)
-    if names:
-        return list(names)
-    links = getattr(arm, "links", ())
-    names = [getattr(l, "name", "") for l in links]
-    return names if all(names) else None
 
 
 def library_options(args, function) -> dict:

@@ -247,7 +247,7 @@ def replay(models, logs, horizons=DEFAULT_HORIZONS, every: int = DEFAULT_EVERY, 
     -------
     ReplayResult
     """
-    from ..formats.logs.read import read_log
+    from ..formats.logs.read import model_joint_names, read_log
 
     if simulator not in SIMULATORS:
         raise ModelError(f"simulator: expected 'manipdyn' or 'mujoco', got {simulator!r:.40}")
@@ -277,10 +277,8 @@ def replay(models, logs, horizons=DEFAULT_HORIZONS, every: int = DEFAULT_EVERY, 
         mujoco_module()
     datas, notes = [], []
     if log_options.get("joint_names") is None:          # a ROS bag maps its joints by the model's names
-        first = arms[0][0]
-        names = list(getattr(first, "joint_names", None)
-                     or [getattr(link, "name", "") for link in getattr(first, "links", ())])
-        log_options["joint_names"] = names if len(names) == n and all(names) else None
+        names = model_joint_names(arms[0][0])
+        log_options["joint_names"] = names if names is not None and len(names) == n else None
     for path in logs:
         m = read_log(path, n, transmission=getattr(arms[0][0], "transmission", None), **log_options)
         datas.append(m)

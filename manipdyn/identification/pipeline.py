@@ -49,6 +49,7 @@ import numpy as np
 from .._support.threads import blas_threads as _blas
 from .._support import limits
 from .._support.errors import ModelError
+from ..formats.logs.read import model_joint_names
 from .inputs.options import OptionError
 from .results.result import IdentifyResult, write_model_files
 
@@ -248,7 +249,7 @@ def _identify(prior, logs, o) -> IdentifyResult:
         raise OptionError("{}: expected a callable progress(stage, done=None, total=None), got "
                           + brace_safe(f"{tell!r:.40}"), "progress")
     tell("reading the logs")
-    read_options = dict(joint_names=o["joint_names"] if o["joint_names"] is not None else _joint_names(arm),
+    read_options = dict(joint_names=o["joint_names"] if o["joint_names"] is not None else model_joint_names(arm),
                         columns=o["columns"], deg=o["deg"], rate=o["rate"], time_scale=o["time_scale"],
                         resample=o["resample"], cutoff=o["cutoff"], decimate=False if o["no_decimate"] else None,
                         topic=o["topic"], t_range=o["t_range"], extra_joints=o["extra_joints"])
@@ -431,11 +432,3 @@ def _name_from(output):
         return None
     name = os.path.splitext(os.path.basename(os.fspath(output)))[0]
     return name[:-5] if name.endswith(".base") else name or None
-
-
-def _joint_names(arm):
-    names = getattr(arm, "joint_names", None)
-    if names:
-        return list(names)
-    names = [getattr(link, "name", "") for link in getattr(arm, "links", ())]
-    return names if names and all(names) else None

@@ -42,7 +42,17 @@ from .rosbag import is_bag, read_joint_states
 from .table import read_table
 from .timebase import uniform_samples
 
-__all__ = ["read_log", "as_t_range"]
+__all__ = ["read_log", "as_t_range", "model_joint_names"]
+
+
+def model_joint_names(arm):
+    """The model's joint names in order (a ROS bag's joint states are mapped by them), or None when a
+    joint has no name."""
+    names = getattr(arm, "joint_names", None)
+    if names:
+        return list(names)
+    names = [getattr(link, "name", "") for link in getattr(arm, "links", ())]
+    return names if names and all(names) else None
 
 
 def _deg_factors(deg, n, where):
