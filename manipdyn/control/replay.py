@@ -39,6 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._support.errors import ModelError, StateError
+from .._support.jsonsafe import finite_or_null
 from .replay_page import BASELINE, figure, write_page
 from .mjsim import MUJOCO_PLANTS, SIMULATORS
 from .simulate import DEFAULT_MAX_POSITION, DEFAULT_MAX_VELOCITY, rk4_step
@@ -167,7 +168,7 @@ class ReplayResult:
                                "q_pooled": float(self.pooled(lab)[h]), "qd_pooled": float(self.pooled(lab, "qd")[h]),
                                **({} if lab == BASELINE else {"diverged": int(self.diverged[lab][h])})}
                     for h, H in enumerate(self.horizons)}
-        return _finite({"logs": list(self.logs), "simulator": self.simulator,
+        return finite_or_null({"logs": list(self.logs), "simulator": self.simulator,
                 **({"mujoco_plant": self.mujoco_plant} if self.simulator == "mujoco" else {}),
                 "dt": self.dt, "every": self.every, "starts": self.starts, "horizons": list(self.horizons),
                 "horizon_samples": list(self.steps), "substeps": dict(self.substeps),
@@ -329,15 +330,6 @@ def replay(models, logs, horizons=DEFAULT_HORIZONS, every: int = DEFAULT_EVERY, 
             notes.append(f"horizon {h:g} s is {k} samples of {dt:.6g} s = {k * dt:.6g} s")
     return ReplayResult(labels, hs, steps, dt, int(total), q_rms, qd_rms, div, subs, simulator, mujoco_plant,
                         tuple(arms[0][0].joint_types), notes, [os.fspath(p) for p in logs], int(every))
-
-
-def _finite(x):
-    """``x`` with every non-finite float (no start state left at a horizon) as None (strict JSON)."""
-    if isinstance(x, dict):
-        return {k: _finite(v) for k, v in x.items()}
-    if isinstance(x, list):
-        return [_finite(v) for v in x]
-    return None if isinstance(x, float) and not math.isfinite(x) else x
 
 
 def _unique(labels):

@@ -12,10 +12,10 @@ no meaningful error distribution); the diverged ones are counted.
 from __future__ import annotations
 
 import json
-import math
 
 import numpy as np
 
+from ..._support.jsonsafe import finite_or_null
 from ..stiffness import SAMPLED_LIMIT
 from .diverged import CAUSES
 from .distributions import effect_on_arm
@@ -114,7 +114,7 @@ class StudyReport:
     def to_json(self, indent: int | None = 2) -> str:
         """Strict JSON: a non-finite number (a run that blew up) is written ``null``, never
         ``Infinity`` or ``NaN``, which JSON does not have."""
-        return json.dumps(_finite_or_null(self.to_dict()), indent=indent, allow_nan=False)
+        return json.dumps(finite_or_null(self.to_dict()), indent=indent, allow_nan=False)
 
     def table(self) -> str:
         from ..demo import CONTROLLERS
@@ -180,12 +180,3 @@ class StudyReport:
                 f"{self.study.dt * 1e3:g} ms period and took up to {max(stiff)} (manipdyn.control.stiffness)\n")
 
 
-def _finite_or_null(x):
-    """``x`` with every non-finite float replaced by None (recursively through dicts and lists)."""
-    if isinstance(x, dict):
-        return {k: _finite_or_null(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_finite_or_null(v) for v in x]
-    if isinstance(x, float) and not math.isfinite(x):
-        return None
-    return x
