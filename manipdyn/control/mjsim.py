@@ -97,6 +97,16 @@ def mujoco_plant_model(plant, timestep: float, mujoco_plant: str = "file", integ
             mj.set_mjcb_passive(None)
 
 
+#: MuJoCo's warnings of a run that went wrong: it zeroed a control, or reset its data after a non-finite or
+#: huge acceleration, position or velocity (over 1e10), so the run would carry on from another state
+BAD_WARNINGS = ("mjWARN_BADQACC", "mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADCTRL")
+
+
+def bad_warnings(mj) -> list:
+    """Indices into ``MjData.warning`` of :data:`BAD_WARNINGS`."""
+    return [int(getattr(mj.mjtWarning, w)) for w in BAD_WARNINGS]
+
+
 def _loop(mj, model, log, watch, controller, trajectory, q, qd, progress) -> None:
     Q, V, TAU, dt, N, n = log.q, log.qd, log.tau, log.dt, watch.N, len(q)
     m_sub = log.substeps
@@ -104,8 +114,7 @@ def _loop(mj, model, log, watch, controller, trajectory, q, qd, progress) -> Non
     d.qpos[:], d.qvel[:] = q, qd
     mj.mj_forward(model, d)
     every = max(1, N // 100)
-    bad = [int(getattr(mj.mjtWarning, w)) for w in ("mjWARN_BADQACC", "mjWARN_BADQPOS", "mjWARN_BADQVEL",
-                                                    "mjWARN_BADCTRL")]
+    bad = bad_warnings(mj)
     warned = d.warning
     if isinstance(controller, Controller) and controller.trajectory is trajectory:
         step = controller.step

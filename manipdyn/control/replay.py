@@ -408,13 +408,13 @@ def _run_manipdyn(arm, m, starts, steps, dt, m_sub):
 
 def _run_mujoco(arm, m, starts, steps, dt, m_sub, mujoco_plant):
     """As :func:`_run_manipdyn`, MuJoCo stepping the arm's MJCF (module docstring)."""
-    from .mjsim import mujoco_plant_model
+    from .mjsim import bad_warnings, mujoco_plant_model
 
     W, n = len(starts), arm.n
     Q, V = np.full((len(steps), W, n), np.nan), np.full((len(steps), W, n), np.nan)
     want = {k: i for i, k in enumerate(steps)}
     with mujoco_plant_model(arm, dt / m_sub, mujoco_plant) as (mj, model):
-        bad = [int(getattr(mj.mjtWarning, w)) for w in ("mjWARN_BADQACC", "mjWARN_BADQPOS", "mjWARN_BADQVEL")]
+        bad = bad_warnings(mj)      # BADCTRL never fires here: the torque goes in as qfrc_applied, d.ctrl stays 0
         d = mj.MjData(model)
         for w, k0 in enumerate(starts):
             mj.mj_resetData(model, d)
