@@ -396,12 +396,11 @@ def _gyration_notes(origin: str, units: dict, links: list) -> list[str]:
 # ---------------------------------------------------------------------------
 # Writing
 # ---------------------------------------------------------------------------
-#: the short escapes of TOML basic strings; every other control character is written \uXXXX
 def model_to_toml(arm: Manipulator) -> str:
     """Model-file text for a DH arm, in SI units (m, rad, kg), floats written exactly; for a URDF
     arm, its URDF text with the drive (:mod:`manipdyn.formats.modelfile_urdf`)."""
     if getattr(arm, "urdf_text", None) is not None:
-        return urdf_model_to_toml(arm, FORMAT, toml_str, toml_num, toml_list)
+        return urdf_model_to_toml(arm, FORMAT)
     if not isinstance(arm, Manipulator):
         raise ModelError(f"save: only DH arms (Manipulator) have a model file; "
                          f"{type(arm).__name__} {arm.name!r} can be written with write_urdf()")
@@ -441,7 +440,7 @@ def model_to_toml(arm: Manipulator) -> str:
         if l.friction_viscous or l.friction_coulomb:
             lines += [f"friction_viscous = {toml_num(l.friction_viscous)}",
                       f"friction_coulomb = {toml_num(l.friction_coulomb)}"]
-    lines += drive_to_toml(arm, toml_num, toml_list) + poses_to_toml(arm, toml_list)
+    lines += drive_to_toml(arm) + poses_to_toml(arm)
     lines += trust_to_toml(getattr(arm, "trust", None))
     return "\n".join(lines) + "\n"
 

@@ -17,6 +17,7 @@ import numpy as np
 from .._support import limits
 from ..model.drive import Friction, Transmission
 from .._support.errors import ModelError
+from .tomltext import toml_list, toml_num
 
 __all__ = ["parse_drive", "drive_to_toml", "parse_poses", "poses_to_toml", "TRANSMISSION_KEYS", "FRICTION_KEYS"]
 
@@ -94,33 +95,31 @@ def parse_drive(data: dict, origin: str, gear_ratios) -> dict:
     return out
 
 
-def drive_to_toml(arm, num, vector) -> list[str]:
-    """The ``[transmission]`` and ``[friction]`` lines of ``arm`` (none when the links say it all).
-
-    ``num`` and ``vector`` write a float and a list exactly (the model file's writers).
-    """
+def drive_to_toml(arm) -> list[str]:
+    """The ``[transmission]`` and ``[friction]`` lines of ``arm`` (none when the links say it all); floats
+    and lists written exactly (:mod:`manipdyn.formats.tomltext`)."""
     lines = []
     t = arm.transmission
     if not t.is_diagonal or np.any(t.motor_offset) or t.torque_constant is not None:
         lines += ["", "[transmission]"]
         if not t.is_diagonal:
-            lines.append("coupling = [" + ", ".join(f"[{r}, {c}, {num(v)}]" for r, c, v in t.coupling) + "]")
+            lines.append("coupling = [" + ", ".join(f"[{r}, {c}, {toml_num(v)}]" for r, c, v in t.coupling) + "]")
         if np.any(t.motor_offset):
-            lines.append(f"motor_offset = {vector(t.motor_offset)}")
+            lines.append(f"motor_offset = {toml_list(t.motor_offset)}")
         if t.torque_constant is not None:
-            lines.append(f"torque_constant = {vector(t.torque_constant)}")
+            lines.append(f"torque_constant = {toml_list(t.torque_constant)}")
     f = arm.friction_model
     links_say_it = any(l.friction_viscous or l.friction_coulomb for l in arm.links)
     if f is not None and not links_say_it:
-        lines += ["", "[friction]", f'side = "{f.side}"', f"smoothing = {num(f.smoothing)}",
-                  f"deadband = {num(f.deadband)}"]
+        lines += ["", "[friction]", f'side = "{f.side}"', f"smoothing = {toml_num(f.smoothing)}",
+                  f"deadband = {toml_num(f.deadband)}"]
         for k in _FRICTION_ARRAYS:
             v = getattr(f, k)
             if k in ("coulomb_pos", "coulomb_neg") and not f.asymmetric or v is None:
                 continue
-            lines.append(f"{k} = {vector(v)}")
+            lines.append(f"{k} = {toml_list(v)}")
         if f.stribeck_level is not None:
-            lines.append(f"stribeck_exponent = {num(f.stribeck_exponent)}")
+            lines.append(f"stribeck_exponent = {toml_num(f.stribeck_exponent)}")
     return lines
 
 
@@ -137,7 +136,7 @@ def parse_poses(data: dict, origin: str, joint_types, L: float, A: float):
             for k, v in table.items()}
 
 
-def poses_to_toml(arm, vector) -> list[str]:
+def poses_to_toml(arm) -> list[str]:
     """The ``[poses]`` lines of ``arm`` (SI units), none when it has no pose."""
     poses = getattr(arm, "poses", {})
-    return ["", "[poses]"] + [f"{k} = {vector(v)}" for k, v in poses.items()] if poses else []
+    return ["", "[poses]"] + [f"{k} = {toml_list(v)}" for k, v in poses.items()] if poses else []

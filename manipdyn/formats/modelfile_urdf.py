@@ -35,6 +35,7 @@ import numpy as np
 
 from .._support.errors import ModelError
 from .modelfile_drive import TRANSMISSION_KEYS, parse_drive
+from .tomltext import toml_list, toml_num, toml_str
 from .trust import trust_from_toml, trust_to_toml, without_trust_comment
 
 __all__ = ["URDF_MODEL_KEYS", "parse_urdf_model", "urdf_model_to_toml"]
@@ -116,50 +117,50 @@ def parse_urdf_model(data: dict, origin: str, strict: bool = False):
     return arm
 
 
-def _multiline(text: str, string) -> str:
-    """``text`` as a TOML multi-line literal string when it can be one, else ``string(text)``."""
+def _multiline(text: str) -> str:
+    """``text`` as a TOML multi-line literal string when it can be one, else a basic string (:func:`toml_str`)."""
     ok = "'''" not in text and not text.endswith("'") and all(
         ch in "\n\t" or (ord(ch) >= 0x20 and ord(ch) != 0x7F) for ch in text)
-    return "'''\n" + text + "'''" if ok else string(text, "urdf")
+    return "'''\n" + text + "'''" if ok else toml_str(text, "urdf")
 
 
-def urdf_model_to_toml(arm, fmt: str, string, num, vector) -> str:
-    """Model-file text of a URDF arm with its drive (module docstring); ``string``, ``num`` and
-    ``vector`` write a TOML string, a float and a list exactly (the model file's writers)."""
-    lines = [f"format = {string(fmt)}", f"name = {string(arm.name, 'name')}", f"gravity = {vector(arm.gravity)}",
-             f"source = {string(getattr(arm, 'source', '') or '', 'source')}"]
+def urdf_model_to_toml(arm, fmt: str) -> str:
+    """Model-file text of a URDF arm with its drive (module docstring); strings, floats and lists
+    written exactly (:mod:`manipdyn.formats.tomltext`)."""
+    lines = [f"format = {toml_str(fmt)}", f"name = {toml_str(arm.name, 'name')}", f"gravity = {toml_list(arm.gravity)}",
+             f"source = {toml_str(getattr(arm, 'source', '') or '', 'source')}"]
     if getattr(arm, "description", ""):
-        lines.append(f"description = {string(arm.description, 'description')}")
+        lines.append(f"description = {toml_str(arm.description, 'description')}")
     if arm.tip is not None:
-        lines.append(f"tip = {string(arm.tip, 'tip')}")
+        lines.append(f"tip = {toml_str(arm.tip, 'tip')}")
     text = arm.urdf_text if getattr(arm, "trust", None) is None else without_trust_comment(arm.urdf_text)
-    lines.append(f"urdf = {_multiline(text, string)}")
+    lines.append(f"urdf = {_multiline(text)}")
     sources = getattr(arm, "sources", None) or {}
     if sources:
-        lines += ["", "[sources]"] + [f"{string(k, 'a key of sources')} = {string(v, 'a source')}"
+        lines += ["", "[sources]"] + [f"{toml_str(k, 'a key of sources')} = {toml_str(v, 'a source')}"
                                       for k, v in sources.items()]
     t = arm.transmission
     G = np.diag(t.R)
     if np.any(G != 1.0) or np.any(arm.motor_inertia) or not t.is_diagonal or np.any(t.motor_offset) \
             or t.torque_constant is not None:
-        lines += ["", "[transmission]", f"gear_ratio = {vector(G)}", f"motor_inertia = {vector(arm.motor_inertia)}"]
+        lines += ["", "[transmission]", f"gear_ratio = {toml_list(G)}", f"motor_inertia = {toml_list(arm.motor_inertia)}"]
         if not t.is_diagonal:
-            lines.append("coupling = [" + ", ".join(f"[{r}, {c}, {num(v)}]" for r, c, v in t.coupling) + "]")
+            lines.append("coupling = [" + ", ".join(f"[{r}, {c}, {toml_num(v)}]" for r, c, v in t.coupling) + "]")
         for key in TRANSMISSION_KEYS[1:]:
             v = getattr(t, key)
             if v is not None and np.any(v):
-                lines.append(f"{key} = {vector(v)}")
+                lines.append(f"{key} = {toml_list(v)}")
     f = arm.friction_model
     if f is not None:
-        lines += ["", "[friction]", f'side = "{f.side}"', f"smoothing = {num(f.smoothing)}",
-                  f"deadband = {num(f.deadband)}"]
+        lines += ["", "[friction]", f'side = "{f.side}"', f"smoothing = {toml_num(f.smoothing)}",
+                  f"deadband = {toml_num(f.deadband)}"]
         for k in ("viscous", "coulomb", "coulomb_pos", "coulomb_neg", "offset", "stribeck_level",
                   "stribeck_velocity", "sigmoid_A", "sigmoid_alpha", "sigmoid_p3"):
             v = getattr(f, k)
             if v is None or (k in ("coulomb_pos", "coulomb_neg") and not f.asymmetric):
                 continue
-            lines.append(f"{k} = {vector(v)}")
+            lines.append(f"{k} = {toml_list(v)}")
         if f.stribeck_level is not None:
-            lines.append(f"stribeck_exponent = {num(f.stribeck_exponent)}")
+            lines.append(f"stribeck_exponent = {toml_num(f.stribeck_exponent)}")
     lines += trust_to_toml(getattr(arm, "trust", None))
     return "\n".join(lines) + "\n"
