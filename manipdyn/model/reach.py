@@ -102,17 +102,20 @@ def pose_error(T_goal: np.ndarray, T: np.ndarray) -> np.ndarray:
 
 def _as_poses(T) -> tuple[np.ndarray, bool]:
     """``T`` as (N, 4, 4) homogeneous transforms, checked; and whether it was one (4, 4)."""
+    def bad():
+        return ModelError(f"T: expected a 4x4 homogeneous transform (or a stack (N, 4, 4)), got {T!r:.80}")
+
     try:
-        kind = np.asarray(T).dtype.kind
-        if kind in "bcSUMm":      # numpy would drop an imaginary part, read True as 1 or a date as a number
-            what = {"b": "bool", "c": "complex"}.get(kind, "non-numeric")
-            raise ModelError(f"T: expected a homogeneous transform of real numbers, got a {what} array "
-                             f"(dtype {np.asarray(T).dtype})")
-        arr = np.array(T, dtype=np.float64)
-    except (TypeError, ValueError, OverflowError) as exc:
-        if isinstance(exc, ModelError):
-            raise
-        raise ModelError(f"T: expected a 4x4 homogeneous transform (or a stack (N, 4, 4)), got {T!r:.80}") from None
+        raw = np.asarray(T)
+    except (TypeError, ValueError, OverflowError):
+        raise bad() from None
+    if raw.dtype.kind in "bcSUMm":      # numpy would drop an imaginary part, read True as 1 or a date as a number
+        what = {"b": "bool", "c": "complex"}.get(raw.dtype.kind, "non-numeric")
+        raise ModelError(f"T: expected a homogeneous transform of real numbers, got a {what} array (dtype {raw.dtype})")
+    try:
+        arr = np.array(raw, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise bad() from None
     if arr.shape[-2:] != (4, 4) or arr.ndim not in (2, 3) or not np.all(np.isfinite(arr)):
         raise ModelError(f"T: expected a finite 4x4 homogeneous transform (or (N, 4, 4)), got shape {arr.shape}")
     limits.check_magnitude(arr[..., :3, 3], "T", "translation", " m")
