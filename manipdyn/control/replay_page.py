@@ -58,7 +58,9 @@ def write_page(result, path, command=None) -> str:
         ("simulator", result.simulator + (f" ({result.mujoco_plant} plant)" if result.simulator == "mujoco" else "")),
         ("RK4 steps per sample", ", ".join(f"{k}: {v}" for k, v in result.substeps.items())),
         ("manipdyn", H.version())])),
-        H.section("Verdict", H.verdict(result.verdict(), "ok"))]
+        # one box per model, as the command prints one line each; orange where it does not beat the guess
+        H.section("Verdict", *[H.verdict(line, "warn" if "no better than the constant-velocity guess" in line else "ok")
+                               for line in result.verdict().splitlines()])]
     for what in ("q", "qd"):
         data = result.q_rms if what == "q" else result.qd_rms
         for h, Hs in enumerate(result.horizons):
