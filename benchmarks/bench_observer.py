@@ -126,6 +126,8 @@ def detection(arm, minutes: float, n_contacts: int, seed: int) -> dict:
             e = events[hit]
             row.update(delay=e.detected - t0, force_error=float(np.linalg.norm(e.wrench[:3] - f) / F),
                        point_force_error=float(np.linalg.norm(e.point_force - f) / F),
+                       force_bound=float(np.linalg.norm(e.wrench_uncertainty[:3]) / F),
+                       force_within_bound=bool(np.all(np.abs(e.wrench[:3] - f) <= e.wrench_uncertainty[:3])),
                        estimate=[float(x) for x in e.wrench[:3]], link=e.link)
         rows.append(row)
     extra = len(events) - len(used)
@@ -176,16 +178,19 @@ def main(argv=None) -> int:
         delays = [x["delay"] for x in found]
         big = [x for x in c if x["found"] and x["magnitude"] >= 20]
         print(f"\n{name}: thresholds (N m, 1 false event/h) " + " ".join(f"{x:.3g}" for x in det["threshold"]))
-        print(f"  {'t0 s':>6s} {'|f| N':>6s} {'det. N':>7s} {'found':>5s} {'delay ms':>8s} {'f err %':>7s} {'pt err %':>8s} link")
+        print(f"  {'t0 s':>6s} {'|f| N':>6s} {'det. N':>7s} {'found':>5s} {'delay ms':>8s} {'f err %':>7s} {'pt err %':>8s} {'f bound %':>9s} link")
         for x in c:
             print(f"  {x['t0']:6.1f} {x['magnitude']:6.1f} {x['detectable_force']:7.2f} {str(x['found']):>5s} "
-                  + (f"{1e3 * x['delay']:8.1f} {100 * x['force_error']:7.1f} {100 * x['point_force_error']:8.1f} {x['link']}" if x["found"] else ""))
+                  + (f"{1e3 * x['delay']:8.1f} {100 * x['force_error']:7.1f} {100 * x['point_force_error']:8.1f} "
+                     f"{100 * x['force_bound']:8.0f}{'' if x['force_within_bound'] else '!'} {x['link']}" if x["found"] else ""))
         print(f"  detectable contacts found {len(found)}/{len(detectable)}; delay max "
               f"{1e3 * max(delays, default=math.nan):.1f} ms (target <= {1e3 * TARGET_DELAY:g}); force error max for "
               f">= 20 N {100 * max((x['force_error'] for x in big), default=math.nan):.1f} % (point force "
               f"{100 * max((x['point_force_error'] for x in big), default=math.nan):.1f} %; target <= "
               f"{100 * TARGET_FORCE:g}); false events in {args.minutes:g} contact-free min: {det['false_events_free']}, "
-              f"unmatched in the contact run: {det['unmatched_events']}")
+              f"unmatched in the contact run: {det['unmatched_events']}; the wrench's force within its stated "
+              f"uncertainty on {sum(x['force_within_bound'] for x in c if x['found'])}/{sum(x['found'] for x in c)} "
+              f"contacts (! where not)")
         print(f"  MomentumObserver.update {cst['update_us']:.2f} us, arm.inverse_dynamics "
               f"{cst['inverse_dynamics_us']:.2f} us: ratio {cst['ratio']:.2f} (best rounds {cst['best']:.2f}; "
               f"target <= {TARGET_COST:g}); online vs offline observer max {cst['online_vs_offline_max_nm']:.2g} N m")
