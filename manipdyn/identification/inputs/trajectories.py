@@ -19,13 +19,26 @@ the overlap is under :data:`REPEAT_DISTANCE` of the positions' own spread (the R
 ``q - mean q`` of both runs, over every joint).  A repeat is within a few percent (the LWR4's
 runs 1 and 2: 1 %); two different excitations are tens of percent apart (its runs 1 and 3:
 over 50 %), so the threshold is far from both.  Groups are the connected sets of repeats.
+
+One trajectory: posture regions (:func:`posture_regions`)
+---------------------------------------------------------
+With a single trajectory there is no other run to hold out.  The next best experiment is to hold
+out **where the arm was**: the samples are split into :data:`POSTURE_REGIONS` regions of the joint
+space by k-means on the positions (each joint scaled by its own spread; a deterministic k-means++
+start), and each region is predicted by a fit on the others.  A refit then has to reach postures it
+did not see, as a fit must on the next trajectory, whereas blocks in time of a periodic excitation
+hold states that every other block revisits.  Four regions: each refit misses a quarter of the
+postures.  Measured on the KUKA LWR4+ (a band from one trajectory, scored on the other): four
+regions held 92.5 and 96.9 % pooled, five 89.1 and 91.3 %, eight 85.1 and 89.2 %, the time blocks
+alone 83.0 and 76.5 %; on the Panda's log (0 to 10 s, scored on 10 to 21 s) every choice held
+96.3 to 96.7 %, as the blocks did.  The number was chosen on these arms; others judge it.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["repeat_groups", "group_labels", "describe_groups", "REPEAT_DISTANCE", "MIN_OVERLAP", "GRID_DT"]
+__all__ = ["repeat_groups", "group_labels", "describe_groups", "posture_regions", "POSTURE_REGIONS", "REPEAT_DISTANCE", "MIN_OVERLAP", "GRID_DT"]
 
 #: two runs repeat one trajectory when their positions' RMS distance is under this fraction of their spread
 REPEAT_DISTANCE = 0.1
@@ -33,6 +46,8 @@ REPEAT_DISTANCE = 0.1
 MIN_OVERLAP = 0.5
 #: the comparison grid's step, s
 GRID_DT = 0.05
+#: the posture regions held out in turn when the fit data hold one trajectory
+POSTURE_REGIONS = 4
 
 
 def _grid(t, q):
@@ -103,3 +118,31 @@ def describe_groups(groups, names) -> str:
     return (head + ("; held out together as repeats of one trajectory (positions within "
                     f"{100 * REPEAT_DISTANCE:g} % of their spread): " + "; ".join(repeats) if repeats else
                     ": no run repeats another"))
+
+
+def posture_regions(q, k: int = POSTURE_REGIONS, min_size: int = 20, iterations: int = 100) -> np.ndarray | None:
+    """Labels (N,) in ``0..k-1``: ``k`` regions of the joint positions ``q`` (N, n), rad, by k-means on the
+    positions scaled by each joint's spread (joints that do not move are left out), from a k-means++
+    start with a fixed seed (the same data give the same regions).  None where they cannot be had:
+    no joint moves, or a region holds fewer than ``min_size`` samples (module docstring)."""
+    q = np.asarray(q, dtype=np.float64)
+    spread = np.std(q, axis=0)
+    moving = spread > 1e-9 * max(float(np.max(spread, initial=0.0)), 1e-300)
+    if q.ndim != 2 or len(q) < k * min_size or not np.any(moving):
+        return None
+    X = (q[:, moving] - np.mean(q[:, moving], axis=0)) / spread[moving]
+    rng = np.random.default_rng(0)
+    centres = [X[rng.integers(len(X))]]
+    for _ in range(1, k):                                   # k-means++: far from the centres so far
+        d2 = np.min(np.sum((X[:, None, :] - np.array(centres)[None]) ** 2, axis=2), axis=1)
+        centres.append(X[rng.choice(len(X), p=d2 / np.sum(d2))] if np.sum(d2) > 0 else X[rng.integers(len(X))])
+    C = np.array(centres)
+    labels = None
+    for _ in range(iterations):
+        new = np.argmin(np.sum((X[:, None, :] - C[None]) ** 2, axis=2), axis=1)
+        if labels is not None and np.array_equal(new, labels):
+            break
+        labels = new
+        C = np.array([X[labels == i].mean(axis=0) if np.any(labels == i) else C[i] for i in range(k)])
+    counts = np.bincount(labels, minlength=k)
+    return labels if np.min(counts) >= min_size else None
