@@ -66,7 +66,7 @@ def test_band_holds_on_another_trajectory_with_the_right_model(tmp_path, capsys)
     pred_csv = tmp_path / "pred.csv"
     assert main(["validate", str(model), str(new_log), "--json", "--predictions", str(pred_csv)]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["band_method"].startswith("blocked hold-outs")
+    assert out["band_method"].startswith("held-out posture regions (4,")   # one trajectory (bands.py)
     assert 0.93 <= out["band_95_pooled"] <= 0.97, out["band_95_coverage"]
     assert all(c >= 0.85 for c in out["band_95_coverage"]), out["band_95_coverage"]
     # the predictions file: t, tau, pred, lo, hi per sample; the band read back from it holds as reported

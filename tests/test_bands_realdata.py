@@ -38,7 +38,7 @@ def test_panda_band_holds_on_the_rest_of_the_log(panda_model, capsys):
     capsys.readouterr()
     assert main(["validate", str(panda_model), str(DATA), "--t-range", "10:21", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["band_method"].startswith("blocked hold-outs")
+    assert out["band_method"].startswith("held-out posture regions (4,")   # one trajectory (bands.py)
     assert 0.90 <= out["band_95_pooled"] <= 0.98, out["band_95_coverage"]
     assert min(out["band_95_coverage"]) >= 0.80, out["band_95_coverage"]
     # the README's table ("Which model should I trust on my robot?") is this run, to its digits

@@ -78,7 +78,9 @@ def test_the_trust_record_round_trips_every_kind_of_model(tmp_path, capsys):
         assert main(["validate", str(model), str(log), "--json", "--predictions", str(tmp_path / "p.csv")]) == 0
         out = json.loads(capsys.readouterr().out)
         assert out["band_95_pooled"] is not None, model
-        assert out["band_method"].startswith("blocked hold-outs"), model
+        # one trajectory: its posture regions held out, with the blocks (bands.py), whatever the file's kind
+        assert out["band_method"].startswith("held-out posture regions (4,"), model
+        assert "within one trajectory" in out["band_method"], model
         assert all("beyond_fit_fraction" in row for row in out["extrapolation"]), model
         header = (tmp_path / "p.csv").read_text().splitlines()[0].split(",")
         assert header[-6:] == [f"x{j}" for j in range(1, 7)] and "lo1" in header, model

@@ -291,10 +291,13 @@ class PredictionBand:
         if m is None:
             raise ModelError(f"{where}: expected '95 % band half-width per joint from K blocked hold-outs of "
                              f"N samples ...: [...]; held-out RMS [...]', got {text[:60]!r}")
+        held = re.search(r"\(at least; (\d+) held-out (trajectories|posture regions)", text)
+        extra = {} if held is None else ({"trajectories": int(held.group(1))} if held.group(2) == "trajectories"
+                                         else {"regions": int(held.group(1))})
         try:
             return cls.from_dict({"level": float(m.group(1)) / 100, "folds": m.group(2), "samples": m.group(3),
                                   "half_width": [float(x) for x in m.group(4).split(",")],
-                                  "held_out_rms": [float(x) for x in m.group(5).split(",")]}, n, where)
+                                  "held_out_rms": [float(x) for x in m.group(5).split(",")], **extra}, n, where)
         except ValueError:
             raise ModelError(f"{where}: the band's numbers are not numbers") from None
 
@@ -410,7 +413,8 @@ def _weights(rms) -> np.ndarray:
 
 
 def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: float = DEFAULT_LEVEL,
-                   smoothing: float | None = None, leverage: bool = True, labels=None, **fit_kwargs) -> PredictionBand:
+                   smoothing: float | None = None, leverage: bool = True, labels=None, regions: bool = True,
+                   **fit_kwargs) -> PredictionBand:
     """The :class:`PredictionBand` of a fit on ``q, qd, qdd, tau`` (N, n) by blocked hold-outs, and by held-out
     trajectories when ``labels`` (N,) gives two or more groups, else by held-out posture regions where they
     can be had (module docstring).
@@ -418,7 +422,8 @@ def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: floa
     With ``leverage`` (default) the half-width of a single trajectory's band grows with each sample's
     leverage ratio where the held-out errors say it should, and ``flag_leverage`` is calibrated (module
     docstring; ``smoothing`` v_s of the features, rad/s, default 0.01); without, a constant band per
-    joint.  Costs ``folds`` refits, and one per held-out group or posture region.  Raises :class:`ModelError` when the
+    joint.  ``regions`` False: no posture regions, a single trajectory's band from the blocks alone (the
+    within-run band).  Costs ``folds`` refits, and one per held-out group or posture region.  Raises :class:`ModelError` when the
     data is too short for the blocks or a refit fails.
     """
     if not 0 < float(level) < 1:
@@ -428,8 +433,8 @@ def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: floa
     groups = None if labels is None else np.unique(np.asarray(labels))
     if groups is not None and len(labels) != len(q):
         raise ModelError(f"labels: expected {len(q)} group labels, one per sample, got {len(labels)}")
-    regions = 0
-    if groups is None or len(groups) < 2:             # one trajectory: its posture regions (module docstring)
+    held_regions, regions = bool(regions), 0
+    if (groups is None or len(groups) < 2) and held_regions:   # one trajectory: its posture regions (module docstring)
         from ..inputs.trajectories import posture_regions
 
         labels = posture_regions(q)
