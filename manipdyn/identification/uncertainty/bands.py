@@ -124,7 +124,7 @@ import numpy as np
 
 from ..._support.errors import ModelError
 
-__all__ = ["PredictionBand", "calibrate_band", "held_out_residuals", "held_out_leverage", "DEFAULT_FOLDS",
+__all__ = ["PredictionBand", "calibrate_band", "held_out_residuals", "held_out_leverage", "block_masks", "DEFAULT_FOLDS",
            "DEFAULT_LEVEL", "GAINS", "FLAG_LEVEL", "WITHIN_ONE_TRAJECTORY"]
 
 DEFAULT_FOLDS = 5
@@ -321,7 +321,7 @@ def _masks(N: int, folds: int, masks, segments=None) -> list:
 
 
 def held_out_residuals(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, segments=None, masks=None,
-                       **fit_kwargs) -> np.ndarray:
+                       refits: list | None = None, **fit_kwargs) -> np.ndarray:
     """Measured minus predicted torque (N, n), each block predicted by a fit on the others.
 
     ``q, qd, qdd, tau`` (N, n) in time order (one log; several logs: stacked in order, a block
@@ -331,7 +331,10 @@ def held_out_residuals(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, segment
     :func:`manipdyn.identification.fit` (``method``, ``friction``, ``armature``, ``bounds``,
     ``prior_weight``): the refits are the fit the user asked for, on less data.  ``masks``: the
     folds' test samples, (N,) bool each, partitioning the samples (the held-out trajectories),
-    instead of ``folds`` blocks in time.
+    instead of ``folds`` blocks in time.  ``refits``: a list to which each fold's ``(test, arm)`` is
+    appended, ``test`` its held-out samples (N,) bool and ``arm`` the refit's arm (None when its
+    parameters are no physical arm), for the collision thresholds, which watch the same hold-outs
+    through the observer of the same refits (:mod:`manipdyn.control.collision.holdouts`).
     """
     from ..estimation.fitting import fit
 
@@ -343,7 +346,15 @@ def held_out_residuals(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, segment
         extra = {} if kept is None else {"segments": kept}
         r = fit(arm, q[~test], qd[~test], qdd[~test], tau[~test], **fit_kwargs, **extra, complete=False)
         res[test] = tau[test] - r.predict(q[test], qd[test], qdd[test])
+        if refits is not None:
+            refits.append((test, r.arm))
     return res
+
+
+def block_masks(N: int, folds: int = DEFAULT_FOLDS, segments=None) -> list:
+    """The band's blocked hold-outs of ``N`` stacked samples: ``folds`` masks (N,) bool, block k the k-th
+    part of every run (``segments``: the runs' sample counts), as :func:`held_out_residuals` cuts them."""
+    return _masks(int(N), folds, None, segments)
 
 
 def conformal_half_width(residuals, level: float = DEFAULT_LEVEL) -> np.ndarray:
@@ -390,26 +401,31 @@ def _weights(rms) -> np.ndarray:
 
 
 def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: float = DEFAULT_LEVEL,
-                   smoothing: float | None = None, leverage: bool = True, labels=None, **fit_kwargs) -> PredictionBand:
+                   smoothing: float | None = None, leverage: bool = True, labels=None, refits: dict | None = None,
+                   **fit_kwargs) -> PredictionBand:
     """The :class:`PredictionBand` of a fit on ``q, qd, qdd, tau`` (N, n) by blocked hold-outs, and by held-out
     trajectories when ``labels`` (N,) gives two or more groups (module docstring).
 
     With ``leverage`` (default) the half-width of a single trajectory's band grows with each sample's
     leverage ratio where the held-out errors say it should, and ``flag_leverage`` is calibrated (module
     docstring; ``smoothing`` v_s of the features, rad/s, default 0.01); without, a constant band per
-    joint.  Costs ``folds`` refits, and one per held-out group.  Raises :class:`ModelError` when the
-    data is too short for the blocks or a refit fails.
+    joint.  Costs ``folds`` refits, and one per held-out group.  ``refits``: a dict that receives the
+    refits' ``(test, arm)`` pairs (:func:`held_out_residuals`) under ``"blocks"`` and, with two or more
+    groups, ``"trajectories"``.  Raises :class:`ModelError` when the data is too short for the blocks or
+    a refit fails.
     """
     if not 0 < float(level) < 1:
         raise ModelError(f"level: expected a fraction in (0, 1), got {level}")
-    res = held_out_residuals(arm, q, qd, qdd, tau, folds=folds, **fit_kwargs)
+    kept = None if refits is None else refits.setdefault("blocks", [])
+    res = held_out_residuals(arm, q, qd, qdd, tau, folds=folds, refits=kept, **fit_kwargs)
     rms = np.sqrt(np.mean(res**2, axis=0))
     groups = None if labels is None else np.unique(np.asarray(labels))
     if groups is not None and len(labels) != len(q):
         raise ModelError(f"labels: expected {len(q)} group labels, one per sample, got {len(labels)}")
     if groups is not None and len(groups) >= 2:
         masks = [np.asarray(labels) == g for g in groups]
-        res_t = held_out_residuals(arm, q, qd, qdd, tau, masks=masks, **fit_kwargs)
+        kept = None if refits is None else refits.setdefault("trajectories", [])
+        res_t = held_out_residuals(arm, q, qd, qdd, tau, masks=masks, refits=kept, **fit_kwargs)
         rms_t = np.sqrt(np.mean(res_t**2, axis=0))
         width = np.maximum(conformal_half_width(res_t, level), conformal_half_width(res, level))
         flag = None
