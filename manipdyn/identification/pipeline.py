@@ -362,17 +362,14 @@ def _identify(prior, logs, o) -> IdentifyResult:
 
 
 def _held_out(refits, record, labels, folds):
-    """The band's hold-outs and refits as :class:`.results.result.HeldOut`, or None without a band: the
+    """The band's hold-outs and refits as :class:`.results.result.HeldOut`, or None without a band: its kind the
     held-out trajectories when there are two or more, else the blocks."""
     from .results.result import HeldOut
 
-    if record.get("prediction_band") is None:
+    if record.get("prediction_band") is None or not refits.get("blocks"):
         return None
     kind = "trajectories" if refits.get("trajectories") else "blocks"
-    pairs = refits.get(kind) or []
-    if not pairs:
-        return None
-    return HeldOut(kind, int(folds), [m for m, _ in pairs], [a for _, a in pairs],
+    return HeldOut(kind, int(folds), {k: v for k, v in refits.items() if v},
                    None if labels is None else np.asarray(labels))
 
 

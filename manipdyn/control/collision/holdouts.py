@@ -60,14 +60,16 @@ def _names(sources) -> list[str]:
 
 def identified_thresholds(result, logs, gain: float = DEFAULT_GAIN, false_alarms: float = DEFAULT_RATE, *,
                           min_duration: float = DEFAULT_MIN_DURATION, hysteresis: float = DEFAULT_HYSTERESIS,
-                          **read_options) -> CollisionThresholds:
+                          kind: str | None = None, **read_options) -> CollisionThresholds:
     """Thresholds from the hold-outs of an identification (module docstring).
 
     ``result``: an :class:`~manipdyn.identification.IdentifyResult` with its band's hold-outs
     (``band_folds`` > 0); ``logs``: the logs it was given (paths, RUNS.toml or LogSpecs, not arrays: the
     observer reads each file again, nearly raw); ``read_options``: identify's reading options
     (:data:`READ_KEYS`; others are ignored).  ``gain`` 1/s, ``false_alarms`` per hour, ``min_duration`` s
-    and ``hysteresis`` as :func:`~manipdyn.control.collision.observe` takes them.  Raises :class:`ModelError`
+    and ``hysteresis`` as :func:`~manipdyn.control.collision.observe` takes them.  ``kind``: ``"trajectories"``
+    or ``"blocks"`` (default: the band's own, held-out trajectories when there are two or more; the blocks are
+    computed too, for a comparison).  Raises :class:`ModelError`
     when the result has no hold-outs, a refit is no physical arm, a run carried a known payload, or a
     log is no file.
     """
@@ -90,7 +92,9 @@ def identified_thresholds(result, logs, gain: float = DEFAULT_GAIN, false_alarms
     if len(specs) != len(segments) or any(isinstance(s, Measurements) for s in specs):
         raise ModelError("thresholds: the observer reads each fit log again as a file; the logs must be the "
                          f"{len(segments)} files identify read, got {len(specs)} item(s)")
-    bad = [k + 1 for k, a in enumerate(held.arms) if a is None]
+    pairs = held.pairs(kind)
+    kind = held.kind if kind is None else kind
+    bad = [k + 1 for k, (_, a) in enumerate(pairs) if a is None]
     if bad:
         raise ModelError(f"thresholds: the refit without hold-out {', '.join(map(str, bad))} is no physical arm "
                          "(--method consistent always gives one); give calibrate= instead")
@@ -106,7 +110,7 @@ def identified_thresholds(result, logs, gain: float = DEFAULT_GAIN, false_alarms
         (raw,) = read_observed(result.arm, spec.path, **run_opts)
         dts.append(raw.dt)
         t = data.t[starts[r]:starts[r + 1]]
-        for mask, arm in zip(held.masks, held.arms):
+        for mask, arm in pairs:
             for t0, t1 in _spans(np.asarray(mask[starts[r]:starts[r + 1]], dtype=bool), t):
                 inside = (raw.t >= t0) & (raw.t < t1)
                 if np.sum(inside) < 10:
@@ -117,11 +121,11 @@ def identified_thresholds(result, logs, gain: float = DEFAULT_GAIN, false_alarms
         raise ModelError(f"thresholds: the fit logs' sample periods differ ({min(dts):.4g} to {max(dts):.4g} s); "
                          "resample them to one rate (--resample)")
     names = _names([s.path for s in specs])
-    if held.kind == "trajectories":
+    if kind == "trajectories":
         labels = np.asarray(held.labels)
         groups = [" + ".join(n for k, n in enumerate(names) if labels[starts[k]] == g)
                   for g in np.unique(labels)]
-        source = (f"{len(held.masks)} held-out trajectories of the fit data ({' | '.join(groups)}), each watched by "
+        source = (f"{len(pairs)} held-out trajectories of the fit data ({' | '.join(groups)}), each watched by "
                   "the observer of the band's refit on the others")
     else:
         source = (f"{held.folds} blocked hold-outs of the fit data {', '.join(names)}, each watched by the observer "

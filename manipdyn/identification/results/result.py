@@ -22,18 +22,26 @@ EXIT_OK, EXIT_NO_ARM = 0, 1
 class HeldOut:
     """The hold-outs of the prediction band and the refits that predicted them (:mod:`..uncertainty.bands`).
 
-    ``kind``: ``"trajectories"`` (each trajectory group held out, two or more) or ``"blocks"`` (the
-    ``folds`` blocks in time of one trajectory); ``masks``: per fold the held-out samples of the stacked
-    fit data, (N,) bool; ``arms``: per fold the refit's arm (None when its parameters are no physical arm);
-    ``labels`` (N,) or None: each sample's trajectory group.  The collision thresholds watch the same
-    hold-outs through the observer of these refits (:mod:`manipdyn.control.collision.holdouts`).
+    ``kind``: the band's own, ``"trajectories"`` (each trajectory group held out, when there are two or
+    more) or ``"blocks"`` (``folds`` blocks in time, block k the k-th part of every run); ``refits``: per
+    kind computed, a list of ``(test, arm)``, ``test`` the held-out samples of the stacked fit data (N,)
+    bool and ``arm`` the refit's arm (None when its parameters are no physical arm); ``labels`` (N,) or
+    None: each sample's trajectory group.  The collision thresholds watch the same hold-outs through the
+    observer of these refits (:mod:`manipdyn.control.collision.holdouts`).
     """
 
     kind: str
     folds: int
-    masks: list
-    arms: list
+    refits: dict
     labels: object = None
+
+    def pairs(self, kind: str | None = None) -> list:
+        """The ``(test, arm)`` pairs of ``kind`` (default :attr:`kind`); a :class:`ModelError` when not computed."""
+        kind = self.kind if kind is None else kind
+        if not self.refits.get(kind):
+            raise ModelError(f"held-out kind: expected one of {', '.join(k for k in self.refits if self.refits[k])}, "
+                             f"got {kind!r}")
+        return list(self.refits[kind])
 
 
 @dataclass
