@@ -11,7 +11,7 @@ import pytest
 import manipdyn as md
 from manipdyn.cli import main
 from manipdyn.control.collision import carried_thresholds
-from manipdyn.control.collision.holdouts import held_out_thresholds, identified_thresholds
+from manipdyn.control.collision.holdouts import held_out_thresholds
 
 
 def _load(path):
@@ -57,6 +57,8 @@ def test_identify_writes_thresholds_that_observe_uses_and_fit_data_reproduces(lo
 
 
 def test_two_trajectories_are_held_out_as_trajectories(logs):
+    from manipdyn.control.collision.holdouts import identified_thresholds
+
     d = logs
     files = [str(d / "free0.csv"), str(d / "free1.csv")]
     r = md.identify("ur5", files, friction=True)
