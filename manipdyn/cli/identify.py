@@ -145,8 +145,8 @@ def run(args) -> int:
 
 
 def collision_thresholds(result, logs, opts) -> dict | None:
-    """The collision thresholds of the band's hold-outs (:func:`manipdyn.control.collision.holdouts.identified_thresholds`)
-    written into the model file's trust record (key ``collision``), at the default gain and rate; ``{"line": ...}``
+    """The collision thresholds of the band's hold-outs
+    (:func:`manipdyn.control.collision.holdouts.identified_thresholds`) written into the model file's trust record (key ``collision``), at the default gain and rate; ``{"line": ...}``
     (one line on what they came from and their values, or why there are none) plus the record; None when no model
     file was written."""
     from ..control.collision.holdouts import identified_thresholds

@@ -30,7 +30,8 @@ def register(subparsers) -> None:
                     "crossings of a per-joint threshold that last, their joints, the last link touched and the "
                     "force at the tool. The thresholds come from --threshold, from --calibrate (collision-free logs "
                     "the model was not fitted on, for --false-alarms events per hour), or from the model's trust "
-                    "record (manipdyn identify writes them there, from the band's hold-outs; --save-model too); with none of these, observe refuses. Exit codes: 0 no "
+                    "record (manipdyn identify writes them there, from the band's hold-outs; --save-model too); with none "
+                    "of these, observe refuses. Exit codes: 0 no "
                     "event, 1 some event, 2 usage, model or data error.")
     p.add_argument("model", metavar="MODEL", help="bundled model name, .toml model file, .urdf file")
     p.add_argument("logs", metavar="LOG", nargs="*", help="the logs to watch. A log: " + DATA_HELP)

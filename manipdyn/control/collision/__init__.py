@@ -9,7 +9,8 @@ Layer 6 (control: collision).  May import: everything below control (``identific
   wrench at the tool ``f = pinv(J^T) r``;
 * :mod:`manipdyn.control.collision.observe`: :func:`observe`, a log's residuals, thresholds and events
   (:class:`ObserveResult`, :mod:`manipdyn.control.collision.report`), and :func:`calibrate_thresholds`;
-  :mod:`manipdyn.control.collision.holdouts`: thresholds from the fit data's blocked hold-outs;
+  :mod:`manipdyn.control.collision.holdouts`: thresholds from the band's hold-outs of the fit data (what
+  ``manipdyn identify`` writes by default);
   :mod:`manipdyn.control.collision.reading`: the logs as the observer reads them (the thresholds themselves live in
   :mod:`manipdyn.identification.uncertainty.thresholds`, beside the band they share hold-outs with).
 """

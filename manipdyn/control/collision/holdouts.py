@@ -6,7 +6,7 @@ The prediction band (:mod:`manipdyn.identification.uncertainty.bands`) predicts 
 data by a refit on the rest: each **trajectory** held out when the runs hold two or more different
 ones (runs repeating one trajectory held out together, :mod:`manipdyn.identification.inputs.trajectories`),
 else ``folds`` contiguous **blocks** in time (block k the k-th part of every run).  The thresholds use
-the same hold-outs and the same refits (:attr:`manipdyn.identification.results.result.IdentifyResult.held_out`),
+the same hold-outs and the same refits (the ``held_out`` of :class:`~manipdyn.identification.IdentifyResult`),
 but score each held-out part with the **momentum observer** of its refit on the log as it was logged
 (nearly raw, :mod:`manipdyn.control.collision.reading`): the band's residuals live on identify's
 filtered and decimated data (a cut-off of a few Hz), where the observer's noise is not, and
@@ -169,7 +169,8 @@ def held_out_thresholds(arm, log, gain: float = DEFAULT_GAIN, false_alarms: floa
                         hysteresis: float = DEFAULT_HYSTERESIS, check_sha256: bool = True) -> CollisionThresholds:
     """Thresholds from the hold-outs of the log(s) ``log`` (a path or a list, every log the model was fitted
     on) that ``arm`` (a model from ``identify``, with its trust record) was fitted on: ``identify`` again with
-    the record's options and ``folds`` blocks (default: the record's band's, else 5), then :func:`identified_thresholds` (module docstring).  Raises :class:`ModelError`
+    the record's options and ``folds`` blocks (default: the record's band's, else 5), then
+    :func:`identified_thresholds` (module docstring).  Raises :class:`ModelError`
     when the model has no trust record, a log is not its fit data (sha256) or one is missing, or a refit fails."""
     from ...identification.pipeline import identify
     from ...identification.results.provenance import file_sha256

@@ -20,7 +20,8 @@ EXIT_OK, EXIT_NO_ARM = 0, 1
 
 @dataclass
 class HeldOut:
-    """The hold-outs of the prediction band and the refits that predicted them (:mod:`..uncertainty.bands`).
+    """The hold-outs of the prediction band and the refits that predicted them
+    (:mod:`manipdyn.identification.uncertainty.bands`).
 
     ``kind``: the band's own, ``"trajectories"`` (each trajectory group held out, when there are two or
     more) or ``"blocks"`` (``folds`` blocks in time, block k the k-th part of every run); ``refits``: per
@@ -36,7 +37,8 @@ class HeldOut:
     labels: object = None
 
     def pairs(self, kind: str | None = None) -> list:
-        """The ``(test, arm)`` pairs of ``kind`` (default :attr:`kind`); a :class:`ModelError` when not computed."""
+        """The ``(test, arm)`` pairs of ``kind`` (default the band's own, ``kind``); a :class:`ModelError`
+        when they were not computed."""
         kind = self.kind if kind is None else kind
         if not self.refits.get(kind):
             raise ModelError(f"held-out kind: expected one of {', '.join(k for k in self.refits if self.refits[k])}, "

@@ -124,7 +124,7 @@ import numpy as np
 
 from ..._support.errors import ModelError
 
-__all__ = ["PredictionBand", "calibrate_band", "held_out_residuals", "held_out_leverage", "block_masks", "DEFAULT_FOLDS",
+__all__ = ["PredictionBand", "calibrate_band", "held_out_residuals", "held_out_leverage", "DEFAULT_FOLDS",
            "DEFAULT_LEVEL", "GAINS", "FLAG_LEVEL", "WITHIN_ONE_TRAJECTORY"]
 
 DEFAULT_FOLDS = 5
@@ -349,12 +349,6 @@ def held_out_residuals(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, segment
         if refits is not None:
             refits.append((test, r.arm))
     return res
-
-
-def block_masks(N: int, folds: int = DEFAULT_FOLDS, segments=None) -> list:
-    """The band's blocked hold-outs of ``N`` stacked samples: ``folds`` masks (N,) bool, block k the k-th
-    part of every run (``segments``: the runs' sample counts), as :func:`held_out_residuals` cuts them."""
-    return _masks(int(N), folds, None, segments)
 
 
 def conformal_half_width(residuals, level: float = DEFAULT_LEVEL) -> np.ndarray:
