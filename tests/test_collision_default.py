@@ -56,22 +56,31 @@ def test_identify_writes_thresholds_that_observe_uses_and_fit_data_reproduces(lo
     np.testing.assert_allclose(again.threshold, thr.threshold, rtol=1e-9)
 
 
-def test_two_trajectories_are_held_out_as_trajectories(logs):
+def test_two_trajectories_are_held_out_as_trajectories(logs, capsys):
     from manipdyn.control.collision.holdouts import identified_thresholds
 
     d = logs
     files = [str(d / "free0.csv"), str(d / "free1.csv")]
+    assert main(["identify", "ur5", *files, "--friction", "-o", str(d / "two.toml")]) == 0
+    assert "from 2 held-out trajectories of the fit data (free0.csv | free1.csv)" in capsys.readouterr().out
+    arm = _load(d / "two.toml")
+    carried = carried_thresholds(arm)
+    # --fit-data with both logs, in either order: identify replayed, the same trajectories held out
+    again = held_out_thresholds(arm, files[::-1])
+    assert again.source == carried.source
+    np.testing.assert_allclose(again.threshold, carried.threshold, rtol=1e-9)     # measured identical
     r = md.identify("ur5", files, friction=True)
     assert r.held_out.kind == "trajectories"
     # each trajectory's hold-out is one whole run of the stacked data
     n0 = r.data.segments[0]
     masks = [m for m, _ in r.held_out.pairs()]
     assert len(masks) == 2 and {int(m[:n0].sum()) for m in masks} == {0, n0}
-    traj = identified_thresholds(r, files)
+    np.testing.assert_allclose(identified_thresholds(r, files).threshold, carried.threshold, rtol=1e-9)
     blocks = identified_thresholds(r, files, kind="blocks")
-    assert traj.source.startswith("2 held-out trajectories of the fit data (free0.csv | free1.csv)")
     assert blocks.source.startswith("5 blocked hold-outs")
-    assert not np.allclose(traj.threshold, blocks.threshold, rtol=1e-6)
+    assert not np.allclose(carried.threshold, blocks.threshold, rtol=1e-6)
+    with pytest.raises(md.ModelError, match="give them all"):
+        held_out_thresholds(arm, files[0])
 
 
 def test_no_thresholds_opt_out_and_no_silent_default(logs, capsys):
