@@ -17,10 +17,11 @@ Layer 6 (control: collision).  May import: everything below control (``identific
 
 from ...identification.uncertainty.thresholds import CollisionThresholds
 from .events import Event, detect_events
+from .holdouts import held_out_thresholds, identified_thresholds
 from .observe import calibrate_thresholds, carried_thresholds, observe, with_thresholds
 from .observer import MomentumObserver, coriolis_transpose_qd, direct_residual, momentum_residual
 from .report import ObserveResult
 
 __all__ = ["MomentumObserver", "momentum_residual", "direct_residual", "coriolis_transpose_qd", "observe",
            "calibrate_thresholds", "carried_thresholds", "with_thresholds", "ObserveResult", "Event", "detect_events",
-           "CollisionThresholds"]
+           "CollisionThresholds", "held_out_thresholds", "identified_thresholds"]
