@@ -79,8 +79,9 @@ def identified_thresholds(result, logs, gain: float = DEFAULT_GAIN, false_alarms
     K = check_gain(gain)
     held = getattr(result, "held_out", None)
     if held is None:
-        raise ModelError("thresholds: the identification has no hold-outs (band_folds 0, or the band could not be "
-                         "had); give calibrate= (--calibrate LOG...) or threshold=")
+        raise ModelError("thresholds: the identification has no hold-outs (band_folds 0, --band-folds 0, or the "
+                         "band could not be had); observe then needs calibrate= (--calibrate LOG...), fit_data= "
+                         "(--fit-data LOG...: refits of its own) or threshold=")
     if result.arm is None:
         raise ModelError("thresholds: the identified parameters are no physical arm; no observer to watch with")
     if getattr(result, "payload_logs", None):
