@@ -66,6 +66,10 @@ def register(subparsers) -> None:
     p.add_argument("--payload-link", metavar="NAME", default=None, help="with --payload: the link carrying it")
     p.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
     p.add_argument("--json", action="store_true", help="print a JSON object instead of text")
+    p.add_argument("--no-thresholds", action="store_true",
+                   help="write no collision thresholds into the model's trust record (by default they are read off "
+                        "the band's hold-outs, each watched by the momentum observer of its refit, at gain 100 1/s "
+                        "and 1 false event per hour: manipdyn observe then needs no calibration logs)")
     p.add_argument("--report", metavar="FILE.html", default=None,
                    help="also write one self-contained HTML page (no scripts, nothing fetched): what was done, "
                         "the verdict, per joint RMS in-sample and held out, the fit figure, the parameters with "
@@ -116,12 +120,21 @@ def run(args) -> int:
         return usage_error("identify", f"--scheduler: {exc}")
     except OSError as exc:
         return usage_error("identify", f"{exc.filename or args.output}: cannot write: {exc.strerror or exc}")
+    thresholds = None if args.no_thresholds else collision_thresholds(result, logs, opts)
     if args.report:
         try:
             result.report_html(args.report, command=command_line(args))
         except OSError as exc:
             return usage_error("identify", f"--report {args.report}: cannot write: {exc.strerror or exc}")
-    print(json.dumps(result.report(), indent=2, allow_nan=False, default=str) if args.json else result.format())
+    if args.json:
+        rep = result.report()
+        if thresholds is not None:
+            rep["collision_thresholds"] = thresholds
+        print(json.dumps(rep, indent=2, allow_nan=False, default=str))
+    else:
+        print(result.format())
+        if thresholds is not None:
+            print(thresholds["line"])
     if args.report and not args.json:
         print(f"wrote {args.report} (the report)")
     if result.exit_code != EXIT_OK:
@@ -129,6 +142,30 @@ def run(args) -> int:
               f"written, only the base model {result.base_model}: {result.fit.arm_error or 'a J_i is not >= 0'}; "
               "--method consistent always gives a physical arm", file=sys.stderr)
     return result.exit_code
+
+
+def collision_thresholds(result, logs, opts) -> dict | None:
+    """The collision thresholds of the band's hold-outs
+    (:func:`manipdyn.control.collision.holdouts.identified_thresholds`) written into the model file's trust record (key ``collision``), at the default gain and rate; ``{"line": ...}``
+    (one line on what they came from and their values, or why there are none) plus the record; None when no model
+    file was written."""
+    from ..control.collision.holdouts import identified_thresholds
+    from ..control.collision.observe import TRUST_KEY
+
+    out = getattr(result, "output", None)
+    if result.arm is None or out is None or str(out).lower().endswith(".json"):
+        return None
+    try:
+        thr = identified_thresholds(result, logs, **opts)
+    except ModelError as exc:
+        return {"line": f"collision thresholds: none written ({cli_message(exc)})", "error": cli_message(exc)}
+    result.provenance[TRUST_KEY] = thr.to_dict()
+    result.rename(result.name)          # the arm's trust record from the provenance, now with the thresholds
+    result.save(out)
+    values = ", ".join(f"{x:.3g}" for x in thr.threshold)
+    line = (f"collision thresholds (gain {thr.gain:g} 1/s, {thr.false_alarms_per_hour:g} false event per hour): "
+            f"[{values}] N m, from {thr.source}; in {out}'s trust record")
+    return {"line": line, **thr.to_dict()}
 
 
 def stages(enabled: bool):

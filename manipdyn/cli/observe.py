@@ -1,4 +1,4 @@
-"""``manipdyn observe MODEL LOG... [--gain K] [--false-alarms RATE] [--calibrate LOG...] [--fit-data LOG]
+"""``manipdyn observe MODEL LOG... [--gain K] [--false-alarms RATE] [--calibrate LOG...] [--fit-data LOG...]
 [--threshold N_M...]
 [--json] [--plot FILE.png] [--report FILE.html] [--predictions FILE.csv] [--save-model OUT.toml]``.
 
@@ -30,7 +30,8 @@ def register(subparsers) -> None:
                     "crossings of a per-joint threshold that last, their joints, the last link touched and the "
                     "force at the tool. The thresholds come from --threshold, from --calibrate (collision-free logs "
                     "the model was not fitted on, for --false-alarms events per hour), or from the model's trust "
-                    "record (--save-model writes them there); with none of these, observe refuses. Exit codes: 0 no "
+                    "record (manipdyn identify writes them there, from the band's hold-outs; --save-model too); with none "
+                    "of these, observe refuses. Exit codes: 0 no "
                     "event, 1 some event, 2 usage, model or data error.")
     p.add_argument("model", metavar="MODEL", help="bundled model name, .toml model file, .urdf file")
     p.add_argument("logs", metavar="LOG", nargs="*", help="the logs to watch. A log: " + DATA_HELP)
@@ -41,10 +42,11 @@ def register(subparsers) -> None:
                    help="false events per hour the thresholds allow, all joints together (default 1)")
     p.add_argument("--calibrate", nargs="+", metavar="LOG", default=None,
                    help="collision-free logs the model was NOT fitted on: the thresholds are read off them")
-    p.add_argument("--fit-data", metavar="LOG", default=None,
-                   help="the log MODEL was identified from (its trust record checks the sha256): thresholds from "
-                        "blocked hold-outs of it, the prediction band's blocks, each watched by the observer of a "
-                        "refit on the others (costs the refits)")
+    p.add_argument("--fit-data", metavar="LOG", nargs="+", default=None,
+                   help="the logs MODEL was identified from, all of them (its trust record checks the sha256): "
+                        "thresholds from the prediction band's hold-outs (held-out trajectories, else blocks), each "
+                        "watched by the observer of a refit on the others; identify writes these by default, so "
+                        "this redoes it (another gain, or a model identified with --no-thresholds)")
     p.add_argument("--calibrate-t-range", metavar="T0:T1", default=None,
                    help="the window of the --calibrate logs, in place of --t-range (one file cut into a calibration "
                         "window and a watched one)")
@@ -84,7 +86,7 @@ def run(args) -> int:
         check_report_target(args.report)
         inputs = [("MODEL", args.model)] + [("LOG", x) for x in args.logs] + [("--calibrate", x)
                                                                              for x in (args.calibrate or [])]
-        inputs += [("--fit-data", args.fit_data)] if args.fit_data else []
+        inputs += [("--fit-data", x) for x in (args.fit_data or [])]
         check_outputs([("--plot", args.plot), ("--report", args.report), ("--predictions", args.predictions),
                        ("--save-model", args.save_model)], inputs, plots=("--plot",))
         arm, _notes = load_arm(args.model, args.tip)

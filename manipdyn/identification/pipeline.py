@@ -321,9 +321,10 @@ def _identify(prior, logs, o) -> IdentifyResult:
     # the fitted range and the band travel with the model: in the provenance before its metadata is written
     if folds:
         tell(f"prediction band ({int(folds)} blocked hold-outs, a refit each)")
+    refits = {}
     record, record_notes = fit_record(arm, data, folds=int(folds), smoothing=smoothing, method=o["method"],
                                       friction=law, armature=o["armature"], bounds=bounds, prior_weight=weight,
-                                      segments=segments, labels=labels)
+                                      segments=segments, labels=labels, refits=refits)
     prov.update(record)
     doubts = _doubts(result, data, runs)
     if doubts:
@@ -342,7 +343,8 @@ def _identify(prior, logs, o) -> IdentifyResult:
     out = IdentifyResult(fit=result, prior=arm, prior_label=prior_label, data=data, friction=law,
                          armature=o["armature"], provenance=prov, metadata=model_metadata(prov), name=name,
                          named=given_name is not None, report_dict=rep, selection=selection, shapes=shapes,
-                         torque_constants=tc, payload_logs=payload_logs, logs_label=_label(logs))
+                         torque_constants=tc, payload_logs=payload_logs, logs_label=_label(logs),
+                         held_out=_held_out(refits, record, labels, folds))
     out.rename(name)
     if boot:
         from .uncertainty.bootstrap import bootstrap
@@ -357,6 +359,18 @@ def _identify(prior, logs, o) -> IdentifyResult:
     if o["output"] is not None or o["base_json"] is not None:
         write_model_files(out, o["output"], o["base_json"])
     return out
+
+
+def _held_out(refits, record, labels, folds):
+    """The band's hold-outs and refits as :class:`.results.result.HeldOut`, or None without a band: its kind the
+    held-out trajectories when there are two or more, else the blocks."""
+    from .results.result import HeldOut
+
+    if record.get("prediction_band") is None or not refits.get("blocks"):
+        return None
+    kind = "trajectories" if refits.get("trajectories") else "blocks"
+    return HeldOut(kind, int(folds), {k: v for k, v in refits.items() if v},
+                   None if labels is None else np.asarray(labels))
 
 
 def _doubts(result, data, runs) -> list[str]:

@@ -1,27 +1,37 @@
-"""Collision thresholds from the model's own fit data: the band's blocked hold-outs, through the observer.
+"""Collision thresholds from the model's own fit data: the band's hold-outs, watched through the observer.
 
 Layer 6 (control: collision).
 
-The prediction band (:mod:`manipdyn.identification.uncertainty.bands`) cuts the fit data into
-``folds`` contiguous blocks in time and predicts each from a fit on the others.  The thresholds
-do the same, but score each block with the **momentum observer** of that refit on the log as it
-was logged (nearly raw, :mod:`manipdyn.control.collision.reading`): the band's residuals live on identify's filtered and
-decimated data (a cut-off of a few Hz), where the observer's noise is not, and thresholds read
-off them would be several times too low.
+The prediction band (:mod:`manipdyn.identification.uncertainty.bands`) predicts each part of the fit
+data by a refit on the rest: each **trajectory** held out when the runs hold two or more different
+ones (runs repeating one trajectory held out together, :mod:`manipdyn.identification.inputs.trajectories`),
+else ``folds`` contiguous **blocks** in time (block k the k-th part of every run).  The thresholds use
+the same hold-outs and the same refits (the ``held_out`` of :class:`~manipdyn.identification.IdentifyResult`),
+but score each held-out part with the **momentum observer** of its refit on the log as it was logged
+(nearly raw, :mod:`manipdyn.control.collision.reading`): the band's residuals live on identify's
+filtered and decimated data (a cut-off of a few Hz), where the observer's noise is not, and
+thresholds read off them would be several times too low.
 
-* the log is checked against the model's trust record (file sha256), and read twice: as
-  ``identify`` read it (the record's ``t_range``, the reader's default filter) for the refits, and
-  nearly raw for the observer;
-* each refit is :func:`manipdyn.identification.fit` with the record's ``method``, ``friction`` and
-  ``armature``, the model itself as prior (its kinematics and drive);
-* the observer of refit k runs on block k's time span only (it starts there, ``r = 0``), and the
-  thresholds are :func:`~manipdyn.identification.uncertainty.thresholds.fit_thresholds` of the
-  blocks' residuals together.
+* :func:`identified_thresholds` takes an :func:`~manipdyn.identification.identify` result and its logs:
+  the observer of refit k runs on the raw samples of each held-out part's time span (it starts there,
+  ``r = 0``; the samples before the first and after the last filtered sample, which no fit saw, go
+  to the first and last part), and the thresholds are
+  :func:`~manipdyn.identification.uncertainty.thresholds.fit_thresholds` of the parts' residuals
+  together; with held-out trajectories, at least the blocks' thresholds per joint, as the band takes
+  at least the blocks' width (two or three trajectories may carry over well on a joint by chance).
+  ``manipdyn identify`` writes them into the model's trust record (key ``collision``).
+* :func:`held_out_thresholds` does the same for a model file and the logs it was fitted on (``observe
+  --fit-data``): the logs are checked against the trust record (sha256), and ``identify`` is run again
+  with the record's options (the chosen smoothing, side and prior weight as recorded) on the record's
+  prior when it still loads (else on the model itself, which the source says): the same hold-outs
+  and, from the same prior, the same refits.
 """
 
 from __future__ import annotations
 
 import os
+import warnings
+from dataclasses import replace
 
 import numpy as np
 
@@ -32,28 +42,157 @@ from ...identification.uncertainty.thresholds import (DEFAULT_GAIN, DEFAULT_HYST
 from .observer import check_gain, momentum_residual
 from .reading import read_observed
 
-__all__ = ["held_out_thresholds"]
+__all__ = ["held_out_thresholds", "identified_thresholds", "READ_KEYS"]
+
+#: identify's reading options that the observer's reading takes too (its own cut-off and no decimation)
+READ_KEYS = ("columns", "deg", "rate", "time_scale", "resample", "t_range", "topic", "joint_names", "extra_joints")
 
 
-def _fit_options(record) -> dict:
+def _spans(mask, t):
+    """The contiguous held-out stretches of one run: ``[(t0, t1), ...]`` with ``-inf``/``inf`` at the run's ends."""
+    idx = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(np.int8), [0]])))
+    out = []
+    for a, b in zip(idx[::2], idx[1::2]):
+        out.append((-np.inf if a == 0 else t[a], np.inf if b == len(t) else t[b]))
+    return out
+
+
+def _names(sources) -> list[str]:
+    return [os.path.basename(os.fspath(s)) if s else f"run {k + 1}" for k, s in enumerate(sources)]
+
+
+def identified_thresholds(result, logs, gain: float = DEFAULT_GAIN, false_alarms: float = DEFAULT_RATE, *,
+                          min_duration: float = DEFAULT_MIN_DURATION, hysteresis: float = DEFAULT_HYSTERESIS,
+                          kind: str | None = None, **read_options) -> CollisionThresholds:
+    """Thresholds from the hold-outs of an identification (module docstring).
+
+    ``result``: an :class:`~manipdyn.identification.IdentifyResult` with its band's hold-outs
+    (``band_folds`` > 0); ``logs``: the logs it was given (paths, RUNS.toml or LogSpecs, not arrays: the
+    observer reads each file again, nearly raw); ``read_options``: identify's reading options
+    (:data:`READ_KEYS`; others are ignored).  ``gain`` 1/s, ``false_alarms`` per hour, ``min_duration`` s
+    and ``hysteresis`` as :func:`~manipdyn.control.collision.observe` takes them.  ``kind``: ``"trajectories"``
+    or ``"blocks"`` (default: the band's own, held-out trajectories when there are two or more; the blocks are
+    computed too, for a comparison).  Raises :class:`ModelError`
+    when the result has no hold-outs, a refit is no physical arm, a run carried a known payload, or a
+    log is no file.
+    """
+    from ...formats.logs.read import model_joint_names
+    from ...identification.inputs.runs import Measurements, as_log_specs
+
+    K = check_gain(gain)
+    held = getattr(result, "held_out", None)
+    if held is None:
+        raise ModelError("thresholds: the identification has no hold-outs (band_folds 0, --band-folds 0, or the "
+                         "band could not be had); observe then needs calibrate= (--calibrate LOG...), fit_data= "
+                         "(--fit-data LOG...: refits of its own) or threshold=")
+    if result.arm is None:
+        raise ModelError("thresholds: the identified parameters are no physical arm; no observer to watch with")
+    if getattr(result, "payload_logs", None):
+        raise ModelError("thresholds: runs with a known payload (" + ", ".join(result.payload_logs) + ") are not "
+                         "watched by the observer; give calibrate= (--calibrate LOG...) instead")
+    specs = as_log_specs(logs)
+    data = result.data
+    segments = list(getattr(data, "segments", None) or [len(data.t)])
+    if len(specs) != len(segments) or any(isinstance(s, Measurements) for s in specs):
+        raise ModelError("thresholds: the observer reads each fit log again as a file; the logs must be the "
+                         f"{len(segments)} files identify read, got {len(specs)} item(s)")
+    pairs = held.pairs(kind)
+    kind = held.kind if kind is None else kind
+    bad = [k + 1 for k, (_, a) in enumerate(pairs) if a is None]
+    if bad:
+        raise ModelError(f"thresholds: the refit without hold-out {', '.join(map(str, bad))} is no physical arm "
+                         "(--method consistent always gives one); give calibrate= instead")
+    opts = {k: v for k, v in read_options.items() if k in READ_KEYS and v is not None}
+    opts.setdefault("joint_names", model_joint_names(result.arm))
+    starts = np.concatenate([[0], np.cumsum(segments)])
+    both = kind == "trajectories" and held.kind == "trajectories" and bool(held.refits.get("blocks"))
+    parts, dts, block_parts = [], [], []
+    for r, spec in enumerate(specs):
+        run_opts = dict(opts)
+        for key in ("t_range", "rate", "columns"):
+            if getattr(spec, key, None) is not None:
+                run_opts[key] = getattr(spec, key)
+        (raw,) = read_observed(result.arm, spec.path, **run_opts)
+        dts.append(raw.dt)
+        t = data.t[starts[r]:starts[r + 1]]
+        for watched, out in ((pairs, parts), (held.pairs("blocks") if both else [], block_parts)):
+            for mask, arm in watched:
+                for t0, t1 in _spans(np.asarray(mask[starts[r]:starts[r + 1]], dtype=bool), t):
+                    inside = (raw.t >= t0) & (raw.t < t1)
+                    if np.sum(inside) < 10:
+                        raise ModelError(f"thresholds: a hold-out of {os.path.basename(spec.path)} holds "
+                                         f"{int(np.sum(inside))} raw samples; fewer folds")
+                    out.append(momentum_residual(arm, raw.q[inside], raw.qd[inside], raw.tau[inside], raw.dt, K))
+    if max(dts) > 1.01 * min(dts):
+        raise ModelError(f"thresholds: the fit logs' sample periods differ ({min(dts):.4g} to {max(dts):.4g} s); "
+                         "resample them to one rate (--resample)")
+    names = _names([s.path for s in specs])
+    if kind == "trajectories":
+        labels = np.asarray(held.labels)
+        groups = [" + ".join(n for k, n in enumerate(names) if labels[starts[k]] == g)
+                  for g in np.unique(labels)]
+        source = (f"{len(pairs)} held-out trajectories of the fit data ({' | '.join(groups)}), each watched by "
+                  "the observer of the band's refit on the others")
+    else:
+        source = (f"{held.folds} blocked hold-outs of the fit data {', '.join(names)}, each watched by the observer "
+                  "of the band's refit on the others")
+    thr = fit_thresholds(np.vstack(parts), float(np.median(dts)), false_alarms, gain=K, min_duration=min_duration,
+                         hysteresis=hysteresis, source=source)
+    if not block_parts:
+        return thr
+    # as the band does: at least the blocks' thresholds per joint (two or three held-out trajectories may
+    # happen to carry over well on a joint, below what the noise and the within-run error give on any run)
+    blocks = fit_thresholds(np.vstack(block_parts), float(np.median(dts)), false_alarms, gain=K,
+                            min_duration=min_duration, hysteresis=hysteresis)
+    wider = blocks.threshold > thr.threshold
+    if not np.any(wider):
+        return thr
+    pick = {k: np.where(wider, getattr(blocks, k), getattr(thr, k)) for k in ("threshold", "tail_a", "tail_b",
+                                                                               "observed_max")}
+    joints = ", ".join(str(j + 1) for j in np.flatnonzero(wider))
+    return replace(thr, **pick, source=f"{source}; at least the {held.folds} blocked hold-outs' thresholds, which "
+                                        f"set joint(s) {joints}")
+
+
+#: identify's options that a refit for --fit-data does not redo
+_NOT_REDONE = ("bootstrap", "scheduler")
+
+
+def _identify_options(record) -> dict:
     opts = dict(record.get("options") or {})
-    friction = opts.get("friction", False)
-    terms = opts.get("friction_terms")
-    if terms:
-        friction = tuple(str(t).strip() for t in str(terms).split(",") if str(t).strip())
-    return {"method": str(record.get("method") or opts.get("method") or "consistent"),
-            "friction": friction if isinstance(friction, (bool, tuple)) else bool(friction),
-            "armature": bool(opts.get("armature", False))}
+    out = {k: v for k, v in opts.items() if k not in _NOT_REDONE}
+    out["method"] = str(record.get("method") or opts.get("method") or "consistent")
+    t_range = opts.get("t_range")
+    if t_range is not None:
+        out["t_range"] = tuple(None if x in (None, "none") else float(x) for x in t_range)
+    return out
+
+
+def _prior(arm, record):
+    """``(prior, note)``: the record's prior when it still loads with the model's joints, else the model."""
+    from ...formats.loading import load_with_notes
+
+    label = str(record.get("prior") or "")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            prior, _ = load_with_notes(label)
+        if prior.n == arm.n:
+            return label, ""
+    except (ModelError, OSError, ValueError):
+        pass
+    return arm, f"; refits on the model itself (its prior {label or '?'} does not load)"
 
 
 def held_out_thresholds(arm, log, gain: float = DEFAULT_GAIN, false_alarms: float = DEFAULT_RATE, *,
-                        folds: int = DEFAULT_FOLDS, min_duration: float = DEFAULT_MIN_DURATION,
+                        folds: int | None = None, min_duration: float = DEFAULT_MIN_DURATION,
                         hysteresis: float = DEFAULT_HYSTERESIS, check_sha256: bool = True) -> CollisionThresholds:
-    """Thresholds from blocked hold-outs of the log ``log`` that ``arm`` (a model from ``identify``, with its
-    trust record) was fitted on (module docstring).  Raises :class:`ModelError` when the model has no
-    trust record, or the log is not its fit data (sha256), or a refit fails."""
-    from ...formats.logs.read import read_log
-    from ...identification.estimation.fitting import fit
+    """Thresholds from the hold-outs of the log(s) ``log`` (a path or a list, every log the model was fitted
+    on) that ``arm`` (a model from ``identify``, with its trust record) was fitted on: ``identify`` again with
+    the record's options and ``folds`` blocks (default: the record's band's, else 5), then
+    :func:`identified_thresholds` (module docstring).  Raises :class:`ModelError`
+    when the model has no trust record, a log is not its fit data (sha256) or one is missing, or a refit fails."""
+    from ...identification.pipeline import identify
     from ...identification.results.provenance import file_sha256
 
     K = check_gain(gain)
@@ -61,30 +200,32 @@ def held_out_thresholds(arm, log, gain: float = DEFAULT_GAIN, false_alarms: floa
     if not isinstance(record, dict):
         raise ModelError("fit data: the model has no trust record (it was not identified by manipdyn identify); "
                          "give collision-free logs it was not fitted on instead (calibrate=, --calibrate)")
-    where = os.fspath(log)
+    logs = [os.fspath(x) for x in (log if isinstance(log, (list, tuple)) else [log])]
     if check_sha256 and record.get("data_sha256"):
-        sha = file_sha256(where)
-        if sha not in str(record["data_sha256"]).split(", "):
-            raise ModelError(f"fit data {where}: sha256 {sha[:16]}... is not the model's fit data "
-                             f"({record.get('data')}, sha256 {str(record['data_sha256'])[:16]}...)")
-    opts = dict(record.get("options") or {})
-    t_range = opts.get("t_range")
-    t_range = None if t_range is None else tuple(None if x in (None, "none") else float(x) for x in t_range)
-    read = {k: opts[k] for k in ("time_scale", "rate", "columns") if opts.get(k) is not None}
-    data = read_log(where, arm.n, transmission=getattr(arm, "transmission", None), t_range=t_range, **read)
-    (raw,) = read_observed(arm, where, t_range=t_range, **read)
-    edges = np.linspace(data.t[0], data.t[-1], int(folds) + 1)
-    edges[-1] = np.inf
-    kwargs = _fit_options(record)
-    parts = []
-    for k in range(int(folds)):
-        test = (data.t >= edges[k]) & (data.t < edges[k + 1])
-        res = fit(arm, data.q[~test], data.qd[~test], data.qdd[~test], data.tau[~test], **kwargs)
-        if res.arm is None:
-            raise ModelError(f"fit data: the refit without block {k + 1} gives no arm ({res.arm_error})")
-        inside = (raw.t >= edges[k]) & (raw.t < edges[k + 1])
-        if np.sum(inside) < 10:
-            raise ModelError(f"fit data: block {k + 1} holds {int(np.sum(inside))} samples; fewer folds")
-        parts.append(momentum_residual(res.arm, raw.q[inside], raw.qd[inside], raw.tau[inside], raw.dt, K))
-    return fit_thresholds(np.vstack(parts), raw.dt, false_alarms, gain=K, min_duration=min_duration,
-                          hysteresis=hysteresis, source=f"{folds} blocked hold-outs of the fit data {record.get('data')}")
+        known = str(record["data_sha256"]).split(", ")
+        shas = [file_sha256(x) for x in logs]
+        for where, sha in zip(logs, shas):
+            if sha not in known:
+                raise ModelError(f"fit data {where}: sha256 {sha[:16]}... is not the model's fit data "
+                                 f"({record.get('data')}, sha256 {str(record['data_sha256'])[:16]}...)")
+        if len(set(shas)) < len(set(known)):
+            raise ModelError(f"fit data: the model was fitted on {len(set(known))} logs ({record.get('data')}); "
+                             "give them all, for the same hold-outs")
+        logs = sorted(logs, key=lambda x: known.index(shas[logs.index(x)]))      # identify's order
+    if folds is None:
+        folds = int((record.get("prediction_band") or {}).get("folds") or DEFAULT_FOLDS)
+    prior, note = _prior(arm, record)
+    options = _identify_options(record)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            result = identify(prior, logs, band_folds=int(folds), **options)
+    except TypeError as exc:       # an option this manipdyn's identify does not take
+        raise ModelError(f"fit data: the trust record's options do not replay ({exc})") from None
+    out = identified_thresholds(result, logs, K, false_alarms, min_duration=min_duration, hysteresis=hysteresis,
+                                **options)
+    if note:
+        out = CollisionThresholds(out.threshold, out.false_alarms_per_hour, out.gain, out.min_duration,
+                                  out.hysteresis, out.hours, out.tail_a, out.tail_b, out.observed_max,
+                                  out.source + note)
+    return out

@@ -8,11 +8,12 @@ Where the thresholds come from, in this order (none: a :class:`ModelError`, neve
 * ``calibrate=`` given: collision-free logs (or arrays) **the model was not fitted on**; the observer
   runs on them and :func:`~manipdyn.identification.uncertainty.thresholds.fit_thresholds` reads the
   thresholds off its residual for ``false_alarms`` per hour;
-* ``fit_data=`` given: the log the model was identified from; its blocked hold-outs, the band's, each
-  block watched by the observer of a refit on the others (:mod:`manipdyn.control.collision.holdouts`);
-* the model's trust record, key ``collision`` (written by :func:`with_thresholds`, ``manipdyn observe
-  --calibrate ... --save-model`` or ``--fit-data ... --save-model``), at the same gain (another rate is
-  read off the stored tail, no data needed).
+* ``fit_data=`` given: the log(s) the model was identified from, all of them; identify replayed from the
+  trust record, its band's hold-outs (held-out trajectories, else blocks) each watched by the observer of
+  the refit on the others (:mod:`manipdyn.control.collision.holdouts`);
+* the model's trust record, key ``collision``, at the same gain (another rate is read off the stored
+  tail, no data needed): ``manipdyn identify`` writes it by default, from the same hold-outs, and so do
+  :func:`with_thresholds`, ``manipdyn observe --calibrate ... --save-model`` and ``--fit-data ... --save-model``.
 
 A log is read nearly as logged, every sample kept (:mod:`manipdyn.control.collision.reading`).
 """
@@ -118,8 +119,9 @@ def resolve_thresholds(arm, gain, false_alarms, calibrate, threshold, min_durati
     if carried is None:
         raise ModelError("thresholds: the model carries no collision thresholds (its trust record has no "
                          f"{TRUST_KEY!r} key); give calibrate= (--calibrate LOG...: collision-free logs the model was "
-                         "not fitted on), fit_data= (--fit-data LOG: the log it was identified from, for blocked "
-                         "hold-outs) or threshold= (--threshold N_M...)")
+                         "not fitted on), fit_data= (--fit-data LOG...: the logs it was identified from, for the "
+                         "band's hold-outs; manipdyn identify writes these by default) or threshold= "
+                         "(--threshold N_M...)")
     if abs(carried.gain - gain) > 1e-9 * gain:
         raise ModelError(f"gain: the model's thresholds are for gain {carried.gain:g} 1/s, not {gain:g}; use that "
                          "gain, or calibrate= / threshold= for this one")
@@ -139,8 +141,8 @@ def observe(arm, log_or_arrays, gain: float = DEFAULT_GAIN, *, false_alarms: flo
     (N,) s, uniform; ``q``, ``qd``, ``tau`` (N, n); optionally ``qdd``).  ``gain``: the momentum observer's
     K, 1/s.  ``false_alarms``: false events per hour the thresholds allow (all joints together).
     ``calibrate``: collision-free logs or arrays for the thresholds; ``threshold``: N m per joint.
-    ``fit_data``: the log the model was identified from (its trust record checks the sha256): thresholds
-    from blocked hold-outs of it, as the band's (:mod:`manipdyn.control.collision.holdouts`).
+    ``fit_data``: the log, or list of logs, the model was identified from (its trust record checks the
+    sha256): thresholds from the band's hold-outs of them (:mod:`manipdyn.control.collision.holdouts`).
     ``calibrate_t_range``: ``(t0, t1)`` s (or ``"T0:T1"``) of the calibration logs, in place of ``t_range``
     (one file cut into a calibration window and a watched window).
     ``min_duration`` s and ``hysteresis`` define an event (:mod:`manipdyn.control.collision.events`).  ``direct``: also the

@@ -105,7 +105,7 @@ def model_metadata(prov: dict) -> tuple[str, dict, str]:
 
 
 def fit_record(arm, data, folds: int | None = None, smoothing: float | None = None, labels=None,
-               **fit_kwargs) -> tuple[dict, list]:
+               refits: dict | None = None, **fit_kwargs) -> tuple[dict, list]:
     """``(record, notes)``: what a fit on ``data`` (``q``, ``qd``, ``qdd``, ``tau`` (N, n)) adds
     to its provenance: ``fitted_range`` (:func:`.coverage.fitted_range`) and, unless
     ``folds`` is 0, ``prediction_band`` (:func:`.bands.calibrate_band` with ``fit_kwargs``,
@@ -114,7 +114,8 @@ def fit_record(arm, data, folds: int | None = None, smoothing: float | None = No
     ``smoothing``, joints weighed by their held-out RMS).  When the band cannot be had (data
     too short for the blocks, a refit failing) it is left out and ``notes`` says why.  ``labels`` (N,):
     the held-out trajectory group of each sample (two or more: the band is calibrated on held-out
-    runs, :mod:`.bands`); a band within one trajectory says so in ``notes``.
+    runs, :mod:`.bands`); a band within one trajectory says so in ``notes``.  ``refits``: a dict that
+    receives the band's refits (:func:`.bands.calibrate_band`).
     """
     from ..uncertainty.bands import DEFAULT_FOLDS, WITHIN_ONE_TRAJECTORY, calibrate_band
     from ..uncertainty.coverage import fitted_range
@@ -126,7 +127,7 @@ def fit_record(arm, data, folds: int | None = None, smoothing: float | None = No
     if folds:
         try:
             band = calibrate_band(arm, data.q, data.qd, data.qdd, data.tau, folds=folds, smoothing=smoothing,
-                                  labels=labels, **fit_kwargs)
+                                  labels=labels, refits=refits, **fit_kwargs)
             record["prediction_band"] = band.to_dict()
             weights = 1.0 / np.maximum(band.held_out_rms, 1e-12 * max(float(np.max(band.held_out_rms)), 1e-300))
             record["leverage"] = Leverage.of_fit(arm, data.q, data.qd, data.qdd, weights, smoothing or 0.01,
@@ -140,7 +141,7 @@ def fit_record(arm, data, folds: int | None = None, smoothing: float | None = No
 
 #: the provenance keys that go into the trust record (manipdyn.formats.trust), in order
 TRUST_KEYS = ("data", "data_sha256", "method", "options", "date", "prior", "rms_residual", "fitted_range",
-              "prediction_band", "leverage", "doubts")
+              "prediction_band", "leverage", "doubts", "collision")
 
 
 def trust_record(prov: dict) -> dict:

@@ -12,10 +12,38 @@ import numpy as np
 
 from ..._support.errors import ModelError
 
-__all__ = ["IdentifyResult", "write_model_files", "EXIT_OK", "EXIT_NO_ARM"]
+__all__ = ["IdentifyResult", "HeldOut", "write_model_files", "EXIT_OK", "EXIT_NO_ARM"]
 
 #: :attr:`IdentifyResult.exit_code` values (``manipdyn identify`` exits with them)
 EXIT_OK, EXIT_NO_ARM = 0, 1
+
+
+@dataclass
+class HeldOut:
+    """The hold-outs of the prediction band and the refits that predicted them
+    (:mod:`manipdyn.identification.uncertainty.bands`).
+
+    ``kind``: the band's own, ``"trajectories"`` (each trajectory group held out, when there are two or
+    more) or ``"blocks"`` (``folds`` blocks in time, block k the k-th part of every run); ``refits``: per
+    kind computed, a list of ``(test, arm)``, ``test`` the held-out samples of the stacked fit data (N,)
+    bool and ``arm`` the refit's arm (None when its parameters are no physical arm); ``labels`` (N,) or
+    None: each sample's trajectory group.  The collision thresholds watch the same hold-outs through the
+    observer of these refits (:mod:`manipdyn.control.collision.holdouts`).
+    """
+
+    kind: str
+    folds: int
+    refits: dict
+    labels: object = None
+
+    def pairs(self, kind: str | None = None) -> list:
+        """The ``(test, arm)`` pairs of ``kind`` (default the band's own, ``kind``); a :class:`ModelError`
+        when they were not computed."""
+        kind = self.kind if kind is None else kind
+        if not self.refits.get(kind):
+            raise ModelError(f"held-out kind: expected one of {', '.join(k for k in self.refits if self.refits[k])}, "
+                             f"got {kind!r}")
+        return list(self.refits[kind])
 
 
 @dataclass
@@ -41,6 +69,8 @@ class IdentifyResult:
         What :meth:`save` or ``identify(output=...)`` wrote.
     exit_code : int
         0 a model written (or nothing asked), 1 only the base model could be written.
+    held_out : HeldOut or None
+        The band's hold-outs and their refits (None without a band).
     """
 
     fit: object
@@ -64,6 +94,7 @@ class IdentifyResult:
     base_model: str | None = None
     exit_code: int = EXIT_OK
     logs_label: str = ""
+    held_out: HeldOut | None = None
 
     def rename(self, name: str) -> None:
         """Name the identified arm ``name`` (its citation stays the fit's provenance)."""

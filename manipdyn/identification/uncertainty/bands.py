@@ -344,7 +344,7 @@ def _masks(N: int, folds: int, masks, segments=None) -> list:
 
 
 def held_out_residuals(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, segments=None, masks=None,
-                       **fit_kwargs) -> np.ndarray:
+                       refits: list | None = None, **fit_kwargs) -> np.ndarray:
     """Measured minus predicted torque (N, n), each block predicted by a fit on the others.
 
     ``q, qd, qdd, tau`` (N, n) in time order (one log; several logs: stacked in order, a block
@@ -354,7 +354,10 @@ def held_out_residuals(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, segment
     :func:`manipdyn.identification.fit` (``method``, ``friction``, ``armature``, ``bounds``,
     ``prior_weight``): the refits are the fit the user asked for, on less data.  ``masks``: the
     folds' test samples, (N,) bool each, partitioning the samples (the held-out trajectories),
-    instead of ``folds`` blocks in time.
+    instead of ``folds`` blocks in time.  ``refits``: a list to which each fold's ``(test, arm)`` is
+    appended, ``test`` its held-out samples (N,) bool and ``arm`` the refit's arm (None when its
+    parameters are no physical arm), for the collision thresholds, which watch the same hold-outs
+    through the observer of the same refits (:mod:`manipdyn.control.collision.holdouts`).
     """
     from ..estimation.fitting import fit
 
@@ -366,6 +369,8 @@ def held_out_residuals(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, segment
         extra = {} if kept is None else {"segments": kept}
         r = fit(arm, q[~test], qd[~test], qdd[~test], tau[~test], **fit_kwargs, **extra, complete=False)
         res[test] = tau[test] - r.predict(q[test], qd[test], qdd[test])
+        if refits is not None:
+            refits.append((test, r.arm))
     return res
 
 
@@ -414,6 +419,7 @@ def _weights(rms) -> np.ndarray:
 
 def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: float = DEFAULT_LEVEL,
                    smoothing: float | None = None, leverage: bool = True, labels=None, regions: bool = True,
+                   refits: dict | None = None,
                    **fit_kwargs) -> PredictionBand:
     """The :class:`PredictionBand` of a fit on ``q, qd, qdd, tau`` (N, n) by blocked hold-outs, and by held-out
     trajectories when ``labels`` (N,) gives two or more groups, else by held-out posture regions where they
@@ -423,12 +429,16 @@ def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: floa
     leverage ratio where the held-out errors say it should, and ``flag_leverage`` is calibrated (module
     docstring; ``smoothing`` v_s of the features, rad/s, default 0.01); without, a constant band per
     joint.  ``regions`` False: no posture regions, a single trajectory's band from the blocks alone (the
-    within-run band).  Costs ``folds`` refits, and one per held-out group or posture region.  Raises :class:`ModelError` when the
-    data is too short for the blocks or a refit fails.
+    within-run band).  Costs ``folds`` refits, and one per held-out group or posture region.  ``refits``: a
+    dict that receives the refits' ``(test, arm)`` pairs (:func:`held_out_residuals`) under ``"blocks"``
+    and, with two or more groups, ``"trajectories"`` (posture regions: ``"regions"``; scattered in time,
+    they are no span an observer can watch).  Raises :class:`ModelError` when the data is too short for the
+    blocks or a refit fails.
     """
     if not 0 < float(level) < 1:
         raise ModelError(f"level: expected a fraction in (0, 1), got {level}")
-    res = held_out_residuals(arm, q, qd, qdd, tau, folds=folds, **fit_kwargs)
+    kept = None if refits is None else refits.setdefault("blocks", [])
+    res = held_out_residuals(arm, q, qd, qdd, tau, folds=folds, refits=kept, **fit_kwargs)
     rms = np.sqrt(np.mean(res**2, axis=0))
     groups = None if labels is None else np.unique(np.asarray(labels))
     if groups is not None and len(labels) != len(q):
@@ -442,7 +452,8 @@ def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: floa
         regions = 0 if groups is None else len(groups)
     if groups is not None and len(groups) >= 2:
         masks = [np.asarray(labels) == g for g in groups]
-        res_t = held_out_residuals(arm, q, qd, qdd, tau, masks=masks, **fit_kwargs)
+        kept = None if refits is None else refits.setdefault("regions" if regions else "trajectories", [])
+        res_t = held_out_residuals(arm, q, qd, qdd, tau, masks=masks, refits=kept, **fit_kwargs)
         rms_t = np.sqrt(np.mean(res_t**2, axis=0))
         width = np.maximum(conformal_half_width(res_t, level), conformal_half_width(res, level))
         flag = None
