@@ -228,11 +228,13 @@ class IdentifyResult:
             lines.append(format_bootstrap(self.bootstrap, rep["base_parameters"]))
         band = self.provenance.get("prediction_band")
         if band:
-            k = int(band.get("trajectories", 1))
+            k, regions = int(band.get("trajectories", 1)), int(band.get("regions", 0))
+            within = "WITHIN ONE TRAJECTORY (it has not seen how another trajectory differs)"
             how = (f"{k} held-out trajectories (each predicted by a fit on the others), at least the within-run "
                    f"band of {band['folds']} blocked hold-outs" if k > 1 else
-                   f"{band['folds']} blocked hold-outs of the fit data, WITHIN ONE TRAJECTORY (it has not seen how "
-                   "another trajectory differs)")
+                   f"{regions} held-out posture regions (each predicted by a fit on the others), at least the "
+                   f"band of {band['folds']} blocked hold-outs, {within}" if regions else
+                   f"{band['folds']} blocked hold-outs of the fit data, {within}")
             lines.append(f"95 % prediction band from {how} (validate scores it on new data): +- "
                          + ", ".join(f"{x:.3g}" for x in band["half_width"]))
         if self.output:

@@ -145,9 +145,9 @@ GAIN_BENEFIT = 0.05
 #: the held-out leverage quantile past which a sample is flagged (module docstring)
 FLAG_LEVEL = 0.99
 #: what a band calibrated on one trajectory says of itself (validate and identify print it)
-WITHIN_ONE_TRAJECTORY = ("the band is calibrated within one trajectory (blocked hold-outs of one run, or of runs "
-                         "repeating it): it has not seen how another trajectory differs; log at least two different "
-                         "trajectories to calibrate it on held-out runs")
+WITHIN_ONE_TRAJECTORY = ("the band is calibrated within one trajectory (its posture regions and blocks in time held "
+                         "out, of one run or of runs repeating it): it has not seen how another trajectory differs; log "
+                         "at least two different trajectories to calibrate it on held-out runs")
 
 
 @dataclass(frozen=True)
