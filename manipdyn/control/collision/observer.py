@@ -40,8 +40,11 @@ import numpy as np
 from ..._support.errors import ModelError
 from ...identification.uncertainty.thresholds import DEFAULT_GAIN, low_pass, positive
 
-__all__ = ["MomentumObserver", "momentum_residual", "direct_residual", "coriolis_transpose_qd", "check_gain"]
+__all__ = ["MomentumObserver", "momentum_residual", "direct_residual", "coriolis_transpose_qd", "check_gain",
+           "check_velocity_cutoff", "filter_velocity", "DEFAULT_VELOCITY_CUTOFF"]
 
+#: the velocity filter's cut-off by default, Hz (0: none; module docstring)
+DEFAULT_VELOCITY_CUTOFF = 0.0
 #: samples per chunk of the offline observer's batched calls (memory: chunk * n * n floats)
 CHUNK = 4096
 _mul, _sub = np.multiply, np.subtract
@@ -49,6 +52,42 @@ _mul, _sub = np.multiply, np.subtract
 
 def check_gain(gain) -> float:
     return positive(gain, "gain", "the observer's gain K in 1/s, a number > 0")
+
+
+def check_velocity_cutoff(velocity_cutoff, dt=None) -> float:
+    """The velocity filter's cut-off, Hz, as a float; 0 (or None) for none.  Below the Nyquist
+    frequency ``0.5 / dt`` when ``dt`` is given."""
+    if velocity_cutoff is None:
+        return 0.0
+    try:
+        fc = float(velocity_cutoff)
+    except (TypeError, ValueError):
+        fc = math.nan
+    if not (math.isfinite(fc) and fc >= 0):
+        raise ModelError(f"velocity_cutoff: expected the cut-off of the observer's velocity filter in Hz, a number "
+                         f"> 0 (0 or None: no filter), got {velocity_cutoff!r}")
+    if fc > 0 and dt is not None and fc >= 0.5 / float(dt):
+        raise ModelError(f"velocity_cutoff: expected a cut-off below the Nyquist frequency {0.5 / float(dt):g} Hz "
+                         f"of the samples, got {fc:g} Hz")
+    return fc
+
+
+def _velocity_alpha(fc: float, dt: float) -> float:
+    return 1.0 - math.exp(-2.0 * math.pi * fc * dt) if fc > 0 else 1.0
+
+
+def filter_velocity(qd, dt: float, velocity_cutoff) -> np.ndarray:
+    """``qd`` (N, n) through the observer's causal first-order low-pass at ``velocity_cutoff`` Hz (module
+    docstring), started at the first sample (``v_0 = qd_0``); ``qd`` itself (a float64 array) for 0 or None."""
+    qd = np.asarray(qd, dtype=np.float64)
+    fc = check_velocity_cutoff(velocity_cutoff, dt)
+    if fc == 0:
+        return qd
+    from scipy.signal import lfilter
+
+    a = _velocity_alpha(fc, float(dt))
+    out, _ = lfilter([a], [1.0, a - 1.0], qd, axis=0, zi=((1.0 - a) * qd[:1]))
+    return out
 
 
 def _dt(dt) -> float:
@@ -84,14 +123,17 @@ def _states(q, qd, tau, n):
     return q, qd, tau
 
 
-def momentum_residual(arm, q, qd, tau, dt: float, gain: float = DEFAULT_GAIN) -> np.ndarray:
+def momentum_residual(arm, q, qd, tau, dt: float, gain: float = DEFAULT_GAIN,
+                      velocity_cutoff: float | None = None) -> np.ndarray:
     """The momentum observer's residual ``r`` (N, n), N m, on samples every ``dt`` s (module docstring).
 
     ``q`` (N, n) rad (m), ``qd`` (N, n) rad/s, ``tau`` (N, n) the measured joint torques, N m; ``gain``
-    K, 1/s.  ``r(0) = 0``: the observer starts at the first sample.
+    K, 1/s; ``velocity_cutoff``: Hz of the causal low-pass the velocity goes through first (0 or None:
+    none; module docstring).  ``r(0) = 0``: the observer starts at the first sample.
     """
     K, dt = check_gain(gain), _dt(dt)
     q, qd, tau = _states(q, qd, tau, arm.n)
+    qd = filter_velocity(qd, dt, velocity_cutoff)
     p = np.empty_like(q)
     for a in range(0, len(q), CHUNK):
         p[a:a + CHUNK] = np.einsum("kij,kj->ki", arm.mass_matrix(q[a:a + CHUNK]), qd[a:a + CHUNK])
@@ -114,7 +156,9 @@ class MomentumObserver:
     """The momentum observer for a controller's loop: ``r = obs.update(q, qd, tau)`` every ``dt`` s.
 
     ``arm``: the model (friction law and rotor inertia included); ``dt``: the loop's period, s;
-    ``gain``: K, 1/s (``r`` follows the external torque with time constant ``1/K``).  Each
+    ``gain``: K, 1/s (``r`` follows the external torque with time constant ``1/K``);
+    ``velocity_cutoff``: Hz of the causal first-order low-pass the measured velocity goes through
+    first, as in :func:`momentum_residual` (0 or None: none).  Each
     :meth:`update` takes ``q``, ``qd``, ``tau`` as ``(n,)`` ndarrays of native float64 (rad or m,
     rad/s or m/s, N m or N) and returns the residual ``r`` (n,), N m, the estimated external joint
     torque (module docstring).  The first call starts the observer (``r = 0``).
@@ -126,8 +170,9 @@ class MomentumObserver:
     few array operations (benchmarks/bench_observer.py).
     """
 
-    def __init__(self, arm, dt: float, gain: float = DEFAULT_GAIN):
+    def __init__(self, arm, dt: float, gain: float = DEFAULT_GAIN, velocity_cutoff: float | None = None):
         self.dt, self.gain = _dt(dt), check_gain(gain)
+        self.velocity_cutoff = check_velocity_cutoff(velocity_cutoff, self.dt)
         self.n = int(arm.n)
         eng = arm.engine("pinocchio")
         self._id = eng.unchecked.inverse_dynamics      # the engine's friction and rotors, no validation
@@ -137,6 +182,8 @@ class MomentumObserver:
         self._prev = np.zeros(self.n)         # qd_(k-1) / dt
         self._cur = np.zeros(self.n)
         self._acc = np.zeros(self.n)
+        self._beta = _velocity_alpha(self.velocity_cutoff, self.dt)
+        self._v = np.zeros(self.n)            # the filtered velocity
         self._started = False
 
     def reset(self) -> None:
@@ -152,6 +199,15 @@ class MomentumObserver:
     def update(self, q, qd, tau) -> np.ndarray:
         """One sample: the residual (n,), N m (the observer's buffer; class docstring)."""
         cur = self._cur
+        if self.velocity_cutoff > 0:
+            v = self._v
+            if self._started:                 # v_k = v_(k-1) + b (qd_k - v_(k-1)), in place
+                _sub(qd, v, cur)
+                cur *= self._beta
+                v += cur
+            else:
+                v[:] = qd
+            qd = v
         _mul(qd, self._inv_dt, cur)           # qd_k / dt
         if not self._started:
             self._started = True
@@ -169,4 +225,5 @@ class MomentumObserver:
         return r
 
     def __repr__(self) -> str:
-        return f"<MomentumObserver n={self.n} dt={self.dt:g} s gain={self.gain:g} 1/s>"
+        vel = f" velocity_cutoff={self.velocity_cutoff:g} Hz" if self.velocity_cutoff > 0 else ""
+        return f"<MomentumObserver n={self.n} dt={self.dt:g} s gain={self.gain:g} 1/s{vel}>"
