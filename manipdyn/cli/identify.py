@@ -71,7 +71,8 @@ def register(subparsers) -> None:
                         "the band's hold-outs, each watched by the momentum observer of its refit, at gain 100 1/s "
                         "and 1 false event per hour: manipdyn observe then needs no calibration logs)")
     p.add_argument("--velocity-cutoff", type=float, default=None, metavar="HZ",
-                   help="the collision thresholds' observer filters the measured velocity at this cut-off, Hz (0: "
+                   help="the collision thresholds' observer low-passes its residual at this cut-off against the measured "
+                        "velocity's noise, Hz (0: "
                         "none; default: the library's, manipdyn.control.collision.observer.DEFAULT_VELOCITY_CUTOFF); "
                         "recorded with them, and manipdyn observe uses the same")
     p.add_argument("--report", metavar="FILE.html", default=None,
@@ -167,9 +168,9 @@ def collision_thresholds(result, logs, opts, velocity_cutoff=None) -> dict | Non
     result.rename(result.name)          # the arm's trust record from the provenance, now with the thresholds
     result.save(out)
     values = ", ".join(f"{x:.3g}" for x in thr.threshold)
-    vel = f", velocity filtered at {thr.velocity_cutoff:g} Hz" if thr.velocity_cutoff > 0 else ""
-    line = (f"collision thresholds (gain {thr.gain:g} 1/s{vel}, {thr.false_alarms_per_hour:g} false event per hour): "
-            f"[{values}] N m, from {thr.source}; in {out}'s trust record")
+    vel = f" (the residual low-passed at {thr.velocity_cutoff:g} Hz)" if thr.velocity_cutoff > 0 else ""
+    line = (f"collision thresholds (gain {thr.gain:g} 1/s, {thr.false_alarms_per_hour:g} false event per hour): "
+            f"[{values}] N m{vel}, from {thr.source}; in {out}'s trust record")
     return {"line": line, **thr.to_dict()}
 
 

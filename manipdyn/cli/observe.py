@@ -39,8 +39,8 @@ def register(subparsers) -> None:
                    help="the observer's gain, 1/s: the residual follows the external torque with time constant 1/K "
                         "(default: the model's thresholds' gain, else 100)")
     p.add_argument("--velocity-cutoff", type=float, default=None, metavar="HZ",
-                   help="the cut-off, Hz, of the observer's causal first-order low-pass on the measured velocity (0: "
-                        "none); thresholds are only used with the cut-off they were calibrated with (default: the "
+                   help="the cut-off, Hz, of the causal first-order low-pass on the observer's residual, against the "
+                        "measured velocity's noise (0: none; library default 20); thresholds are only used with the cut-off they were calibrated with (default: the "
                         "model's thresholds' own, else the library's default)")
     p.add_argument("--false-alarms", type=float, default=1.0, metavar="RATE",
                    help="false events per hour the thresholds allow, all joints together (default 1)")

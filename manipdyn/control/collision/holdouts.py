@@ -39,7 +39,7 @@ from ..._support.errors import ModelError
 from ...identification.uncertainty.bands import DEFAULT_FOLDS
 from ...identification.uncertainty.thresholds import (DEFAULT_GAIN, DEFAULT_HYSTERESIS, DEFAULT_MIN_DURATION,
                                                       DEFAULT_RATE, CollisionThresholds, fit_thresholds)
-from .observer import DEFAULT_VELOCITY_CUTOFF, check_gain, check_velocity_cutoff, momentum_residual
+from .observer import check_gain, check_velocity_cutoff, momentum_residual
 from .reading import read_observed
 
 __all__ = ["held_out_thresholds", "identified_thresholds", "READ_KEYS"]
@@ -73,7 +73,7 @@ def identified_thresholds(result, logs, gain: float = DEFAULT_GAIN, false_alarms
     (:data:`READ_KEYS`; others are ignored).  ``gain`` 1/s, ``false_alarms`` per hour, ``min_duration`` s
     and ``hysteresis`` as :func:`~manipdyn.control.collision.observe` takes them.  ``kind``: ``"trajectories"``
     or ``"blocks"`` (default: the band's own, held-out trajectories when there are two or more; the blocks are
-    computed too, for a comparison).  ``velocity_cutoff``: Hz of the observer's velocity filter (None: the
+    computed too, for a comparison).  ``velocity_cutoff``: Hz of the observer's output low-pass (None: the
     default, :data:`~manipdyn.control.collision.observer.DEFAULT_VELOCITY_CUTOFF`; 0: none), recorded with
     the thresholds.  Raises :class:`ModelError`
     when the result has no hold-outs, a refit is no physical arm, a run carried a known payload, or a
@@ -83,7 +83,7 @@ def identified_thresholds(result, logs, gain: float = DEFAULT_GAIN, false_alarms
     from ...identification.inputs.runs import Measurements, as_log_specs
 
     K = check_gain(gain)
-    fc = DEFAULT_VELOCITY_CUTOFF if velocity_cutoff is None else check_velocity_cutoff(velocity_cutoff)
+    fc = check_velocity_cutoff(velocity_cutoff)
     held = getattr(result, "held_out", None)
     if held is None:
         raise ModelError("thresholds: the identification has no hold-outs (band_folds 0, --band-folds 0, or the "
@@ -196,7 +196,7 @@ def held_out_thresholds(arm, log, gain: float = DEFAULT_GAIN, false_alarms: floa
     """Thresholds from the hold-outs of the log(s) ``log`` (a path or a list, every log the model was fitted
     on) that ``arm`` (a model from ``identify``, with its trust record) was fitted on: ``identify`` again with
     the record's options and ``folds`` blocks (default: the record's band's, else 5), then
-    :func:`identified_thresholds` (module docstring), with the observer's velocity filter at
+    :func:`identified_thresholds` (module docstring), with the observer's output low-pass at
     ``velocity_cutoff`` Hz (None: the default).  Raises :class:`ModelError`
     when the model has no trust record, a log is not its fit data (sha256) or one is missing, or a refit fails."""
     from ...identification.pipeline import identify

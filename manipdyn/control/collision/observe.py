@@ -28,7 +28,7 @@ from ..._support.errors import ModelError
 from ...identification.uncertainty.thresholds import (DEFAULT_GAIN, DEFAULT_HYSTERESIS, DEFAULT_MIN_DURATION,
                                                       DEFAULT_RATE, CollisionThresholds, fit_thresholds)
 from .events import detect_events
-from .observer import DEFAULT_VELOCITY_CUTOFF, check_gain, check_velocity_cutoff, direct_residual, momentum_residual
+from .observer import check_gain, check_velocity_cutoff, direct_residual, momentum_residual
 from .reading import Observed, read_observed
 
 __all__ = ["observe", "calibrate_thresholds", "with_thresholds", "carried_thresholds", "resolve_thresholds",
@@ -45,7 +45,7 @@ def _residual(arm, obs: Observed, gain, velocity_cutoff) -> np.ndarray:
 
 def _cutoff(velocity_cutoff) -> float:
     """``velocity_cutoff`` as given, or the default for None (Hz; 0: no filter)."""
-    return DEFAULT_VELOCITY_CUTOFF if velocity_cutoff is None else check_velocity_cutoff(velocity_cutoff)
+    return check_velocity_cutoff(velocity_cutoff)
 
 
 def calibrate_thresholds(arm, logs, gain: float = DEFAULT_GAIN, false_alarms: float = DEFAULT_RATE, *,
@@ -53,7 +53,7 @@ def calibrate_thresholds(arm, logs, gain: float = DEFAULT_GAIN, false_alarms: fl
                          velocity_cutoff: float | None = None, **log_options) -> CollisionThresholds:
     """Thresholds from collision-free ``logs`` the model was not fitted on (paths or arrays, as
     :func:`observe` takes them), for ``false_alarms`` events per hour (the detector's, all joints), of the
-    observer at ``gain`` with the velocity filter at ``velocity_cutoff`` Hz (None: the default,
+    observer at ``gain`` with its output low-pass at ``velocity_cutoff`` Hz (None: the default,
     :data:`~manipdyn.control.collision.observer.DEFAULT_VELOCITY_CUTOFF`; 0: none), which the record keeps."""
     K, fc = check_gain(gain), _cutoff(velocity_cutoff)
     parts = read_observed(arm, logs, **log_options)
@@ -105,7 +105,7 @@ def resolve_thresholds(arm, gain, false_alarms, calibrate, threshold, min_durati
                        fit_data=None, velocity_cutoff=None):
     """The :class:`CollisionThresholds` of :func:`observe` (module docstring), or a refusal; ``log_options``
     are the calibration logs' reading options.  ``velocity_cutoff`` (Hz; None: the carried thresholds' own,
-    else the default) is the observer's velocity filter the thresholds are for; the returned record's
+    else the default) is the cut-off of the observer's output low-pass the thresholds are for; the returned record's
     ``velocity_cutoff`` is the one to watch with."""
     gain = check_gain(gain)
     for name, v, ok in (("min_duration", min_duration, lambda x: x >= 0), ("hysteresis", hysteresis,
@@ -143,7 +143,7 @@ def resolve_thresholds(arm, gain, false_alarms, calibrate, threshold, min_durati
             def hz(x):
                 return f"{x:g} Hz" if x > 0 else "no filter (0)"
 
-            raise ModelError(f"velocity_cutoff: the model's thresholds are for the observer's velocity filter at "
+            raise ModelError(f"velocity_cutoff: the model's thresholds are for the observer's output low-pass at "
                              f"{hz(carried.velocity_cutoff)}, not {hz(fc)} (the residual of another filter has other "
                              "noise); use that cut-off (--velocity-cutoff), or calibrate= / fit_data= for this one")
     out = carried.for_rate(false_alarms)
@@ -165,7 +165,7 @@ def observe(arm, log_or_arrays, gain: float = DEFAULT_GAIN, *, false_alarms: flo
     sha256): thresholds from the band's hold-outs of them (:mod:`manipdyn.control.collision.holdouts`).
     ``calibrate_t_range``: ``(t0, t1)`` s (or ``"T0:T1"``) of the calibration logs, in place of ``t_range``
     (one file cut into a calibration window and a watched window).  ``velocity_cutoff``: Hz of the
-    observer's causal low-pass on the measured velocity (:mod:`manipdyn.control.collision.observer`; 0:
+    observer's causal low-pass against the measured velocity's noise (:mod:`manipdyn.control.collision.observer`; 0:
     none; None: the carried thresholds' own, else
     :data:`~manipdyn.control.collision.observer.DEFAULT_VELOCITY_CUTOFF`); thresholds carried for another
     cut-off are refused, as for another gain.

@@ -53,7 +53,7 @@ class ObserveResult:
 
     def format(self) -> str:
         thr = self.thresholds
-        vel = f", velocity filtered at {thr.velocity_cutoff:g} Hz" if thr.velocity_cutoff > 0 else ""
+        vel = f", low-passed at {thr.velocity_cutoff:g} Hz" if thr.velocity_cutoff > 0 else ""
         lines = [f"collision thresholds, N m (momentum observer, gain {thr.gain:g} 1/s{vel}; {thr.false_alarms_per_hour:g} "
                  f"false events/h; events last >= {1e3 * thr.min_duration:g} ms; {thr.source}):",
                  "  " + "  ".join(f"j{j + 1} {x:.3g}" for j, x in enumerate(thr.threshold))]

@@ -118,9 +118,9 @@ class CollisionThresholds:
     joints together), with what they came from: ``gain`` (1/s, the observer's K; 0 for the direct
     residual), ``min_duration`` (s), ``hysteresis``, ``hours`` of calibration data, the tail
     ``ln N(u) = a - b u`` per joint (``tail_a``, ``tail_b``), ``observed_max`` (n,) the highest
-    sustained level seen, ``source`` (text) and ``velocity_cutoff`` (Hz, the observer's velocity filter,
+    sustained level seen, ``source`` (text) and ``velocity_cutoff`` (Hz, the observer's output low-pass,
     :mod:`manipdyn.control.collision.observer`; 0: none): a residual is compared with them only when it
-    comes from the same observer (the same gain and velocity filter)."""
+    comes from the same observer (the same gain and low-pass)."""
 
     threshold: np.ndarray
     false_alarms_per_hour: float
@@ -220,7 +220,7 @@ def fit_thresholds(residual, dt: float, rate: float = DEFAULT_RATE, *, gain: flo
                    source: str = "", velocity_cutoff: float = 0.0) -> CollisionThresholds:
     """:class:`CollisionThresholds` from the residual ``residual`` (N, n), N m, of collision-free data the
     model was not fitted on, sampled every ``dt`` seconds (module docstring).  ``gain`` and ``velocity_cutoff``
-    (Hz) are recorded (the residual must already be the observer's at that gain and velocity filter).  Raises :class:`ModelError` for fewer than
+    (Hz) are recorded (the residual must already be the observer's at that gain and low-pass).  Raises :class:`ModelError` for fewer than
     100 samples or a non-finite residual."""
     r = np.asarray(residual, dtype=np.float64)
     if r.ndim != 2 or len(r) < 100:
