@@ -31,7 +31,7 @@ call (``arm.inverse_dynamics``).
   offline observer.
 
 A noisy measured velocity: the output low-pass (``velocity_cutoff``)
--------------------------------------------------------------------
+--------------------------------------------------------------------
 The observer differentiates the momentum ``M(q) qd``, and its first-order loop turns a derivative back
 into the signal only below ``K``: velocity noise ``n`` above ``K / 2 pi`` reaches ``r`` as ``K M n``,
 undamped.  That sets the thresholds of a real log whose ``qd`` is noisy above the motion's band (the
@@ -220,14 +220,19 @@ class MomentumObserver:
         self._cur = np.zeros(self.n)
         self._acc = np.zeros(self.n)
         self._beta = _velocity_alpha(self.velocity_cutoff, self.dt)
+        # with the low-pass, scaled states save an operation per call: u = r / alpha, v = r_f / (alpha beta),
+        # u_k = (1 - alpha) u_(k-1) + y_k and v_k = (1 - beta) v_(k-1) + u_k, r_f = alpha beta v
+        self._keep_u, self._keep_v = 1.0 - self._alpha, 1.0 - self._beta
+        self._ab = self._alpha * self._beta
+        self._u, self._v = np.zeros(self.n), np.zeros(self.n)
         self._rf = np.zeros(self.n)           # r through the output low-pass
         self._out = self._rf if self.velocity_cutoff > 0 else self._r
         self._started = False
 
     def reset(self) -> None:
         """Forget the past: the next :meth:`update` starts the observer again."""
-        self._r[:] = 0.0
-        self._rf[:] = 0.0
+        for x in (self._r, self._rf, self._u, self._v):
+            x[:] = 0.0
         self._started = False
 
     @property
@@ -248,16 +253,17 @@ class MomentumObserver:
         self._prev, self._cur = cur, self._prev
         y = self._id(q, qd, acc)              # tau_model(q, qd, dqd/dt): a new array of Pinocchio's
         y -= tau
+        if self.velocity_cutoff > 0:          # the scaled states (__init__)
+            u, v = self._u, self._v
+            u *= self._keep_u
+            u += y
+            v *= self._keep_v
+            v += u
+            return _mul(v, self._ab, self._rf)
         r = self._r
         y -= r
         y *= self._alpha
         r += y
-        if self.velocity_cutoff > 0:          # r_f += b (r - r_f), in place
-            rf = self._rf
-            _sub(r, rf, y)
-            y *= self._beta
-            rf += y
-            return rf
         return r
 
     def __repr__(self) -> str:
