@@ -35,8 +35,8 @@ A noisy measured velocity: the output low-pass (``velocity_cutoff``)
 The observer differentiates the momentum ``M(q) qd``, and its first-order loop turns a derivative back
 into the signal only below ``K``: velocity noise ``n`` above ``K / 2 pi`` reaches ``r`` as ``K M n``,
 undamped.  That sets the thresholds of a real log whose ``qd`` is noisy above the motion's band (the
-Panda's, resampled from rows the host stamped with jitter: its motion lies below 5 Hz, and above 10 Hz
-its ``qd`` holds 2e-3 to 5e-3 rad/s of noise per band, docs/guide/collisions.md).  Two ways to filter:
+Panda's, resampled from rows the host stamped with jitter: its motion lies below 5 Hz, and its ``qd``
+holds 1.4e-3 to 5.6e-3 rad/s RMS in each band from 10-20 to 200-500 Hz, docs/guide/collisions.md).  Two ways to filter:
 
 * **``qd`` alone** through ``F(s) = w / (s + w)``: ``p = M F(qd)`` is no longer the momentum, and with
   the arm's dynamics the observer's input becomes ``tau_ext - M (1 - F) qdd`` (and the same lag in the
