@@ -164,8 +164,8 @@ def test_the_thresholds_keep_their_cutoff_and_another_is_refused(ur5, tmp_path, 
     arm = with_thresholds(ur5, thr)
     watched = _log(ur5, 1.0, tau_noise=0.05, seed=4)
     assert observe(arm, watched, direct=False).thresholds.velocity_cutoff == 20.0     # the record's own
-    with pytest.raises(md.ModelError, match=r"velocity_cutoff: the model's thresholds are for the observer's "
-                                            r"output low-pass at 20 Hz, not no filter \(0\)"):
+    with pytest.raises(md.ModelError, match=r"velocity_cutoff: the model's thresholds are for the observer with its "
+                                            r"output low-pass at 20 Hz, not with no output low-pass \(0\)"):
         observe(arm, watched, velocity_cutoff=0)
     # a record written before the low-pass (no key) is for no filter: used as such, 20 Hz refused
     old = thr.to_dict()
@@ -174,8 +174,8 @@ def test_the_thresholds_keep_their_cutoff_and_another_is_refused(ur5, tmp_path, 
     assert bare.velocity_cutoff == 0.0
     legacy = with_thresholds(ur5, bare)
     assert observe(legacy, watched, direct=False).thresholds.velocity_cutoff == 0.0
-    with pytest.raises(md.ModelError, match="velocity_cutoff: the model's thresholds are for the observer's output "
-                                            "low-pass at no filter"):
+    with pytest.raises(md.ModelError, match="velocity_cutoff: the model's thresholds are for the observer with no "
+                                            "output low-pass"):
         observe(legacy, watched, velocity_cutoff=20)
     # the command line: the model file carries the cut-off, --velocity-cutoff another is refused by name
     np.savetxt(tmp_path / "cal.csv", np.column_stack([cal["t"], cal["q"], cal["qd"], cal["tau"]]), delimiter=",",
@@ -184,5 +184,6 @@ def test_the_thresholds_keep_their_cutoff_and_another_is_refused(ur5, tmp_path, 
     assert main(["observe", "ur5", "--calibrate", str(tmp_path / "cal.csv"), "--save-model", str(model)]) == 0
     capsys.readouterr()
     assert main(["observe", str(model), str(tmp_path / "cal.csv"), "--velocity-cutoff", "5"]) == 2
-    assert "velocity_cutoff: the model's thresholds are for the observer's output low-pass at 20 Hz, not 5 Hz" in \
+    assert "velocity_cutoff: the model's thresholds are for the observer with its output low-pass at 20 Hz, not " \
+        "with its output low-pass at 5 Hz" in \
         capsys.readouterr().err

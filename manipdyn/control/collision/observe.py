@@ -140,12 +140,12 @@ def resolve_thresholds(arm, gain, false_alarms, calibrate, threshold, min_durati
     if velocity_cutoff is not None:
         fc = check_velocity_cutoff(velocity_cutoff)
         if abs(fc - carried.velocity_cutoff) > 1e-9 * (1.0 + carried.velocity_cutoff):
-            def hz(x):
-                return f"{x:g} Hz" if x > 0 else "no filter (0)"
+            def with_(x):
+                return f"with its output low-pass at {x:g} Hz" if x > 0 else "with no output low-pass (0)"
 
-            raise ModelError(f"velocity_cutoff: the model's thresholds are for the observer's output low-pass at "
-                             f"{hz(carried.velocity_cutoff)}, not {hz(fc)} (the residual of another filter has other "
-                             "noise); use that cut-off (--velocity-cutoff), or calibrate= / fit_data= for this one")
+            raise ModelError(f"velocity_cutoff: the model's thresholds are for the observer {with_(carried.velocity_cutoff)}, "
+                             f"not {with_(fc)} (a residual filtered otherwise has other noise); use that cut-off "
+                             "(--velocity-cutoff), or calibrate= / fit_data= for this one")
     out = carried.for_rate(false_alarms)
     return replace(out, min_duration=min_duration, hysteresis=hysteresis,
                    source=out.source or "the model's trust record")
