@@ -1,7 +1,8 @@
 """Benchmark of collision detection (issue 39) on the UR5 and the Panda at 1 kHz.
 
     env -u OPENBLAS_CORETYPE -u OPENBLAS_L2_SIZE python -m benchmarks.bench_observer [--arms ur5 panda]
-        [--minutes 10] [--contacts 20] [--seed 0] [--rounds 15] [--json FILE]
+        [--minutes 10] [--contacts 20] [--seed 0] [--rounds 15] [--velocity-cutoff HZ] [--qd-noise RAD_S]
+        [--json FILE]
 
 Two parts:
 
@@ -27,6 +28,10 @@ Two parts:
    call on the same state, interleaved rounds (:func:`benchmarks.timing.interleaved`), the median of
    per-round ratios and the ratio of the best rounds.  Target: <= 3.  Its answer is checked first
    against the offline observer on the contact run's first second.
+
+``--velocity-cutoff HZ``: the observer's velocity filter (:mod:`manipdyn.control.collision.observer`; 0:
+none; default: the library's).  ``--qd-noise RAD_S``: white noise of that standard deviation added to the
+logged velocities (the synthetic velocity is otherwise exact, where a real arm's is not).
 
 The BLAS/OpenMP pools are printed with the results.  Nothing is asserted about time.
 """
@@ -80,7 +85,7 @@ def multisine(arm, seconds: float, seed: int, rate: float = RATE):
     return t, q, qd, qdd
 
 
-def _logs(arm, seconds, seed, contacts=()):
+def _logs(arm, seconds, seed, contacts=(), qd_noise=0.0):
     """The runs of ``seconds`` (a list) as consecutive windows of one multi-sine trajectory, its torques
     synthesized once (``synthesize``'s noise: 1 % of each joint's peak over the whole trajectory, so every
     window has the same sensor noise); ``contacts`` ``(t0, t1, f)`` in the last window's time."""
@@ -89,6 +94,8 @@ def _logs(arm, seconds, seed, contacts=()):
     t, q, qd, qdd = multisine(arm, sum(seconds), seed)
     tau = synthesize(arm, q, qd, qdd, noise=0.01, seed=seed)
     edges = np.concatenate([[0], np.cumsum([int(round(s * RATE)) for s in seconds])])
+    if qd_noise:
+        qd = qd + qd_noise * np.random.default_rng(seed + 7).standard_normal(qd.shape)
     out = []
     for a, b in zip(edges[:-1], edges[1:]):
         out.append({"t": t[a:b] - t[a], "q": q[a:b], "qd": qd[a:b], "qdd": qdd[a:b], "tau": tau[a:b].copy()})
@@ -98,7 +105,7 @@ def _logs(arm, seconds, seed, contacts=()):
     return out
 
 
-def detection(arm, minutes: float, n_contacts: int, seed: int) -> dict:
+def detection(arm, minutes: float, n_contacts: int, seed: int, velocity_cutoff=None, qd_noise=0.0) -> dict:
     rng = np.random.default_rng(seed + 3)
     contacts = []
     for k in range(n_contacts):
@@ -106,10 +113,11 @@ def detection(arm, minutes: float, n_contacts: int, seed: int) -> dict:
         f = rng.uniform(5, 40) * u / np.linalg.norm(u)
         t0 = 2.0 + 4.0 * k
         contacts.append((t0, t0 + 0.3, f))
-    cal, free, push = _logs(arm, [30 * minutes, 60 * minutes, 4.0 + 4.0 * n_contacts], seed, contacts)
-    thr = calibrate_thresholds(arm, cal, false_alarms=1.0)
-    res_free = observe(arm, free, threshold=thr.threshold, wrench=False, direct=False)
-    res = observe(arm, push, threshold=thr.threshold, direct=False)
+    cal, free, push = _logs(arm, [30 * minutes, 60 * minutes, 4.0 + 4.0 * n_contacts], seed, contacts, qd_noise)
+    thr = calibrate_thresholds(arm, cal, false_alarms=1.0, velocity_cutoff=velocity_cutoff)
+    fc = thr.velocity_cutoff
+    res_free = observe(arm, free, threshold=thr.threshold, wrench=False, direct=False, velocity_cutoff=fc)
+    res = observe(arm, push, threshold=thr.threshold, direct=False, velocity_cutoff=fc)
     events = res.events
     rows, used = [], set()
     for t0, t1, f in contacts:
@@ -131,17 +139,20 @@ def detection(arm, minutes: float, n_contacts: int, seed: int) -> dict:
                        estimate=[float(x) for x in e.wrench[:3]], link=e.link)
         rows.append(row)
     extra = len(events) - len(used)
-    return {"threshold": [float(x) for x in thr.threshold], "calibration_minutes": 0.5 * minutes,
+    return {"threshold": [float(x) for x in thr.threshold], "velocity_cutoff": fc, "calibration_minutes": 0.5 * minutes,
             "free_minutes": minutes, "false_events_free": len(res_free.events), "unmatched_events": extra,
             "contacts": rows}
 
 
-def cost(arm, rounds: int, push) -> dict:
+def cost(arm, rounds: int, push, velocity_cutoff=None) -> dict:
+    from manipdyn.control.collision.observer import DEFAULT_VELOCITY_CUTOFF
+
+    fc = DEFAULT_VELOCITY_CUTOFF if velocity_cutoff is None else velocity_cutoff
     n = arm.n
-    obs = MomentumObserver(arm, 1.0 / RATE)
+    obs = MomentumObserver(arm, 1.0 / RATE, velocity_cutoff=fc)
     N = int(RATE)
     on = np.array([obs.update(push["q"][k], push["qd"][k], push["tau"][k]).copy() for k in range(N)])
-    off = momentum_residual(arm, push["q"][:N], push["qd"][:N], push["tau"][:N], 1.0 / RATE)
+    off = momentum_residual(arm, push["q"][:N], push["qd"][:N], push["tau"][:N], 1.0 / RATE, velocity_cutoff=fc)
     agree = float(np.max(np.abs(on - off)))
     q, qd, tau = (np.ascontiguousarray(push[k][N // 2]) for k in ("q", "qd", "tau"))
     qdd = np.ascontiguousarray(push["qdd"][N // 2])
@@ -161,6 +172,10 @@ def main(argv=None) -> int:
     ap.add_argument("--contacts", type=int, default=20)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--rounds", type=int, default=15)
+    ap.add_argument("--velocity-cutoff", type=float, default=None, metavar="HZ",
+                    help="the observer's velocity filter, Hz (0: none; default: the library's)")
+    ap.add_argument("--qd-noise", type=float, default=0.0, metavar="RAD_S",
+                    help="white noise added to the logged velocities, rad/s (default 0)")
     ap.add_argument("--json", default=None, metavar="FILE", help="also write the results as JSON")
     args = ap.parse_args(argv)
     pools = blas_config()
@@ -168,16 +183,17 @@ def main(argv=None) -> int:
     out = {"blas": pools, "arms": {}}
     for name in args.arms:
         arm = _load(name)
-        det = detection(arm, args.minutes, args.contacts, args.seed)
+        det = detection(arm, args.minutes, args.contacts, args.seed, args.velocity_cutoff, args.qd_noise)
         c = det["contacts"]
         push = _logs(arm, [2.0], args.seed + 5, [(0.5, 0.8, np.array([10.0, -10.0, 15.0]))])[0]
-        cst = cost(arm, args.rounds, push)
+        cst = cost(arm, args.rounds, push, args.velocity_cutoff)
         out["arms"][name] = {"detection": det, "cost": cst}
         detectable = [x for x in c if x["detectable"]]
         found = [x for x in detectable if x["found"]]
         delays = [x["delay"] for x in found]
         big = [x for x in c if x["found"] and x["magnitude"] >= 20]
-        print(f"\n{name}: thresholds (N m, 1 false event/h) " + " ".join(f"{x:.3g}" for x in det["threshold"]))
+        print(f"\n{name}: thresholds (N m, 1 false event/h; velocity filter {det['velocity_cutoff']:g} Hz, 0: none) "
+              + " ".join(f"{x:.3g}" for x in det["threshold"]))
         print(f"  {'t0 s':>6s} {'|f| N':>6s} {'det. N':>7s} {'found':>5s} {'delay ms':>8s} {'f err %':>7s} {'pt err %':>8s} {'f bound %':>9s} link")
         for x in c:
             print(f"  {x['t0']:6.1f} {x['magnitude']:6.1f} {x['detectable_force']:7.2f} {str(x['found']):>5s} "

@@ -227,7 +227,7 @@ def test_panda_log_no_false_event_and_thresholds_below_libfranka(panda):
                   wrench=False, direct=False)
     assert res.events == []
     hand_set = np.array([20, 20, 18, 18, 16, 14, 12.0])            # libfranka's examples, N m
-    assert np.all(res.thresholds.threshold <= hand_set / 5)         # measured 5.9 to 19.7x below
+    assert np.all(res.thresholds.threshold <= hand_set / 5)         # measured 7.7 to 36x below (20 Hz low-pass)
 
 
 @pytest.mark.skipif(not (REAL / "lwr4_flobaroid").is_dir(), reason="realdata/lwr4_flobaroid not present")

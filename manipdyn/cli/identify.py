@@ -70,6 +70,11 @@ def register(subparsers) -> None:
                    help="write no collision thresholds into the model's trust record (by default they are read off "
                         "the band's hold-outs, each watched by the momentum observer of its refit, at gain 100 1/s "
                         "and 1 false event per hour: manipdyn observe then needs no calibration logs)")
+    p.add_argument("--velocity-cutoff", type=float, default=None, metavar="HZ",
+                   help="the collision thresholds' observer low-passes its residual at this cut-off against the measured "
+                        "velocity's noise, Hz (0: "
+                        "none; default: the library's, manipdyn.control.collision.observer.DEFAULT_VELOCITY_CUTOFF); "
+                        "recorded with them, and manipdyn observe uses the same")
     p.add_argument("--report", metavar="FILE.html", default=None,
                    help="also write one self-contained HTML page (no scripts, nothing fetched): what was done, "
                         "the verdict, per joint RMS in-sample and held out, the fit figure, the parameters with "
@@ -120,7 +125,7 @@ def run(args) -> int:
         return usage_error("identify", f"--scheduler: {exc}")
     except OSError as exc:
         return usage_error("identify", f"{exc.filename or args.output}: cannot write: {exc.strerror or exc}")
-    thresholds = None if args.no_thresholds else collision_thresholds(result, logs, opts)
+    thresholds = None if args.no_thresholds else collision_thresholds(result, logs, opts, args.velocity_cutoff)
     if args.report:
         try:
             result.report_html(args.report, command=command_line(args))
@@ -144,7 +149,7 @@ def run(args) -> int:
     return result.exit_code
 
 
-def collision_thresholds(result, logs, opts) -> dict | None:
+def collision_thresholds(result, logs, opts, velocity_cutoff=None) -> dict | None:
     """The collision thresholds of the band's hold-outs
     (:func:`manipdyn.control.collision.holdouts.identified_thresholds`) written into the model file's trust record (key ``collision``), at the default gain and rate; ``{"line": ...}``
     (one line on what they came from and their values, or why there are none) plus the record; None when no model
@@ -156,15 +161,16 @@ def collision_thresholds(result, logs, opts) -> dict | None:
     if result.arm is None or out is None or str(out).lower().endswith(".json"):
         return None
     try:
-        thr = identified_thresholds(result, logs, **opts)
+        thr = identified_thresholds(result, logs, velocity_cutoff=velocity_cutoff, **opts)
     except ModelError as exc:
         return {"line": f"collision thresholds: none written ({cli_message(exc)})", "error": cli_message(exc)}
     result.provenance[TRUST_KEY] = thr.to_dict()
     result.rename(result.name)          # the arm's trust record from the provenance, now with the thresholds
     result.save(out)
     values = ", ".join(f"{x:.3g}" for x in thr.threshold)
+    vel = f" (the residual low-passed at {thr.velocity_cutoff:g} Hz)" if thr.velocity_cutoff > 0 else ""
     line = (f"collision thresholds (gain {thr.gain:g} 1/s, {thr.false_alarms_per_hour:g} false event per hour): "
-            f"[{values}] N m, from {thr.source}; in {out}'s trust record")
+            f"[{values}] N m{vel}, from {thr.source}; in {out}'s trust record")
     return {"line": line, **thr.to_dict()}
 
 

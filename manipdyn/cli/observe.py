@@ -1,6 +1,6 @@
 """``manipdyn observe MODEL LOG... [--gain K] [--false-alarms RATE] [--calibrate LOG...] [--fit-data LOG...]
 [--threshold N_M...]
-[--json] [--plot FILE.png] [--report FILE.html] [--predictions FILE.csv] [--save-model OUT.toml]``.
+[--velocity-cutoff HZ] [--json] [--plot FILE.png] [--report FILE.html] [--predictions FILE.csv] [--save-model OUT.toml]``.
 
 Layer 7 (CLI, the top).  Parses, calls :func:`manipdyn.control.collision.observe` (the momentum
 observer against thresholds for a stated false-alarm rate), prints the thresholds and the events.
@@ -38,6 +38,10 @@ def register(subparsers) -> None:
     p.add_argument("--gain", type=float, default=None, metavar="K",
                    help="the observer's gain, 1/s: the residual follows the external torque with time constant 1/K "
                         "(default: the model's thresholds' gain, else 100)")
+    p.add_argument("--velocity-cutoff", type=float, default=None, metavar="HZ",
+                   help="the cut-off, Hz, of the causal first-order low-pass on the observer's residual, against the "
+                        "measured velocity's noise (0: none; library default 20); thresholds are only used with the cut-off they were calibrated with (default: the "
+                        "model's thresholds' own, else the library's default)")
     p.add_argument("--false-alarms", type=float, default=1.0, metavar="RATE",
                    help="false events per hour the thresholds allow, all joints together (default 1)")
     p.add_argument("--calibrate", nargs="+", metavar="LOG", default=None,
@@ -104,11 +108,12 @@ def run(args) -> int:
 
             cal_opts = dict(opts, t_range=as_t_range(args.calibrate_t_range, "--calibrate-t-range"))
         thr = resolve_thresholds(arm, gain, args.false_alarms, args.calibrate, args.threshold, args.min_duration,
-                                 args.hysteresis, cal_opts, args.fit_data)
+                                 args.hysteresis, cal_opts, args.fit_data, args.velocity_cutoff)
         res = None
         if args.logs:
             res = observe(arm, args.logs, gain, false_alarms=args.false_alarms, threshold=thr.threshold,
-                          min_duration=args.min_duration, hysteresis=args.hysteresis, **opts)
+                          min_duration=args.min_duration, hysteresis=args.hysteresis,
+                          velocity_cutoff=thr.velocity_cutoff, **opts)
             res.thresholds = thr
             if args.plot:
                 res.plot(args.plot)
@@ -127,7 +132,8 @@ def run(args) -> int:
     events = len(res.events) if res is not None else 0
     if args.json:
         out = res.to_dict() if res is not None else {"threshold": [float(x) for x in thr.threshold],
-                                                     "gain": thr.gain, "threshold_source": thr.source}
+                                                     "gain": thr.gain, "velocity_cutoff": thr.velocity_cutoff,
+                                                     "threshold_source": thr.source}
         out.update({"plot": args.plot, "report": args.report, "predictions": args.predictions,
                     "saved_model": args.save_model})
         print(json.dumps(out, indent=2, allow_nan=False))

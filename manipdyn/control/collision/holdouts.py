@@ -39,7 +39,7 @@ from ..._support.errors import ModelError
 from ...identification.uncertainty.bands import DEFAULT_FOLDS
 from ...identification.uncertainty.thresholds import (DEFAULT_GAIN, DEFAULT_HYSTERESIS, DEFAULT_MIN_DURATION,
                                                       DEFAULT_RATE, CollisionThresholds, fit_thresholds)
-from .observer import check_gain, momentum_residual
+from .observer import check_gain, check_velocity_cutoff, momentum_residual
 from .reading import read_observed
 
 __all__ = ["held_out_thresholds", "identified_thresholds", "READ_KEYS"]
@@ -63,7 +63,8 @@ def _names(sources) -> list[str]:
 
 def identified_thresholds(result, logs, gain: float = DEFAULT_GAIN, false_alarms: float = DEFAULT_RATE, *,
                           min_duration: float = DEFAULT_MIN_DURATION, hysteresis: float = DEFAULT_HYSTERESIS,
-                          kind: str | None = None, **read_options) -> CollisionThresholds:
+                          kind: str | None = None, velocity_cutoff: float | None = None,
+                          **read_options) -> CollisionThresholds:
     """Thresholds from the hold-outs of an identification (module docstring).
 
     ``result``: an :class:`~manipdyn.identification.IdentifyResult` with its band's hold-outs
@@ -72,7 +73,9 @@ def identified_thresholds(result, logs, gain: float = DEFAULT_GAIN, false_alarms
     (:data:`READ_KEYS`; others are ignored).  ``gain`` 1/s, ``false_alarms`` per hour, ``min_duration`` s
     and ``hysteresis`` as :func:`~manipdyn.control.collision.observe` takes them.  ``kind``: ``"trajectories"``
     or ``"blocks"`` (default: the band's own, held-out trajectories when there are two or more; the blocks are
-    computed too, for a comparison).  Raises :class:`ModelError`
+    computed too, for a comparison).  ``velocity_cutoff``: Hz of the observer's output low-pass (None: the
+    default, :data:`~manipdyn.control.collision.observer.DEFAULT_VELOCITY_CUTOFF`; 0: none), recorded with
+    the thresholds.  Raises :class:`ModelError`
     when the result has no hold-outs, a refit is no physical arm, a run carried a known payload, or a
     log is no file.
     """
@@ -80,6 +83,7 @@ def identified_thresholds(result, logs, gain: float = DEFAULT_GAIN, false_alarms
     from ...identification.inputs.runs import Measurements, as_log_specs
 
     K = check_gain(gain)
+    fc = check_velocity_cutoff(velocity_cutoff)
     held = getattr(result, "held_out", None)
     if held is None:
         raise ModelError("thresholds: the identification has no hold-outs (band_folds 0, --band-folds 0, or the "
@@ -122,7 +126,8 @@ def identified_thresholds(result, logs, gain: float = DEFAULT_GAIN, false_alarms
                     if np.sum(inside) < 10:
                         raise ModelError(f"thresholds: a hold-out of {os.path.basename(spec.path)} holds "
                                          f"{int(np.sum(inside))} raw samples; fewer folds")
-                    out.append(momentum_residual(arm, raw.q[inside], raw.qd[inside], raw.tau[inside], raw.dt, K))
+                    out.append(momentum_residual(arm, raw.q[inside], raw.qd[inside], raw.tau[inside], raw.dt, K,
+                                                 fc))
     if max(dts) > 1.01 * min(dts):
         raise ModelError(f"thresholds: the fit logs' sample periods differ ({min(dts):.4g} to {max(dts):.4g} s); "
                          "resample them to one rate (--resample)")
@@ -137,7 +142,7 @@ def identified_thresholds(result, logs, gain: float = DEFAULT_GAIN, false_alarms
         source = (f"{held.folds} blocked hold-outs of the fit data {', '.join(names)}, each watched by the observer "
                   "of the band's refit on the others")
     thr = fit_thresholds(np.vstack(parts), float(np.median(dts)), false_alarms, gain=K, min_duration=min_duration,
-                         hysteresis=hysteresis, source=source)
+                         hysteresis=hysteresis, source=source, velocity_cutoff=fc)
     if not block_parts:
         return thr
     # as the band does: at least the blocks' thresholds per joint (two or three held-out trajectories may
@@ -186,11 +191,13 @@ def _prior(arm, record):
 
 def held_out_thresholds(arm, log, gain: float = DEFAULT_GAIN, false_alarms: float = DEFAULT_RATE, *,
                         folds: int | None = None, min_duration: float = DEFAULT_MIN_DURATION,
-                        hysteresis: float = DEFAULT_HYSTERESIS, check_sha256: bool = True) -> CollisionThresholds:
+                        hysteresis: float = DEFAULT_HYSTERESIS, check_sha256: bool = True,
+                        velocity_cutoff: float | None = None) -> CollisionThresholds:
     """Thresholds from the hold-outs of the log(s) ``log`` (a path or a list, every log the model was fitted
     on) that ``arm`` (a model from ``identify``, with its trust record) was fitted on: ``identify`` again with
     the record's options and ``folds`` blocks (default: the record's band's, else 5), then
-    :func:`identified_thresholds` (module docstring).  Raises :class:`ModelError`
+    :func:`identified_thresholds` (module docstring), with the observer's output low-pass at
+    ``velocity_cutoff`` Hz (None: the default).  Raises :class:`ModelError`
     when the model has no trust record, a log is not its fit data (sha256) or one is missing, or a refit fails."""
     from ...identification.pipeline import identify
     from ...identification.results.provenance import file_sha256
@@ -223,9 +230,5 @@ def held_out_thresholds(arm, log, gain: float = DEFAULT_GAIN, false_alarms: floa
     except TypeError as exc:       # an option this manipdyn's identify does not take
         raise ModelError(f"fit data: the trust record's options do not replay ({exc})") from None
     out = identified_thresholds(result, logs, K, false_alarms, min_duration=min_duration, hysteresis=hysteresis,
-                                **options)
-    if note:
-        out = CollisionThresholds(out.threshold, out.false_alarms_per_hour, out.gain, out.min_duration,
-                                  out.hysteresis, out.hours, out.tail_a, out.tail_b, out.observed_max,
-                                  out.source + note)
-    return out
+                                velocity_cutoff=velocity_cutoff, **options)
+    return replace(out, source=out.source + note) if note else out

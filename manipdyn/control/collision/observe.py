@@ -20,13 +20,15 @@ A log is read nearly as logged, every sample kept (:mod:`manipdyn.control.collis
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from ..._support.errors import ModelError
 from ...identification.uncertainty.thresholds import (DEFAULT_GAIN, DEFAULT_HYSTERESIS, DEFAULT_MIN_DURATION,
                                                       DEFAULT_RATE, CollisionThresholds, fit_thresholds)
 from .events import detect_events
-from .observer import check_gain, direct_residual, momentum_residual
+from .observer import check_gain, check_velocity_cutoff, direct_residual, momentum_residual
 from .reading import Observed, read_observed
 
 __all__ = ["observe", "calibrate_thresholds", "with_thresholds", "carried_thresholds", "resolve_thresholds",
@@ -37,24 +39,32 @@ TRUST_KEY = "collision"
 
 
 
-def _residual(arm, obs: Observed, gain) -> np.ndarray:
-    return momentum_residual(arm, obs.q, obs.qd, obs.tau, obs.dt, gain)
+def _residual(arm, obs: Observed, gain, velocity_cutoff) -> np.ndarray:
+    return momentum_residual(arm, obs.q, obs.qd, obs.tau, obs.dt, gain, velocity_cutoff)
+
+
+def _cutoff(velocity_cutoff) -> float:
+    """``velocity_cutoff`` as given, or the default for None (Hz; 0: no filter)."""
+    return check_velocity_cutoff(velocity_cutoff)
 
 
 def calibrate_thresholds(arm, logs, gain: float = DEFAULT_GAIN, false_alarms: float = DEFAULT_RATE, *,
                          min_duration: float = DEFAULT_MIN_DURATION, hysteresis: float = DEFAULT_HYSTERESIS,
-                         **log_options) -> CollisionThresholds:
+                         velocity_cutoff: float | None = None, **log_options) -> CollisionThresholds:
     """Thresholds from collision-free ``logs`` the model was not fitted on (paths or arrays, as
-    :func:`observe` takes them), for ``false_alarms`` events per hour (the detector's, all joints)."""
-    K = check_gain(gain)
+    :func:`observe` takes them), for ``false_alarms`` events per hour (the detector's, all joints), of the
+    observer at ``gain`` with its output low-pass at ``velocity_cutoff`` Hz (None: the default,
+    :data:`~manipdyn.control.collision.observer.DEFAULT_VELOCITY_CUTOFF`; 0: none), which the record keeps."""
+    K, fc = check_gain(gain), _cutoff(velocity_cutoff)
     parts = read_observed(arm, logs, **log_options)
-    res = [_residual(arm, p, K) for p in parts]
+    res = [_residual(arm, p, K, fc) for p in parts]
     dts = [p.dt for p in parts]
     if max(dts) > 1.01 * min(dts):
         raise ModelError(f"calibrate: the logs' sample periods differ ({min(dts):.4g} to {max(dts):.4g} s); "
                          "resample them to one rate (--resample)")
     return fit_thresholds(np.vstack(res), dts[0], false_alarms, gain=K, min_duration=min_duration,
-                          hysteresis=hysteresis, source="calibration logs " + ", ".join(p.label for p in parts))
+                          hysteresis=hysteresis, source="calibration logs " + ", ".join(p.label for p in parts),
+                          velocity_cutoff=fc)
 
 
 def carried_thresholds(arm) -> CollisionThresholds | None:
@@ -81,20 +91,22 @@ def with_thresholds(arm, thresholds: CollisionThresholds):
     return out
 
 
-def _explicit(threshold, n, gain, rate, min_duration, hysteresis) -> CollisionThresholds:
+def _explicit(threshold, n, gain, rate, min_duration, hysteresis, velocity_cutoff) -> CollisionThresholds:
     T = np.atleast_1d(np.asarray(threshold, dtype=np.float64)).reshape(-1)
     if len(T) == 1:
         T = np.full(n, T[0])
     if len(T) != n or not np.all(np.isfinite(T)) or np.any(T <= 0):
         raise ModelError(f"threshold: expected 1 or {n} numbers > 0 (N m per joint), got {np.asarray(threshold)!r}")
     return CollisionThresholds(T, rate, gain, min_duration, hysteresis, 1.0, np.zeros(n), np.zeros(n), T,
-                               "given (threshold=)")
+                               "given (threshold=)", velocity_cutoff)
 
 
 def resolve_thresholds(arm, gain, false_alarms, calibrate, threshold, min_duration, hysteresis, log_options,
-                       fit_data=None):
+                       fit_data=None, velocity_cutoff=None):
     """The :class:`CollisionThresholds` of :func:`observe` (module docstring), or a refusal; ``log_options``
-    are the calibration logs' reading options."""
+    are the calibration logs' reading options.  ``velocity_cutoff`` (Hz; None: the carried thresholds' own,
+    else the default) is the cut-off of the observer's output low-pass the thresholds are for; the returned record's
+    ``velocity_cutoff`` is the one to watch with."""
     gain = check_gain(gain)
     for name, v, ok in (("min_duration", min_duration, lambda x: x >= 0), ("hysteresis", hysteresis,
                                                                           lambda x: 0 <= x < 1)):
@@ -106,15 +118,15 @@ def resolve_thresholds(arm, gain, false_alarms, calibrate, threshold, min_durati
             raise ModelError(f"{name}: expected " + ("seconds >= 0" if name == "min_duration" else
                                                      "a fraction in [0, 1) of the threshold") + f", got {v!r}")
     if threshold is not None:
-        return _explicit(threshold, arm.n, gain, false_alarms, min_duration, hysteresis)
+        return _explicit(threshold, arm.n, gain, false_alarms, min_duration, hysteresis, _cutoff(velocity_cutoff))
     if calibrate is not None:
         return calibrate_thresholds(arm, calibrate, gain, false_alarms, min_duration=min_duration,
-                                    hysteresis=hysteresis, **log_options)
+                                    hysteresis=hysteresis, velocity_cutoff=velocity_cutoff, **log_options)
     if fit_data is not None:
         from .holdouts import held_out_thresholds
 
         return held_out_thresholds(arm, fit_data, gain, false_alarms, min_duration=min_duration,
-                                   hysteresis=hysteresis)
+                                   hysteresis=hysteresis, velocity_cutoff=velocity_cutoff)
     carried = carried_thresholds(arm)
     if carried is None:
         raise ModelError("thresholds: the model carries no collision thresholds (its trust record has no "
@@ -125,16 +137,24 @@ def resolve_thresholds(arm, gain, false_alarms, calibrate, threshold, min_durati
     if abs(carried.gain - gain) > 1e-9 * gain:
         raise ModelError(f"gain: the model's thresholds are for gain {carried.gain:g} 1/s, not {gain:g}; use that "
                          "gain, or calibrate= / threshold= for this one")
+    if velocity_cutoff is not None:
+        fc = check_velocity_cutoff(velocity_cutoff)
+        if abs(fc - carried.velocity_cutoff) > 1e-9 * (1.0 + carried.velocity_cutoff):
+            def with_(x):
+                return f"with its output low-pass at {x:g} Hz" if x > 0 else "with no output low-pass (0)"
+
+            raise ModelError(f"velocity_cutoff: the model's thresholds are for the observer {with_(carried.velocity_cutoff)}, "
+                             f"not {with_(fc)} (a residual filtered otherwise has other noise); use that cut-off "
+                             "(--velocity-cutoff), or calibrate= / fit_data= for this one")
     out = carried.for_rate(false_alarms)
-    return CollisionThresholds(out.threshold, out.false_alarms_per_hour, out.gain, min_duration, hysteresis,
-                               out.hours, out.tail_a, out.tail_b, out.observed_max,
-                               out.source or "the model's trust record")
+    return replace(out, min_duration=min_duration, hysteresis=hysteresis,
+                   source=out.source or "the model's trust record")
 
 
 def observe(arm, log_or_arrays, gain: float = DEFAULT_GAIN, *, false_alarms: float = DEFAULT_RATE, calibrate=None,
             threshold=None, min_duration: float = DEFAULT_MIN_DURATION, hysteresis: float = DEFAULT_HYSTERESIS,
             direct: bool = True, wrench: bool = True, calibrate_t_range=None, fit_data=None,
-            **log_options) -> "ObserveResult":
+            velocity_cutoff: float | None = None, **log_options) -> "ObserveResult":
     """Watch a log for collisions: residuals, thresholds and events (module docstring).
 
     ``log_or_arrays``: a log path (CSV, bag), a list of them, or arrays (a dict or an object with ``t``
@@ -144,7 +164,11 @@ def observe(arm, log_or_arrays, gain: float = DEFAULT_GAIN, *, false_alarms: flo
     ``fit_data``: the log, or list of logs, the model was identified from (its trust record checks the
     sha256): thresholds from the band's hold-outs of them (:mod:`manipdyn.control.collision.holdouts`).
     ``calibrate_t_range``: ``(t0, t1)`` s (or ``"T0:T1"``) of the calibration logs, in place of ``t_range``
-    (one file cut into a calibration window and a watched window).
+    (one file cut into a calibration window and a watched window).  ``velocity_cutoff``: Hz of the
+    observer's causal low-pass against the measured velocity's noise (:mod:`manipdyn.control.collision.observer`; 0:
+    none; None: the carried thresholds' own, else
+    :data:`~manipdyn.control.collision.observer.DEFAULT_VELOCITY_CUTOFF`); thresholds carried for another
+    cut-off are refused, as for another gain.
     ``min_duration`` s and ``hysteresis`` define an event (:mod:`manipdyn.control.collision.events`).  ``direct``: also the
     direct residual (needs ``qdd``).  ``log_options``: :func:`~manipdyn.identification.read_log`'s.
     Returns :class:`ObserveResult`; raises :class:`ModelError` when no thresholds can be had.
@@ -154,10 +178,10 @@ def observe(arm, log_or_arrays, gain: float = DEFAULT_GAIN, *, false_alarms: flo
     K = check_gain(gain)
     cal_options = dict(log_options, t_range=calibrate_t_range) if calibrate_t_range is not None else log_options
     thr = resolve_thresholds(arm, K, false_alarms, calibrate, threshold, min_duration, hysteresis, cal_options,
-                             fit_data)
+                             fit_data, velocity_cutoff)
     runs = []
     for obs in read_observed(arm, log_or_arrays, **log_options):
-        r = _residual(arm, obs, K)
+        r = _residual(arm, obs, K, thr.velocity_cutoff)
         d = direct_residual(arm, obs.q, obs.qd, obs.qdd, obs.tau) if direct and obs.qdd is not None else None
         ev = detect_events(arm, obs.t, obs.q, r, thr.threshold, thr.min_duration, thr.hysteresis, wrench=wrench)
         runs.append((obs, r, d, ev))

@@ -29,6 +29,40 @@ call (``arm.inverse_dynamics``).
   inverse-dynamics call, ``tau_model(q_k, qd_k, (qd_k - qd_(k-1)) / dt)``, the engine's fast path with
   friction and rotors: the RNEA identity, no ``C`` matrix.  tests/test_collision.py holds it to the
   offline observer.
+
+A noisy measured velocity: the output low-pass (``velocity_cutoff``)
+--------------------------------------------------------------------
+The observer differentiates the momentum ``M(q) qd``, and its first-order loop turns a derivative back
+into the signal only below ``K``: velocity noise ``n`` above ``K / 2 pi`` reaches ``r`` as ``K M n``,
+undamped.  That sets the thresholds of a real log whose ``qd`` is noisy above the motion's band (the
+Panda's, resampled from rows the host stamped with jitter: its motion lies below 5 Hz, and its ``qd``
+holds 1.4e-3 to 5.6e-3 rad/s RMS in each band from 10-20 to 200-500 Hz, docs/guide/collisions.md).  Two ways to filter:
+
+* **``qd`` alone** through ``F(s) = w / (s + w)``: ``p = M F(qd)`` is no longer the momentum, and with
+  the arm's dynamics the observer's input becomes ``tau_ext - M (1 - F) qdd`` (and the same lag in the
+  friction and Coriolis terms): a model error, the high-passed acceleration, about ``M qddd / w``, with
+  which ``r`` no longer tends to ``tau_ext``.  Measured: on synthetic logs (exact ``qd``) it raised the
+  UR5's and Panda's thresholds by up to 8x at 20 Hz and gave false events; on the Panda's log it
+  lowered joints 1-4 less than the next way.  Rejected.
+* **``qd`` and ``tau`` alike**, which for the linear observer is the same low-pass on its output:
+  ``r_f = F(r)``.  No model error (``r_f`` tends to ``tau_ext`` as ``r`` does); velocity noise reaches
+  ``r_f`` as ``s K w M / (s + K)(s + w)``, falling as ``1 / f`` above both corners instead of staying at
+  ``K M``; the torque sensors' noise is filtered too.  The price: a contact's torque reaches ``r_f``
+  through two poles, ``K / (s + K) * w / (s + w)``.  (Filtering the measured ``tau`` and ``qd`` literally
+  would leave ``g(q)`` unfiltered against a filtered ``tau``: another lag error; the output filter has none.)
+
+This module does the second: with ``velocity_cutoff`` ``f_c`` > 0, ``r`` is followed by a causal first-order
+low-pass at ``f_c`` Hz, ``w = 2 pi f_c``, discretized exactly for a held input
+(``r_f,k = r_f,k-1 + (1 - exp(-w dt)) (r_k - r_f,k-1)``, ``r_f,0 = 0``), offline and online alike.  The
+cut-off is set by the detection budget, not by the thresholds it gives: at the default gain (K = 100 1/s)
+a contact at twice the threshold must be detected within 20 ms including the events' ``min_duration``
+(5 ms).  Two poles of ``1/K`` and ``1/w`` reach half a step at ``t`` with
+``1 - (K e^(-w t) - w e^(-K t)) / (K - w) = 1/2``: 15.0 ms for ``f_c`` = 20 Hz, so 20 Hz
+(:data:`DEFAULT_VELOCITY_CUTOFF`; the budget is met exactly at 20.08 Hz, with the 1 ms of sampling
+inside the margin of a contact above twice the threshold) is the lowest cut-off within budget; it lies 4x
+above the Panda log's motion.  ``velocity_cutoff=0`` turns it off (``r`` as above, the first-order
+follower).  Thresholds record the cut-off they were calibrated with, and
+:func:`~manipdyn.control.collision.observe` refuses to compare a residual filtered otherwise with them.
 """
 
 from __future__ import annotations
@@ -40,8 +74,11 @@ import numpy as np
 from ..._support.errors import ModelError
 from ...identification.uncertainty.thresholds import DEFAULT_GAIN, low_pass, positive
 
-__all__ = ["MomentumObserver", "momentum_residual", "direct_residual", "coriolis_transpose_qd", "check_gain"]
+__all__ = ["MomentumObserver", "momentum_residual", "direct_residual", "coriolis_transpose_qd", "check_gain",
+           "check_velocity_cutoff", "output_low_pass", "DEFAULT_VELOCITY_CUTOFF"]
 
+#: the output low-pass's cut-off by default, Hz (0: none; module docstring: the delay budget at K = 100 1/s)
+DEFAULT_VELOCITY_CUTOFF = 20.0
 #: samples per chunk of the offline observer's batched calls (memory: chunk * n * n floats)
 CHUNK = 4096
 _mul, _sub = np.multiply, np.subtract
@@ -49,6 +86,41 @@ _mul, _sub = np.multiply, np.subtract
 
 def check_gain(gain) -> float:
     return positive(gain, "gain", "the observer's gain K in 1/s, a number > 0")
+
+
+def check_velocity_cutoff(velocity_cutoff, dt=None) -> float:
+    """The cut-off, Hz, of the observer's output low-pass (module docstring) as a float, 0 for none;
+    None: :data:`DEFAULT_VELOCITY_CUTOFF`.  Below the Nyquist frequency ``0.5 / dt`` when ``dt`` is given."""
+    if velocity_cutoff is None:
+        velocity_cutoff = DEFAULT_VELOCITY_CUTOFF
+    try:
+        fc = float(velocity_cutoff)
+    except (TypeError, ValueError):
+        fc = math.nan
+    if not (math.isfinite(fc) and fc >= 0):
+        raise ModelError(f"velocity_cutoff: expected the cut-off of the observer's low-pass in Hz, a number "
+                         f"> 0 (0 or None: no filter), got {velocity_cutoff!r}")
+    if fc > 0 and dt is not None and fc >= 0.5 / float(dt):
+        raise ModelError(f"velocity_cutoff: expected a cut-off below the Nyquist frequency {0.5 / float(dt):g} Hz "
+                         f"of the samples, got {fc:g} Hz")
+    return fc
+
+
+def _velocity_alpha(fc: float, dt: float) -> float:
+    return 1.0 - math.exp(-2.0 * math.pi * fc * dt) if fc > 0 else 1.0
+
+
+def output_low_pass(r, dt: float, velocity_cutoff) -> np.ndarray:
+    """``r`` (N, n) through the observer's causal first-order low-pass at ``velocity_cutoff`` Hz (module
+    docstring), from rest (``r_f,0 = 0``: ``r_0`` is 0); ``r`` itself (float64) for 0 (None: the default)."""
+    r = np.asarray(r, dtype=np.float64)
+    fc = check_velocity_cutoff(velocity_cutoff, dt)
+    if fc == 0:
+        return r
+    from scipy.signal import lfilter
+
+    a = _velocity_alpha(fc, float(dt))
+    return lfilter([a], [1.0, a - 1.0], r, axis=0)
 
 
 def _dt(dt) -> float:
@@ -84,21 +156,26 @@ def _states(q, qd, tau, n):
     return q, qd, tau
 
 
-def momentum_residual(arm, q, qd, tau, dt: float, gain: float = DEFAULT_GAIN) -> np.ndarray:
+def momentum_residual(arm, q, qd, tau, dt: float, gain: float = DEFAULT_GAIN,
+                      velocity_cutoff: float | None = DEFAULT_VELOCITY_CUTOFF) -> np.ndarray:
     """The momentum observer's residual ``r`` (N, n), N m, on samples every ``dt`` s (module docstring).
 
     ``q`` (N, n) rad (m), ``qd`` (N, n) rad/s, ``tau`` (N, n) the measured joint torques, N m; ``gain``
-    K, 1/s.  ``r(0) = 0``: the observer starts at the first sample.
+    K, 1/s; ``velocity_cutoff``: Hz of the causal low-pass ``r`` goes through, against the measured
+    velocity's noise (module docstring; 0: none, the first-order observer as written above; None: the
+    default).
+    ``r(0) = 0``: the observer starts at the first sample.
     """
     K, dt = check_gain(gain), _dt(dt)
     q, qd, tau = _states(q, qd, tau, arm.n)
+    fc = check_velocity_cutoff(velocity_cutoff, dt)
     p = np.empty_like(q)
     for a in range(0, len(q), CHUNK):
         p[a:a + CHUNK] = np.einsum("kij,kj->ki", arm.mass_matrix(q[a:a + CHUNK]), qd[a:a + CHUNK])
     beta = tau + coriolis_transpose_qd(arm, q, qd) - arm.gravity_torque(q) - _friction(arm, qd)
     x = np.zeros_like(q)
     x[1:] = (p[1:] - p[:-1]) / dt - 0.5 * (beta[1:] + beta[:-1])     # tau_ext over each period
-    return low_pass(x, dt, K)
+    return output_low_pass(low_pass(x, dt, K), dt, fc)
 
 
 def direct_residual(arm, q, qd, qdd, tau) -> np.ndarray:
@@ -114,7 +191,10 @@ class MomentumObserver:
     """The momentum observer for a controller's loop: ``r = obs.update(q, qd, tau)`` every ``dt`` s.
 
     ``arm``: the model (friction law and rotor inertia included); ``dt``: the loop's period, s;
-    ``gain``: K, 1/s (``r`` follows the external torque with time constant ``1/K``).  Each
+    ``gain``: K, 1/s (``r`` follows the external torque with time constant ``1/K``);
+    ``velocity_cutoff``: Hz of the causal first-order low-pass on ``r`` against the measured velocity's
+    noise, as in :func:`momentum_residual` (0: none).  Thresholds hold for the observer they were
+    calibrated with: ``MomentumObserver(arm, dt, thr.gain, thr.velocity_cutoff)``.  Each
     :meth:`update` takes ``q``, ``qd``, ``tau`` as ``(n,)`` ndarrays of native float64 (rad or m,
     rad/s or m/s, N m or N) and returns the residual ``r`` (n,), N m, the estimated external joint
     torque (module docstring).  The first call starts the observer (``r = 0``).
@@ -126,8 +206,10 @@ class MomentumObserver:
     few array operations (benchmarks/bench_observer.py).
     """
 
-    def __init__(self, arm, dt: float, gain: float = DEFAULT_GAIN):
+    def __init__(self, arm, dt: float, gain: float = DEFAULT_GAIN,
+                 velocity_cutoff: float | None = DEFAULT_VELOCITY_CUTOFF):
         self.dt, self.gain = _dt(dt), check_gain(gain)
+        self.velocity_cutoff = check_velocity_cutoff(velocity_cutoff, self.dt)
         self.n = int(arm.n)
         eng = arm.engine("pinocchio")
         self._id = eng.unchecked.inverse_dynamics      # the engine's friction and rotors, no validation
@@ -137,17 +219,26 @@ class MomentumObserver:
         self._prev = np.zeros(self.n)         # qd_(k-1) / dt
         self._cur = np.zeros(self.n)
         self._acc = np.zeros(self.n)
+        self._beta = _velocity_alpha(self.velocity_cutoff, self.dt)
+        # with the low-pass, scaled states save an operation per call: u = r / alpha, v = r_f / (alpha beta),
+        # u_k = (1 - alpha) u_(k-1) + y_k and v_k = (1 - beta) v_(k-1) + u_k, r_f = alpha beta v
+        self._keep_u, self._keep_v = 1.0 - self._alpha, 1.0 - self._beta
+        self._ab = self._alpha * self._beta
+        self._u, self._v = np.zeros(self.n), np.zeros(self.n)
+        self._rf = np.zeros(self.n)           # r through the output low-pass
+        self._out = self._rf if self.velocity_cutoff > 0 else self._r
         self._started = False
 
     def reset(self) -> None:
         """Forget the past: the next :meth:`update` starts the observer again."""
-        self._r[:] = 0.0
+        for x in (self._r, self._rf, self._u, self._v):
+            x[:] = 0.0
         self._started = False
 
     @property
     def residual(self) -> np.ndarray:
         """The last residual (n,), N m (the buffer :meth:`update` returns)."""
-        return self._r
+        return self._out
 
     def update(self, q, qd, tau) -> np.ndarray:
         """One sample: the residual (n,), N m (the observer's buffer; class docstring)."""
@@ -156,12 +247,19 @@ class MomentumObserver:
         if not self._started:
             self._started = True
             self._prev, self._cur = cur, self._prev
-            return self._r
+            return self._out
         acc = self._acc
         _sub(cur, self._prev, acc)            # (qd_k - qd_(k-1)) / dt
         self._prev, self._cur = cur, self._prev
         y = self._id(q, qd, acc)              # tau_model(q, qd, dqd/dt): a new array of Pinocchio's
         y -= tau
+        if self.velocity_cutoff > 0:          # the scaled states (__init__)
+            u, v = self._u, self._v
+            u *= self._keep_u
+            u += y
+            v *= self._keep_v
+            v += u
+            return _mul(v, self._ab, self._rf)
         r = self._r
         y -= r
         y *= self._alpha
@@ -169,4 +267,5 @@ class MomentumObserver:
         return r
 
     def __repr__(self) -> str:
-        return f"<MomentumObserver n={self.n} dt={self.dt:g} s gain={self.gain:g} 1/s>"
+        vel = f" velocity_cutoff={self.velocity_cutoff:g} Hz"
+        return f"<MomentumObserver n={self.n} dt={self.dt:g} s gain={self.gain:g} 1/s{vel}>"

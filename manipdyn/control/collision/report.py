@@ -40,7 +40,7 @@ class ObserveResult:
 
     def to_dict(self) -> dict:
         thr = self.thresholds
-        return {"model": getattr(self.arm, "name", ""), "gain": thr.gain,
+        return {"model": getattr(self.arm, "name", ""), "gain": thr.gain, "velocity_cutoff": thr.velocity_cutoff,
                 "false_alarms_per_hour": thr.false_alarms_per_hour, "min_duration": thr.min_duration,
                 "hysteresis": thr.hysteresis, "threshold": [float(x) for x in thr.threshold],
                 "threshold_source": thr.source,
@@ -53,7 +53,8 @@ class ObserveResult:
 
     def format(self) -> str:
         thr = self.thresholds
-        lines = [f"collision thresholds, N m (momentum observer, gain {thr.gain:g} 1/s; {thr.false_alarms_per_hour:g} "
+        vel = f", low-passed at {thr.velocity_cutoff:g} Hz" if thr.velocity_cutoff > 0 else ""
+        lines = [f"collision thresholds, N m (momentum observer, gain {thr.gain:g} 1/s{vel}; {thr.false_alarms_per_hour:g} "
                  f"false events/h; events last >= {1e3 * thr.min_duration:g} ms; {thr.source}):",
                  "  " + "  ".join(f"j{j + 1} {x:.3g}" for j, x in enumerate(thr.threshold))]
         for obs, r, d, ev in self.runs:

@@ -118,7 +118,9 @@ class CollisionThresholds:
     joints together), with what they came from: ``gain`` (1/s, the observer's K; 0 for the direct
     residual), ``min_duration`` (s), ``hysteresis``, ``hours`` of calibration data, the tail
     ``ln N(u) = a - b u`` per joint (``tail_a``, ``tail_b``), ``observed_max`` (n,) the highest
-    sustained level seen, and ``source`` (text)."""
+    sustained level seen, ``source`` (text) and ``velocity_cutoff`` (Hz, the observer's output low-pass,
+    :mod:`manipdyn.control.collision.observer`; 0: none): a residual is compared with them only when it
+    comes from the same observer (the same gain and low-pass)."""
 
     threshold: np.ndarray
     false_alarms_per_hour: float
@@ -130,6 +132,7 @@ class CollisionThresholds:
     tail_b: np.ndarray
     observed_max: np.ndarray
     source: str = ""
+    velocity_cutoff: float = 0.0
 
     def __post_init__(self):
         for k in ("threshold", "tail_a", "tail_b", "observed_max"):
@@ -142,10 +145,11 @@ class CollisionThresholds:
             raise ModelError(f"collision thresholds: threshold: expected numbers > 0, got {self.threshold.tolist()}")
         for name, ok in (("false_alarms_per_hour", self.false_alarms_per_hour > 0), ("hours", self.hours > 0),
                          ("hysteresis", 0 <= self.hysteresis < 1), ("min_duration", self.min_duration >= 0),
-                         ("gain", self.gain >= 0)):
+                         ("gain", self.gain >= 0), ("velocity_cutoff", self.velocity_cutoff >= 0)):
             if not ok:
                 raise ModelError(f"collision thresholds: {name}: expected " + {
-                    "hysteresis": "a fraction in [0, 1)", "min_duration": "seconds >= 0", "gain": "1/s >= 0"}.get(
+                    "hysteresis": "a fraction in [0, 1)", "min_duration": "seconds >= 0", "gain": "1/s >= 0",
+                    "velocity_cutoff": "Hz >= 0 (0: no filter)"}.get(
                         name, "a number > 0") + f", got {getattr(self, name)!r}")
 
     @property
@@ -157,7 +161,7 @@ class CollisionThresholds:
         rate = _rate(rate)
         T = _levels(self.tail_a, self.tail_b, self.observed_max, self.hours, rate / self.n)
         return CollisionThresholds(T, rate, self.gain, self.min_duration, self.hysteresis, self.hours,
-                                   self.tail_a, self.tail_b, self.observed_max, self.source)
+                                   self.tail_a, self.tail_b, self.observed_max, self.source, self.velocity_cutoff)
 
     def to_dict(self) -> dict:
         """The record as the trust record's ``collision`` key holds it (JSON-ready)."""
@@ -166,7 +170,8 @@ class CollisionThresholds:
                 "min_duration": float(self.min_duration), "hysteresis": float(self.hysteresis),
                 "hours": float(self.hours), "tail_a": [float(x) for x in self.tail_a],
                 "tail_b": [float(x) for x in self.tail_b],
-                "observed_max": [float(x) for x in self.observed_max], "source": str(self.source)}
+                "observed_max": [float(x) for x in self.observed_max], "source": str(self.source),
+                "velocity_cutoff": float(self.velocity_cutoff)}
 
     @classmethod
     def from_dict(cls, value, n: int, where: str) -> "CollisionThresholds":
@@ -177,7 +182,8 @@ class CollisionThresholds:
                       float(value["gain"]), float(value["min_duration"]), float(value["hysteresis"]),
                       float(value["hours"]), np.array(value["tail_a"], dtype=np.float64),
                       np.array(value["tail_b"], dtype=np.float64),
-                      np.array(value["observed_max"], dtype=np.float64), str(value.get("source", "")))
+                      np.array(value["observed_max"], dtype=np.float64), str(value.get("source", "")),
+                      float(value.get("velocity_cutoff", 0.0)))      # records before the filter: none
         except (KeyError, TypeError, ValueError) as exc:
             raise ModelError(f"{where}: malformed collision thresholds ({exc})") from None
         if out.n != n:
@@ -211,10 +217,10 @@ def _levels(a, b, top, hours, per_joint_rate) -> np.ndarray:
 
 def fit_thresholds(residual, dt: float, rate: float = DEFAULT_RATE, *, gain: float = DEFAULT_GAIN,
                    min_duration: float = DEFAULT_MIN_DURATION, hysteresis: float = DEFAULT_HYSTERESIS,
-                   source: str = "") -> CollisionThresholds:
+                   source: str = "", velocity_cutoff: float = 0.0) -> CollisionThresholds:
     """:class:`CollisionThresholds` from the residual ``residual`` (N, n), N m, of collision-free data the
-    model was not fitted on, sampled every ``dt`` seconds (module docstring).  ``gain`` is recorded (the
-    residual must already be the observer's at that gain).  Raises :class:`ModelError` for fewer than
+    model was not fitted on, sampled every ``dt`` seconds (module docstring).  ``gain`` and ``velocity_cutoff``
+    (Hz) are recorded (the residual must already be the observer's at that gain and low-pass).  Raises :class:`ModelError` for fewer than
     100 samples or a non-finite residual."""
     r = np.asarray(residual, dtype=np.float64)
     if r.ndim != 2 or len(r) < 100:
@@ -244,4 +250,4 @@ def fit_thresholds(residual, dt: float, rate: float = DEFAULT_RATE, *, gain: flo
         a[j] = math.log(n0) + u0 * b[j]
     T = _levels(a, b, top, hours, rate / n)
     return CollisionThresholds(T, rate, float(gain), float(min_duration), float(hysteresis), hours, a, b, top,
-                               source)
+                               source, float(velocity_cutoff or 0.0))
