@@ -132,6 +132,11 @@ def map_chunks(fn, args, total: int, parts: list, scheduler=None, workers=None, 
         _not_while_bootstrapping()
         distributed = require_distributed()
         cluster = client = held = None
+        # Dask's own logger speaks on this process's stderr: its INFO lines (a comm closed by a Ctrl-C,
+        # with a traceback) would bury the one line a study stops with; its warnings and errors stay
+        dask_log = logging.getLogger("distributed")
+        dask_level = dask_log.level
+        dask_log.setLevel(max(dask_level, logging.WARNING))
         try:
             if scheduler is None or scheduler == "local":
                 nworkers = local_cores() if workers is None else int(workers)
@@ -159,12 +164,14 @@ def map_chunks(fn, args, total: int, parts: list, scheduler=None, workers=None, 
                 col.add(fut.result())
         finally:
             held = held if held is not None else _hold_sigint()   # no Ctrl-C half-way through closing
+            dask_log.setLevel(logging.CRITICAL)   # closing: what it says of comms it closes is noise
             try:
                 if client is not None:
                     client.close()
                 if cluster is not None:
                     cluster.close()
             finally:
+                dask_log.setLevel(dask_level)
                 _release_sigint(held)
     wall = time.perf_counter() - t0
     hosts: dict = {}
