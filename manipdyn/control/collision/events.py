@@ -96,10 +96,15 @@ def _spans(t, r, T, min_duration, hysteresis):
     return spans
 
 
-def detect_events(arm, t, q, r, T, min_duration: float, hysteresis: float, wrench: bool = True) -> list[Event]:
+def detect_events(arm, t, q, r, T, min_duration: float, hysteresis: float, wrench: bool = True,
+                  lag: float = 0.0) -> list[Event]:
     """The :class:`Event` list of residual ``r`` (N, n) against thresholds ``T`` (n,), N m, at times ``t``
-    (N,) s and positions ``q`` (N, n); ``wrench``: estimate the tool wrench (needs ``n >= 6``)."""
+    (N,) s and positions ``q`` (N, n); ``wrench``: estimate the tool wrench (needs ``n >= 6``).  ``lag``, s:
+    how far the residual trails the external torque (the observer's ``1/K``, plus ``1/(2 pi f_c)`` with its
+    low-pass): each residual sample is mapped through the Jacobian of the pose ``lag`` earlier, where the
+    torque it follows was exerted (near a singular pose a Jacobian a few ms off moves a 6-D wrench far)."""
     t, r, T = np.asarray(t, dtype=np.float64), np.asarray(r, dtype=np.float64), np.asarray(T, dtype=np.float64)
+    shift = int(round(float(lag) / float(np.median(np.diff(t))))) if len(t) > 1 and lag > 0 else 0
     out = []
     for onset, det, end in _spans(t, r, T, min_duration, hysteresis):
         seg = np.abs(r[onset:end]) / T
@@ -111,7 +116,7 @@ def detect_events(arm, t, q, r, T, min_duration: float, hysteresis: float, wrenc
                    joints=joints, link=max(joints) if joints else 0, samples=(onset, end))
         if wrench and arm.n >= 6:
             plateau = onset + np.flatnonzero(ratio >= PLATEAU * ratio.max())
-            J = arm.jacobian(q[plateau])                                  # (k, 6, n), world axes at the tool
+            J = arm.jacobian(q[np.maximum(plateau - shift, 0)])          # (k, 6, n), world axes at the tool
             P = np.linalg.pinv(np.swapaxes(J, 1, 2))                      # (k, 6, n): pinv(J^T)
             ev.wrench = np.mean(np.einsum("kij,kj->ki", P, r[plateau]), axis=0)
             Pp = np.linalg.pinv(J[np.searchsorted(plateau, kp)].T)      # the peak is on the plateau

@@ -183,6 +183,8 @@ def observe(arm, log_or_arrays, gain: float = DEFAULT_GAIN, *, false_alarms: flo
     for obs in read_observed(arm, log_or_arrays, **log_options):
         r = _residual(arm, obs, K, thr.velocity_cutoff)
         d = direct_residual(arm, obs.q, obs.qd, obs.qdd, obs.tau) if direct and obs.qdd is not None else None
-        ev = detect_events(arm, obs.t, obs.q, r, thr.threshold, thr.min_duration, thr.hysteresis, wrench=wrench)
+        lag = 1.0 / K + (1.0 / (2.0 * np.pi * thr.velocity_cutoff) if thr.velocity_cutoff > 0 else 0.0)
+        ev = detect_events(arm, obs.t, obs.q, r, thr.threshold, thr.min_duration, thr.hysteresis, wrench=wrench,
+                           lag=lag)
         runs.append((obs, r, d, ev))
     return ObserveResult(arm=arm, thresholds=thr, runs=runs)
