@@ -140,7 +140,8 @@ def test_the_band_does_not_widen_where_the_held_out_errors_do_not_grow(tmp_path)
     """Synthetic data of the right model class, interpolating: the band keeps 93-97 % pooled on another
     trajectory with a mean half-width within 1.3x the constant band's (issue 30 item 2).  With the right
     model the held-out errors do not grow with the leverage, so every gain stays 0 here (a gain must
-    make the band 5 % narrower on the held-out samples to be taken); measured 95.2 % pooled, ratio 1.00."""
+    make the band 5 % narrower on the held-out samples to be taken); measured 95.2 % pooled, ratio 1.00
+    from the blocks; with the posture regions held out (bands.py), 95.8 % and 1.015 times the blocks' band."""
     from manipdyn.identification.uncertainty.bands import calibrate_band
 
     arm = md.load("ur5")
@@ -152,7 +153,7 @@ def test_the_band_does_not_widen_where_the_held_out_errors_do_not_grow(tmp_path)
         r = md.identify(arm, [fit_log], method="wls")
     v = md.validate(r, [new_log]).results[0]
     d = r.data
-    constant = calibrate_band(arm, d.q, d.qd, d.qdd, d.tau, method="wls", leverage=False)
+    constant = calibrate_band(arm, d.q, d.qd, d.qdd, d.tau, method="wls", leverage=False, regions=False)
     assert 0.93 <= v.pooled_coverage <= 0.97, v.coverage
     assert np.mean(v.band) <= 1.3 * np.mean(constant.half_width)
 
