@@ -43,11 +43,6 @@ def _residual(arm, obs: Observed, gain, velocity_cutoff) -> np.ndarray:
     return momentum_residual(arm, obs.q, obs.qd, obs.tau, obs.dt, gain, velocity_cutoff)
 
 
-def _cutoff(velocity_cutoff) -> float:
-    """``velocity_cutoff`` as given, or the default for None (Hz; 0: no filter)."""
-    return check_velocity_cutoff(velocity_cutoff)
-
-
 def calibrate_thresholds(arm, logs, gain: float = DEFAULT_GAIN, false_alarms: float = DEFAULT_RATE, *,
                          min_duration: float = DEFAULT_MIN_DURATION, hysteresis: float = DEFAULT_HYSTERESIS,
                          velocity_cutoff: float | None = None, **log_options) -> CollisionThresholds:
@@ -55,7 +50,7 @@ def calibrate_thresholds(arm, logs, gain: float = DEFAULT_GAIN, false_alarms: fl
     :func:`observe` takes them), for ``false_alarms`` events per hour (the detector's, all joints), of the
     observer at ``gain`` with its output low-pass at ``velocity_cutoff`` Hz (None: the default,
     :data:`~manipdyn.control.collision.observer.DEFAULT_VELOCITY_CUTOFF`; 0: none), which the record keeps."""
-    K, fc = check_gain(gain), _cutoff(velocity_cutoff)
+    K, fc = check_gain(gain), check_velocity_cutoff(velocity_cutoff)
     parts = read_observed(arm, logs, **log_options)
     res = [_residual(arm, p, K, fc) for p in parts]
     dts = [p.dt for p in parts]
@@ -118,7 +113,8 @@ def resolve_thresholds(arm, gain, false_alarms, calibrate, threshold, min_durati
             raise ModelError(f"{name}: expected " + ("seconds >= 0" if name == "min_duration" else
                                                      "a fraction in [0, 1) of the threshold") + f", got {v!r}")
     if threshold is not None:
-        return _explicit(threshold, arm.n, gain, false_alarms, min_duration, hysteresis, _cutoff(velocity_cutoff))
+        return _explicit(threshold, arm.n, gain, false_alarms, min_duration, hysteresis,
+                         check_velocity_cutoff(velocity_cutoff))
     if calibrate is not None:
         return calibrate_thresholds(arm, calibrate, gain, false_alarms, min_duration=min_duration,
                                     hysteresis=hysteresis, velocity_cutoff=velocity_cutoff, **log_options)

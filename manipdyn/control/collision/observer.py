@@ -115,12 +115,7 @@ def output_low_pass(r, dt: float, velocity_cutoff) -> np.ndarray:
     docstring), from rest (``r_f,0 = 0``: ``r_0`` is 0); ``r`` itself (float64) for 0 (None: the default)."""
     r = np.asarray(r, dtype=np.float64)
     fc = check_velocity_cutoff(velocity_cutoff, dt)
-    if fc == 0:
-        return r
-    from scipy.signal import lfilter
-
-    a = _velocity_alpha(fc, float(dt))
-    return lfilter([a], [1.0, a - 1.0], r, axis=0)
+    return low_pass(r, dt, 2.0 * math.pi * fc) if fc > 0 else r       # the same held-input first order
 
 
 def _dt(dt) -> float:

@@ -431,8 +431,8 @@ def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: floa
     joint.  ``regions`` False: no posture regions, a single trajectory's band from the blocks alone (the
     within-run band).  Costs ``folds`` refits, and one per held-out group or posture region.  ``refits``: a
     dict that receives the refits' ``(test, arm)`` pairs (:func:`held_out_residuals`) under ``"blocks"``
-    and, with two or more groups, ``"trajectories"`` (posture regions: ``"regions"``; scattered in time,
-    they are no span an observer can watch).  Raises :class:`ModelError` when the data is too short for the
+    and, with two or more groups, ``"trajectories"`` (not the posture regions': scattered in time, they are
+    no span an observer can watch).  Raises :class:`ModelError` when the data is too short for the
     blocks or a refit fails.
     """
     if not 0 < float(level) < 1:
@@ -443,16 +443,16 @@ def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: floa
     groups = None if labels is None else np.unique(np.asarray(labels))
     if groups is not None and len(labels) != len(q):
         raise ModelError(f"labels: expected {len(q)} group labels, one per sample, got {len(labels)}")
-    held_regions, regions = bool(regions), 0
-    if (groups is None or len(groups) < 2) and held_regions:   # one trajectory: its posture regions (module docstring)
+    n_regions = 0
+    if (groups is None or len(groups) < 2) and regions:    # one trajectory: its posture regions (module docstring)
         from ..inputs.trajectories import posture_regions
 
         labels = posture_regions(q)
         groups = None if labels is None else np.unique(labels)
-        regions = 0 if groups is None else len(groups)
+        n_regions = 0 if groups is None else len(groups)
     if groups is not None and len(groups) >= 2:
         masks = [np.asarray(labels) == g for g in groups]
-        kept = None if refits is None else refits.setdefault("regions" if regions else "trajectories", [])
+        kept = None if refits is None or n_regions else refits.setdefault("trajectories", [])
         res_t = held_out_residuals(arm, q, qd, qdd, tau, masks=masks, refits=kept, **fit_kwargs)
         rms_t = np.sqrt(np.mean(res_t**2, axis=0))
         width = np.maximum(conformal_half_width(res_t, level), conformal_half_width(res, level))
@@ -462,7 +462,7 @@ def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: floa
             flag = conformal_half_width(u, FLAG_LEVEL)
         return PredictionBand(level=float(level), half_width=width, folds=int(folds), samples=len(res_t),
                               held_out_rms=rms_t, leverage_gain=np.zeros(len(width)) if leverage else None,
-                              trajectories=1 if regions else len(groups), flag_leverage=flag, regions=regions)
+                              trajectories=1 if n_regions else len(groups), flag_leverage=flag, regions=n_regions)
     if not leverage:
         return PredictionBand(level=float(level), half_width=conformal_half_width(res, level), folds=int(folds),
                               samples=len(res), held_out_rms=rms)

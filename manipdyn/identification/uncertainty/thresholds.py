@@ -34,7 +34,7 @@ the data crossed (at least one level above every event seen).  The record keeps 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -160,8 +160,7 @@ class CollisionThresholds:
         """The same record at another rate of false events per hour (the stored tail; no data needed)."""
         rate = _rate(rate)
         T = _levels(self.tail_a, self.tail_b, self.observed_max, self.hours, rate / self.n)
-        return CollisionThresholds(T, rate, self.gain, self.min_duration, self.hysteresis, self.hours,
-                                   self.tail_a, self.tail_b, self.observed_max, self.source, self.velocity_cutoff)
+        return replace(self, threshold=T, false_alarms_per_hour=rate)
 
     def to_dict(self) -> dict:
         """The record as the trust record's ``collision`` key holds it (JSON-ready)."""
