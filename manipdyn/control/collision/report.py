@@ -137,7 +137,9 @@ class ObserveResult:
         thr = self.thresholds
         n = thr.n
         parts = [H.facts([("command", command or "md.observe"), ("model", getattr(self.arm, "name", "")),
-                          ("observer", f"generalized momentum, gain {thr.gain:g} 1/s"),
+                          ("observer", f"generalized momentum, gain {thr.gain:g} 1/s"
+                                       + (f", residual low-passed at {thr.velocity_cutoff:g} Hz"
+                                          if thr.velocity_cutoff > 0 else "")),
                           ("thresholds from", thr.source),
                           ("false events per hour asked", f"{thr.false_alarms_per_hour:g}"),
                           ("an event", f"a crossing lasting >= {1e3 * thr.min_duration:g} ms; ends below "
