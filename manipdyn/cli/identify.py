@@ -39,7 +39,9 @@ OPTIONS = (
     ("--com-bound", None, float, "M", "consistent: each COM within +-M m of the prior's, per axis (default 0.1)"),
     ("--total-mass-bound", None, float, "F", "consistent: total mass within +-F of the prior's (default 0.25)"),
     ("--no-bounds", False, "store_true", None, "consistent: no plausibility bounds, only J_i >= 0"),
-    ("--prior-weight", 0.0, None, "W|auto", "consistent: pull towards the prior (auto: blocked cross-validation; default 0, no pull)"),
+    ("--prior-weight", None, None, "W|auto", "consistent: weight of the pull of each body towards the prior's "
+     "(log-det divergence) and of the drive terms on their own scales; default auto: chosen on the hold-outs by "
+     "torque and forward-dynamics (acceleration) error; 0: the data alone"),
     ("--bootstrap", 0, int, "N", "also refit on N block-resampled copies; each base parameter's spread (default 0, none)"),
     ("--scheduler", None, str, "ADDR", "--bootstrap on Dask: 'local' or tcp://HOST:PORT"),
     ("--band-folds", 5, int, "K", "refit on K-1 of K blocks in time and score the held-out one, for the 95 %% "

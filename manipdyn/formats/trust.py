@@ -30,6 +30,8 @@ The record's keys (all optional but ``format``; JSON types; SI units)::
     leverage          the extrapolation measure's reference (identification.trust)
     doubts            [strings]: degenerate inertias, contradicted payloads, runs far off
     collision         collision thresholds (manipdyn.control.collision): {"threshold", "gain", ...}
+    decided           what the data decided and what the prior kept: {"weight", "links" (n of "data",
+                      "prior", "floor"), "prior" (the base parameters the logs do not excite)}
 
 A record that does not read is a :class:`ModelError` naming the file and the key.
 """

@@ -166,7 +166,7 @@ def _known_payloads(arm, runs):
 def identify(prior, logs, *, method: str = "consistent", tip=None, friction: bool = False, friction_terms=None,
              friction_side=None, smoothing=None, stribeck_velocity=None, sigmoid_alpha=None,
              armature: bool = False, mass_bound=None, com_bound=None, total_mass_bound=None, no_bounds: bool = False,
-             prior_weight=0.0, bootstrap: int = 0, scheduler=None, band_folds: int = 5, identify_torque_constants: bool = False,
+             prior_weight=None, bootstrap: int = 0, scheduler=None, band_folds: int = 5, identify_torque_constants: bool = False,
              torque_constant_reference=None, output=None, base_json=None, name=None, columns=None,
              deg: bool = False, rate=None, time_scale: float = 1.0, resample=None, cutoff=None,
              no_decimate: bool = False, t_range=None, topic=None, joint_names=None, extra_joints: bool = False,
@@ -182,7 +182,9 @@ def identify(prior, logs, *, method: str = "consistent", tip=None, friction: boo
         Each read on its own (:func:`.runs.read_runs`).
     method, friction, friction_terms, friction_side, smoothing, stribeck_velocity, sigmoid_alpha,
     armature, mass_bound, com_bound, total_mass_bound, no_bounds, prior_weight
-        What to identify and how (:mod:`.options`, :func:`.fit`); ``prior_weight`` may be ``"auto"``.
+        What to identify and how (:mod:`.options`, :func:`.fit`); ``prior_weight`` may be ``"auto"``, the default
+        (None) for ``method="consistent"``: chosen on the hold-outs by torque and acceleration error
+        (:mod:`.estimation.selection`); 0 for the other methods.
     bootstrap, scheduler
         Refit on ``bootstrap`` block-resampled copies (:func:`.bootstrap`), here or on Dask.
     band_folds : int
@@ -223,6 +225,11 @@ def _identify(prior, logs, o) -> IdentifyResult:
     if o["method"] not in METHODS:
         raise OptionError("{}: expected one of " + ", ".join(METHODS) + ", got " + brace_safe(repr(o["method"])), "method")
     arm, prior_label = _load(prior, o["tip"])
+    prior_notes = []
+    if o["method"] == "consistent":      # the pull starts from physical bodies (.estimation.prior)
+        from .estimation.prior import physical_prior
+
+        arm, prior_notes = physical_prior(arm, f"the prior {prior_label}")
     bounds = bounds_option(arm, o["method"], o["mass_bound"], o["com_bound"], o["total_mass_bound"], o["no_bounds"])
     law = friction_option(arm, o["friction"], o["friction_terms"], o["friction_side"], o["smoothing"],
                           o["stribeck_velocity"], o["sigmoid_alpha"])
@@ -292,18 +299,19 @@ def _identify(prior, logs, o) -> IdentifyResult:
             data = _known_payloads(arm, runs)
     selection = None
     if weight == "auto":
-        from .estimation.selection import (PRIOR_WEIGHT_FOLDS, choose_prior_weight, describe_choice, fold_kind,
-                                           fold_masks, one_se_choice)
+        from .estimation.selection import (PRIOR_WEIGHT_FOLDS, choose_prior_weight, describe_weight_choice,
+                                           fold_kind, fold_masks, one_se_choice)
 
         tell("prior weight by held-out error (a refit per weight and fold)")
-        weight, selection = choose_prior_weight(arm, data.q, data.qd, data.qdd, data.tau, friction=law,
+        dt = float(np.median(np.diff(data.t))) if len(data.t) > 1 else None
+        weight, selection = choose_prior_weight(arm, data.q, data.qd, data.qdd, data.tau, friction=law, dt=dt,
                                                 armature=o["armature"], bounds=bounds, labels=labels,
                                                 segments=data.segments)
         _, why = one_se_choice(selection, "prior_weight", 0.0)
-        law_notes.append(describe_choice("prior weight", "", selection, "prior_weight", weight, 0.0, why,
-                                         fold_kind(fold_masks(len(data.q), PRIOR_WEIGHT_FOLDS, labels,
-                                                              segments=data.segments),
-                                                   labels)))
+        law_notes.append(describe_weight_choice(selection, weight, why,
+                                                fold_kind(fold_masks(len(data.q), PRIOR_WEIGHT_FOLDS, labels,
+                                                                     segments=data.segments),
+                                                          labels)))
     given_name = o["name"]
     name = given_name or _name_from(o["output"]) or f"{arm.name or 'arm'}_identified"
     segments = data.segments if len(data.segments) > 1 else None
@@ -330,8 +338,17 @@ def _identify(prior, logs, o) -> IdentifyResult:
     if doubts:
         prov["doubts"] = doubts
     rep = dict(result.report)
-    rep["fit_notes"] = ([group_note] if group_note else []) + law_notes + list(rep.get("fit_notes", [])) \
+    from .estimation.prior import describe_attribution
+
+    decided = _attribution(result, arm, weight, data, o["method"])
+    if decided is not None:
+        prov["decided"] = {"weight": decided["weight"], "links": decided["links"],
+                           "prior": [x["what"] for x in decided["base"] if x["by"] == "prior"]}
+    rep["fit_notes"] = ([group_note] if group_note else []) + prior_notes + law_notes \
+        + list(rep.get("fit_notes", [])) + (describe_attribution(decided) if decided is not None else []) \
         + record_notes + doubts
+    if decided is not None:
+        rep["decided"] = decided
     rep["doubts"] = doubts
     if smoothing_table is not None:
         rep["smoothing_selection"] = smoothing_table
@@ -359,6 +376,18 @@ def _identify(prior, logs, o) -> IdentifyResult:
     if o["output"] is not None or o["base_json"] is not None:
         write_model_files(out, o["output"], o["base_json"])
     return out
+
+
+def _attribution(result, arm, weight, data, method):
+    """What the data, the prior and the floor decided (:func:`.estimation.prior.attribution`), or None
+    for a fit without the base parameters' covariance."""
+    from .estimation.prior import attribution, prior_parameters
+
+    if method == "ols" or result.covariance is None:
+        return None
+    prior_pi = prior_parameters(arm, result.base)
+    floored = [int(x.split()[1]) - 1 for x in result.report.get("active_bounds", []) if "radius of gyration" in x]
+    return attribution(result, prior_pi, float(weight), len(data.q) * arm.n, floored)
 
 
 def _held_out(refits, record, labels, folds):

@@ -156,7 +156,10 @@ def friction_option(arm, friction: bool = False, friction_terms=None, friction_s
 
 
 def prior_weight_option(value, method: str):
-    """``prior_weight`` as a float >= 0 or ``"auto"`` (a number given as text is read)."""
+    """``prior_weight`` as a float >= 0 or ``"auto"`` (a number given as text is read); None (the default) is
+    ``"auto"`` for the consistent method and 0 for the others."""
+    if value is None:
+        return "auto" if method == "consistent" else 0.0
     if isinstance(value, str) and value != "auto":
         try:
             value = float(value)

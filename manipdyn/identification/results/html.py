@@ -365,6 +365,18 @@ def _links(rep: dict):
                            "frame, principal moments about the centre of mass (ascending)")
 
 
+def _decided(rep: dict):
+    """The base parameters with what decided each: the data, or the prior where the logs do not excite them."""
+    d = rep["decided"]
+    rows = [[x["what"], x["value"], x["prior"], x["share"], x["by"]] for x in d.get("base", [])]
+    flagged = {k for k, x in enumerate(d.get("base", [])) if x["by"] != "data"}
+    return H.table(["base parameter", "identified", "prior", "data share", "decided by"], rows, name="decided",
+                   flagged=flagged,
+                   caption=f"What the data decided (prior weight {d.get('weight', 0):.3g}): the data's share of each "
+                           "base parameter's posterior curvature; highlighted rows the logs do not excite, so the "
+                           "prior decides them")
+
+
 def _joints_identify(rep: dict):
     band = (rep.get("provenance") or {}).get("prediction_band") or {}
     held, hw = band.get("held_out_rms"), band.get("half_width")
@@ -421,6 +433,7 @@ def identify_page(result, command: str | None = None) -> str:
                            H.section("Notes on the fit", H.bullets(rep["fit_notes"]), level=3)
                            if rep.get("fit_notes") else "",
                            _links(rep) if rep.get("links") else "",
+                           _decided(rep) if rep.get("decided") else "",
                            _parameters(rep)))
     extra = []
     tc = rep.get("torque_constants")

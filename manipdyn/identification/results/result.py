@@ -170,7 +170,9 @@ class IdentifyResult:
         :mod:`..inputs.smoothing`), ``prior_weight_selection``, ``bootstrap``, ``friction_shapes``,
         ``torque_constants``, ``provenance`` (with ``prediction_band``, ``fitted_range``,
         ``leverage``, ``doubts``: the trust record's content), ``runs``, ``data_notes``, and
-        ``links`` (:func:`link_table`: each body's mass, COM and principal moments, fitted and prior).
+        ``links`` (:func:`link_table`: each body's mass, COM and principal moments, fitted and prior), and
+        ``decided`` (:func:`manipdyn.identification.estimation.prior.attribution`: per base parameter and link,
+        decided by the data, the prior or the floor).
         """
         rep = dict(self.report_dict)
         if self.selection is not None:
