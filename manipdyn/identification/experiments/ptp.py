@@ -6,7 +6,7 @@ Robots at work move from point to point, stop, hold and start again; a log of th
 what a Fourier excitation (:mod:`.trajectory`) never does: friction through zero velocity and
 at rest (the static band), and gravity held at standstill.  :func:`point_to_point` designs such
 a run for an arm, within the same limits the Fourier design keeps (``arm.qlim`` shrunk by
-``margin``, ``vmax``, ``amax``: :data:`.trajectory.DEFAULT_VMAX`, :data:`.trajectory.DEFAULT_AMAX`
+``margin``, ``vmax``, ``amax``: :data:`.motion_limits.DEFAULT_VMAX`, :data:`.motion_limits.DEFAULT_AMAX`
 by default), and writes it in the same file format (``t,q1..qn,qd1..qdn,qdd1..qddn``), so
 ``manipdyn synthesize`` and ``track`` read it.
 
@@ -41,7 +41,7 @@ import numpy as np
 
 from ..._support import limits
 from ..._support.errors import ModelError
-from .trajectory import _limits
+from .motion_limits import motion_limits
 
 __all__ = ["PointToPoint", "point_to_point", "choose_postures", "DEFAULT_REST", "MAX_POSTURES"]
 
@@ -186,7 +186,7 @@ def point_to_point(arm, postures: int = 10, rest: float = DEFAULT_REST, rate: fl
     """
     _check(postures, rest, rate, seed, margin)
     rest, rate = float(rest), float(rate)
-    vmax, amax, lo, hi = _limits(arm, vmax, amax, margin)
+    vmax, amax, lo, hi = motion_limits(arm, vmax, amax, margin)
     start = 0.5 * (lo + hi)
     P = np.vstack([start, choose_postures(lo, hi, int(postures), np.random.default_rng(seed), start)])
     hold = int(round(rest * rate))                              # samples after the stop's own
