@@ -3,7 +3,7 @@
 Layer 7 (CLI, the top).
 
 The options and the run of ``excite --ptp`` (:mod:`manipdyn.identification.experiments.ptp`);
-:mod:`.excite` registers them beside the Fourier design's and hands the run here.  Writes the
+:mod:`manipdyn.cli.excite` registers them beside the Fourier design's and hands the run here.  Writes the
 file the Fourier design writes (``t,q1..qn,qd1..qdn,qdd1..qddn``).  Exit codes: 0 written,
 2 usage or model error (one line on stderr).
 """
@@ -104,7 +104,7 @@ def run(args) -> int:
     if args.json:
         print(json.dumps(out, indent=2))
     else:
-        print(f"wrote {args.output}: {out['samples']} samples over {run_.duration:g} s, {args.ptp} postures "
+        print(f"wrote {args.output}: {out['samples']} samples over {run_.duration:g} s, {args.ptp} posture{'s' if args.ptp != 1 else ''} "
               f"(seed {args.seed}) with {run_.rest:g} s rests, at rest {100 * rest_time:.0f} % of the time",
               file=sys.stdout)
         for n in notes:

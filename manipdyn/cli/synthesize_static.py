@@ -2,7 +2,7 @@
 
 Layer 7 (CLI, the top).
 
-The options of :mod:`.synthesize` for a truth with static friction
+The options of :mod:`manipdyn.cli.synthesize` for a truth with static friction
 (:mod:`manipdyn.identification.experiments.static_friction`): breakaway ``Fs = RATIO x Fc`` per joint
 above the truth's Coulomb level ``Fc``, a Stribeck decay between them of velocity ``V``, and at rest
 a held torque within ``[-Fs, Fs]`` of the last motion's sign.  What was drawn is said in the

@@ -2,7 +2,7 @@
 
 Layer 5 (identification).
 
-Both designs, the Fourier series (:mod:`.trajectory`) and the point-to-point run (:mod:`.ptp`), keep
+Both designs, the Fourier series (:mod:`manipdyn.identification.experiments.trajectory`) and the point-to-point run (:mod:`manipdyn.identification.experiments.ptp`), keep
 the same limits: the model's joint limits ``arm.qlim`` shrunk by a margin (default 5 % of the range
 at each end), ``|qd_j| <= vmax_j`` and ``|qdd_j| <= amax_j``.  Default limits, per joint: revolute
 1.5 rad/s and 5 rad/s^2, prismatic 0.3 m/s and 1 m/s^2 (comfortable for the bundled arms; give the

@@ -3,10 +3,10 @@
 Layer 5 (identification).
 
 Robots at work move from point to point, stop, hold and start again; a log of that kind shows
-what a Fourier excitation (:mod:`.trajectory`) never does: friction through zero velocity and
+what a Fourier excitation (:mod:`manipdyn.identification.experiments.trajectory`) never does: friction through zero velocity and
 at rest (the static band), and gravity held at standstill.  :func:`point_to_point` designs such
 a run for an arm, within the same limits the Fourier design keeps (``arm.qlim`` shrunk by
-``margin``, ``vmax``, ``amax``: :data:`.motion_limits.DEFAULT_VMAX`, :data:`.motion_limits.DEFAULT_AMAX`
+``margin``, ``vmax``, ``amax``: :data:`manipdyn.identification.experiments.motion_limits.DEFAULT_VMAX`, :data:`manipdyn.identification.experiments.motion_limits.DEFAULT_AMAX`
 by default), and writes it in the same file format (``t,q1..qn,qd1..qdn,qdd1..qddn``), so
 ``manipdyn synthesize`` and ``track`` read it.
 
@@ -177,7 +177,7 @@ def point_to_point(arm, postures: int = 10, rest: float = DEFAULT_REST, rate: fl
     seed : int
         Seed of the postures' design: the same seed, the same run.
     vmax, amax : float or (n,), optional
-        Velocity and acceleration limits per joint, as :func:`.trajectory.excitation`'s.
+        Velocity and acceleration limits per joint, as :func:`manipdyn.identification.experiments.trajectory.excitation`'s.
     margin : float
         Fraction of each joint's range kept free at both ends.
 

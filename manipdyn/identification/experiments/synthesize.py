@@ -44,8 +44,8 @@ def synthesize(arm, q, qd, qdd, noise: float = 0.01, seed: int = 0, static_frict
     ``peak_j = max |tau_j|`` over the samples and ``e`` standard normal from
     ``numpy.random.default_rng(seed)``.  ``noise = 0`` gives the exact torques.
     ``static_friction=True``: at rest (``qd_j == 0``) each joint also holds a friction torque within its
-    law's static band, of the last motion's sign (:func:`.static_friction.rest_torque`, seeded by ``seed``;
-    :func:`.static_friction.with_static_friction` gives the arm a breakaway level and a Stribeck decay).
+    law's static band, of the last motion's sign (:func:`manipdyn.identification.experiments.static_friction.rest_torque`, seeded by ``seed``;
+    :func:`manipdyn.identification.experiments.static_friction.with_static_friction` gives the arm a breakaway level and a Stribeck decay).
     """
     noise = limits.nonnegative(noise, "noise")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
