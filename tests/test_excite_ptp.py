@@ -128,3 +128,19 @@ def test_excite_ptp_refuses_a_bad_count(tmp_path, capsys, n):
 def test_excite_ptp_refuses_options_that_do_not_apply(tmp_path, capsys, argv, named):
     assert main(["excite", "ur5", "-o", str(tmp_path / "x.csv"), *argv]) == 2
     assert err_line(capsys).startswith(f"manipdyn excite: error: {named}")
+
+
+def test_a_move_takes_some_samples_however_high_the_limits():
+    """Limits far beyond the moves' needs would make each move one sample (a jump between postures with
+    zero velocity on both sides); it takes MIN_MOVE_SAMPLES samples instead, and still moves."""
+    from manipdyn.identification.experiments.ptp import MIN_MOVE_SAMPLES
+
+    run = point_to_point(md.load("ur5"), 3, rest=0.1, rate=100.0, vmax=1e6, amax=1e6)
+    for a, b in run.moves:
+        inside = (run.t > a + 1e-9) & (run.t < b - 1e-9)
+        assert inside.sum() == MIN_MOVE_SAMPLES - 1 and np.all(np.any(run.qd[inside] != 0, axis=1))
+
+
+def test_limits_near_zero_are_refused_not_overflowed(tmp_path, capsys):
+    assert main(["excite", "ur5", "--ptp", "2", "--vmax", "1e-300", "-o", str(tmp_path / "x.csv")]) == 2
+    assert "MAX_EXCITATION_SAMPLES" in err_line(capsys)

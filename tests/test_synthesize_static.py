@@ -128,3 +128,11 @@ def test_rest_torque_is_seeded_and_bounded():
     assert np.all(a[qd != 0] == 0) and np.all(np.abs(a) <= fs)
     with pytest.raises(ModelError, match="ratio"):
         with_static_friction(md.load("ur5"), 0.9)
+
+
+@pytest.mark.parametrize("argv, named", [(["--static-friction", "1e12"], "--static-friction"),
+                                         (["--static-friction", "2", "--stribeck-velocity", "1e-300"],
+                                          "--stribeck-velocity")])
+def test_absurd_levels_are_refused(logged, tmp_path, capsys, argv, named):
+    assert main(["synthesize", "ur5", str(logged / "ptp.csv"), "-o", str(tmp_path / "x.csv"), "--perturb", *argv]) == 2
+    assert err_line(capsys).startswith(f"manipdyn synthesize: error: {named}")

@@ -12,8 +12,6 @@ command's output (``--json``: ``static_friction``) and in the ``--truth`` file's
 
 from __future__ import annotations
 
-import math
-
 from .._support.errors import ModelError
 
 __all__ = ["add_options", "apply", "describe", "report"]
@@ -25,7 +23,7 @@ def add_options(p) -> None:
 
     p.add_argument("--static-friction", type=float, default=None, metavar="RATIO",
                    help="a truth with static friction: breakaway level Fs = RATIO x the truth's Coulomb level "
-                        "(RATIO >= 1; the truth needs Coulomb friction: --perturb adds it), a Stribeck decay from "
+                        "(RATIO from 1 to 100; the truth needs Coulomb friction: --perturb adds it), a Stribeck decay from "
                         "Fs to Coulomb as the joint speeds up, and at rest (qd = 0, as on the rests of excite "
                         "--ptp) a held torque within [-Fs, Fs] of the last motion's sign, its level drawn per rest "
                         "from U(0, 1) x Fs (seeded by --seed) (default: none, Coulomb's sign(0) = 0 at rest)")
@@ -37,18 +35,21 @@ def add_options(p) -> None:
 def apply(args, robot):
     """``robot`` with the static friction the options ask for (itself without them); a ModelError names the
     option."""
-    from ..identification.experiments.static_friction import DEFAULT_STRIBECK_VELOCITY, with_static_friction
+    from .._support import limits
+    from ..identification.experiments.static_friction import (DEFAULT_STRIBECK_VELOCITY, MAX_RATIO,
+                                                              with_static_friction)
 
     if args.static_friction is None:
         if args.stribeck_velocity is not None:
             raise ModelError("--stribeck-velocity: only with --static-friction RATIO")
         return robot
-    if not (math.isfinite(args.static_friction) and args.static_friction >= 1):
-        raise ModelError(f"--static-friction: expected a ratio Fs / Fc >= 1, got {args.static_friction}")
+    if not 1 <= args.static_friction <= MAX_RATIO:
+        raise ModelError(f"--static-friction: expected a ratio Fs / Fc from 1 to {MAX_RATIO:g}, got {args.static_friction}")
     if args.stribeck_velocity is None:
         args.stribeck_velocity = DEFAULT_STRIBECK_VELOCITY
-    if not (math.isfinite(args.stribeck_velocity) and args.stribeck_velocity > 0):
-        raise ModelError(f"--stribeck-velocity: expected a positive finite velocity, got {args.stribeck_velocity}")
+    if not limits.MIN_SMOOTHING <= args.stribeck_velocity <= 1e6:
+        raise ModelError(f"--stribeck-velocity: expected a velocity from {limits.MIN_SMOOTHING:g} to 1e6 (rad/s or "
+                         f"m/s), got {args.stribeck_velocity}")
     return with_static_friction(robot, args.static_friction, args.stribeck_velocity, where="--static-friction")
 
 

@@ -28,7 +28,8 @@ design's ramps: ``q = p_a + s(u) (p_b - p_a)``, starting and ending at rest with
 acceleration and jerk, so position, velocity, acceleration and jerk are continuous through the
 stops.  ``T`` is the shortest that keeps both limits at every time (``max |s'| = 35/16``,
 ``max |s''| = 7.5132`` rounded up): ``T = max_j max(35/16 |d_j| / vmax_j, sqrt(7.5132 |d_j| /
-amax_j))``, rounded up to whole samples; the positions stay between the two postures.
+amax_j))``, rounded up to whole samples, and at least :data:`MIN_MOVE_SAMPLES` samples; the
+positions stay between the two postures.
 """
 
 from __future__ import annotations
@@ -54,6 +55,9 @@ MAX_POSTURES = 1000
 CANDIDATES_PER_POSTURE = 64
 #: most candidates drawn in all
 MAX_CANDIDATES = 20_000
+#: fewest samples per move: with limits far beyond the move's needs, it still takes this many samples, so
+#: the file resolves it (its velocity and acceleration then stay below the limits)
+MIN_MOVE_SAMPLES = 10
 #: suprema of |s'| and |s''| of the septic smoothstep on [0, 1] (35/16; 7.51319 at u = 0.2764, rounded up)
 _S1, _S2 = 2.1875, 7.5132
 
@@ -156,7 +160,8 @@ def _check(postures, rest, rate, seed, margin):
         raise ModelError(f"margin: expected a fraction in [0, 0.5), got {margin!r}")
     least = (postures + 1) * (round(rest * rate) + 1)                 # the rests alone
     if least > limits.MAX_EXCITATION_SAMPLES:
-        raise limits.over_limit("postures", "the number of samples", f"over {least} (the rests alone)",
+        raise limits.over_limit("postures", "the number of samples", f"over {least} (the rests alone: "
+                                f"{postures + 1} rests of {float(rest):g} s at {float(rate):g} Hz)",
                                 "MAX_EXCITATION_SAMPLES")
 
 
@@ -192,12 +197,13 @@ def point_to_point(arm, postures: int = 10, rest: float = DEFAULT_REST, rate: fl
     hold = int(round(rest * rate))                              # samples after the stop's own
     d = np.diff(P, axis=0)                                      # (P, n)
     need = np.maximum(_S1 * np.abs(d) / vmax, np.sqrt(_S2 * np.abs(d) / amax)).max(axis=1)   # (P,) s
-    steps = np.maximum(np.ceil(need * rate * (1 + 1e-12)).astype(np.int64), 1)      # samples per move
-    total = (len(P)) * (hold + 1) + int(steps.sum()) - len(steps)
-    if total > limits.MAX_EXCITATION_SAMPLES:
-        raise limits.over_limit("postures", "the number of samples", f"{total} ({len(d)} moves of up to "
-                                f"{steps.max() / rate:.3g} s and {rest:g} s rests at {rate:g} Hz)",
-                                "MAX_EXCITATION_SAMPLES")
+    steps = np.maximum(np.ceil(need * rate * (1 + 1e-12)), MIN_MOVE_SAMPLES)        # samples per move
+    total = len(P) * (hold + 1) + float(steps.sum()) - len(steps)
+    if not total <= limits.MAX_EXCITATION_SAMPLES:                 # inf from limits near 0, too
+        raise limits.over_limit("postures", "the number of samples", f"{total:.6g} ({len(d)} moves of up to "
+                                f"{steps.max() / rate:.3g} s within the velocity and acceleration limits, and "
+                                f"{rest:g} s rests, at {rate:g} Hz)", "MAX_EXCITATION_SAMPLES")
+    steps, total = steps.astype(np.int64), int(total)
     q = np.empty((total, arm.n))
     qd = np.zeros((total, arm.n))
     qdd = np.zeros((total, arm.n))

@@ -23,18 +23,20 @@ Fs_j``: anywhere in the band.  ``manipdyn synthesize --static-friction RATIO
 
 from __future__ import annotations
 
-import math
 import warnings
 
 import numpy as np
 
+from ..._support import limits
 from ..._support.errors import ModelError, PhysicalConsistencyWarning
 from ...model.friction import Friction
 
-__all__ = ["with_static_friction", "static_levels", "rest_torque", "DEFAULT_STRIBECK_VELOCITY"]
+__all__ = ["with_static_friction", "static_levels", "rest_torque", "DEFAULT_STRIBECK_VELOCITY", "MAX_RATIO"]
 
 #: default Stribeck velocity ``vs``, rad/s (m/s): the decay from Fs to Fc is 98 % done at 2 vs
 DEFAULT_STRIBECK_VELOCITY = 0.05
+#: largest ``Fs / Fc``: real joints break away at 1 to 3 times their Coulomb level
+MAX_RATIO = 100.0
 
 
 def _law(arm) -> Friction | None:
@@ -54,11 +56,12 @@ def with_static_friction(arm, ratio: float, stribeck_velocity: float = DEFAULT_S
     only; the links' own friction moves into the law."""
     from ...model.arm import Manipulator
 
-    for name, v, least in (("ratio", ratio, 1.0), ("stribeck_velocity", stribeck_velocity, 0.0)):
-        if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)) or not math.isfinite(v) \
-                or (v < least if least else v <= 0):
-            raise ModelError(f"{where}: {name}: expected a finite number {'>= 1 (Fs / Fc)' if least else '> 0'}, "
-                             f"got {v!r}")
+    for name, v, low, high, form in (
+            ("ratio", ratio, 1.0, MAX_RATIO, f"from 1 to {MAX_RATIO:g} (Fs / Fc)"),
+            ("stribeck_velocity", stribeck_velocity, limits.MIN_SMOOTHING, 1e6,
+             f"from {limits.MIN_SMOOTHING:g} to 1e6 (rad/s or m/s)")):
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)) or not low <= v <= high:
+            raise ModelError(f"{where}: {name}: expected a number {form}, got {v!r}")
     if not isinstance(arm, Manipulator):
         raise ModelError(f"{where}: only for DH models (a bundled name or a .toml file), not {arm.name!r}")
     law = _law(arm)
