@@ -45,6 +45,8 @@ def test_excite_ptp_writes_a_run_that_rests_between_moves(tmp_path, capsys):
     assert np.all(np.abs(np.diff(held, axis=0)) > 0)
     assert report["postures"] == 4 and len(report["moves"]) == 4
     assert 0 < report["fraction_at_rest"] < 1
+    # the base regressor over the run is full rank: the moves and the held postures excite every base parameter
+    assert report["n_base"] == 36 and 1 < report["condition_number"] < 1e4
 
 
 @pytest.mark.parametrize("limits", [(), ("--vmax", "0.8", "--amax", "2")])

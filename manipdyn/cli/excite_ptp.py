@@ -73,7 +73,7 @@ def check_options(args) -> None:
 
 def run(args) -> int:
     """``excite --ptp``: design, write, report."""
-    from ..identification.experiments.ptp import point_to_point
+    from ..identification.experiments.ptp import condition_number, point_to_point
 
     try:
         check_options(args)
@@ -90,6 +90,7 @@ def run(args) -> int:
                     break
             raise ModelError(msg) from None
         run_.to_csv(args.output)
+        cond, n_base = condition_number(arm, run_)
     except ModelError as exc:
         return usage_error("excite", str(exc))
     except OSError as exc:
@@ -98,6 +99,7 @@ def run(args) -> int:
     out = {"model": args.model, "output": args.output, "n": arm.n, "design": "point-to-point",
            "samples": int(len(run_.t)), "duration": run_.duration, "postures": int(args.ptp), "rest": run_.rest,
            "rate": args.rate, "seed": args.seed, "fraction_at_rest": rest_time,
+           "n_base": n_base, "condition_number": cond,
            "moves": [[float(a), float(b)] for a, b in run_.moves],
            "max_abs_qd": [float(x) for x in abs(run_.qd).max(axis=0)],
            "max_abs_qdd": [float(x) for x in abs(run_.qdd).max(axis=0)], "notes": list(notes)}
@@ -105,7 +107,8 @@ def run(args) -> int:
         print(json.dumps(out, indent=2))
     else:
         print(f"wrote {args.output}: {out['samples']} samples over {run_.duration:g} s, {args.ptp} posture{'s' if args.ptp != 1 else ''} "
-              f"(seed {args.seed}) with {run_.rest:g} s rests, at rest {100 * rest_time:.0f} % of the time",
+              f"(seed {args.seed}) with {run_.rest:g} s rests, at rest {100 * rest_time:.0f} % of the time; {n_base} base parameters, "
+              f"condition number {cond:.4g}",
               file=sys.stdout)
         for n in notes:
             print(f"  note: {n}")

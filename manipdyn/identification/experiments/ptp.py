@@ -44,7 +44,7 @@ from ..._support import limits
 from ..._support.errors import ModelError
 from .motion_limits import motion_limits
 
-__all__ = ["PointToPoint", "point_to_point", "choose_postures", "DEFAULT_REST", "MAX_POSTURES"]
+__all__ = ["PointToPoint", "point_to_point", "choose_postures", "condition_number", "DEFAULT_REST", "MAX_POSTURES"]
 
 #: default seconds of each rest
 DEFAULT_REST = 1.0
@@ -227,3 +227,20 @@ def point_to_point(arm, postures: int = 10, rest: float = DEFAULT_REST, rate: fl
     t = np.arange(total) / rate
     return PointToPoint(postures=P, t=t, q=q, qd=qd, qdd=qdd, rests=rests, moves=moves, rest=rest,
                         rate=rate, seed=int(seed))
+
+
+#: most samples :func:`condition_number` stacks (more: every k-th sample)
+COND_SAMPLES = 20_000
+
+
+def condition_number(arm, run: PointToPoint) -> tuple[float, int]:
+    """``(cond, n_base)``: the condition number of the base regressor (rigid body, no friction) stacked over
+    the run's samples (every k-th beyond :data:`COND_SAMPLES`), the figure ``excite`` reports for the Fourier
+    design, and the number of base parameters."""
+    from ..estimation.base import base_parameters
+
+    base = base_parameters(arm)
+    k = max(1, -(-len(run.t) // COND_SAMPLES))
+    Y = base.regressor(arm.lagrange.regressor(run.q[::k], run.qd[::k], run.qdd[::k]))
+    sv = np.linalg.svd(Y.reshape(-1, base.count), compute_uv=False)
+    return (float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf), int(base.count)
