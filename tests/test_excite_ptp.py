@@ -21,7 +21,7 @@ from manipdyn.identification.experiments.trajectory import DEFAULT_AMAX, DEFAULT
 from common import err_line
 
 
-def _excite(tmp_path, name, *extra, capsys=None):
+def _excite(tmp_path, name, *extra):
     out = tmp_path / name
     rc = main(["excite", "ur5", "--ptp", "4", "--rest", "0.5", "--rate", "50", "-o", str(out), *extra])
     assert rc == 0

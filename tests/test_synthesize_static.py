@@ -15,7 +15,6 @@ import pytest
 import manipdyn as md
 from manipdyn._support.errors import ModelError
 from manipdyn.cli import main
-from manipdyn.formats.logs.trajectory import read_trajectory
 from manipdyn.identification.experiments.static_friction import rest_torque, static_levels, with_static_friction
 
 from common import err_line
