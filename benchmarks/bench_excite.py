@@ -60,7 +60,7 @@ def check(arm, ex, start) -> list[str]:
         problems.append(f"condition number {ex.condition_number:.4g} worse than the start's "
                         f"{start.condition_number:.4g}")
     q, qd, qdd = ex.sample(np.linspace(0.0, ex.period, 20001))
-    vmax, amax, lo, hi = _trajectory._limits(arm, None, None, 0.05)
+    vmax, amax, lo, hi = _trajectory.motion_limits(arm, None, None, 0.05)
     if np.any(q < lo) or np.any(q > hi):
         problems.append("joint limits (with the 5 % margin) violated between samples")
     if np.any(np.abs(qd) > vmax) or np.any(np.abs(qdd) > amax):

@@ -29,7 +29,7 @@ def _pipelines():
     import manipdyn as md
     from manipdyn import montecarlo as mc
     from manipdyn.control.track import track
-    from manipdyn.identification import excitation, identify, synthesize, validate
+    from manipdyn.identification import excitation, identify, point_to_point, synthesize, validate
 
     same = lambda *names: {n: n for n in names}  # noqa: E731
     return {
@@ -41,6 +41,7 @@ def _pipelines():
         "montecarlo/run": (mc.run, same("scheduler", "workers", "chunk_size")),
         "excite/excitation": (excitation, {"period": "duration"} | same("harmonics", "rate", "seed", "vmax", "amax",
                                                "iterations", "friction", "ramp")),
+        "excite/point_to_point": (point_to_point, same("rate", "seed", "vmax", "amax")),
         "synthesize/synthesize": (synthesize, same("noise", "seed")),
         "check/crosscheck": (md.crosscheck, same("samples", "seed", "scheduler", "workers")),
         "compare/compare": (md.compare, same("samples", "seed")),

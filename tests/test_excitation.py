@@ -25,7 +25,7 @@ def test_gradient_agrees_with_plain_finite_differences():
     against central differences of the plain objective (trace-form regressor, SVD)."""
     arm = _load("ur5")
     n, K, period = arm.n, 2, 6.0
-    vmax, amax, lo, hi = tr._limits(arm, None, None, 0.05)
+    vmax, amax, lo, hi = tr.motion_limits(arm, None, None, 0.05)
     q0 = 0.5 * (lo + hi)
     base = base_parameters(arm)
     tg = np.arange(40) * (period / 40)

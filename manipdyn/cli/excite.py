@@ -16,6 +16,7 @@ import sys
 
 from .._support import limits
 from .._support.errors import ModelError
+from . import excite_ptp
 from .common import (EXIT_OK, TIP_HELP, Progress, add_progress_options, check_outputs, load_arm,
                      progress_wanted, require_numbers, usage_error)
 
@@ -44,7 +45,8 @@ def register(subparsers) -> None:
                     "the condition number of the stacked base regressor, within the model's joint "
                     "limits and the velocity and acceleration limits; write it as CSV "
                     "(t,q1..qn,qd1..qdn,qdd1..qddn), one period (--period) between a ramp in from rest "
-                    "and a ramp out to it (--ramp): the file lasts ramp + period + ramp. Exit codes: 0 written, 2 usage or model error.")
+                    "and a ramp out to it (--ramp): the file lasts ramp + period + ramp. With --ptp N: a point-to-point run "
+                    "through N postures with rests instead, in the same file format. Exit codes: 0 written, 2 usage or model error.")
     p.add_argument("model", metavar="MODEL", help="bundled model name, .toml model file, .urdf file or erd:NAME (manipdyn models --erd)")
     p.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
     p.add_argument("-o", "--output", required=True, metavar="TRAJ.csv", help="CSV file to write")
@@ -69,6 +71,7 @@ def register(subparsers) -> None:
                         "half, one or two periods that keeps them; 0: the bare periodic series, which "
                         "starts moving)")
     p.add_argument("--friction", action="store_true", help="also excite friction parameters")
+    excite_ptp.add_options(p)
     p.add_argument("--json", action="store_true", help="print a JSON object instead of text")
     add_progress_options(p, "the progress bar")
     p.set_defaults(func=run)
@@ -144,7 +147,11 @@ def check_options(args) -> None:
 def run(args) -> int:
     from ..identification import excitation
 
+    if args.ptp is not None:             # the point-to-point design (excite_ptp.py)
+        return excite_ptp.run(args)
     try:
+        if args.rest is not None:
+            raise ModelError("--rest: only with --ptp N (the point-to-point run's rests)")
         check_options(args)
         arm, notes = load_arm(args.model, args.tip)
         ex = excitation(arm, duration=args.period, harmonics=args.harmonics, rate=args.rate,

@@ -17,6 +17,7 @@ import json
 import os
 
 from .._support.errors import ModelError
+from . import synthesize_static
 from .common import EXIT_OK, TIP_HELP, check_outputs, load_arm
 
 __all__ = ["register", "run"]
@@ -45,10 +46,11 @@ def run(args) -> int:
     arm, _notes = load_arm(args.model, args.tip)
     if args.perturb and not isinstance(arm, Manipulator):
         raise ModelError(f"--perturb: only for DH models (a bundled name or a .toml file), not {args.model!r}")
-    robot = true_arm(arm, args.seed) if args.perturb else arm
+    robot = synthesize_static.apply(args, true_arm(arm, args.seed) if args.perturb else arm)
     traj = read_trajectory(args.trajectory, arm.n)
     contacts = [parse_contact(c, robot) for c in (args.contact or [])]
-    tau = synthesize(robot, traj.q, traj.qd, traj.qdd, noise=args.noise, seed=args.seed)
+    tau = synthesize(robot, traj.q, traj.qd, traj.qdd, noise=args.noise, seed=args.seed,
+                     static_friction=args.static_friction is not None)
     if contacts:
         tau = tau - contact_torques(robot, traj.t, traj.q, contacts)   # the drives give J^T f less
     derivatives = (traj.qd, traj.qdd) if args.derivatives else ()
@@ -63,9 +65,10 @@ def run(args) -> int:
             if args.truth is not None:
                 save(Manipulator(robot.links, convention=robot.convention, gravity=robot.gravity, name=robot.name,
                                  source=robot.source, sources=robot.sources,
+                                 friction=robot.friction_model if args.static_friction is not None else None,
                                  description=f"the true arm that manipdyn synthesize --perturb --seed {args.seed} "
                                              f"drew around {args.model} (masses, centres of mass and friction off), "
-                                             f"whose torques it logged to {args.output}"), args.truth)
+                                             f"whose torques it logged to {args.output}" + synthesize_static.describe(args)), args.truth)
             if sidecar is not None:
                 atomic_write_text(sidecar, json.dumps(
                     {"log": args.output, "contacts": [c.to_dict() for c in contacts],
@@ -83,6 +86,7 @@ def run(args) -> int:
     out = {"model": args.model, "robot": robot.name, "trajectory": args.trajectory, "output": args.output,
            "truth": args.truth, "contacts": sidecar,
            "samples": int(len(traj.t)), "noise": args.noise, "seed": args.seed,
+           "static_friction": synthesize_static.report(args, robot),
            "peak_torque": [float(x) for x in abs(tau).max(axis=0)]}
     if args.json:
         print(json.dumps(out, indent=2))
@@ -90,7 +94,9 @@ def run(args) -> int:
         print(f"wrote {args.output}: {out['samples']} samples of {robot.name!r} along {args.trajectory}, "
               f"torque noise {args.noise:g} of each joint's peak (seed {args.seed})"
               + (f"; the true arm written to {args.truth}" if args.truth else "")
-              + (f"; {len(contacts)} contact(s), their truth in {sidecar}" if contacts else ""))
+              + (f"; {len(contacts)} contact(s), their truth in {sidecar}" if contacts else "")
+              + (f"; static friction {args.static_friction:g} x Coulomb, Stribeck velocity {args.stribeck_velocity:g}"
+                 if args.static_friction is not None else ""))
     return EXIT_OK
 
 
@@ -124,5 +130,6 @@ def register(sub) -> None:
                    help="a force in N (base frame) applied to the arm from T0 to T1 s of the file's time, at the "
                         "tool unless a link (1..n or its name) is named; the drives' logged torque lacks J^T f. "
                         "Repeatable; the truth goes to DATA.contacts.json beside the log")
+    synthesize_static.add_options(p)
     p.add_argument("--json", action="store_true", help="print a JSON object instead of text")
     p.set_defaults(func=run)

@@ -5,6 +5,7 @@ Layer 5 (identification).  May import: ``manipdyn.check``, ``manipdyn.engines``,
 
 * :func:`base_parameters`: the identifiable combinations (QR with pivoting);
 * :func:`excitation`: an optimised Fourier-series excitation trajectory;
+  :func:`point_to_point`: a run through postures with rests (``manipdyn excite --ptp``);
 * :func:`fit`: ``ols``, ``wls`` and the physically consistent ``consistent``
   (J_i >= 0, cvxpy with Clarabel or SCS), returning the identified arm;
 * :func:`read_log`: measurement logs as they come (CSV with any column names,
@@ -43,6 +44,7 @@ from .estimation.report import format_report
 from .estimation.sdp import Bounds
 from .experiments.synthesize import Trajectory, read_trajectory, synthesize
 from .experiments.trajectory import Excitation, excitation
+from .experiments.ptp import PointToPoint, point_to_point
 from .estimation.varpro import fit_friction_shapes
 from .pipeline import identify
 from .results.result import IdentifyResult
@@ -55,6 +57,6 @@ __all__ = ["BaseParameters", "BootstrapResult", "Bounds", "Excitation", "FitResu
            "Measurements", "MissingExtraError", "PayloadResult", "base_parameters", "bootstrap", "excitation", "fit",
            "format_report", "fit_friction_shapes", "HardLog", "hard_log", "identify_payload", "write_payload_report", "read_log",
            "read_measurements", "write_measurements_csv",
-           "Trajectory", "read_trajectory", "synthesize", "PredictionBand", "calibrate_band", "StateRange",
+           "Trajectory", "read_trajectory", "synthesize", "PointToPoint", "point_to_point", "PredictionBand", "calibrate_band", "StateRange",
            "fitted_range", "identify", "IdentifyResult", "LogSpec", "Payload",
            "read_runs_file", "Validation", "validate", "TorqueConstants", "identify_torque_constants"]

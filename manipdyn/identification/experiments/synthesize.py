@@ -37,17 +37,24 @@ from ...formats.logs.trajectory import Trajectory, read_trajectory
 __all__ = ["Trajectory", "read_trajectory", "synthesize", "Contact", "parse_contact", "contact_torques"]
 
 
-def synthesize(arm, q, qd, qdd, noise: float = 0.01, seed: int = 0) -> np.ndarray:
+def synthesize(arm, q, qd, qdd, noise: float = 0.01, seed: int = 0, static_friction: bool = False) -> np.ndarray:
     """Joint torques of ``arm`` along ``(q, qd, qdd)`` (N, n) with noise, N m (N), shape (N, n).
 
     ``tau = arm.inverse_dynamics(q, qd, qdd) + noise * peak_j * e``, with
     ``peak_j = max |tau_j|`` over the samples and ``e`` standard normal from
     ``numpy.random.default_rng(seed)``.  ``noise = 0`` gives the exact torques.
+    ``static_friction=True``: at rest (``qd_j == 0``) each joint also holds a friction torque within its
+    law's static band, of the last motion's sign (:func:`manipdyn.identification.experiments.static_friction.rest_torque`, seeded by ``seed``;
+    :func:`manipdyn.identification.experiments.static_friction.with_static_friction` gives the arm a breakaway level and a Stribeck decay).
     """
     noise = limits.nonnegative(noise, "noise")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ModelError(f"seed: expected an integer >= 0, got {seed!r}")
     tau = np.asarray(arm.inverse_dynamics(q, qd, qdd), dtype=np.float64).reshape(len(q), arm.n)
+    if static_friction:
+        from .static_friction import rest_torque, static_levels
+
+        tau = tau + rest_torque(np.asarray(qd, dtype=np.float64).reshape(len(q), arm.n), static_levels(arm), seed)
     if not np.all(np.isfinite(tau)):
         raise ModelError("synthesize: the torques along this trajectory overflow; check the model's units")
     peak = np.abs(tau).max(axis=0)

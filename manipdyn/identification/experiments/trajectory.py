@@ -56,13 +56,9 @@ import numpy as np
 from ..._support import limits
 from ..._support.errors import ModelError
 from ..estimation.base import base_parameters, check_base
+from .motion_limits import DEFAULT_AMAX, DEFAULT_VMAX, motion_limits
 
 __all__ = ["Excitation", "excitation", "fourier_trajectory", "ramped_trajectory", "DEFAULT_VMAX", "DEFAULT_AMAX"]
-
-#: default velocity limit: revolute (rad/s), prismatic (m/s)
-DEFAULT_VMAX = {"revolute": 1.5, "prismatic": 0.3}
-#: default acceleration limit: revolute (rad/s^2), prismatic (m/s^2)
-DEFAULT_AMAX = {"revolute": 5.0, "prismatic": 1.0}
 
 
 def fourier_trajectory(t, q0, a, b, period: float):
@@ -213,29 +209,6 @@ class Excitation:
         from ...formats.logs.data import write_trajectory_csv
 
         write_trajectory_csv(path, self.t, self.q, self.qd, self.qdd)
-
-
-def _limits(arm, vmax, amax, margin):
-    n = arm.n
-
-    def per_joint(value, default, what):
-        if value is None:
-            return np.array([default[t] for t in arm.joint_types])
-        v = np.asarray(value, dtype=np.float64).reshape(-1)
-        if v.size not in (1, n):
-            raise ModelError(f"{what}: expected 1 or {n} values, got {v.size}")
-        v = np.broadcast_to(v, (n,)).copy()
-        if not np.all(np.isfinite(v)) or np.any(v <= 0):
-            raise ModelError(f"{what}: expected positive finite limits (one or {n} values), got {value!r}")
-        return v
-
-    vmax = per_joint(vmax, DEFAULT_VMAX, "vmax")
-    amax = per_joint(amax, DEFAULT_AMAX, "amax")
-    if not 0 <= margin < 0.5:
-        raise ModelError(f"margin: expected a fraction in [0, 0.5), got {margin!r}")
-    lo, hi = arm.qlim[:, 0], arm.qlim[:, 1]
-    span = hi - lo
-    return vmax, amax, lo + margin * span, hi - margin * span
 
 
 #: points per period of the highest harmonic on which the limits are checked (see _peaks)
@@ -415,7 +388,7 @@ def excitation(arm, duration: float = 10.0, harmonics: int = 5, rate: float = 10
                                 f"({'auto: up to 2 periods each' if isinstance(ramp, str) else f'{ramp:g} s each'})",
                                 "MAX_EXCITATION_SAMPLES")
     n, K = arm.n, int(harmonics)
-    vmax, amax, lo, hi = _limits(arm, vmax, amax, margin)
+    vmax, amax, lo, hi = motion_limits(arm, vmax, amax, margin)
     q0 = 0.5 * (lo + hi)
     samples = int(round(duration * rate))
     if base is None:
