@@ -12,6 +12,9 @@ fast path, Pinocchio's ABA, friction included) is integrated over the step by
 the classical 4th-order Runge-Kutta method, in ``m`` equal steps when the
 plant is too stiff for one (:mod:`manipdyn.control.stiffness`: a light link
 with friction; ``m = 1`` otherwise, and ``SimulationLog.substeps`` says which).
+A plant too stiff for RK4 (over 100 steps per period) is stepped by a Rosenbrock
+step with its friction implicit instead (:mod:`manipdyn.control.implicit`;
+``SimulationLog.integrator`` says which).
 So the integration error is O((dt/m)^4) for the given torque sequence; the
 sampling itself (the hold) is part of the simulated system, not an error of
 the integrator.

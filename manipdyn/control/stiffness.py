@@ -27,6 +27,9 @@ A sharp Coulomb sign has no derivative off ``v = 0`` and adds nothing (it
 chatters at rest, boundedly); a smoothed sign ``tanh(v / v_s)`` is stiff near
 ``v = 0`` (``Fc / (v_s J)``) and is counted.  Plants without analytical
 derivatives (a user's callable) keep ``m = 1`` unless ``substeps`` is given.
+Past :data:`~manipdyn.control.implicit.RK4_LIMIT` steps, ``simulate``, ``replay`` and the
+Monte-Carlo studies step the plant by a Rosenbrock step with the friction implicit instead
+(:func:`manipdyn.control.implicit.integration_plan`); :func:`rk4_substeps` still counts RK4's.
 
 What more steps cannot fix: the *loop*.  The torque is held over the whole period
 whatever ``m``, so a controller whose damping ``K_d`` moves the plant at a rate
