@@ -162,6 +162,8 @@ class SimulationLog:
             return "RK4" + (f", {self.substeps} steps per period" if self.substeps > 1 else "")
         from .implicit import describe
 
+        if self.plant.endswith("(MuJoCo)"):              # simulate() names a MuJoCo run's plant so
+            return f"MuJoCo's implicitfast (the friction's slope as damping), {self.substeps} steps per period"
         return describe(self.integrator, self.substeps)
 
     def truncated(self, k: int) -> "SimulationLog":
