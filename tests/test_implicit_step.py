@@ -158,3 +158,10 @@ def test_cli_replay_names_the_integrator(log_csv, tmp_path, capsys):
     assert code == 0
     d = json.loads(capsys.readouterr().out)
     assert d["integrators"] == {"stiff": "rosenbrock"} or list(d["integrators"].values()) == ["rosenbrock"]
+
+
+def test_a_wrong_integrator_is_named(log_csv):
+    with pytest.raises(ValueError, match="integrator: expected one of rk4, rosenbrock, got 'euler'"):
+        _run(smooth_ur5(), 1e-3, 0.01, integrator="euler")
+    with pytest.raises(md.ModelError, match="integrator: expected 'rk4' or 'rosenbrock', got 'euler'"):
+        md.replay(smooth_ur5(), log_csv, integrator="euler", cutoff=50.0)
