@@ -174,7 +174,7 @@ def _joint_rows(r, d: dict, units):
     for j in range(n):
         e = ex[j] if j < len(ex) else None
         row = [f"joint {j + 1}", d["rms"][j], d["relative_rms"][j], d["r2"][j], d["mean_error"][j],
-               None if mean_hw is None else mean_hw[j], None if cov is None else cov[j],
+               None if d.get("accel_rms") is None else d["accel_rms"][j], None if mean_hw is None else mean_hw[j], None if cov is None else cov[j],
                None if e is None else e["outside_fraction"], None if e is None else e["far_outside_fraction"],
                None if e is None else e.get("beyond_fit_fraction")]
         flags, why = [], []
@@ -211,7 +211,8 @@ def _extrapolation_reasons(e: dict) -> list[str]:
     return why
 
 
-_JOINT_HEADERS = ["joint", "RMS error", "RMS / measured RMS", "R^2", "mean error", "band half-width (mean)",
+_JOINT_HEADERS = ["joint", "RMS error", "RMS / measured RMS", "R^2", "mean error",
+                  "acceleration error RMS (D^-1 of the torque error)", "band half-width (mean)",
                   "band coverage", "outside fitted range", "far outside", "beyond the fit by leverage", "flags",
                   "why flagged"]
 
@@ -254,6 +255,22 @@ def _verdict_validate(v) -> tuple[str, str]:
     return text + ".", level
 
 
+def _accel_side_by_side(rs, labels, units) -> list:
+    """The section of the forward dynamics' error per joint and model, the best in bold ([] without any)."""
+    from .forward_error import acceleration_units, best_accel_per_joint
+
+    best = best_accel_per_joint(rs)
+    if best is None:
+        return []
+    au = acceleration_units(units)
+    rows = [[f"joint {j + 1}", *(r.accel_rms[j] for r in rs), au[j], labels[best[j]]] for j in range(len(best))]
+    return [H.section("Forward dynamics side by side", H.table(
+        ["joint", *(f"{lab}: acceleration error RMS" for lab in labels), "unit", "best"], rows, name="accel_side_by_side",
+        best={(j, 1 + int(best[j])) for j in range(len(best))},
+        caption="RMS of D^-1 (tau - tau_hat) per joint and model, on each model's own mass matrix D at the "
+                "measured q: what the forward dynamics a simulator runs miss by; the best per joint in bold"))]
+
+
 def validation_page(v, command: str | None = None, options: dict | None = None, model_files=()) -> str:
     """The page of a :class:`.scoring.Validation` (module docstring)."""
     rs = v.results
@@ -271,7 +288,8 @@ def validation_page(v, command: str | None = None, options: dict | None = None, 
         ("manipdyn", H.version())]
     text, level = _verdict_validate(v)
     parts = [H.section("What was done", H.facts(done)), H.section("Verdict", H.verdict(text, level))]
-    unit_note = f"Torques in {', '.join(sorted(set(units)))}; fractions from 0 to 1."
+    unit_note = (f"Torques in {', '.join(sorted(set(units)))}; accelerations in "
+                 f"{', '.join(sorted(set('m/s^2' if u == 'N' else 'rad/s^2' for u in units)))}; fractions from 0 to 1.")
     joint_parts, any_flag = [], set()
     for k, r in enumerate(rs):
         name = "joints" if len(rs) == 1 else f"joints_{k + 1}"
@@ -292,6 +310,7 @@ def validation_page(v, command: str | None = None, options: dict | None = None, 
             ["joint", *(f"{lab}: RMS error" for lab in labels), "best"], rows, name="side_by_side",
             best={(j, 1 + int(best[j])) for j in range(n)},
             caption="RMS error per joint and model on the same samples; the best per joint in bold")))
+        parts += _accel_side_by_side(rs, labels, units)
     parts.append(H.section("Per joint", *joint_parts, unit_note,
                            "Highlighted rows: the joint extrapolates (more than 5 % of its samples beyond the "
                            "fitted states by over 10 % of their width, or beyond every fitted sample by the "
