@@ -52,12 +52,14 @@ class TorqueConstants:
     scale: str
     reference: tuple = ()
     notes: list = field(default_factory=list)
+    detail: dict = field(default_factory=dict)      # how a gravity scale was found (:mod:`.gravity_scale`)
 
     def as_dict(self) -> dict:
         """JSON-ready (an undetermined motor's infinite standard deviation as None)."""
         return {"values": self.values.tolist(), "std": [float(x) if np.isfinite(x) else None for x in self.std],
                 "scale": self.scale,
-                "reference": list(self.reference), "notes": list(self.notes)}
+                "reference": list(self.reference), "notes": list(self.notes),
+                **({"detail": dict(self.detail)} if self.detail else {})}
 
 
 def _blocks(arm, runs, base, armature, friction):
@@ -164,7 +166,7 @@ def _linear_gains(blocks, D):
 
 
 def identify_torque_constants(arm, runs, *, armature: bool = False, friction=False,
-                              reference=None) -> TorqueConstants:
+                              reference=None, model_constants=None) -> TorqueConstants:
     """``k_t`` per motor from runs read with unit torque constants (module docstring).
 
     Parameters
@@ -179,12 +181,15 @@ def identify_torque_constants(arm, runs, *, armature: bool = False, friction=Fal
     reference : sequence of int, optional
         1-based motors whose model ``k_t`` (``arm.transmission.torque_constant``) fixes
         the scale when no run carries a payload; default all of them.
+    model_constants : (n,) array, optional
+        Used instead of ``arm.transmission.torque_constant`` as the model's ``k_t``
+        (:mod:`.gravity_scale` gives the prior's gravity's).
     """
     from ..estimation.base import base_parameters
 
     n = arm.n
     has_payload = any(p is not None for _, p in runs)
-    kt_model = arm.transmission.torque_constant
+    kt_model = arm.transmission.torque_constant if model_constants is None else np.asarray(model_constants, float)
     notes, ref = [], ()
     if not has_payload:
         if kt_model is None:
