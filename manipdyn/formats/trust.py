@@ -30,6 +30,8 @@ The record's keys (all optional but ``format``; JSON types; SI units)::
     leverage          the extrapolation measure's reference (identification.trust)
     doubts            [strings]: degenerate inertias, contradicted payloads, runs far off
     collision         collision thresholds (manipdyn.control.collision): {"threshold", "gain", ...}
+    torque_constants  one line: the k_t found from currents, their standard deviations and where the scale came
+                      from (a payload, the model's k_t, the prior's gravity)
 
 A record that does not read is a :class:`ModelError` naming the file and the key.
 """

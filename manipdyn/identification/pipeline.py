@@ -331,6 +331,8 @@ def _identify(prior, logs, o) -> IdentifyResult:
                                       friction=law, armature=o["armature"], bounds=bounds, prior_weight=weight,
                                       segments=segments, labels=labels, refits=refits)
     prov.update(record)
+    if tc is not None:       # the constants and where their scale came from, in one line (payload.torque_constants)
+        prov["torque_constants"] = tc.as_dict()["summary"]
     doubts = _doubts(result, data, runs)
     if doubts:
         prov["doubts"] = doubts

@@ -38,7 +38,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..._support.errors import ModelError
-from .torque_constants import TorqueConstants, identify_torque_constants
+from .torque_constants import TorqueConstants, identify_torque_constants, one_line
 
 __all__ = ["GRAVITY_SHARE", "default_scale_motors", "constants_from_gravity", "torque_constants", "one_line",
            "check_scale_motors"]
@@ -218,24 +218,3 @@ def torque_constants(arm, runs, *, armature: bool = False, friction=False, refer
         raise ModelError("torque_constant_reference: the scale comes from the prior's gravity here (no payload run, "
                          "no model k_t, or scale_from_gravity given); name its motors with scale_from_gravity")
     return constants_from_gravity(arm, runs, armature=armature, friction=friction, motors=scale_from_gravity)
-
-
-def one_line(tc) -> str:
-    """The torque constants in one line: their values, standard deviations and where the scale came from."""
-    d = dict(getattr(tc, "detail", None) or {})
-    if tc.scale == "gravity":
-        S = d.get("scale_motors", list(tc.reference))
-        lo, n = d.get("links", [S[0], len(tc.values)])
-        where = (f"the prior's gravity torque on joint(s) {', '.join(map(str, S))} (the masses and centres of "
-                 f"mass of links {lo} to {n}; no payload run, no k_t given)")
-    elif tc.scale == "payload":
-        where = "the known payload"
-    else:
-        where = f"the model's k_t of motor(s) {', '.join(map(str, tc.reference))}"
-    cells = []
-    for j, (v, s) in enumerate(zip(tc.values, tc.std)):
-        if s is None or not np.isfinite(s):
-            cells.append(f"k{j + 1} {v:.4g} (not determined by the runs)")
-        else:
-            cells.append(f"k{j + 1} {v:.4g} +- {s:.2g}")
-    return f"torque constants from the currents, N m/A, scale from {where}: " + ", ".join(cells)
