@@ -3,13 +3,12 @@
 Layer 5 (identification).
 
 Many controllers log, beside the measurement, what their own model predicts: a UR arm's
-``target_moment`` (``m1..m6`` in the logs of ``../shared/realdata/ur5_kufieta2013``: its internal
+``target_moment`` (``m1..m6`` in the logs of the UR5 real-data set: its internal
 model evaluated on the target motion, N m at the joints).  ``validate MODEL LOG --compare-column
-"m=UR controller target torque"`` reads those columns, with the same time base, filter and
-samples as the measured torque (the log is read a second time with the torque signal mapped to
-them), and scores them as one more model beside the others: the same table, the best per joint
-marked.  The measured torque is the measured one as the first model reads it, currents
-through its torque constants included; so on such a log the comparison is the controller's
+"m=UR controller target torque"`` reads those columns, with the measured torque's time base and
+samples (each log's columns interpolated at the measured samples' times), and scores them as one
+more model beside the others: the same table, the best per joint marked.  The measured torque is
+the measured one as the first model reads it, currents through its torque constants included; so on such a log the comparison is the controller's
 torque against ``k_t i``, which per joint is the comparison in current through the same ``k_t``.
 The logged torque carries no band and no fitted range: it is no identified model.
 """
@@ -51,23 +50,37 @@ def compare_column(spec) -> tuple[str, str]:
     return pattern, label or f"logged torque {pattern.replace('{i}', '1')}.."
 
 
-def read_logged(spec, logs, arm, data, read_options: dict) -> LoggedTorque:
+def read_logged(spec, data, read_options: dict) -> LoggedTorque:
     """The logged torque named by ``spec`` (:func:`compare_column`) on the samples of ``data`` (the stacked
-    measurements of ``logs``, read with ``read_options``): each log read again with the torque signal
-    mapped to those columns (and currents and motor torques mapped away), stacked, checked to be the
-    same samples."""
+    measurements, each run's ``source`` a CSV file read with ``read_options``): each file's columns read as
+    they are and interpolated linearly at that run's sample times (the measured torque's own time base; a
+    controller's target is logged as it is, so duplicate rows, which the measured signals' reading drops,
+    are kept here: the first of equal time stamps)."""
     from ...formats.logs.columns import column_map
-    from ..inputs.runs import read_runs, stack
+    from ...formats.logs.table import read_table
 
     pattern, label = compare_column(spec)
-    patterns = dict(column_map(read_options.get("columns"), "columns").patterns)
-    patterns.update({"tau": pattern, "i": "\0unused_i{i}", "taum": "\0unused_taum{i}"})
-    opts = dict(read_options, columns=patterns)
-    try:
-        runs = read_runs(logs, arm, **opts)
-    except ModelError as exc:
-        raise ModelError(f"compare_column {spec!r}: {exc}") from None
-    other = stack([d for d, _ in runs])
-    if other.q.shape != data.q.shape or not np.allclose(other.t, data.t):
-        raise ModelError(f"compare_column {spec!r}: the logged torque was not read on the measured torque's samples")
-    return LoggedTorque(label, data.q, other.tau)
+    cmap = column_map(read_options.get("columns"), "columns")
+    n = data.q.shape[1]
+    names = [pattern.replace("{i0}", str(j)).replace("{i}", str(j + 1)) for j in range(n)]
+    scale = float(read_options.get("time_scale") or 1.0)
+    rate = read_options.get("rate")
+    parts, start = [], 0
+    for src, k in zip(getattr(data, "sources", [data.source]), getattr(data, "segments", [len(data.t)])):
+        where = str(src)
+        if not where.lower().endswith((".csv", ".txt", ".tsv")):
+            raise ModelError(f"compare_column {spec!r}: {where}: only a CSV log holds such columns")
+        table = read_table(where, where)
+        missing = [x for x in names if x not in table.header]
+        if missing:
+            raise ModelError(f"compare_column {spec!r}: {where}: missing column(s) {missing}; expected "
+                             f"{names[0]}..{names[-1]} (N m at the joints)")
+        d = table.data
+        t = (np.arange(len(d)) / float(rate) if rate is not None
+             else d[:, table.column(cmap.names("t", n)[0])] * scale)
+        t, first = np.unique(t, return_index=True)            # the first row of each time stamp
+        values = d[first][:, [table.column(x) for x in names]]
+        ts = data.t[start:start + k]
+        parts.append(np.column_stack([np.interp(ts, t, values[:, j]) for j in range(n)]))
+        start += k
+    return LoggedTorque(label, data.q, np.concatenate(parts))

@@ -203,7 +203,7 @@ def validate(models, logs, *, tip=None, columns=None, deg: bool = False, rate=No
         if compare_column is not None:          # the log's own torque columns, one more model (.logged)
             from .logged import read_logged
 
-            logged = read_logged(compare_column, logs, arm, data, read_options)
+            logged = read_logged(compare_column, data, read_options)
             results.append(score(logged, data, name=logged.name))
             loaded.append((logged, logged.name))
     units = ["N" if t == "prismatic" else "N m" for t in getattr(arm, "joint_types", ())] or None
