@@ -17,7 +17,9 @@ published, and those fix the **gravity torque**.  So, in order:
    to step 1 held at 1);
 3. the base parameters of that relative scale by least squares, and their gravity torque
    ``g_0(q)`` (the regressor at rest, friction columns left out) on the runs' postures; the
-   factor ``c`` with ``c g_0 = g_prior`` in least squares on the **scale motors**: the motors
+   factor ``c`` with ``c g_0 = g_prior`` in least squares, both about their means over the samples
+   (a constant torque is the friction offset's as much as gravity's: over one run's postures the
+   fit cannot tell them apart), on the **scale motors**: the motors
    whose prior gravity torque varies over the logs (default: each whose spread over the
    samples is at least :data:`GRAVITY_SHARE` of the largest; on a UR5, joints 2 and 3; a
    vertical first axis and the last wrist joint carry no gravity torque that varies).  Every
@@ -138,6 +140,7 @@ def _gravity_factor(arm, runs, k0, base, armature, friction, parts=None) -> np.n
         beta = np.linalg.lstsq((A * w[None, :, None]).reshape(-1, A.shape[2]), (b * w).reshape(-1), rcond=None)[0]
         w = 1.0 / np.maximum(np.sqrt(np.mean((b - A @ beta) ** 2, axis=0)), 1e-12)
     g0 = _motor_side(arm, G @ beta)
+    g0, P = g0 - g0.mean(axis=0), P - P.mean(axis=0)       # a constant is the friction offset's as much as gravity's
     return np.array([np.sum(P * g0, axis=0), np.sum(g0 * g0, axis=0)])
 
 
