@@ -109,3 +109,14 @@ def test_a_logs_own_torque_is_scored_as_one_more_model(fitted, capsys):
     assert all(b["index"] == 0 for b in rep["best"]), rep["best"]
     assert main(["validate", str(out), str(log), "--compare-column", "nothere"]) == 2
     assert "compare_column" in capsys.readouterr().err
+
+
+def test_the_command_line_checks_scale_from_gravity(fitted, capsys):
+    from manipdyn.cli import main
+
+    _, out, log = fitted
+    for args, why in ((["--identify-torque-constants", "--scale-from-gravity", "2,x"], "expected motor numbers"),
+                      (["--scale-from-gravity", "2"], "only with")):
+        assert main(["identify", "erd:ur5_robot", str(log), "-o", str(out.with_name("x.toml")), *args]) == 2
+        err = capsys.readouterr().err
+        assert "scale" in err and why in err and len(err.strip().splitlines()) == 1, err

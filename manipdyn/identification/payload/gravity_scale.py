@@ -42,9 +42,11 @@ import numpy as np
 from ..._support.errors import ModelError
 from .torque_constants import TorqueConstants, identify_torque_constants, one_line
 
-__all__ = ["GRAVITY_SHARE", "default_scale_motors", "constants_from_gravity", "torque_constants", "one_line",
+__all__ = ["GRAVITY_SHARE", "FAR", "default_scale_motors", "constants_from_gravity", "torque_constants", "one_line",
            "check_scale_motors"]
 
+#: a motor outside the scale whose k_t is further than this factor from the prior's torque's is said to be so
+FAR = 1.3
 #: a motor sets the scale when its prior gravity torque's spread over the samples is at least this share of the largest
 GRAVITY_SHARE = 0.1
 
@@ -201,6 +203,12 @@ def constants_from_gravity(arm, runs, *, armature: bool = False, friction=False,
         std[wild] = np.inf
         notes.append(f"motor(s) {[m + 1 for m in wild]}: the prior's torque gave no usable k_t either; the median "
                      f"of the determined ones ({k[wild[0]]:.4g} N m/A) stands in, not determined")
+    off = [m for m in range(n) if m + 1 not in S and np.isfinite(std[m]) and not 1 / FAR < k[m] / k_reg[m] < FAR]
+    if off:
+        notes.append(f"motor(s) {[m + 1 for m in off]}: k_t differs from the prior's torque's (step 1) by a factor "
+                     + ", ".join(f"{k[m] / k_reg[m]:.2g}" for m in off) + ": with no gravity that varies there, it "
+                     "rests on inertial torques and friction, and its standard deviation counts only the noise; "
+                     "trust it less than that says")
     detail = {"scale_motors": list(S), "links": [S[0], n], "factor": c,
               "factor_per_motor": [float(x) for x in per_motor],
               "factor_halves": halves, "factor_std": s_c,
