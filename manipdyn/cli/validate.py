@@ -53,6 +53,10 @@ def register(subparsers) -> None:
                         "verdict, per joint RMS, band coverage and extrapolation (flagged joints highlighted), the "
                         "figure with the stretches beyond the fit shaded, the models side by side, the data notes "
                         "(default: none)")
+    p.add_argument("--compare-column", metavar="NAME[=LABEL]", default=None,
+                   help="also score a torque the log itself holds, as one more model: NAME1..NAMEn columns in N m "
+                        "at the joints, e.g. a UR log's controller target torque: --compare-column 'm=UR controller "
+                        "target torque' (its label in the table; default 'logged torque NAME1..')")
     register_log_options(p)
     p.set_defaults(func=run)
 

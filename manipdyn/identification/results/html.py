@@ -459,7 +459,10 @@ def identify_page(result, command: str | None = None) -> str:
     if tc:
         rows = [[f"motor {j + 1}", v, s] for j, (v, s) in enumerate(zip(tc.get("values", []), tc.get("std", [])))]
         extra.append(H.table(["motor", "k_t (N m/A)", "std"], rows, name="torque_constants",
-                             caption="Torque constants from the currents (scale: " + str(tc.get("scale")) + ")"))
+                             caption="Torque constants from the currents (scale: " + {
+                                 "gravity": "the prior's gravity torque", "payload": "the known payload",
+                                 "model": "the model's k_t"}.get(str(tc.get("scale")), str(tc.get("scale")))
+                             + "; the notes on the fit say which and how sure)"))
     if extra:
         parts.append(H.section("Drives", *extra))
     parts.append(H.section("Data notes", H.bullets(rep.get("data_notes") or []) if rep.get("data_notes") else

@@ -143,7 +143,7 @@ class Validation:
 
 def validate(models, logs, *, tip=None, columns=None, deg: bool = False, rate=None, time_scale: float = 1.0,
              resample=None, cutoff=None, no_decimate: bool = False, t_range=None, topic=None, joint_names=None,
-             extra_joints: bool = False, predictions=None, blas_threads=1) -> Validation:
+             extra_joints: bool = False, predictions=None, compare_column=None, blas_threads=1) -> Validation:
     """Score ``models`` on ``logs`` (module docstring); ``manipdyn validate``.
 
     Parameters
@@ -158,6 +158,9 @@ def validate(models, logs, *, tip=None, columns=None, deg: bool = False, rate=No
     predictions : path or None
         Write the one model's measured and predicted torques and its 95 % band per sample there
         (:meth:`Validation.write_predictions`; refused with several models or a path that is a log).
+    compare_column : str, optional
+        A torque the log itself holds, scored as one more model (:mod:`.logged`): ``"m"`` for columns
+        ``m1..mn``, ``"m=UR controller target torque"`` to name it.
     blas_threads : int or None
         BLAS threads while scoring (None: the library's own choice).
     """
@@ -182,10 +185,11 @@ def validate(models, logs, *, tip=None, columns=None, deg: bool = False, rate=No
         if any(m.n != first.n for m, _ in loaded):
             raise ModelError(f"models: they differ in their number of joints ({[m.n for m, _ in loaded]})")
         names = joint_names if joint_names is not None else (list(getattr(arm, "joint_names", None) or []) or None)
-        runs = read_runs(logs, arm, transmission=getattr(arm, "transmission", None), joint_names=names,
-                         columns=columns, deg=deg, rate=rate, time_scale=time_scale, resample=resample,
-                         cutoff=cutoff, decimate=False if no_decimate else None, topic=topic, t_range=t_range,
-                         extra_joints=extra_joints)
+        read_options = dict(transmission=getattr(arm, "transmission", None), joint_names=names, columns=columns,
+                            deg=deg, rate=rate, time_scale=time_scale, resample=resample, cutoff=cutoff,
+                            decimate=False if no_decimate else None, topic=topic, t_range=t_range,
+                            extra_joints=extra_joints)
+        runs = read_runs(logs, arm, **read_options)
         from ..inputs.options import check_limits
 
         for data, payload in runs:
@@ -196,6 +200,12 @@ def validate(models, logs, *, tip=None, columns=None, deg: bool = False, rate=No
                                   "subtracted from the measured torques")
         data = stack([d for d, _ in runs])
         results = [score(m, data, name=label) for m, label in loaded]
+        if compare_column is not None:          # the log's own torque columns, one more model (.logged)
+            from .logged import read_logged
+
+            logged = read_logged(compare_column, data, read_options)
+            results.append(score(logged, data, name=logged.name))
+            loaded.append((logged, logged.name))
     units = ["N" if t == "prismatic" else "N m" for t in getattr(arm, "joint_types", ())] or None
     from .heldout import held_out_label
 
