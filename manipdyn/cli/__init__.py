@@ -47,6 +47,22 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_USAGE, f"{self.prog}: error: {one_line(message)} (see {self.prog} --help)\n")
 
 
+class _CommandParser(_Parser):
+    """A subcommand's parser: options may stand between the positional arguments
+    (``manipdyn mjcf erd:panda --tip panda_hand OUT``), as argparse's intermixed parsing reads them."""
+
+    _inside = False
+
+    def parse_known_args(self, args=None, namespace=None):
+        if self._inside:        # the intermixed parse's own two passes
+            return super().parse_known_args(args, namespace)
+        self._inside = True
+        try:
+            return self.parse_known_intermixed_args(args, namespace)
+        finally:
+            self._inside = False
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``manipdyn`` argument parser with every subcommand of :data:`COMMANDS`."""
     p = _Parser(
@@ -61,7 +77,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="BLAS threads of this process (default 1: manipdyn's matrices are small, and more "
                         "threads only slow it on a shared machine; 0 leaves the BLAS library's own "
                         "choice; needs threadpoolctl, otherwise ignored)")
-    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_CommandParser)
     for command in COMMANDS:
         command.register(sub)
     return p
