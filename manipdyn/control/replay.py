@@ -284,6 +284,7 @@ def replay(models, logs, horizons=DEFAULT_HORIZONS, every: int = DEFAULT_EVERY, 
         m = read_log(path, n, transmission=getattr(arms[0][0], "transmission", None), **log_options)
         datas.append(m)
         notes += [f"{os.path.basename(os.fspath(path))}: {x}" for x in m.notes]
+    notes[:0] = _fit_data_notes(arms, labels, logs, datas)     # first: what the figures are
     dts = [float(np.median(np.diff(m.t))) for m in datas]
     if max(dts) - min(dts) > 1e-9 * max(dts):
         raise ModelError(f"logs: read at different sample periods ({', '.join(f'{d:.6g}' for d in dts)} s); "
@@ -330,6 +331,19 @@ def replay(models, logs, horizons=DEFAULT_HORIZONS, every: int = DEFAULT_EVERY, 
             notes.append(f"horizon {h:g} s is {k} samples of {dt:.6g} s = {k * dt:.6g} s")
     return ReplayResult(labels, hs, steps, dt, int(total), q_rms, qd_rms, div, subs, simulator, mujoco_plant,
                         tuple(arms[0][0].joint_types), notes, [os.fspath(p) for p in logs], int(every))
+
+
+def _fit_data_notes(arms, labels, logs, datas) -> list:
+    """One line per model replayed on a log it was fitted on (:func:`~manipdyn.identification.results.heldout.fit_data_note`)."""
+    from ..identification.results.heldout import fit_data_note
+
+    out = []
+    for (arm, _), lab in zip(arms, labels):
+        hits = [p for p, m in zip(logs, datas) if fit_data_note(arm, [p], (float(m.t[0]), float(m.t[-1])))]
+        line = fit_data_note(arm, hits, None, lab, "its drift figures") if hits else None
+        if line:
+            out.append(line)
+    return out
 
 
 def _unique(labels):

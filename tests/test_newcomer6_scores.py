@@ -1,0 +1,84 @@
+"""Issue 46 (a newcomer, round six): what a score says about the model and the data it is on.
+
+Item 2 (a model scored on its own fit data, said), and the identified-model parts of items 5 and 7.
+"""
+
+from __future__ import annotations
+
+import json
+import warnings
+
+import pytest
+
+import manipdyn as md
+from manipdyn.cli import main
+
+from test_bands import _log
+
+pytest.importorskip("cvxpy", reason="identification needs the identify extra (cvxpy)")
+
+
+@pytest.fixture(scope="module")
+def fitted(tmp_path_factory):
+    """The UR5 identified on two seeded synthetic logs (fit1, fit2), a third log (other) held out."""
+    d = tmp_path_factory.mktemp("fit")
+    arm = md.load("ur5")
+    logs = {k: d / f"{k}.csv" for k in ("fit1", "fit2", "other")}
+    for seed, path in zip((11, 12, 13), logs.values()):
+        _log(path, arm, seed)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r = md.identify("ur5", [logs["fit1"], logs["fit2"]], band_folds=3)
+    model = d / "id.toml"
+    r.save(model)
+    return d, model, logs, r
+
+
+# -- 2. a model scored on its own fit data -------------------------------------------------------
+def test_item2_validate_says_when_the_model_is_scored_on_its_fit_data(fitted, capsys):
+    """Issue 46 item 2: ``validate lwr4_id.toml run1.csv`` (fit on runs 1 and 2) printed a band holding
+    99.4 % without a word.  Every fit log (the second as much as the first: the provenance names two
+    sha256) is said, in the text and the JSON; a held-out log is not."""
+    d, model, logs, _ = fitted
+    for which in ("fit1", "fit2"):
+        assert main(["validate", str(model), str(logs[which])]) == 0
+        out = capsys.readouterr().out
+        assert "FIT DATA" in out and f"{which}.csv" in out, out[:600]
+    assert main(["validate", str(model), str(logs["other"])]) == 0
+    assert "FIT DATA" not in capsys.readouterr().out
+    assert main(["validate", str(model), str(logs["other"]), str(logs["fit2"]), "--json"]) == 0
+    notes = json.loads(capsys.readouterr().out)["fit_data"]
+    assert len(notes) == 1 and "fit2.csv" in notes[0] and "other.csv" not in notes[0]
+
+
+def test_item2_validate_report_verdict_says_fit_data(fitted, capsys):
+    pytest.importorskip("matplotlib", reason="the report's figures need the plot extra")
+    d, model, logs, _ = fitted
+    page = d / "v.html"
+    assert main(["validate", str(model), str(logs["fit1"]), "--report", str(page)]) == 0
+    capsys.readouterr()
+    text = page.read_text()
+    verdict = text[text.index("Verdict"):]
+    assert "FIT DATA" in verdict[:4000]
+
+
+def test_item2_replay_says_when_the_model_is_replayed_on_its_fit_data(fitted, capsys):
+    d, model, logs, _ = fitted
+    assert main(["replay", str(model), str(logs["fit2"]), "--horizon", "0.02", "--every", "50"]) == 0
+    out = capsys.readouterr().out
+    assert "FIT DATA" in out and "fit2.csv" in out
+    assert main(["replay", str(model), str(logs["other"]), "--horizon", "0.02", "--every", "50", "--json"]) == 0
+    assert not any("FIT DATA" in x for x in json.loads(capsys.readouterr().out)["notes"])
+
+
+def test_item2_the_shared_helper_for_observe(fitted):
+    """``fit_data_logs`` / ``fit_data_note``: what observe --calibrate calls (by sha256, and by the fit
+    window when the model was fitted on one)."""
+    from manipdyn.identification.results.heldout import fit_data_logs, fit_data_note
+
+    d, model, logs, r = fitted
+    arm = md.load(str(model))
+    assert fit_data_logs(arm, [logs["other"], logs["fit2"], logs["fit1"]]) == [logs["fit2"], logs["fit1"]]
+    assert fit_data_note(arm, [logs["other"]]) is None
+    assert "fit1.csv" in fit_data_note(arm, [logs["fit1"]], what="thresholds")
+    assert fit_data_logs(md.load("ur5"), [logs["fit1"]]) == []        # a published model: nothing to say
