@@ -82,3 +82,31 @@ def test_item2_the_shared_helper_for_observe(fitted):
     assert fit_data_note(arm, [logs["other"]]) is None
     assert "fit1.csv" in fit_data_note(arm, [logs["fit1"]], what="thresholds")
     assert fit_data_logs(md.load("ur5"), [logs["fit1"]]) == []        # a published model: nothing to say
+
+
+# -- 3. "at its floor" for a radius 50 times below it ----------------------------------------------
+def test_item3_a_radius_far_below_the_floor_is_not_said_to_be_at_it():
+    """Issue 46 item 3: ``identify ur5 ur5_free.csv --friction`` printed ``link 4 radius of gyration
+    0.000216 m at its floor 0.011 m``.  A body on its floor is "at its floor"; one far below it is
+    said to be below, with the floor not holding, and the doubts say it too."""
+    import numpy as np
+
+    from manipdyn.identification.estimation.sdp import Bounds
+    from manipdyn.identification.results.doubts import floor_doubts
+    from manipdyn.model.parameters import arm_parameters
+    from manipdyn.model.plausible import smallest_gyration
+
+    arm = md.load("ur5")
+    pi = arm_parameters(arm)
+    rg = smallest_gyration(pi, arm.n)
+    floor = rg / 2.0                          # every body above its floor: not listed
+    floor[0] = rg[0]                          # link 1 exactly on its floor
+    floor[3] = rg[3] * 50                     # link 4 fifty times below it (the issue's ratio)
+    lines = Bounds(gyration=floor).active(pi, arm.n)
+    at = [x for x in lines if x.startswith("link 1 ")]
+    below = [x for x in lines if x.startswith("link 4 ")]
+    assert len(lines) == 2 and "at its floor" in at[0]
+    assert "at its floor" not in below[0] and "below its floor" in below[0] and "does not hold" in below[0]
+    doubts = floor_doubts(lines)
+    assert any(d.startswith("link 1:") and "at the plausibility floor" in d for d in doubts)
+    assert any(d.startswith("link 4:") and "below the plausibility floor" in d for d in doubts)
