@@ -110,3 +110,39 @@ def test_item3_a_radius_far_below_the_floor_is_not_said_to_be_at_it():
     doubts = floor_doubts(lines)
     assert any(d.startswith("link 1:") and "at the plausibility floor" in d for d in doubts)
     assert any(d.startswith("link 4:") and "below the plausibility floor" in d for d in doubts)
+
+
+# -- 4. a published model that is not a physical arm ------------------------------------------------
+def _unphysical_ur5(path):
+    """The UR5 as a URDF with link 2's ixx negative and link 3's izz beyond ixx + iyy (no rigid body)."""
+    import re
+
+    text = md.to_urdf(md.load("ur5"))
+    tags = re.findall(r"<inertia [^>]*/>", text)
+    text = text.replace(tags[1], re.sub(r'ixx="[^"]*"', 'ixx="-0.01"', tags[1]), 1)
+    text = text.replace(tags[2], re.sub(r'izz="[^"]*"', 'izz="0.2"', tags[2]), 1)
+    path.write_text(text)
+    return path
+
+
+def test_item4_validate_and_identify_say_the_model_is_not_a_physical_arm(fitted, capsys):
+    """Issue 46 item 4: ``check kuka_lwr4_gaz.urdf`` names the links; ``validate`` and ``identify`` (with it as
+    the prior) said nothing.  Both say it now, from one function (:func:`not_physical_note`)."""
+    from manipdyn.model.plausible import not_physical_note
+
+    d, model, logs, _ = fitted
+    bad = _unphysical_ur5(d / "bad_ur5.urdf")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        arm = md.load(str(bad))
+    note = not_physical_note(arm, "bad_ur5.urdf", "the prior")
+    assert note.startswith("the prior bad_ur5.urdf is not a physical arm: link 2 has negative principal moments; "
+                           "link 3 breaks the triangle inequality"), note
+    assert not_physical_note(md.load("ur5")) is None
+    assert main(["validate", str(bad), str(logs["other"])]) == 0
+    out = capsys.readouterr().out
+    assert "not a physical arm" in out and "link 2" in out
+    assert main(["identify", str(bad), str(logs["fit1"]), "--band-folds", "0", "--no-thresholds",
+                 "-o", str(d / "from_bad.urdf")]) == 0
+    out = capsys.readouterr().out
+    assert "the prior bad_ur5.urdf is not a physical arm" in out

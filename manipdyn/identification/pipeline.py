@@ -331,7 +331,7 @@ def _identify(prior, logs, o) -> IdentifyResult:
         prov["doubts"] = doubts
     rep = dict(result.report)
     rep["fit_notes"] = ([group_note] if group_note else []) + law_notes + list(rep.get("fit_notes", [])) \
-        + record_notes + doubts
+        + record_notes + doubts + _prior_notes(arm, prior_label)
     rep["doubts"] = doubts
     if smoothing_table is not None:
         rep["smoothing_selection"] = smoothing_table
@@ -359,6 +359,14 @@ def _identify(prior, logs, o) -> IdentifyResult:
     if o["output"] is not None or o["base_json"] is not None:
         write_model_files(out, o["output"], o["base_json"])
     return out
+
+
+def _prior_notes(arm, label) -> list[str]:
+    """The prior's own doubt: no physical arm (:func:`manipdyn.model.plausible.not_physical_note`)."""
+    from ..model.plausible import not_physical_note
+
+    note = not_physical_note(arm, os.path.basename(str(label)), "the prior")
+    return [note] if note else []
 
 
 def _held_out(refits, record, labels, folds):

@@ -251,7 +251,7 @@ def _verdict_validate(v) -> tuple[str, str]:
             text += (f"; {r.model} extrapolates on joint(s) "
                      + ", ".join(str(j + 1) for j in np.flatnonzero(ex.flagged)))
             level = "warn"
-    for line in getattr(v, "fit_data", None) or []:
+    for line in (getattr(v, "fit_data", None) or []) + (getattr(v, "model_notes", None) or []):
         text += "; " + line
         level = "warn"
     return text + ".", level
