@@ -6,6 +6,7 @@ Item 2 (a model scored on its own fit data, said), and the identified-model part
 from __future__ import annotations
 
 import json
+import re
 import warnings
 
 import pytest
@@ -146,3 +147,30 @@ def test_item4_validate_and_identify_say_the_model_is_not_a_physical_arm(fitted,
                  "-o", str(d / "from_bad.urdf")]) == 0
     out = capsys.readouterr().out
     assert "the prior bad_ur5.urdf is not a physical arm" in out
+
+
+# -- 5. units that pass --------------------------------------------------------------------------
+def _in_millinewton_metres(src, dst):
+    import numpy as np
+
+    head = src.read_text().splitlines()[0].split(",")
+    a = np.loadtxt(src, delimiter=",", skiprows=1)
+    a[:, [k for k, c in enumerate(head) if c.startswith("tau")]] *= 1000.0
+    np.savetxt(dst, a, delimiter=",", header=",".join(head), comments="")
+    return dst
+
+
+def test_item5_torques_in_mNm_are_said_by_validate_and_identify(fitted, capsys):
+    """Issue 46 item 5: torques logged in mN m gave R^2 -2.47 with no hint, and identify wrote a model.
+    Both say the ratio (1000), the likely unit, and that there is no unit option (convert the columns);
+    identify warns (SuspiciousValueWarning) besides its note."""
+    d, model, logs, _ = fitted
+    mnm = _in_millinewton_metres(logs["other"], d / "other_mNm.csv")
+    assert main(["validate", "ur5", str(mnm)]) == 0
+    out = capsys.readouterr().out
+    assert "UNITS?" in out and re.search(r"\b(999\.\d|1000(\.\d)?) times", out) and "mN m read as N m" in out
+    assert main(["validate", "ur5", str(logs["other"])]) == 0
+    assert "UNITS?" not in capsys.readouterr().out           # N m: nothing said
+    with pytest.warns(md.SuspiciousValueWarning, match=r"times what the prior predicts.*mN m read as N m"):
+        r = md.identify("ur5", [mnm], band_folds=0)
+    assert r.report()["fit_notes"][0].startswith("UNITS?")

@@ -330,7 +330,8 @@ def _identify(prior, logs, o) -> IdentifyResult:
     if doubts:
         prov["doubts"] = doubts
     rep = dict(result.report)
-    rep["fit_notes"] = ([group_note] if group_note else []) + law_notes + list(rep.get("fit_notes", [])) \
+    rep["fit_notes"] = _units_notes(arm, data) + ([group_note] if group_note else []) + law_notes \
+        + list(rep.get("fit_notes", [])) \
         + record_notes + doubts + _prior_notes(arm, prior_label)
     rep["doubts"] = doubts
     if smoothing_table is not None:
@@ -359,6 +360,17 @@ def _identify(prior, logs, o) -> IdentifyResult:
     if o["output"] is not None or o["base_json"] is not None:
         write_model_files(out, o["output"], o["base_json"])
     return out
+
+
+def _units_notes(arm, data) -> list[str]:
+    """Torques in another unit than the prior's (:mod:`.inputs.units`): first among the notes, and warned."""
+    from .._support.errors import SuspiciousValueWarning, warn_at_caller
+    from .inputs.units import prior_torque_note
+
+    note = prior_torque_note(arm, data)
+    if note:
+        warn_at_caller(note, SuspiciousValueWarning)
+    return [note] if note else []
 
 
 def _prior_notes(arm, label) -> list[str]:

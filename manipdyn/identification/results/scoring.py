@@ -203,13 +203,16 @@ def validate(models, logs, *, tip=None, columns=None, deg: bool = False, rate=No
         results = [score(m, data, name=label) for m, label in loaded]
     units = ["N" if t == "prismatic" else "N m" for t in getattr(arm, "joint_types", ())] or None
     from ...model.plausible import not_physical_note
+    from ..inputs.units import torque_scale_note
     from .heldout import fit_data_note, held_out_label, scored_window
 
     fit = [fit_data_note(m, list(data.sources), scored_window(data), label, "its RMS, R^2 and band coverage")
            for m, label in loaded]
     out = Validation(results=results, data=data, notes=list(data.notes), units=units,
                      held_out=[held_out_label(m, data) for m, _ in loaded], fit_data=[x for x in fit if x],
-                     model_notes=[x for x in (not_physical_note(m, label) for m, label in loaded) if x])
+                     model_notes=[x for x in [not_physical_note(m, label) for m, label in loaded]
+                                  + [torque_scale_note(r.measured, r.predicted, label) for r, (_m, label)
+                                     in zip(results, loaded)] if x])
     if predictions is not None:
         out.write_predictions(predictions)
     return out
