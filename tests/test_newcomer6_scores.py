@@ -174,3 +174,49 @@ def test_item5_torques_in_mNm_are_said_by_validate_and_identify(fitted, capsys):
     with pytest.warns(md.SuspiciousValueWarning, match=r"times what the prior predicts.*mN m read as N m"):
         r = md.identify("ur5", [mnm], band_folds=0)
     assert r.report()["fit_notes"][0].startswith("UNITS?")
+
+
+# -- 7. the reports leave out what the text says ------------------------------------------------------
+def test_item7_identify_report_has_the_thresholds_and_the_bands_true_method(fitted, capsys):
+    """Issue 46 item 7: ``identify --report`` had no collision thresholds, and gave the band's method as
+    "blocked, 5 folds" when it came from 2 held-out trajectories."""
+    pytest.importorskip("matplotlib", reason="the report's figures need the plot extra")
+    from manipdyn._support.html import read_tables
+
+    d, model, logs, _ = fitted
+    page = d / "id2.html"
+    assert main(["identify", "ur5", str(logs["fit1"]), str(logs["fit2"]), "-o", str(d / "id2.toml"),
+                 "--report", str(page)]) == 0
+    out = capsys.readouterr().out
+    printed = re.search(r"collision thresholds \(.*?\): \[([^\]]+)\] N m", out)
+    assert printed, out[-800:]
+    text = page.read_text()
+    rows = read_tables(text)["collision_thresholds"][1:]
+    assert [f"{x:.3g}" for _, x in rows] == [s.strip() for s in printed.group(1).split(",")]
+    assert "blocked, 5 folds" not in text and "2 held-out trajectories" in text
+
+
+def test_item7_two_model_report_draws_every_band_under_every_line(fitted, capsys):
+    """Two-model ``validate --report`` drew the second model over the first's band: the bands are drawn
+    first (under every predicted line), edged in their model's colour, and the caption says whose."""
+    pytest.importorskip("matplotlib", reason="the report's figures need the plot extra")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import numpy as np
+
+    from manipdyn.identification.results import html as page
+
+    t = np.linspace(0, 1, 50)
+    meas = np.zeros((50, 1))
+    series = [("a", np.ones((50, 1)), np.full((50, 1), 0.5)), ("b", np.full((50, 1), 1.2), None)]
+    fig = page._draw(t, meas, series, ["N m"])
+    ax = fig.axes[0]
+    band_z = max(c.get_zorder() for c in ax.collections)
+    line_z = min(line.get_zorder() for line in ax.get_lines() if line.get_linestyle() == "-")
+    assert band_z < line_z
+    d, model, logs, _ = fitted
+    out = d / "two.html"
+    assert main(["validate", str(model), "ur5", str(logs["other"]), "--report", str(out)]) == 0
+    capsys.readouterr()
+    assert "95 % band of id only" in out.read_text()
