@@ -85,9 +85,8 @@ def friction_held(arm, target: str):
         fv = np.array([j.friction_viscous for j in joints], dtype=np.float64)
         fc = np.array([j.friction_coulomb for j in joints], dtype=np.float64)
         if not (np.any(fv) or np.any(fc)):
-            return None, [f"{', '.join(law.terms)} ({law.side} side): dropped: the model keeps its law apart from "
-                          "its links (a [friction] table), and the URDF's <dynamics> carry only the links' own "
-                          "friction_viscous and friction_coulomb, 0 here"]
+            return None, [f"{', '.join(law.terms)} on the {law.side} side: dropped (URDF's <dynamics> "
+                          "holds only the links' joint-side viscous and Coulomb friction)"]
         held = Friction(viscous=fv, coulomb=fc, smoothing=0.0)
         if held == law:
             return law, ["viscous and Coulomb friction as <dynamics damping friction>"]
