@@ -79,3 +79,21 @@ def test_item30_shared_blocks_are_one_definition():
     assert set(_options("urdf")) == set(_options("mjcf"))
     lines = (ROOT / "manipdyn" / "cli" / "common.py").read_text().count("\n")
     assert lines < 220, lines
+
+
+# -- 16. a ROS joint-name mismatch names --joint-names ---------------------------------------------
+def test_item16_a_joint_name_mismatch_names_the_option(tmp_path):
+    """Issue 46 item 16: a bag whose joints are not the model's names said which were never seen, but
+    not ``--joint-names``, which then works."""
+    pytest.importorskip("rosbags", reason="the ros extra (rosbags) is not installed")
+    from rosbags.rosbag2 import StoragePlugin
+    from test_rosbag import JOINTS, write_bag
+
+    from manipdyn.identification import read_log
+
+    bag = tmp_path / "run"
+    write_bag(bag, StoragePlugin.SQLITE3, duration=2.0)
+    with pytest.raises(md.ModelError, match=r"--joint-names") as err:
+        read_log(bag, 2, joint_names=["joint_1", "joint_2"])
+    assert "never seen" in str(err.value)
+    assert read_log(bag, 2, joint_names=JOINTS).q.shape[1] == 2      # the option's way, which works
