@@ -66,3 +66,11 @@ def test_item6_friction_words_name_only_what_is_dropped():
     dropped = words.split("dropped:")[1]
     assert "offset" in dropped and "viscous" not in dropped and "coulomb" not in dropped.lower().split(";")[0]
     assert "smoothing 0.01" in words
+
+
+# -- 17. did you mean, case aside ---------------------------------------------------------------
+@pytest.mark.parametrize("name, best", [("UR5", "ur5"), ("Panda", "panda"), ("PUMA560", "puma560")])
+def test_item17_a_name_in_other_case_gets_did_you_mean(name, best):
+    """Issue 46 item 17: ``md.load("UR5")`` gave no did-you-mean (difflib compares case)."""
+    with pytest.raises(md.ModelError, match=rf"did you mean '{best}'"):
+        md.load(name)

@@ -115,12 +115,20 @@ def models() -> list[str]:
     return sorted(p.name[:-5] for p in _bundled_dir().iterdir() if p.name.endswith(".toml"))
 
 
+def close_names(name, candidates) -> list:
+    """Up to three of ``candidates`` closest to ``name``, case aside (``"UR5"``: ``["ur5", ...]``), best first."""
+    import difflib
+
+    folded: dict = {}
+    for c in candidates:
+        folded.setdefault(str(c).casefold(), c)
+    return [folded[k] for k in difflib.get_close_matches(str(name).casefold(), list(folded), n=3, cutoff=0.6)]
+
+
 def load_bundled(name: str, strict: bool = False) -> Manipulator:
     """A bundled model by name (see :func:`models`)."""
     if name not in models():
-        import difflib
-
-        close = difflib.get_close_matches(str(name), models(), n=3, cutoff=0.6)
+        close = close_names(name, models())
         hint = f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
         raise ModelError(f"unknown model {name!r}: not a bundled model ({', '.join(models())}){hint}")
     path = _bundled_dir() / f"{name}.toml"
