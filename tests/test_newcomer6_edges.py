@@ -68,3 +68,52 @@ def test_item29_synthesize_refuses_torques_its_readers_refuse():
         synthesize(arm, q, q, qdd)
     ok = synthesize(arm, q, q, np.ones((3, 6)))
     assert np.all(np.abs(ok) <= limits.MAX_SIGNAL)
+
+
+# -- 23. replay --every beyond any log; integers of over 4300 digits --------------------------------
+def _log_of(tmp_path):
+    from test_bands import _log
+
+    path = tmp_path / "log.csv"
+    _log(path, md.load("ur5"), 13)
+    return path
+
+
+def test_item23_replay_every_beyond_any_log_is_a_usage_error(tmp_path, capsys):
+    log = _log_of(tmp_path)
+    _one_line_error(capsys, main(["replay", "ur5", str(log), "--every", "999999999999999999999"]), "every")
+
+
+def test_item23_an_integer_of_over_4300_digits_is_a_usage_error(tmp_path, capsys):
+    """Python refuses to convert an integer of more than 4300 digits with a bare ValueError, which
+    tomllib passes on: every command reading a model file or a RUNS.toml ended in exit 3."""
+    log = _log_of(tmp_path)
+    big = "1" * 4400
+    model = tmp_path / "big.toml"
+    model.write_text(md.to_toml(md.load("ur5")).replace("[[links]]", f"[[links]]\nmass = {big}", 1))
+    for argv in (["check", str(model)], ["validate", str(model), str(log)], ["urdf", str(model), str(tmp_path / "o")]):
+        _one_line_error(capsys, main(argv), "4400 digits")
+    runs = tmp_path / "RUNS.toml"
+    runs.write_text(f'[[log]]\npath = "{log.name}"\nrepeat = {big}\n')
+    _one_line_error(capsys, main(["validate", "ur5", "--logs", str(runs)]), "4400 digits", "RUNS.toml")
+    with pytest.raises(md.ModelError, match="4400 digits"):
+        md.load(str(model))
+
+
+# -- 29. the API's edges -----------------------------------------------------------------------------
+def test_item29_a_model_file_with_a_byte_order_mark_loads(tmp_path):
+    """A model file some editor saved with a BOM got "not valid TOML: Invalid statement (at line 1,
+    column 1)"; the BOM is skipped, as TOML readers commonly do."""
+    path = tmp_path / "bom.toml"
+    path.write_bytes(b"\xef\xbb\xbf" + md.to_toml(md.load("ur5")).encode("utf-8"))
+    arm = md.load(str(path))
+    q = np.linspace(0.1, 0.6, 6)
+    assert np.allclose(arm.inverse_dynamics(q, q, q), md.load("ur5").inverse_dynamics(q, q, q))
+
+
+def test_item29_replay_substeps_is_bounded(tmp_path):
+    """``md.replay(..., substeps=10**6)`` ran for about an hour; the whole replay's integration steps are
+    bounded by limits.MAX_REPLAY_STEPS, refused before any step."""
+    log = _log_of(tmp_path)
+    with pytest.raises(md.ModelError, match="MAX_REPLAY_STEPS"):
+        md.replay("ur5", str(log), substeps=10**6)

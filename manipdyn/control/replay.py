@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._support import limits
 from .._support.errors import ModelError, StateError
 from .._support.jsonsafe import finite_or_null
 from .replay_page import BASELINE, figure, write_page
@@ -256,6 +257,10 @@ def replay(models, logs, horizons=DEFAULT_HORIZONS, every: int = DEFAULT_EVERY, 
         raise ModelError(f"mujoco_plant: expected 'model' or 'file', got {mujoco_plant!r:.40}")
     if isinstance(every, bool) or not isinstance(every, (int, np.integer)) or every < 1:
         raise ModelError(f"every: expected an integer >= 1 (log samples), got {every!r:.40}")
+    if every > limits.MAX_DATA_BYTES:       # no log has more samples than bytes: one start state per log
+        shown = f"{every}" if every < 10**30 else f"an integer of {len(str(every))} digits"
+        raise ModelError(f"every: expected an integer from 1 to {limits.MAX_DATA_BYTES} (log samples; no log "
+                         f"holds more), got {shown}")
     if substeps is not None and (isinstance(substeps, bool) or not isinstance(substeps, (int, np.integer))
                                  or substeps < 1):
         raise ModelError(f"substeps: expected an integer >= 1, got {substeps!r:.40}")
@@ -302,8 +307,11 @@ def replay(models, logs, horizons=DEFAULT_HORIZONS, every: int = DEFAULT_EVERY, 
                          "give a shorter --horizon or a longer log")
     q_rms, qd_rms, div, subs = {}, {}, {}, {}
     for (arm, _), lab in zip(arms, labels):
-        m_sub = substeps if substeps is not None else max(_substeps(arm, m, dt) for m in datas)
-        subs[lab] = int(m_sub)
+        subs[lab] = int(substeps if substeps is not None else max(_substeps(arm, m, dt) for m in datas))
+    limits.check_count(total * kmax * sum(subs.values()), "replay", "the integration steps (start states x "
+                       "samples to the longest horizon x substeps, the models together)", "MAX_REPLAY_STEPS")
+    for (arm, _), lab in zip(arms, labels):
+        m_sub = subs[lab]
         eq, eqd, bad = [], [], []
         for m, st in zip(datas, starts):
             if simulator == "mujoco":
