@@ -117,3 +117,16 @@ def test_item29_replay_substeps_is_bounded(tmp_path):
     log = _log_of(tmp_path)
     with pytest.raises(md.ModelError, match="MAX_REPLAY_STEPS"):
         md.replay("ur5", str(log), substeps=10**6)
+
+
+# -- 26. identify --velocity-cutoff that is no frequency ------------------------------------------
+@pytest.mark.parametrize("value", ["-1", "nan", "inf", "1e300", "1e-300"])
+def test_item26_a_bad_velocity_cutoff_is_refused_before_the_fit(tmp_path, capsys, value):
+    """Issue 46 item 26: ``identify --velocity-cutoff -1`` (nan, inf, 1e300) ran the whole fit, exited 0
+    and wrote a model without thresholds, the reason on stdout only; 1e-300 Hz wrote 6e-12 N m
+    thresholds.  Refused in one line before the log is read: no model written."""
+    log = _log_of(tmp_path)
+    out = tmp_path / "m.toml"
+    code = main(["identify", "ur5", str(log), "-o", str(out), f"--velocity-cutoff={value}"])
+    _one_line_error(capsys, code, "--velocity-cutoff")
+    assert not out.exists()
