@@ -130,3 +130,26 @@ def test_item26_a_bad_velocity_cutoff_is_refused_before_the_fit(tmp_path, capsys
     code = main(["identify", "ur5", str(log), "-o", str(out), f"--velocity-cutoff={value}"])
     _one_line_error(capsys, code, "--velocity-cutoff")
     assert not out.exists()
+
+
+# -- 27. MuJoCo's own voice -----------------------------------------------------------------------
+def test_item27_mujocos_warnings_are_python_warnings_and_no_log_file(tmp_path, monkeypatch):
+    """Issue 46 item 27: ``replay --simulator mujoco`` printed hundreds of raw ``WARNING: ...`` lines and
+    left ``./MUJOCO_LOG.TXT``.  Once manipdyn has imported MuJoCo (mujoco_module), MuJoCo's warnings
+    are MuJoCoWarning (a ModelNoteWarning), "Time = ..." dropped so that repeats are one, and no log
+    file is written."""
+    pytest.importorskip("mujoco", reason="the mujoco extra is not installed")
+    from manipdyn.engines.mujoco.deps import MuJoCoWarning, mujoco_module
+
+    monkeypatch.chdir(tmp_path)
+    mujoco = mujoco_module()
+    xml = ('<mujoco><worldbody><body><joint type="hinge" axis="0 0 1"/>'
+           '<inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/></body></worldbody></mujoco>')
+    m = mujoco.MjModel.from_xml_string(xml)
+    d = mujoco.MjData(m)
+    d.qpos[:] = np.nan                  # MuJoCo warns "Nan, Inf or huge value in QPOS"
+    with pytest.warns(MuJoCoWarning, match=r"^MuJoCo: Nan, Inf or huge value in QPOS") as caught:
+        mujoco.mj_step(m, d)
+    assert not any("Time =" in str(w.message) for w in caught)
+    assert issubclass(MuJoCoWarning, md.ModelNoteWarning)
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
