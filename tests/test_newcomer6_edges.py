@@ -153,3 +153,24 @@ def test_item27_mujocos_warnings_are_python_warnings_and_no_log_file(tmp_path, m
     assert not any("Time =" in str(w.message) for w in caught)
     assert issubclass(MuJoCoWarning, md.ModelNoteWarning)
     assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
+
+
+# -- 28. raw control characters ---------------------------------------------------------------------
+def test_item28_control_characters_of_a_file_name_never_reach_stdout_or_a_page(tmp_path, capsys):
+    """Issue 46 item 28: ESC, C1 controls and U+202E from log file names, model names and a record's
+    source reached stdout and the HTML pages.  Both go through one escaper (_support/text.visible)."""
+    pytest.importorskip("matplotlib", reason="the report's figures need the plot extra")
+    from test_bands import _log
+
+    from manipdyn._support.text import visible
+
+    log = _log_of(tmp_path)
+    evil = tmp_path / "ev\x1b[31mil\x9b\u202eX.csv"
+    _log(evil, md.load("ur5"), 14)
+    page = tmp_path / "ev.html"
+    assert main(["validate", "ur5", str(evil), str(log), "--report", str(page)]) == 0
+    out = capsys.readouterr().out
+    assert "ev\\x1b[31mil\\x9b\\u202eX.csv" in out
+    for raw in ("\x1b", "\x9b", "\u202e"):
+        assert raw not in out and raw not in page.read_text(encoding="utf-8")
+    assert visible("a\tb\nc\x1b", keep="\n\t") == "a\tb\nc\\x1b"

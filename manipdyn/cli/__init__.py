@@ -22,6 +22,7 @@ import warnings
 from .._support.errors import MissingExtraError, ModelError, SingularMassMatrixError, StateError
 from . import (bench, check, codegen, compare, excite, identify, mjcf, models, montecarlo, observe, replay, synthesize, track,
                urdf, validate)
+from .._support.text import EscapingWriter
 from .._support.threads import blas_threads
 from .common import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, one_line
 
@@ -134,6 +135,8 @@ def _main(argv) -> int:
     if args.blas_threads < 0:
         print(f"manipdyn: error: --blas-threads: expected >= 0, got {args.blas_threads}", file=sys.stderr)
         return EXIT_USAGE
+    real = sys.stdout
+    sys.stdout = EscapingWriter(real)       # no raw control character from a name reaches the terminal
     try:
         with blas_threads(args.blas_threads or None):
             return args.func(args)
@@ -165,6 +168,9 @@ def _main(argv) -> int:
         print(f"manipdyn {args.command}: internal error: {type(exc).__name__}: {one_line(exc)} "
               "(rerun with --debug for the traceback)", file=sys.stderr)
         return EXIT_INTERNAL
+    finally:
+        if isinstance(sys.stdout, EscapingWriter):
+            sys.stdout = real
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -38,20 +38,10 @@ def cli_message(exc) -> str:
 def one_line(text) -> str:
     """``text`` as one printable line: control characters (newline, ESC, NUL, form feed, ...),
     bidirectional overrides and other invisible format characters from a name or a path are
-    shown escaped (``\\n``, ``\\x1b``, ``\\u202e``), never sent raw to the terminal."""
-    import unicodedata
+    shown escaped (``\\n``, ``\\x1b``, ``\\u202e``; :func:`manipdyn._support.text.visible`), a tab as a space."""
+    from .._support.text import visible
 
-    out = []
-    for ch in str(text):
-        if ch == "\t":
-            out.append(" ")
-        elif unicodedata.category(ch) in ("Cc", "Cf", "Zl", "Zp", "Cs"):
-            o = ord(ch)
-            out.append({"\n": "\\n", "\r": "\\r"}.get(ch) or (f"\\x{o:02x}" if o < 0x100 else f"\\u{o:04x}"
-                                                          if o <= 0xFFFF else f"\\U{o:08x}"))
-        else:
-            out.append(ch)
-    return "".join(out)
+    return visible(str(text).replace("\t", " "))
 
 
 def usage_error(command: str, message: str) -> int:
