@@ -174,3 +174,63 @@ def test_item28_control_characters_of_a_file_name_never_reach_stdout_or_a_page(t
     for raw in ("\x1b", "\x9b", "\u202e"):
         assert raw not in out and raw not in page.read_text(encoding="utf-8")
     assert visible("a\tb\nc\x1b", keep="\n\t") == "a\tb\nc\\x1b"
+
+
+def test_item29_a_complex_q_is_refused_not_cut_to_its_real_part():
+    """Issue 46 item 29: a complex ``q`` was cut to its real part in silence (numpy only warns when it
+    casts); the trajectories refuse it by name, as the arm's own calls do."""
+    from manipdyn.control.trajectory import Quintic, Sampled, ViaPoints
+
+    z = np.zeros(6)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")          # a ComplexWarning would be the old silent cast
+        for make, name in ((lambda: Quintic(z + 0.1j, z, 1.0), "q0"),
+                           (lambda: Sampled(np.arange(3.0), np.zeros((3, 6)) + 1j), "q"),
+                           (lambda: Quintic([0.0, 1j], [0.0, 0.0], 1.0), "q0")):
+            with pytest.raises(ValueError, match=rf"{name}: expected real numbers, got a complex"):
+                make()
+        with pytest.raises(md.StateError, match="complex"):
+            md.load("ur5").inverse_dynamics(z + 1j, z, z)
+    assert np.allclose(Quintic(z, z + 1, 1.0)(0.5)[0], 0.5)
+
+
+@pytest.mark.parametrize("dt", [0, 0.0, -1e-3, float("nan"), float("inf"), "x", True])
+def test_item29_fit_thresholds_refuses_a_period_that_is_none(dt):
+    """``fit_thresholds(dt=0)`` raised ZeroDivisionError."""
+    from manipdyn.identification.uncertainty.thresholds import fit_thresholds
+
+    r = np.random.default_rng(0).standard_normal((500, 2)) * 0.01
+    with pytest.raises(md.ModelError, match="dt: expected the sample period"):
+        fit_thresholds(r, dt)
+
+
+def _massless_last(tmp_path, rotor: bool):
+    """The UR5 whose last link has no mass and no inertia, with (or without) a rotor on its joint."""
+    import re
+
+    text = md.to_toml(md.load("ur5"))
+    i = text.rindex("[[links]]")
+    last = re.sub(r"\nmass = [^\n]*", "\nmass = 0.0" + ("\nmotor_inertia = 0.001\ngear_ratio = 1.0" if rotor else ""),
+                  text[i:])
+    last = re.sub(r"\ninertia = [^\n]*", "\ninertia = [0.0, 0.0, 0.0]", last)
+    last = re.sub(r"\ncom = [^\n]*", "\ncom = [0.0, 0.0, 0.0]", last)
+    path = tmp_path / ("rotor.toml" if rotor else "bare.toml")
+    path.write_text(text[:i] + last)
+    return path
+
+
+def test_item29_montecarlo_in_mujoco_takes_a_massless_last_link_with_a_rotor(tmp_path, capsys):
+    """``montecarlo --simulator mujoco`` refused a valid arm whose last link is massless (its zero
+    tensor, rebuilt through sums, came back as diag(0, 1e-19, -1e-19): "a negative principal moment");
+    without a rotor the arm is not simulable, and that is said (it was exit 3, "kd: must be > 0")."""
+    pytest.importorskip("mujoco", reason="the mujoco extra is not installed")
+    pytest.importorskip("dask", reason="montecarlo runs on dask (the scale extra)")
+    from manipdyn.model.links import DHLink  # noqa: F401  (the module whose check was at rounding level)
+
+    code = main(["montecarlo", str(_massless_last(tmp_path, True)), "--runs", "1", "--simulator", "mujoco",
+                 "--workers", "1"])
+    err = capsys.readouterr().err
+    assert code in (0, 1), err
+    assert "negative principal moment" not in err
+    code = main(["montecarlo", str(_massless_last(tmp_path, False)), "--runs", "1", "--workers", "1"])
+    _one_line_error(capsys, code, "singular", "joint(s) [6]")
