@@ -95,7 +95,7 @@ def test_a_prior_that_is_no_rigid_body_is_completed_with_the_same_dynamics(tmp_p
     good, notes = physical_prior(bad, "the prior ur5_bad")
     import re
 
-    m = re.search(r"not a physical arm \(links? ([\d, ]+):", notes[0]) if len(notes) == 1 else None
+    m = re.search(r": links? ([\d, ]+) no rigid body", notes[0]) if len(notes) == 1 else None
     assert m and 3 in [int(x) for x in m.group(1).split(",")], notes
     for j in good.chain()[0]:
         assert np.linalg.eigvalsh(j.body.J)[0] > 0

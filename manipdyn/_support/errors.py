@@ -15,7 +15,7 @@ import warnings
 _PACKAGE_DIR = os.path.dirname(os.path.dirname(os.path.abspath(__file__))) + os.sep  # manipdyn/, not _support/
 
 __all__ = ["ModelError", "TipError", "UnreachablePoseError", "ModelNoteWarning", "PhysicalConsistencyWarning",
-           "SuspiciousValueWarning", "SingularMassMatrixError", "StateError", "warn_at_caller", "warn_notes",
+           "SuspiciousValueWarning", "FormatLossWarning", "SingularMassMatrixError", "StateError", "warn_at_caller", "warn_notes",
            "MissingExtraError"]
 
 
@@ -98,6 +98,13 @@ class SuspiciousValueWarning(ModelNoteWarning):
     lengths that look like millimetres in a file in metres).
 
     Raised as an error instead when the model is loaded with ``strict=True``.
+    """
+
+
+class FormatLossWarning(ModelNoteWarning):
+    """A file was written (``md.write_urdf``, ``md.write_mjcf``) that does not hold all of the model: a
+    friction law, rotor inertia, gravity, placeholder limits.  The message lists them, one clause each,
+    as the file's opening comment and ``manipdyn urdf`` / ``manipdyn mjcf``'s ``not held:`` lines do.
     """
 
 

@@ -15,17 +15,18 @@ from __future__ import annotations
 import json
 
 from .._support.errors import ModelError
-from .common import (EXIT_DISAGREE, EXIT_OK, TIP_HELP, check_outputs, check_report_target, cli_message,
+from .argblocks import add_command, add_outputs
+from .common import (EXIT_DISAGREE, EXIT_OK, check_outputs, check_report_target, cli_message,
                      command_line, load_arm, usage_error)
-from .logopts import DATA_HELP, log_options_from_args, model_joint_names, register_log_options
+from .logopts import DATA_HELP, log_options_from_args, model_joint_names
 
 __all__ = ["register", "run"]
 
 
 def register(subparsers) -> None:
     """Add ``manipdyn observe`` to the command line."""
-    p = subparsers.add_parser(
-        "observe", help="collision detection: the momentum observer against thresholds with a false-alarm rate",
+    p = add_command(
+        subparsers, "observe", run=run, help="collision detection: the momentum observer against thresholds with a false-alarm rate",
         description="Run the generalized-momentum observer of MODEL on the logs and report the collision events: "
                     "crossings of a per-joint threshold that last, their joints, the last link touched and the "
                     "force at the tool. The thresholds come from --threshold, from --calibrate (collision-free logs "
@@ -62,16 +63,10 @@ def register(subparsers) -> None:
                    help="an event ends when every joint is below this fraction of its threshold (default 0.5)")
     p.add_argument("--save-model", metavar="OUT.toml", default=None,
                    help="write MODEL with the thresholds in its trust record, so later runs need no --calibrate")
-    p.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
-    p.add_argument("--json", action="store_true", help="print a JSON object instead of text")
-    p.add_argument("--plot", metavar="FILE.png", default=None,
-                   help="draw the residuals against the thresholds, events shaded (first log; needs the plot extra)")
-    p.add_argument("--report", metavar="FILE.html", default=None,
-                   help="also write one self-contained HTML page: thresholds, events, the figure per log")
+    add_outputs(p, "draw the residuals against the thresholds, events shaded (first log; needs the plot extra)",
+                "also write one self-contained HTML page: thresholds, events, the figure per log", "FILE.png")
     p.add_argument("--predictions", metavar="FILE.csv", default=None,
                    help="write per sample: log, t, r1..n (observer), d1..n (direct residual), T1..n, event")
-    register_log_options(p)
-    p.set_defaults(func=run)
 
 
 def run(args) -> int:

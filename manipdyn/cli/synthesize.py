@@ -27,7 +27,7 @@ def run(args) -> int:
     from ..formats.logs.data import write_measurements_csv
     from ..model.arm import Manipulator
     from ..identification.experiments.demo import true_arm
-    from ..identification.experiments.synthesize import contact_torques, parse_contact, read_trajectory, synthesize
+    from ..identification.experiments.synthesize import check_contacts_act, contact_torques, parse_contact, read_trajectory, synthesize
 
     if not (args.noise >= 0 and args.noise < float("inf")):
         raise ModelError(f"--noise: expected a finite fraction >= 0 of each joint's peak torque, got {args.noise}")
@@ -49,6 +49,7 @@ def run(args) -> int:
     robot = synthesize_static.apply(args, true_arm(arm, args.seed) if args.perturb else arm)
     traj = read_trajectory(args.trajectory, arm.n)
     contacts = [parse_contact(c, robot) for c in (args.contact or [])]
+    check_contacts_act(contacts, traj.t)
     tau = synthesize(robot, traj.q, traj.qd, traj.qdd, noise=args.noise, seed=args.seed,
                      static_friction=args.static_friction is not None)
     if contacts:

@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._support import limits
 from .._support.errors import ModelError
 from .._support.jsonsafe import finite_or_null
 from .replay_page import BASELINE, figure, write_page
@@ -277,6 +278,10 @@ def replay(models, logs, horizons=DEFAULT_HORIZONS, every: int = DEFAULT_EVERY, 
         raise ModelError(f"mujoco_plant: expected 'model' or 'file', got {mujoco_plant!r:.40}")
     if isinstance(every, bool) or not isinstance(every, (int, np.integer)) or every < 1:
         raise ModelError(f"every: expected an integer >= 1 (log samples), got {every!r:.40}")
+    if every > limits.MAX_DATA_BYTES:       # no log has more samples than bytes: one start state per log
+        shown = f"{every}" if every < 10**30 else f"an integer of {len(str(every))} digits"
+        raise ModelError(f"every: expected an integer from 1 to {limits.MAX_DATA_BYTES} (log samples; no log "
+                         f"holds more), got {shown}")
     if substeps is not None and (isinstance(substeps, bool) or not isinstance(substeps, (int, np.integer))
                                  or substeps < 1):
         raise ModelError(f"substeps: expected an integer >= 1, got {substeps!r:.40}")
@@ -307,6 +312,7 @@ def replay(models, logs, horizons=DEFAULT_HORIZONS, every: int = DEFAULT_EVERY, 
         m = read_log(path, n, transmission=getattr(arms[0][0], "transmission", None), **log_options)
         datas.append(m)
         notes += [f"{os.path.basename(os.fspath(path))}: {x}" for x in m.notes]
+    notes[:0] = _fit_data_notes(arms, labels, logs, datas)     # first: what the figures are
     dts = [float(np.median(np.diff(m.t))) for m in datas]
     if max(dts) - min(dts) > 1e-9 * max(dts):
         raise ModelError(f"logs: read at different sample periods ({', '.join(f'{d:.6g}' for d in dts)} s); "
@@ -330,6 +336,10 @@ def replay(models, logs, horizons=DEFAULT_HORIZONS, every: int = DEFAULT_EVERY, 
             kind, m_sub = plan(arm, datas, dt, integrator)
             m_sub = substeps if substeps is not None else m_sub
         subs[lab], kinds[lab] = int(m_sub), kind
+    limits.check_count(total * kmax * sum(subs.values()), "replay", "the integration steps (start states x "
+                       "samples to the longest horizon x substeps, the models together)", "MAX_REPLAY_STEPS")
+    for (arm, _), lab in zip(arms, labels):
+        m_sub, kind = subs[lab], kinds[lab]
         eq, eqd, bad = [], [], []
         for m, st in zip(datas, starts):
             if simulator == "mujoco":
@@ -357,6 +367,19 @@ def replay(models, logs, horizons=DEFAULT_HORIZONS, every: int = DEFAULT_EVERY, 
             notes.append(f"horizon {h:g} s is {k} samples of {dt:.6g} s = {k * dt:.6g} s")
     return ReplayResult(labels, hs, steps, dt, int(total), q_rms, qd_rms, div, subs, simulator, mujoco_plant,
                         tuple(arms[0][0].joint_types), notes, [os.fspath(p) for p in logs], int(every), kinds)
+
+
+def _fit_data_notes(arms, labels, logs, datas) -> list:
+    """One line per model replayed on a log it was fitted on (:func:`~manipdyn.identification.results.heldout.fit_data_note`)."""
+    from ..identification.results.heldout import fit_data_note
+
+    out = []
+    for (arm, _), lab in zip(arms, labels):
+        hits = [p for p, m in zip(logs, datas) if fit_data_note(arm, [p], (float(m.t[0]), float(m.t[-1])))]
+        line = fit_data_note(arm, hits, None, lab, "its drift figures") if hits else None
+        if line:
+            out.append(line)
+    return out
 
 
 def _unique(labels):

@@ -73,7 +73,6 @@ from __future__ import annotations
 
 import math
 import os
-import tomllib
 from importlib import resources
 
 import numpy as np
@@ -85,7 +84,7 @@ from .._support.errors import ModelError, SuspiciousValueWarning, warn_notes
 from ..model.links import DHLink
 from .modelfile_drive import drive_to_toml, parse_drive, parse_poses, poses_to_toml
 from .modelfile_urdf import parse_urdf_model, urdf_model_to_toml
-from .tomltext import toml_key, toml_list, toml_num, toml_str
+from .tomltext import read_toml_text, toml_key, toml_list, toml_num, toml_str
 from .trust import trust_from_toml, trust_to_toml
 
 __all__ = ["models", "load_bundled", "load_model_file", "parse_model", "save_model", "model_to_toml", "FORMAT"]
@@ -115,12 +114,20 @@ def models() -> list[str]:
     return sorted(p.name[:-5] for p in _bundled_dir().iterdir() if p.name.endswith(".toml"))
 
 
+def close_names(name, candidates) -> list:
+    """Up to three of ``candidates`` closest to ``name``, case aside (``"UR5"``: ``["ur5", ...]``), best first."""
+    import difflib
+
+    folded: dict = {}
+    for c in candidates:
+        folded.setdefault(str(c).casefold(), c)
+    return [folded[k] for k in difflib.get_close_matches(str(name).casefold(), list(folded), n=3, cutoff=0.6)]
+
+
 def load_bundled(name: str, strict: bool = False) -> Manipulator:
     """A bundled model by name (see :func:`models`)."""
     if name not in models():
-        import difflib
-
-        close = difflib.get_close_matches(str(name), models(), n=3, cutoff=0.6)
+        close = close_names(name, models())
         hint = f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
         raise ModelError(f"unknown model {name!r}: not a bundled model ({', '.join(models())}){hint}")
     path = _bundled_dir() / f"{name}.toml"
@@ -256,13 +263,7 @@ def _read_toml(text, origin: str) -> dict:
     if len(text) > limits.MAX_MODEL_FILE_BYTES:
         raise limits.over_limit(origin, "the model text length", f"{len(text)} characters",
                                 "MAX_MODEL_FILE_BYTES")
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ModelError(f"{origin}: not valid TOML: {exc}") from None
-    except RecursionError:
-        raise ModelError(f"{origin}: not a model file: arrays or tables nested too deeply") from None
-    return data
+    return read_toml_text(text, origin, "model file")
 
 
 def _top_level(data: dict, origin: str):

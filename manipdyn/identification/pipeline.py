@@ -227,7 +227,7 @@ def _identify(prior, logs, o) -> IdentifyResult:
     if o["method"] not in METHODS:
         raise OptionError("{}: expected one of " + ", ".join(METHODS) + ", got " + brace_safe(repr(o["method"])), "method")
     arm, prior_label = _load(prior, o["tip"])
-    prior_notes = []
+    as_loaded, prior_notes = arm, []
     if o["method"] == "consistent":      # the pull starts from physical bodies (.estimation.prior)
         from .estimation.prior import physical_prior
 
@@ -351,9 +351,9 @@ def _identify(prior, logs, o) -> IdentifyResult:
     if decided is not None:
         prov["decided"] = {"weight": decided["weight"], "links": decided["links"],
                            "prior": [x["what"] for x in decided["base"] if x["by"] == "prior"]}
-    rep["fit_notes"] = ([group_note] if group_note else []) + prior_notes + law_notes \
+    rep["fit_notes"] = _units_notes(arm, data) + ([group_note] if group_note else []) + prior_notes + law_notes \
         + list(rep.get("fit_notes", [])) + (describe_attribution(decided) if decided is not None else []) \
-        + record_notes + doubts
+        + record_notes + doubts + _prior_notes(as_loaded, prior_label)
     if decided is not None:
         rep["decided"] = decided
     rep["doubts"] = doubts
@@ -395,6 +395,25 @@ def _attribution(result, arm, weight, data, method):
     prior_pi = prior_parameters(arm, result.base)
     floored = [int(x.split()[1]) - 1 for x in result.report.get("active_bounds", []) if "radius of gyration" in x]
     return attribution(result, prior_pi, float(weight), len(data.q) * arm.n, floored)
+
+
+def _units_notes(arm, data) -> list[str]:
+    """Torques in another unit than the prior's (:mod:`.inputs.units`): first among the notes, and warned."""
+    from .._support.errors import SuspiciousValueWarning, warn_at_caller
+    from .inputs.units import prior_torque_note
+
+    note = prior_torque_note(arm, data)
+    if note:
+        warn_at_caller(note, SuspiciousValueWarning)
+    return [note] if note else []
+
+
+def _prior_notes(arm, label) -> list[str]:
+    """The prior's own doubt: no physical arm (:func:`manipdyn.model.plausible.not_physical_note`)."""
+    from ..model.plausible import not_physical_note
+
+    note = not_physical_note(arm, os.path.basename(str(label)), "the prior")
+    return [note] if note else []
 
 
 def _held_out(refits, record, labels, folds):

@@ -11,6 +11,8 @@ Layer 1 (model).
 * :func:`smallest_gyration`: each body's smallest radius of gyration about its centre of mass,
   the one number the fit's active bounds and its doubts give of a model.
 * :func:`arm_scale`: the arm's units (mean link mass, size).
+* :func:`not_physical_note`: one line when a model is no physical arm (a published model with
+  negative principal moments): what ``validate`` and ``identify`` (of it as the prior) say.
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ import numpy as np
 
 from .inertia import pseudo_inertia_from_parameters, tensor_from_pseudo_inertia
 
-__all__ = ["mujoco_refusal", "gyration_floor", "gyration_radius", "smallest_gyration", "arm_scale", "MJ_MINVAL", "GYRATION_FLOOR"]
+__all__ = ["not_physical_note", "mujoco_refusal", "gyration_floor", "gyration_radius", "smallest_gyration", "arm_scale", "MJ_MINVAL", "GYRATION_FLOOR"]
 
 #: MuJoCo's mjMINVAL: a mass or principal moment at or below it is refused by MuJoCo's compiler
 MJ_MINVAL = 1e-15
@@ -95,3 +97,30 @@ def smallest_gyration(pi, n: int) -> np.ndarray:
             m, _c, I = tensor_from_pseudo_inertia(0.5 * (J[i] + J[i].T))
             out[i] = gyration_radius(m, I)
     return out
+
+
+def not_physical_note(arm, label: str | None = None, role: str = "the model") -> str | None:
+    """One line, or None when every body of ``arm`` is physical: which links (numbered 1 to n along the
+    chain) have a negative principal moment, which break the triangle inequality of their principal
+    moments only, which have inertia without mass.  ``role`` and ``label`` open it: e.g. "the prior
+    kuka_lwr4_gaz.urdf is not a physical arm: links 1, 5, 6, 7 have negative principal moments; ..."."""
+    chain = getattr(arm, "chain", None)
+    if chain is None:
+        return None
+    groups = {"have negative principal moments": [], "break the triangle inequality of their principal moments": [],
+              "have inertia without mass": []}
+    for i, j in enumerate(chain()[0]):
+        problems = " ".join(j.body.consistency_problems())
+        key = ("have negative principal moments" if "negative principal moment" in problems else
+               "break the triangle inequality of their principal moments" if "triangle inequality" in problems else
+               "have inertia without mass" if problems else None)
+        if key:
+            groups[key].append(str(i + 1))
+    parts = [("links " if len(v) > 1 else "link ") + ", ".join(v) + " "
+             + (k if len(v) > 1 else k.replace("have ", "has ").replace("break ", "breaks ").replace("their", "its"))
+             for k, v in groups.items() if v]
+    if not parts:
+        return None
+    name = label or getattr(arm, "name", None) or "arm"
+    return (f"{role} {name} is not a physical arm: " + "; ".join(parts) + ": no rigid body has such mass properties "
+            "(manipdyn check names them), so what is compared with it, or pulled towards it, is no real arm")

@@ -65,6 +65,8 @@ class Validation:
     notes: list = field(default_factory=list)
     units: list | None = None
     held_out: list | None = None       # per model, :func:`.heldout.held_out_label`
+    fit_data: list = field(default_factory=list)    # one line per model scored on its own fit data
+    model_notes: list = field(default_factory=list)  # one line per model that is no physical arm
 
     def title(self) -> str:
         """The figure's title: the models, the logs, the scored window and, per model, whether
@@ -81,7 +83,8 @@ class Validation:
         from .comparison import side_by_side_dict
 
         out = self.results[0].to_dict() if len(self.results) == 1 else side_by_side_dict(self.results)
-        out.update({"runs": self.per_run(), "data_notes": list(self.notes)})
+        out.update({"runs": self.per_run(), "data_notes": list(self.notes), "fit_data": list(self.fit_data),
+                    "model_notes": list(self.model_notes)})
         return out
 
     def per_run(self) -> list:
@@ -102,7 +105,9 @@ class Validation:
 
         body = (self.results[0].format(units=self.units) if len(self.results) == 1
                 else format_side_by_side(self.results, units=self.units))
-        return "\n".join([f"data: {note}" for note in self.notes] + [body] + self._runs_text())
+        return "\n".join([f"data: {note}" for note in self.notes] + [f"note: {x}" for x in self.fit_data + self.model_notes]
+                         + [body]
+                         + self._runs_text())
 
     def report_html(self, path, command: str | None = None, options: dict | None = None, model_files=()) -> str:
         """Write the scores as one self-contained HTML page to ``path`` (atomically; what
@@ -207,10 +212,17 @@ def validate(models, logs, *, tip=None, columns=None, deg: bool = False, rate=No
             results.append(score(logged, data, name=logged.name))
             loaded.append((logged, logged.name))
     units = ["N" if t == "prismatic" else "N m" for t in getattr(arm, "joint_types", ())] or None
-    from .heldout import held_out_label
+    from ...model.plausible import not_physical_note
+    from ..inputs.units import torque_scale_note
+    from .heldout import fit_data_note, held_out_label, scored_window
 
+    fit = [fit_data_note(m, list(data.sources), scored_window(data), label, "its RMS, R^2 and band coverage")
+           for m, label in loaded]
     out = Validation(results=results, data=data, notes=list(data.notes), units=units,
-                     held_out=[held_out_label(m, data) for m, _ in loaded])
+                     held_out=[held_out_label(m, data) for m, _ in loaded], fit_data=[x for x in fit if x],
+                     model_notes=[x for x in [not_physical_note(m, label) for m, label in loaded]
+                                  + [torque_scale_note(r.measured, r.predicted, label) for r, (_m, label)
+                                     in zip(results, loaded)] if x])
     if predictions is not None:
         out.write_predictions(predictions)
     return out

@@ -214,6 +214,17 @@ def _levels(a, b, top, hours, per_joint_rate) -> np.ndarray:
     return np.maximum(T, np.asarray(top) * (1.0 + 1e-9)) if per_joint_rate * hours < 1 else np.maximum(T, 1e-12)
 
 
+def _period(dt) -> float:
+    """``dt`` (s) as a float, or a ModelError: a sample period is a finite number > 0 (0 divided)."""
+    try:
+        out = float(dt)
+    except (TypeError, ValueError, OverflowError):
+        out = float("nan")
+    if isinstance(dt, bool) or not (np.isfinite(out) and out > 0):
+        raise ModelError(f"dt: expected the sample period in s, a finite number > 0, got {dt!r:.40}")
+    return out
+
+
 def fit_thresholds(residual, dt: float, rate: float = DEFAULT_RATE, *, gain: float = DEFAULT_GAIN,
                    min_duration: float = DEFAULT_MIN_DURATION, hysteresis: float = DEFAULT_HYSTERESIS,
                    source: str = "", velocity_cutoff: float = 0.0) -> CollisionThresholds:
@@ -228,6 +239,7 @@ def fit_thresholds(residual, dt: float, rate: float = DEFAULT_RATE, *, gain: flo
     if not np.all(np.isfinite(r)):
         raise ModelError("calibration data: the residual is not finite")
     rate = _rate(rate)
+    dt = _period(dt)
     s = sustained(r, dt, min_duration)
     hours = len(r) * float(dt) / 3600.0
     n = r.shape[1]
