@@ -72,7 +72,7 @@ def _arrays(value, n, label) -> Observed:
 
 def _trimmed(m, item, t_range):
     """``m`` without :data:`EDGE_EXTRA` samples at each end of the file, then windowed to ``t_range``."""
-    from ...formats.logs.read import _window, as_t_range
+    from ...formats.logs.read import as_t_range
 
     k = EDGE_EXTRA if len(m.t) > 4 * EDGE_EXTRA else 0
     arrays = [a if a is None else a[k:len(a) - k] for a in (m.q, m.qd, m.qdd, m.tau)]
@@ -81,7 +81,13 @@ def _trimmed(m, item, t_range):
                               "Nyquist frequency)"] if k else [])
     t_range = as_t_range(t_range) if isinstance(t_range, str) else t_range
     if t_range is not None:
-        t, arrays = _window(t, arrays, t_range, os.path.basename(os.fspath(item)), notes)
+        lo, hi = (b if x is None else float(x) for x, b in zip(t_range, (-np.inf, np.inf)))
+        keep = (t >= lo) & (t < hi)
+        if keep.sum() < 2:
+            raise ModelError(f"{os.path.basename(os.fspath(item))}: t_range {t_range!r} holds {int(keep.sum())} "
+                             f"samples; the data spans {t[0]:.6g} to {t[-1]:.6g} s (after the filter's trimmed ends)")
+        notes.append(f"window: {t[keep][0]:.6g} <= t <= {t[keep][-1]:.6g} s ({int(keep.sum())} samples)")
+        t, arrays = t[keep], [a if a is None else a[keep] for a in arrays]
     m.t, (m.q, m.qd, m.qdd, m.tau), m.notes = t, arrays, notes
     return m
 

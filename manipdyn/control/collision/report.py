@@ -80,6 +80,8 @@ class ObserveResult:
         lines = [f"collision thresholds, N m (momentum observer, gain {thr.gain:g} 1/s{vel}; {thr.false_alarms_per_hour:g} "
                  f"false events/h; events last >= {1e3 * thr.min_duration:g} ms; {thr.source}):",
                  "  " + "  ".join(f"j{j + 1} {x:.3g}" for j, x in enumerate(thr.threshold))]
+        if thresholds_warning(thr):
+            lines.append("warning: " + thresholds_warning(thr))
         for obs, r, d, ev in self.runs:
             lines.append(f"{obs.label}: {len(obs.t)} samples, {obs.t[-1] - obs.t[0]:.3g} s at {1 / obs.dt:.4g} Hz; "
                          f"peak |r| / threshold " + " ".join(f"{x:.2f}" for x in np.abs(r).max(axis=0) / thr.threshold)
