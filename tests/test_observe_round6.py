@@ -210,6 +210,8 @@ def test_the_report_says_what_the_text_says(logs, tmp_path, capsys):
     assert main(["observe", "ur5", str(logs / "push.csv"), "--calibrate", str(logs / "free.csv"), "--gain", "30",
                  "--velocity-cutoff", "0", "--report", str(page2)]) == 1
     assert "gain 30 1/s, no low-pass" in page2.read_text()
+    # the reader's filter note: observe chose the cut-off, the user gave none (main: "... at 400 Hz (given)")
+    assert "(given)" not in html and "Hz not used" not in html, html[html.find("given") - 300:html.find("given") + 50]
 
 
 # -- issue 45 item 4: the gain chosen on the data -------------------------------------------------------------------

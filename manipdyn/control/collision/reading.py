@@ -13,6 +13,7 @@ from ``q`` through that filter.
 from __future__ import annotations
 
 import os
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -74,10 +75,12 @@ def _trimmed(m, item, t_range):
     """``m`` without :data:`EDGE_EXTRA` samples at each end of the file, then windowed to ``t_range``."""
     from ...formats.logs.read import as_t_range
 
-    k = EDGE_EXTRA if len(m.t) > 4 * EDGE_EXTRA else 0
+    k = EDGE_EXTRA if len(m.t) > 4 * EDGE_EXTRA and getattr(m, "cutoff", None) is not None else 0   # filtered only
     arrays = [a if a is None else a[k:len(a) - k] for a in (m.q, m.qd, m.qdd, m.tau)]
     t = m.t[k:len(m.t) - k]
-    notes = list(m.notes) + ([f"observer: {k} more samples dropped at each end (the filter's ringing near the "
+    # the reader calls the cut-off "given": observe chose it, the user did not
+    notes = [re.sub(r"; cutoff \S+ Hz not used", "", x).replace(
+        " Hz (given)", f" Hz (observe's own: {RAW_CUTOFF:g} x the rate, nearly raw)") for x in m.notes] + ([f"observer: {k} more samples dropped at each end (the filter's ringing near the "
                               "Nyquist frequency)"] if k else [])
     t_range = as_t_range(t_range) if isinstance(t_range, str) else t_range
     if t_range is not None:
