@@ -38,7 +38,9 @@ def register(subparsers) -> None:
     p.add_argument("logs", metavar="LOG", nargs="*", help="the logs to watch. A log: " + DATA_HELP)
     p.add_argument("--gain", type=float, default=None, metavar="K",
                    help="the observer's gain, 1/s: the residual follows the external torque with time constant 1/K "
-                        "(default: the model's thresholds' gain, else 100)")
+                        "(default: the model's thresholds' gain; with --calibrate or --fit-data, chosen on those "
+                        "data among 10, 20, 30, 50, 100 for the smallest torque detected within 20 ms; with "
+                        "--threshold, 100)")
     p.add_argument("--velocity-cutoff", type=float, default=None, metavar="HZ",
                    help="the cut-off, Hz, of the causal first-order low-pass on the observer's residual, against the "
                         "measured velocity's noise (0: none; library default 20); thresholds are only used with the cut-off they were calibrated with (default: the "
@@ -71,8 +73,7 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     from ..control.collision import observe
-    from ..control.collision.observe import carried_thresholds, resolve_thresholds, with_thresholds
-    from ..identification.uncertainty.thresholds import DEFAULT_GAIN
+    from ..control.collision.observe import resolve_thresholds, with_thresholds
 
     try:
         if not args.logs and args.save_model is None:
@@ -92,11 +93,7 @@ def run(args) -> int:
         opts = log_options_from_args(args, model_joint_names(arm))
         if opts.get("decimate") is None:
             opts["decimate"] = False            # the observer runs at the log's rate
-        gain = args.gain
-        if gain is None:
-            carried = (carried_thresholds(arm) if args.threshold is None and args.calibrate is None
-                       and args.fit_data is None else None)
-            gain = carried.gain if carried is not None else DEFAULT_GAIN
+        gain = args.gain            # None: the thresholds' own, or chosen on --calibrate / --fit-data
         cal_opts = opts
         if args.calibrate_t_range is not None:
             from ..formats.logs.read import as_t_range
@@ -106,7 +103,7 @@ def run(args) -> int:
                                  args.hysteresis, cal_opts, args.fit_data, args.velocity_cutoff)
         res = None
         if args.logs:
-            res = observe(arm, args.logs, gain, false_alarms=args.false_alarms, threshold=thr.threshold,
+            res = observe(arm, args.logs, thr.gain, false_alarms=args.false_alarms, threshold=thr.threshold,
                           min_duration=args.min_duration, hysteresis=args.hysteresis,
                           velocity_cutoff=thr.velocity_cutoff, **opts)
             res.thresholds = thr
