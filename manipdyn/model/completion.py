@@ -242,6 +242,7 @@ def complete_parameters(arm, pi=None, *, K=None, prior=None, links=None, floor=N
     prior = pi if prior is None else np.asarray(prior, dtype=np.float64)
     if prior.shape != pi.shape:
         raise ModelError(f"prior: expected shape {pi.shape}, got {prior.shape}")
+    given = pi          # the bodies as given, for what the notes say was completed
     pi, prior, sub_notes = without_subnormals(pi, prior, n)
     if not np.any(pi[:10 * n]):
         raise ModelError(MASSLESS)
@@ -256,7 +257,7 @@ def complete_parameters(arm, pi=None, *, K=None, prior=None, links=None, floor=N
     if floor is None:
         floor = gyration_floor(arm)
     floor = np.asarray(floor, dtype=np.float64)
-    bodies = [_body(pi, i) for i in range(n)]
+    bodies = [_body(given, i) for i in range(n)]
     refused = {i: mujoco_refusal(b) for i, b in enumerate(bodies)}
     want = sorted(range(n) if links is None else {int(i) for i in links})
     bad = [i for i in want if refused[i] is not None or not _physical(pi, [i], m_ref, L, 0.0)]
