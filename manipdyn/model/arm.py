@@ -164,7 +164,8 @@ class Arm(ArmCalls, ReachCalls):  # jacobian, inverse_dynamics, poses, ...: .arm
 
     def with_payload(self, mass: float, com=(0.0, 0.0, 0.0), inertia=None, name=None) -> "Arm":
         """A new arm of the same kind (DH or URDF) carrying a payload fixed at the tool: ``mass`` kg, ``com``
-        (3,) m in the tool frame; ``inertia`` (3, 3) or (3,) kg m^2 about that COM, tool axes (default 0)
+        (3,) m in the tool frame; ``inertia`` (3, 3), (6,) ``[ixx, iyy, izz, ixy, ixz, iyz]`` or (3,) kg m^2
+        about that COM, tool axes (default 0)
         (:func:`manipdyn.model.variants.with_payload`; ``name`` default ``"<arm>+<mass>kg"``)."""
         return SERVICES["with_payload"](self, mass, com, inertia, name)
 

@@ -48,6 +48,21 @@ def _dh_arm(arm, fn: str) -> Manipulator:
     return arm
 
 
+def _six(inertia):
+    """Six numbers ``[ixx, iyy, izz, ixy, ixz, iyz]`` (RUNS.toml's payload order) as the (3, 3) tensor;
+    anything else as given (:class:`LinkInertia` checks it and names what it expects)."""
+    if isinstance(inertia, (str, bytes, dict)):
+        return inertia
+    try:
+        v = np.asarray(inertia, dtype=np.float64)
+    except (TypeError, ValueError):
+        return inertia
+    if v.shape != (6,):
+        return inertia
+    ixx, iyy, izz, ixy, ixz, iyz = v
+    return np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+
+
 def with_payload(arm, mass: float, com=(0.0, 0.0, 0.0), inertia=None, name=None):
     """The arm carrying a payload rigidly attached at its tool; ``arm.with_payload(...)``.
 
@@ -60,9 +75,10 @@ def with_payload(arm, mass: float, com=(0.0, 0.0, 0.0), inertia=None, name=None)
     com : (3,)
         Payload centre of mass in the tool frame, the frame :meth:`~manipdyn.Arm.fkine`
         gives (a DH arm's frame n; a URDF arm's tip link), m.
-    inertia : (3, 3) or (3,), optional
+    inertia : (3, 3), (6,) or (3,), optional
         Payload inertia tensor about its own centre of mass (tensor sign, tool-frame
-        axes; three values are the diagonal), kg m^2; default 0 (a point mass).
+        axes; six values are ``[ixx, iyy, izz, ixy, ixz, iyz]``, the order of RUNS.toml's
+        ``payload.inertia``; three values are the diagonal), kg m^2; default 0 (a point mass).
     name : str, optional
         Default ``"<arm>+<mass>kg"``.
 
@@ -78,7 +94,7 @@ def with_payload(arm, mass: float, com=(0.0, 0.0, 0.0), inertia=None, name=None)
         raise ModelError(f"with_payload: needs an arm (manipdyn.Manipulator or manipdyn.URDFArm), "
                          f"got {type(arm).__name__}")
     mass = nonnegative(mass, "with_payload: mass", "kg")
-    payload = LinkInertia(mass, com, np.zeros((3, 3)) if inertia is None else inertia, name="payload")
+    payload = LinkInertia(mass, com, np.zeros((3, 3)) if inertia is None else _six(inertia), name="payload")
     payload.check_physical(strict=True, where="with_payload: payload")
     name = name if name is not None else f"{arm.name or 'arm'}+{mass:g}kg"
     if isinstance(arm, URDFArm):
