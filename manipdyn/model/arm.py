@@ -25,7 +25,7 @@ from .drive import arm_drive
 from .arm_calls import ArmCalls, as_poses
 from .reach import ReachCalls
 from .links import ChainJoint, DHLink, as_dh_links, as_gravity, check_name, dh_links_equal, physical_note
-from .dh_chain import dh_chain, dh_link_offsets
+from .dh_chain import as_transform, dh_chain, dh_link_offsets
 from .registry import (CONVENTIONS, DEFAULT_QLIM, ENGINE_FACTORIES, REQUIRED, SERVICES, Convention, TraceFormData,
                        joint_letters, register_engine, register_service)
 
@@ -177,7 +177,8 @@ class Arm(ArmCalls, ReachCalls):  # jacobian, inverse_dynamics, poses, ...: .arm
     def fkine(self, q) -> np.ndarray:
         """Pose of the tool frame in the base frame: ``T`` (4, 4) or (N, 4, 4), metres, with
         ``p_base = T @ [p_tool, 1]``.  The tool frame is DH frame n (``T_n`` of eq. 2.7; the
-        ``tool`` link of the generated URDF) for a :class:`Manipulator`, and the tip link
+        ``tool`` link of the generated URDF) for a :class:`Manipulator`, or ``base T_n tool`` when
+        it has a ``base`` (then in the world) or a ``tool`` transform, and the tip link
         (``arm.tip``) for a :class:`URDFArm` (loaded without ``tip=``: the last moving link, and
         ``arm.notes`` names the fixed frames beyond it that were passed over, e.g. ``tool0``);
         :meth:`jacobian` is this frame's."""
@@ -248,11 +249,19 @@ class Manipulator(Arm):
         joint side, sharp sign (then the links' friction must be zero).
     poses : dict, optional
         Named joint vectors ``{"ready": (n,), ...}`` (rad or m), kept as ``arm.poses``.
+    base : (4, 4), optional
+        The pose of the arm's base (the frame the DH table starts from) in the world, a rigid
+        homogeneous transform (metres), as the Robotics Toolbox's ``base``: every link frame,
+        :meth:`fkine` and the Jacobians are in the world, and ``gravity`` is given in the world.
+        Default the identity.
+    tool : (4, 4), optional
+        The tool frame in DH frame n (the Toolbox's ``tool``): :meth:`fkine`, ``jacobian``
+        and ``f_tool`` are this frame's.  Default the identity.
     """
 
     def __init__(self, links, convention: Convention = REQUIRED, gravity=(0.0, 0.0, -9.81),
                  name: str = "", strict: bool = False, source: str = "", sources=None,
-                 description: str = "", transmission=None, friction=None, poses=None):
+                 description: str = "", transmission=None, friction=None, poses=None, base=None, tool=None):
         super().__init__()
         if convention is REQUIRED:
             raise TypeError("Manipulator: the argument 'convention' is required: 'standard' (distal DH, "
@@ -261,6 +270,7 @@ class Manipulator(Arm):
             raise ModelError(f"convention: must be 'standard' or 'modified', got {convention!r}")
         self.links = links = as_dh_links(links)
         self.convention = convention
+        self.base, self.tool = as_transform(base, "base"), as_transform(tool, "tool")
         self.gravity = as_gravity(gravity)
         self.name = check_name(str(name), "Manipulator", "name")
         self.source = str(source)
@@ -288,6 +298,7 @@ class Manipulator(Arm):
                 and self.source == other.source and self.sources == other.sources
                 and self.description == other.description
                 and np.array_equal(self.gravity, other.gravity)
+                and np.array_equal(self.base, other.base) and np.array_equal(self.tool, other.tool)
                 and len(self.links) == len(other.links) and self.transmission == other.transmission
                 and self.poses.keys() == other.poses.keys()
                 and all(np.array_equal(v, other.poses[k]) for k, v in self.poses.items())
@@ -298,7 +309,7 @@ class Manipulator(Arm):
 
     def trace_form_data(self) -> TraceFormData:
         """DH kinematics (eq. 2.3 or Craig's) and each link's J in its DH frame (eq. 2.21)."""
-        kin = DHKinematics(self.links, self.convention)
+        kin = DHKinematics(self.links, self.convention, self.base, self.tool)
         J = np.array([l.body.J for l in self.links])
         return TraceFormData(kin, J, self.armature, self.friction_model)
 
@@ -312,7 +323,8 @@ class Manipulator(Arm):
 
     def chain(self):
         """The DH arm as a URDF-ready chain (see :meth:`Arm.chain`; :func:`manipdyn.model.dh_chain.dh_chain`)."""
-        return dh_chain(self.links, self.convention, self._qlim, self.link_names(), self.urdf_link_offsets())
+        return dh_chain(self.links, self.convention, self._qlim, self.link_names(), self.urdf_link_offsets(),
+                        self.base, self.tool)
 
     def urdf_link_offsets(self) -> np.ndarray:
         """``S_i`` (n, 4, 4): DH frame i = URDF link i frame @ S_i (identity for modified DH)."""

@@ -39,7 +39,8 @@ def _rebuild(arm: Manipulator, links, name: str) -> Manipulator:
         warnings.simplefilter("ignore", PhysicalConsistencyWarning)
         return Manipulator(links, convention=arm.convention, gravity=arm.gravity, name=name,
                            strict=arm.strict, source=arm.source, sources=arm.sources,
-                           transmission=arm.transmission, friction=law, poses=dict(arm.poses))
+                           transmission=arm.transmission, friction=law, poses=dict(arm.poses),
+                           base=arm.base, tool=arm.tool)
 
 
 def _dh_arm(arm, fn: str) -> Manipulator:
@@ -100,6 +101,8 @@ def with_payload(arm, mass: float, com=(0.0, 0.0, 0.0), inertia=None, name=None)
     if isinstance(arm, URDFArm):
         return _urdf_with_payload(arm, payload, name)
     last = arm.links[-1]
+    if not np.array_equal(arm.tool, np.eye(4)):       # given in the tool frame: into DH frame n
+        payload = payload.transformed(arm.tool)
     body = LinkInertia.from_pseudo_inertia(last.body.J + payload.J, name=last.name or "last link")
     links = arm.links[:-1] + (dataclasses.replace(last, mass=body.mass, com=body.com, inertia=body.inertia),)
     return _rebuild(arm, links, name)
