@@ -65,7 +65,7 @@ def run(args) -> int:
         def write_extras():
             if args.truth is not None:
                 save(Manipulator(robot.links, convention=robot.convention, gravity=robot.gravity, name=robot.name,
-                                 source=robot.source, sources=robot.sources,
+                                 source=robot.source, sources=robot.sources, base=robot.base, tool=robot.tool,
                                  friction=robot.friction_model if args.static_friction is not None else None,
                                  description=f"the true arm that manipdyn synthesize --perturb --seed {args.seed} "
                                              f"drew around {args.model} (masses, centres of mass and friction off), "

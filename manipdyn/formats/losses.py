@@ -175,10 +175,11 @@ def written_bodies(arm, as_published: bool = False, exact_only: bool = False):
     MuJoCo accepts every body as it is).  ``exact_only`` (the URDF, read by every tool, not only by
     simulators): where no physical arm has the model's base parameters, the model's own bodies, with
     the completion that was not used (its ``exact`` False says so)."""
-    from ..model.completion import complete_bodies, mujoco_refusal
+    from ..model.completion import complete_bodies, is_massless, mujoco_refusal
 
     joints, _tool = arm.chain()
-    if as_published or not any(mujoco_refusal(j.body) is not None for j in joints):
+    if (as_published or not any(mujoco_refusal(j.body) is not None for j in joints)
+            or (exact_only and is_massless(arm))):        # no dynamics: the URDF holds the massless arm as it is
         return [j.body for j in joints], None
     for a, bodies, c in _COMPLETIONS:
         if a is arm:

@@ -7,8 +7,11 @@ Format (``format = "manipdyn-model/1"``)::
     format = "manipdyn-model/1"
     name = "puma560"
     convention = "standard"            # "standard" (distal, eq. 2.3) or "modified" (Craig)
-    gravity = [0.0, 0.0, -9.81]        # m/s^2, in the base frame (optional; this default)
+    gravity = [0.0, 0.0, -9.81]        # m/s^2, in the world (the base frame without `base`; optional)
     source = "citation of the data"    # required for bundled models
+    base = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.5], [0.0, 0.0, 0.0, 1.0]]
+                                       # optional: the base in the world, 4x4 (translation in the length unit)
+    tool = [[...], [...], [...], [...]]  # optional: the tool frame in DH frame n, 4x4
 
     [sources]                          # optional: citation per group of values
     kinematics = "..."
@@ -95,7 +98,7 @@ _ANGLE = {"rad": 1.0, "deg": math.pi / 180.0}
 _MASS = {"kg": 1.0, "g": 0.001}
 
 _TOP_KEYS = {"format", "name", "convention", "gravity", "source", "sources", "units", "links", "description",
-             "transmission", "friction", "poses", "trust"}
+             "transmission", "friction", "poses", "trust", "base", "tool"}
 _LINK_REQUIRED = ("joint", "a", "alpha", "d", "theta", "mass")
 _LINK_OPTIONAL = ("name", "qlim", "com", "inertia", "motor_inertia", "gear_ratio", "friction_viscous", "friction_coulomb")
 _INERTIA_KEYS = ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")
@@ -206,6 +209,20 @@ def _inertia(value, scale: float, where: str) -> np.ndarray:
                      f"3 diagonal values [ixx, iyy, izz] or a 3x3 list, got {value!r}")
 
 
+def _transform(data: dict, key: str, origin: str, L: float):
+    """The optional top-level ``base`` / ``tool``: a 4x4 homogeneous transform as four rows, its
+    translation in the file's length unit (checked by :class:`Manipulator`); None when absent."""
+    if key not in data:
+        return None
+    raw = data[key]
+    if not isinstance(raw, list) or len(raw) != 4 or not all(isinstance(r, list) for r in raw):
+        raise ModelError(f"{origin}: key {key!r}: expected a 4x4 homogeneous transform as four rows of four "
+                         f"numbers, got {raw!r:.80}")
+    T = np.array([_nums(r, 4, f"{origin}: key {key!r} row {i + 1}") for i, r in enumerate(raw)])
+    T[:3, 3] *= L
+    return T
+
+
 def parse_model(text: str, origin: str = "<model>", strict: bool = False) -> Manipulator:
     """Parse model-file text; ``origin`` names the file in error messages.
 
@@ -229,7 +246,8 @@ def parse_model(text: str, origin: str = "<model>", strict: bool = False) -> Man
     try:
         arm = Manipulator(links, convention=convention, gravity=gravity, name=name, strict=strict,
                           source=source, sources=sources, description=description, **drive,
-                          poses=parse_poses(data, origin, [l.joint for l in links], L, A))
+                          poses=parse_poses(data, origin, [l.joint for l in links], L, A),
+                          base=_transform(data, "base", origin, L), tool=_transform(data, "tool", origin, L))
     except ModelError as exc:
         if origin in str(exc):
             raise
@@ -414,6 +432,10 @@ def model_to_toml(arm: Manipulator) -> str:
     ]
     if arm.description:
         lines.append(f"description = {toml_str(arm.description, 'description')}")
+    for key in ("base", "tool"):       # rows of a 4x4 homogeneous transform, metres; none: the identity
+        T = getattr(arm, key, None)
+        if T is not None and not np.array_equal(T, np.eye(4)):
+            lines.append(f"{key} = [" + ", ".join(toml_list(r) for r in T) + "]")
     sources = arm.sources
     if sources:
         if not isinstance(sources, dict):

@@ -110,7 +110,7 @@ def _with_transmission(arm, transmission):
     if isinstance(arm, Manipulator):
         return Manipulator(arm.links, convention=arm.convention, gravity=arm.gravity, name=arm.name,
                            source=arm.source, sources=arm.sources, description=arm.description,
-                           transmission=transmission, friction=law)
+                           transmission=transmission, friction=law, base=arm.base, tool=arm.tool)
     return load_urdf(arm.urdf_text, tip=arm.tip, name=arm.name, gravity=arm.gravity, transmission=transmission,
                      friction=law if arm.custom_drive else None)
 

@@ -13,6 +13,8 @@ Layer 1 (model).
 * :func:`arm_scale`: the arm's units (mean link mass, size).
 * :func:`not_physical_note`: one line when a model is no physical arm (a published model with
   negative principal moments): what ``validate`` and ``identify`` (of it as the prior) say.
+* :func:`is_massless` and :func:`without_subnormals`: an arm with no dynamics, and subnormal
+  parameters taken as 0, which the completion refuses and cleans before any solver sees them.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ import numpy as np
 
 from .inertia import pseudo_inertia_from_parameters, tensor_from_pseudo_inertia
 
-__all__ = ["not_physical_note", "mujoco_refusal", "gyration_floor", "gyration_radius", "smallest_gyration", "arm_scale", "MJ_MINVAL", "GYRATION_FLOOR"]
+__all__ = ["not_physical_note", "is_massless", "without_subnormals", "MASSLESS", "mujoco_refusal", "gyration_floor", "gyration_radius", "smallest_gyration", "arm_scale", "MJ_MINVAL", "GYRATION_FLOOR"]
 
 #: MuJoCo's mjMINVAL: a mass or principal moment at or below it is refused by MuJoCo's compiler
 MJ_MINVAL = 1e-15
@@ -124,3 +126,36 @@ def not_physical_note(arm, label: str | None = None, role: str = "the model") ->
     name = label or getattr(arm, "name", None) or "arm"
     return (f"{role} {name} is not a physical arm: " + "; ".join(parts) + ": no rigid body has such mass properties "
             "(manipdyn check names them), so what is compared with it, or pulled towards it, is no real arm")
+
+
+#: why a massless arm is not completed (:func:`manipdyn.model.completion.complete_parameters`)
+MASSLESS = ("completion: every link of the arm is massless (mass 0 and no inertia; a subnormal value counts as "
+            "0): the arm has no dynamics, and no physical body has all-zero base parameters, so there is "
+            "nothing to complete; give the links their masses, or write the bodies as the model has them "
+            "(--as-published, as_published=True), which MuJoCo's compiler refuses on a moving body")
+
+
+def without_subnormals(pi, prior, n: int):
+    """``(pi, prior, notes)`` with every subnormal entry (under 2.2e-308 in magnitude, not 0) taken as 0:
+    no solver works in units a subnormal needs (a 5e-324 kg link made every scale of the problem NaN),
+    and such a body is no body; one note says which entries were."""
+    tiny = np.finfo(np.float64).tiny
+    sub = (pi != 0) & (np.abs(pi) < tiny)
+    if not sub.any():
+        return pi, prior, []
+    idx = [int(k) for k in np.flatnonzero(sub)]
+    where = ", ".join(f"link {k // 10 + 1} entry {k % 10}" if k < 10 * n else f"entry {k}" for k in idx[:6])
+    note = (f"{len(idx)} subnormal parameter(s) (|x| < {tiny:.3g}: {where}{', ...' if len(idx) > 6 else ''}) "
+            "taken as 0")
+    pi = np.where(sub, 0.0, pi)
+    prior = np.where((prior != 0) & (np.abs(prior) < tiny), 0.0, prior)
+    return pi, prior, [note]
+
+
+def is_massless(arm) -> bool:
+    """Whether every link of ``arm`` has mass 0 and no inertia (subnormal values counting as 0): an arm
+    with no dynamics, which :func:`manipdyn.model.completion.complete_parameters` refuses (a URDF holds it as it is)."""
+    tiny = np.finfo(np.float64).tiny
+    joints, _tool = arm.chain()
+    return all(abs(float(j.body.mass)) < tiny and not np.any(np.abs(np.asarray(j.body.inertia)) >= tiny)
+               for j in joints)
