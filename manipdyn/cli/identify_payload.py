@@ -33,7 +33,7 @@ _NOT_WITH_PAYLOAD = (("--method", "method", "consistent"), ("--friction", "frict
                      ("--friction-terms", "friction_terms", None), ("--armature", "armature", False),
                      ("--mass-bound", "mass_bound", None), ("--com-bound", "com_bound", None),
                      ("--total-mass-bound", "total_mass_bound", None), ("--no-bounds", "no_bounds", False),
-                     ("--prior-weight", "prior_weight", 0.0), ("--base-json", "base_json", None),
+                     ("--prior-weight", "prior_weight", None), ("--base-json", "base_json", None),
                      ("--smoothing", "smoothing", None), ("--bootstrap", "bootstrap", 0),
                      ("--scheduler", "scheduler", None), ("--logs", "logs", None),
                      ("--identify-torque-constants", "identify_torque_constants", False))

@@ -51,6 +51,7 @@ from .._support import limits
 from .._support.errors import ModelError
 from ..formats.logs.read import model_joint_names
 from .inputs.options import OptionError
+from .results.notes import decided_by, decided_record, fit_doubts, not_physical_notes, units_notes
 from .results.result import IdentifyResult, write_model_files
 
 __all__ = ["identify", "IdentifyResult"]
@@ -228,11 +229,11 @@ def _identify(prior, logs, o) -> IdentifyResult:
         raise OptionError("{}: expected one of " + ", ".join(METHODS) + ", got " + brace_safe(repr(o["method"])), "method")
     arm, prior_label = _load(prior, o["tip"])
     as_loaded, prior_notes = arm, []
-    if o["method"] == "consistent":      # the pull starts from physical bodies (.estimation.prior)
+    bounds = bounds_option(arm, o["method"], o["mass_bound"], o["com_bound"], o["total_mass_bound"], o["no_bounds"])
+    if o["method"] == "consistent":      # the pull starts from physical bodies (.estimation.prior); bounds as published
         from .estimation.prior import physical_prior
 
-        arm, prior_notes = physical_prior(arm, f"the prior {prior_label}")
-    bounds = bounds_option(arm, o["method"], o["mass_bound"], o["com_bound"], o["total_mass_bound"], o["no_bounds"])
+        arm, prior_notes = physical_prior(arm, f"the prior {os.path.basename(str(prior_label))}")
     law = friction_option(arm, o["friction"], o["friction_terms"], o["friction_side"], o["smoothing"],
                           o["stribeck_velocity"], o["sigmoid_alpha"])
     weight = prior_weight_option(o["prior_weight"], o["method"])
@@ -341,21 +342,17 @@ def _identify(prior, logs, o) -> IdentifyResult:
     prov.update(record)
     if tc is not None:       # the constants and where their scale came from, in one line (payload.torque_constants)
         prov["torque_constants"] = tc.as_dict()["summary"]
-    doubts = _doubts(result, data, runs)
+    doubts = fit_doubts(result, data, runs)
     if doubts:
         prov["doubts"] = doubts
     rep = dict(result.report)
-    from .estimation.prior import describe_attribution
-
-    decided = _attribution(result, arm, weight, data, o["method"])
+    decided, decided_notes = decided_by(result, arm, weight, data, o["method"])
     if decided is not None:
-        prov["decided"] = {"weight": decided["weight"], "links": decided["links"],
-                           "prior": [x["what"] for x in decided["base"] if x["by"] == "prior"]}
-    rep["fit_notes"] = _units_notes(arm, data) + ([group_note] if group_note else []) + prior_notes + law_notes \
-        + list(rep.get("fit_notes", [])) + (describe_attribution(decided) if decided is not None else []) \
-        + record_notes + doubts + _prior_notes(as_loaded, prior_label)
-    if decided is not None:
+        prov["decided"] = decided_record(decided)
         rep["decided"] = decided
+    rep["fit_notes"] = units_notes(arm, data) + ([group_note] if group_note else []) + prior_notes + law_notes \
+        + list(rep.get("fit_notes", [])) + decided_notes + record_notes + doubts + not_physical_notes(as_loaded,
+                                                                                                      prior_label)
     rep["doubts"] = doubts
     if smoothing_table is not None:
         rep["smoothing_selection"] = smoothing_table
@@ -385,37 +382,6 @@ def _identify(prior, logs, o) -> IdentifyResult:
     return out
 
 
-def _attribution(result, arm, weight, data, method):
-    """What the data, the prior and the floor decided (:func:`.estimation.prior.attribution`), or None
-    for a fit without the base parameters' covariance."""
-    from .estimation.prior import attribution, prior_parameters
-
-    if method == "ols" or result.covariance is None:
-        return None
-    prior_pi = prior_parameters(arm, result.base)
-    floored = [int(x.split()[1]) - 1 for x in result.report.get("active_bounds", []) if "radius of gyration" in x]
-    return attribution(result, prior_pi, float(weight), len(data.q) * arm.n, floored)
-
-
-def _units_notes(arm, data) -> list[str]:
-    """Torques in another unit than the prior's (:mod:`.inputs.units`): first among the notes, and warned."""
-    from .._support.errors import SuspiciousValueWarning, warn_at_caller
-    from .inputs.units import prior_torque_note
-
-    note = prior_torque_note(arm, data)
-    if note:
-        warn_at_caller(note, SuspiciousValueWarning)
-    return [note] if note else []
-
-
-def _prior_notes(arm, label) -> list[str]:
-    """The prior's own doubt: no physical arm (:func:`manipdyn.model.plausible.not_physical_note`)."""
-    from ..model.plausible import not_physical_note
-
-    note = not_physical_note(arm, os.path.basename(str(label)), "the prior")
-    return [note] if note else []
-
-
 def _held_out(refits, record, labels, folds):
     """The band's hold-outs and refits as :class:`.results.result.HeldOut`, or None without a band: its kind the
     held-out trajectories when there are two or more, else the blocks."""
@@ -426,15 +392,6 @@ def _held_out(refits, record, labels, folds):
     kind = "trajectories" if refits.get("trajectories") else "blocks"
     return HeldOut(kind, int(folds), {k: v for k, v in refits.items() if v},
                    None if labels is None else np.asarray(labels))
-
-
-def _doubts(result, data, runs) -> list[str]:
-    """What the fit should doubt (:mod:`.results.doubts`): degenerate bodies, runs far off, payloads contradicted."""
-    from .results.doubts import degenerate_links, floor_doubts, payload_doubts, run_doubts, solver_doubts
-
-    return (solver_doubts(result.report) + (degenerate_links(result.arm) if result.arm is not None else [])
-            + floor_doubts(result.report.get("active_bounds")) + run_doubts(result, data, result.report)
-            + payload_doubts(result.arm, runs))
 
 
 def _trajectory_groups(runs, data):

@@ -95,6 +95,15 @@ def physical_prior(arm, label: str = "the prior"):
     from .model import arm_with_parameters
 
     c = complete_parameters(arm, links=sorted(negative + degenerate), plausible=True)
+    full = np.asarray(c.parameters, dtype=np.float64)[:10 * arm.n]
+    if not c.exact:
+        # no physical arm has these base parameters: the completion's nearest arm may move every link (a
+        # link made massless, measured on a UR5 with two broken bodies); a prior should move only where it
+        # is wrong, so each such body is projected alone onto the nearest positive definite J instead
+        full = _projected(arm, sorted(negative + degenerate))
+        d = _torque_change(arm, full)
+        what = (f"no physical arm has these base parameters, so each such body alone is replaced by the nearest "
+                f"positive definite J (the prior's torques move by up to {d:.3g} N m on its seeded states)")
 
     def names(v):
         return ("link " if len(v) == 1 else "links ") + ", ".join(str(i + 1) for i in v)
@@ -113,9 +122,29 @@ def physical_prior(arm, label: str = "the prior"):
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PhysicalConsistencyWarning)
-        full = np.asarray(c.parameters, dtype=np.float64)[:10 * arm.n]
         out = arm_with_parameters(arm, full, armature=False, friction=False, name=arm.name)
     return out, [note]
+
+
+def _projected(arm, links) -> np.ndarray:
+    """The arm's link parameters (10 n,) with each body of ``links`` replaced by the nearest positive definite J
+    (Frobenius norm): its eigenvalues raised to a margin of 1e-6 of its largest."""
+    from ...model.inertia import parameters_from_pseudo_inertia
+
+    J = np.array([np.asarray(j.body.J, dtype=np.float64) for j in arm.chain()[0]])
+    for i in links:
+        w, V = np.linalg.eigh(J[i])
+        J[i] = (V * np.maximum(w, 1e-6 * max(float(w[-1]), 1e-300))) @ V.T
+    return parameters_from_pseudo_inertia(J).reshape(-1)
+
+
+def _torque_change(arm, full) -> float:
+    """The largest change of the arm's torques (N m or N) on its seeded states when its link parameters become
+    ``full``."""
+    from ...model.parameters import arm_parameters, stacked_regressor
+
+    W = stacked_regressor(arm)
+    return float(np.max(np.abs(W[:, :10 * arm.n] @ (full - arm_parameters(arm, False, False)))))
 
 
 def prior_parameters(arm, base) -> np.ndarray:

@@ -225,9 +225,16 @@ def choose_prior_weight(arm, q, qd, qdd, tau, weights=DEFAULT_WEIGHTS, folds: in
     table = []
     for w in weights:
         sq, sa, count_a, fold_scores, fold_tau, fold_acc = np.zeros(q.shape[1]), np.zeros(q.shape[1]), 0, [], [], []
+        failed = None
         for f, test in enumerate(masks):
-            r = fit(arm, q[~test], qd[~test], qdd[~test], tau[~test], method="consistent",
-                    prior_weight=w, base=base, regressor=Y[~test], factors=train[f], **fit_kwargs)
+            try:
+                r = fit(arm, q[~test], qd[~test], qdd[~test], tau[~test], method="consistent",
+                        prior_weight=w, base=base, regressor=Y[~test], factors=train[f], **fit_kwargs)
+            except ModelError as exc:
+                if w == 0.0:
+                    raise               # the data alone must fit: their error is the user's to see
+                failed = str(exc).splitlines()[0]
+                break
             pred = base.regressor(Y[test]) @ r.beta + known[test]       # r.predict, from the sliced Y
             err = tau[test] - pred
             e2 = np.sum(err ** 2, axis=0)
@@ -240,6 +247,9 @@ def choose_prior_weight(arm, q, qd, qdd, tau, weights=DEFAULT_WEIGHTS, folds: in
             fold_tau.append(ts)
             fold_acc.append(acs)
             fold_scores.append(ts + acs)
+        if failed is not None:       # a pull the solver cannot hold at this data's scale: passed over, said
+            table.append({"prior_weight": w, "score": None, "fold_scores": None, "rms": None, "failed": failed})
+            continue
         rms = np.sqrt(sq / N)
         table.append({"prior_weight": w, "score": float(np.mean(fold_scores)), "fold_scores": fold_scores,
                       "torque_score": float(np.mean(fold_tau)), "accel_score": float(np.mean(fold_acc)),
@@ -346,7 +356,7 @@ def describe_weight_choice(table, chosen, why: str, how: str) -> str:
     def cell(row):
         w = row["prior_weight"]
         if row.get("score") is None:
-            return f"{w:.3g}: failed"
+            return f"{w:.3g}: failed ({row['failed']})" if row.get("failed") else f"{w:.3g}: failed"
         head = (f"{w:.3g}: torque {row['torque_score']:.3f}, acceleration {row['accel_score']:.3f}"
                 if "torque_score" in row else f"{w:.3g}: score {row['score']:.4f}")
         if row.get("excluded"):

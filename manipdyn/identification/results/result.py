@@ -251,7 +251,7 @@ class IdentifyResult:
         out, the fit figure with its band, the parameters with their standard deviations and the
         active bounds, the data notes.  ``command``: the command line to show.  Returns the path."""
         from ..._support.html import write_page
-        from .html import identify_page
+        from .html_identify import identify_page
 
         write_page(path, identify_page(self, command=command))
         return os.fspath(path)
