@@ -112,8 +112,21 @@ def _write_api_pages(app):
     for stale in api.glob("*.rst"):
         if stale.stem not in names:
             stale.unlink()
-    (api / "index.rst").write_text("API reference\n=============\n\n.. toctree::\n   :maxdepth: 1\n\n"
-                                   + "".join(f"   {name}\n" for name in names))
+    # the public modules first; the private ones (manipdyn._support: helpers the others share, no
+    # stable API) after them, under their own caption
+    public = [name for name in names if not _private(name)]
+    private = [name for name in names if _private(name)]
+    text = "API reference\n=============\n\n.. toctree::\n   :maxdepth: 1\n   :caption: Modules\n\n"
+    text += "".join(f"   {name}\n" for name in public)
+    if private:
+        text += ("\n.. toctree::\n   :maxdepth: 1\n   :caption: Internal modules (shared helpers, not a stable API)\n\n"
+                 + "".join(f"   {name}\n" for name in private))
+    (api / "index.rst").write_text(text)
+
+
+def _private(name: str) -> bool:
+    """A module no user imports: one of its dotted parts starts with an underscore (``manipdyn._support.files``)."""
+    return any(part.startswith("_") for part in name.split("."))
 
 
 def _numpy_sections(app, what, name, obj, options, lines):

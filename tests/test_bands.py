@@ -254,7 +254,7 @@ def test_the_readme_says_which_model_to_trust():
 
     import guide
 
-    section = guide.page("validation")          # the guide's page "Which model to trust" (issue 38 item 15)
+    section = guide.page("validation")          # the guide's page "Validating a model" (issue 38 item 15)
     assert "--friction-terms viscous,coulomb,offset --friction-side motor --armature" in section
     assert "manipdyn validate panda_id.toml $LOG --t-range 10:21" in section
     assert "EXTRAPOLATES joint 2" in section

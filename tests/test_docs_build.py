@@ -36,6 +36,10 @@ def test_api_reference_builds_nitpicky_with_warnings_as_errors(tmp_path):
     for must in ("manipdyn", "manipdyn.engines.c.graph", "manipdyn.identification.pipeline",
                  "manipdyn.identification.estimation.fitting", "manipdyn.control.montecarlo.study"):
         assert must in pages, must
+    # issue 46 item 12: the reference lists the public modules first, the private manipdyn._support ones after them
+    listed = [line.strip() for line in (src / "api" / "index.rst").read_text().splitlines() if line.startswith("   manipdyn")]
+    private = [k for k, name in enumerate(listed) if "._" in name]
+    assert listed[0] == "manipdyn" and private and private == list(range(len(listed) - len(private), len(listed))), listed
     html = (tmp_path / "html" / "api" / "manipdyn.engines.c.graph.html").read_text(encoding="utf-8")
     assert "manipdyn.engines.lagrange" in html and "manipdyn.model.parameters" in html
     # issue 38 item 15: the user guide is built with it, every page of its toctree

@@ -51,3 +51,21 @@ def test_guide_links_between_pages_name_pages_that_exist():
     for page in guide.toc():
         for target in re.findall(r"\]\((\w+)\.md(?:#[\w-]+)?\)", guide.page(page)):
             assert (guide.GUIDE / f"{target}.md").is_file(), (page, target)
+
+
+def test_a_refused_negative_urdf_friction_points_at_the_guides_recipe(tmp_path):
+    """Issue 46 item 8: a URDF whose <dynamics friction> is negative (FloBaRoID's LWR4+) is refused; the
+    one-line error says how the rigid part loads and names the page whose recipe adds the tags' torques."""
+    import manipdyn as md
+
+    text = md.to_urdf(md.load("ur5")).replace("</joint>", '<dynamics damping="0.1" friction="-0.3"/></joint>', 1)
+    (tmp_path / "neg.urdf").write_text(text)
+    try:
+        md.load(str(tmp_path / "neg.urdf"))
+    except md.ModelError as e:
+        message = str(e)
+    else:
+        raise AssertionError("a negative Coulomb coefficient was loaded")
+    assert "friction=-0.3" in message and "without the <dynamics> tags the rigid part loads" in message
+    page = re.search(r"docs/guide/(\w+)\.md", message).group(1)
+    assert "<dynamics>" in guide.page(page) and "coulomb * np.sign(log.qd)" in guide.page(page)

@@ -27,7 +27,8 @@ from manipdyn.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 import guide
-from common import PANDA_LOG as REALDATA, needs_panda_log as needs_realdata
+from common import LWR4_DIR, LWR4_SKIP, PANDA_LOG as REALDATA, REALDATA as REALDATA_DIR, \
+    needs_panda_log as needs_realdata
 
 #: the README and the guide's pages, one after another
 README = guide.TEXT
@@ -58,7 +59,8 @@ RUN_ELSEWHERE = {"mc.run(study)": "the Monte-Carlo block runs as a script in tes
 def _run_script(text: str, tmp_path: Path):
     script = tmp_path / "block.py"
     script.write_text(text, encoding="utf-8")
-    env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
+    # a block that reads the real-data folder reads it through MANIPDYN_REALDATA, as the shell blocks do
+    env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg", MANIPDYN_REALDATA=str(REALDATA_DIR))
     return subprocess.run([sys.executable, str(script)], cwd=tmp_path, env=env, capture_output=True,
                           text=True, timeout=900)
 
@@ -74,6 +76,8 @@ def test_item6_readme_python_block_runs_alone(line, text, tmp_path):
             pytest.skip(why)
     if "montecarlo" in text or "dask" in text:
         pytest.importorskip("distributed", reason="the scale extra is not installed")
+    if "lwr4_flobaroid" in text and not (LWR4_DIR / "kuka_lwr4_identified.urdf").is_file():
+        pytest.skip(LWR4_SKIP)
     proc = _run_script(text, tmp_path)
     assert proc.returncode == 0, f"block at {line}:\n{proc.stderr[-3000:]}"
     assert "Traceback" not in proc.stderr

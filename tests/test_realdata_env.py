@@ -82,4 +82,9 @@ def test_the_guide_reads_the_log_through_the_variable():
     assert real, "the guide's real-log blocks"
     for b in real:
         assert "LOG=${MANIPDYN_REALDATA:-../shared/realdata}/panda_gaz2019/panda_as_logged.csv" in b or "$LOG" in b, b
+    # the KUKA LWR4+ runs (trust.md), the same way: no placeholder path a reader must edit (issue 46 item 8)
+    lwr = [b for b in blocks if "$LWR" in b]
+    assert lwr, "the guide's LWR4+ blocks"
+    for b in lwr:
+        assert "LWR=${MANIPDYN_REALDATA:-../shared/realdata}/lwr4_flobaroid\n" in b, b
     assert "MANIPDYN_REALDATA" in (ROOT / "README.md").read_text(encoding="utf-8")

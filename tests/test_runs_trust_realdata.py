@@ -152,3 +152,17 @@ def test_one_repeated_trajectory_gives_a_band_that_holds_on_another(repeated_tra
     assert any("held out together as repeats of one trajectory" in x for x in rep["fit_notes"])
     assert 0.90 <= out["band_95_pooled"] <= 0.98, out["band_95_coverage"]
     np.testing.assert_allclose(np.mean(inside, axis=0), out["band_95_coverage"], atol=1e-12)
+
+
+def test_the_guides_published_rows_are_the_published_models_scores():
+    """trust.md's recipe scores FloBaRoID's model as published (its rigid part plus its tags' viscous and
+    Coulomb torques, which manipdyn does not load: four Coulomb coefficients are negative) and Gaz's; its
+    printed rows are these scores, to the three decimals it prints."""
+    import guide
+
+    rows = {name: [float(x) for x in re.search(name + r" +RMS per joint \(N m\): \[([^\]]+)\]",
+                                               guide.page("trust")).group(1).split()]
+            for name in ("Gaz", "FloBaRoID")}
+    published = _published_rms("run1.csv")
+    np.testing.assert_allclose(rows["Gaz"], published["gaz"], atol=5e-4 + 1e-9)
+    np.testing.assert_allclose(rows["FloBaRoID"], published["flobaroid"], atol=5e-4 + 1e-9)

@@ -109,7 +109,7 @@ def rosenbrock_windows(arm, f, x, v, u, h):
 
 
 def run_mujoco(arm, m, starts, steps, dt, m_sub, mujoco_plant, kind="rk4"):
-    """As :func:`_run_manipdyn`, MuJoCo stepping the arm's MJCF (module docstring)."""
+    """As :func:`run_manipdyn`, MuJoCo stepping the arm's MJCF (module docstring)."""
     from .mjsim import bad_warnings, mujoco_plant_model
 
     W, n = len(starts), arm.n

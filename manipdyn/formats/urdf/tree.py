@@ -122,8 +122,9 @@ def read_joint(el, label: str) -> URDFJoint:
             damping = read_number(dyn, "damping", where, default=0.0)
             friction = read_number(dyn, "friction", where, default=0.0)
             if damping < 0 or friction < 0:
-                raise ModelError(f"{where}: <dynamics> damping and friction must be >= 0, "
-                                 f"got damping={damping}, friction={friction}")
+                raise ModelError(f"{where}: <dynamics> damping and friction must be >= 0 (a negative one drives the "
+                                 f"joint along its motion), got damping={damping}, friction={friction}; without the "
+                                 f"<dynamics> tags the rigid part loads (docs/guide/trust.md adds such tags' torques)")
     mel = one_child(el, "mimic", where, required=False)
     if mel is not None:
         leader = mel.get("joint")
