@@ -173,7 +173,8 @@ def test_item22_help_states_the_defaults():
     text = _help("identify")
     assert f"default {START_STRIBECK_VELOCITY:g} rad/s at the joint" in text
     assert f"default {START_SIGMOID_ALPHA:g} s/rad at the joint" in text
-    assert "no pull" in text and "default 0, none" in text
+    # the prior weight's default is chosen on the hold-outs (issue 44 item 2); 0 is the data alone
+    assert "default auto: chosen on the hold-outs" in text and "0: the data alone" in text and "default 0, none" in text
     assert "--no-progress never show" in _help("excite")
     assert "default: puma560 stanford ur5 ur10" in _help("bench")
 
