@@ -93,7 +93,7 @@ class StudyReport:
     def effect(self) -> dict:
         """What the study's added friction and torque noise do to its arm (:func:`.distributions.effect_on_arm`)."""
         s = self.study
-        return effect_on_arm(s.distributions, s.arm, s.bandwidth)
+        return effect_on_arm(s.distributions, s.arm, s.bandwidth, s.sizes() if s.distributions.sized else None)
 
     def report_html(self, path, command: str | None = None, plants_file=None, notes=None) -> str:
         """Write the study as one self-contained HTML page to ``path`` (atomically; what
