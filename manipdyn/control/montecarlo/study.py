@@ -36,7 +36,7 @@ from ..controllers import Controller
 from ..mjsim import MUJOCO_PLANTS, SIMULATORS      # who steps a study's plants, and which plant
 from ...check.scale import arm_from_text, model_text
 from .distributions import Distributions, draw
-from .diverged import cause, runaway
+from .diverged import cause, explain, runaway
 from .plant import Plant, make_plant, plant_arm
 
 __all__ = ["Study", "RunSetup", "TorqueNoise", "run_chunk", "CONTROLLER_KEYS", "model_text"]
@@ -394,7 +394,8 @@ def _record(study: Study, setup: RunSetup, key: str, log, diverged: bool) -> dic
     return {"run": int(setup.plant.draw.run), "controller": key, "rms_error": m["rms_error"],
             "max_error": m["max_error"], "peak_torque": m["peak_torque"],
             "diverged": diverged or ran_away, "saturated": m["saturated"], "substeps": int(log.substeps),
-            "sampled_loop": loop, "cause": cause(loop, diverged, ran_away)}
+            "sampled_loop": loop, "cause": cause(loop, diverged, ran_away),
+            "why": explain(study, setup, key, log, diverged, ran_away, loop)}
 
 
 def run_many(study: Study, runs, key: str, cache: dict) -> list:
