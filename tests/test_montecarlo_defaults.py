@@ -159,3 +159,31 @@ def test_a_diverged_lqr_run_says_what_happened_to_it(tmp_path):
     html = page.read_text(encoding="utf-8")
     assert 'diverged-runs' in html and "study.replay(4, &#x27;lqr&#x27;)" in html
     assert "linearisation along the path" in html
+
+
+def test_the_guides_ur5_table_is_what_its_commands_give(capsys):
+    """docs/guide/montecarlo.md, 'Draws sized to the arm': the two 8-run UR5 studies of its block,
+    run here, give the table's medians (printed to 3 significant digits)."""
+    import re
+
+    import guide
+
+    text = guide.section("## Draws sized to the arm")
+    (block,) = [b.text for b in guide.blocks("sh") if "--runs 8 --seed 1" in b.text]
+    rows = {}
+    for line in block.strip().splitlines():
+        argv = line.split(">")[0].split()[1:]
+        assert argv[:2] == ["montecarlo", "ur5"] and "--json" in argv
+        assert main([*argv, "--no-progress"]) == 0
+        doc = json.loads(capsys.readouterr().out)
+        rows["absolute" if "--payload-mass" in argv else "sized"] = doc
+    for label, key in (("| sized draws (the defaults) |", "sized"), ("| absolute draws (the defaults before", "absolute")):
+        line = next(l for l in text.splitlines() if l.startswith(label))
+        said = [float(x) for x in re.findall(r"\|\s*([0-9.]+)\s*(?=\|)", line)]
+        got = [rows[key]["controllers"][k]["rms_error"]["p50"] for k in ("pd", "pdg", "ct", "adaptive", "lqr")]
+        assert said == [float(f"{g:.3g}") for g in got], (key, said, got)
+    lqr = rows["absolute"]["controllers"]["lqr"]
+    assert lqr["diverged"] == 2 and lqr["diverged_because"] == {"runaway": 2}
+    assert all(e["diverged"] == 0 for e in rows["sized"]["controllers"].values())
+    assert "2\nof LQR's 8 runs run away (runs 0 and 4" in text
+    assert [r["run"] for r in rows["absolute"]["per_run"] if r["diverged"]] == [0, 4]
