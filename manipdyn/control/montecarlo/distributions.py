@@ -29,7 +29,7 @@ from ..._support import limits
 from ..._support.limits import nonnegative
 
 __all__ = ["Distributions", "RunDraw", "draw", "run_rng", "DISTRIBUTIONS_HELP", "effect_on_arm",
-           "RELATIVE_DEFAULTS", "ABSOLUTE_DEFAULTS"]
+           "RELATIVE_DEFAULTS", "ABSOLUTE_DEFAULTS", "Bounds"]
 
 #: the sized figures' defaults (fractions of each joint's torque scale, :mod:`.sizing`)
 RELATIVE_DEFAULTS = {"payload_rel": 0.2, "friction_viscous_rel": 0.1, "friction_coulomb_rel": 0.1,
@@ -139,8 +139,6 @@ class Distributions:
     def bounds(self, sizes=None) -> "Bounds":
         """The absolute bounds of the draws on an arm of :class:`~.sizing.Sizes` ``sizes`` (needed
         when :attr:`sized`): absolute figure plus relative figure times the joint's scale."""
-        from .sizing import Bounds
-
         if sizes is None:
             if self.sized:
                 raise ValueError("distributions: the *_rel figures are fractions of the arm's joint torques: "
@@ -163,6 +161,18 @@ class Distributions:
 #: bit for bit, as the studies of those versions (``--payload-mass 2 --friction-viscous 0.5
 #: --friction-coulomb 0.5 --torque-noise 0.05`` on the command line)
 ABSOLUTE_DEFAULTS = Distributions(payload_mass=2.0, friction_viscous=0.5, friction_coulomb=0.5, torque_noise=0.05)
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """The absolute bounds of a study's draws on one arm (:meth:`.Distributions.bounds`):
+    ``payload_mass`` kg, and per joint (n,) or one number for every joint: ``viscous`` N m s/rad,
+    ``coulomb`` N m, ``noise`` N m (standard deviation)."""
+
+    payload_mass: float
+    viscous: np.ndarray
+    coulomb: np.ndarray
+    noise: np.ndarray
 
 
 #: the text of ``manipdyn montecarlo --help`` on the default distributions

@@ -373,7 +373,9 @@ def plant_source(study) -> str:
     if p is None:
         d = study.distributions
         if d.sized:
-            return _sized_source(study)
+            from .sizing import sized_source
+
+            return sized_source(study)
         varied = [f"links x 1 +- {d.link_scale:g}" if d.link_scale else "links as the model",
                   f"payload <= {d.payload_mass:g} kg" if d.payload_mass else "no payload"]
         if d.friction_viscous or d.friction_coulomb:     # say what is added, and only then
@@ -390,31 +392,6 @@ def plant_source(study) -> str:
             f"covariance, moving a base parameter by up to {c['shift_sigma_p50']:.2g} sigma (median; "
             f"max {c['shift_sigma_max']:.2g}), Mahalanobis distance {c['distance_p50']:.2g} (median; "
             f"max {c['distance_max']:.2g})")
-
-
-def _sized_source(study) -> str:
-    """The header line of a study whose draws are sized to the arm (:mod:`.sizing`)."""
-    d, z, b = study.distributions, study.sizes(), study.bounds()
-
-    def part(rel, absolute, what, unit):
-        if not (rel or absolute):
-            return None
-        sized = f"{rel:g} tau_j{what}" if rel else ""
-        return " + ".join(x for x in (sized, f"{absolute:g} {unit}" if absolute else "") if x)
-
-    pay = (f"payload <= {b.payload_mass:.3g} kg" + (f" (its torque <= {d.payload_rel:g} tau_j: joint {z.payload_joint} "
-                                                    "bounds it)" if d.payload_rel else "")
-           if b.payload_mass else "no payload")
-    fr = [f"{name} <= {p}" for name, p in (("viscous", part(d.friction_viscous_rel, d.friction_viscous, " / qd_j",
-                                                            "N m s/rad")),
-                                          ("Coulomb", part(d.friction_coulomb_rel, d.friction_coulomb, "", "N m"))) if p]
-    noise = part(d.torque_noise_rel, d.torque_noise, "", "N m")
-    varied = [f"links x 1 +- {d.link_scale:g}" if d.link_scale else "links as the model", pay,
-              ("added friction: " + ", ".join(fr)) if fr else "no added friction",
-              f"torque noise sd {noise}" if noise else "no torque noise"]
-    torque = ", ".join(f"{x:.3g}" for x in z.torque)
-    return (f"plants: distributions sized to the arm ({', '.join(varied)}; tau_j, joint j's largest torque on the "
-            f"path: {torque} N m)")
 
 
 def load_identified(path) -> IdentifiedPlants:

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Sizes", "Bounds", "arm_sizes"]
+__all__ = ["Sizes", "arm_sizes", "sized_source"]
 
 #: the smallest scale a joint is given (a joint the path does not load still gets a finite bound)
 TINY = 1e-12
@@ -45,18 +45,6 @@ class Sizes:
     def to_dict(self) -> dict:
         return {"torque": self.torque.tolist(), "speed": self.speed.tolist(), "payload_kg": self.payload_kg,
                 "payload_joint": self.payload_joint}
-
-
-@dataclass(frozen=True)
-class Bounds:
-    """The absolute bounds of a study's draws on one arm (:meth:`.Distributions.bounds`):
-    ``payload_mass`` kg, and per joint (n,) or one number for every joint: ``viscous`` N m s/rad,
-    ``coulomb`` N m, ``noise`` N m (standard deviation)."""
-
-    payload_mass: float
-    viscous: np.ndarray
-    coulomb: np.ndarray
-    noise: np.ndarray
 
 
 def arm_sizes(arm, q, qd, qdd, payload_com) -> Sizes:
@@ -84,3 +72,28 @@ def arm_sizes(arm, q, qd, qdd, payload_com) -> Sizes:
     kg = np.where(per_kg > 0, torque / np.maximum(per_kg, TINY), np.inf)
     j = int(np.argmin(kg))
     return Sizes(torque, speed, float(kg[j]) if np.isfinite(kg[j]) else 0.0, j + 1)
+
+
+def sized_source(study) -> str:
+    """The header line of a study whose draws are sized to the arm (:mod:`.sizing`)."""
+    d, z, b = study.distributions, study.sizes(), study.bounds()
+
+    def part(rel, absolute, what, unit):
+        if not (rel or absolute):
+            return None
+        sized = f"{rel:g} tau_j{what}" if rel else ""
+        return " + ".join(x for x in (sized, f"{absolute:g} {unit}" if absolute else "") if x)
+
+    pay = (f"payload <= {b.payload_mass:.3g} kg" + (f" (its torque <= {d.payload_rel:g} tau_j: joint {z.payload_joint} "
+                                                    "bounds it)" if d.payload_rel else "")
+           if b.payload_mass else "no payload")
+    fr = [f"{name} <= {p}" for name, p in (("viscous", part(d.friction_viscous_rel, d.friction_viscous, " / qd_j",
+                                                            "N m s/rad")),
+                                          ("Coulomb", part(d.friction_coulomb_rel, d.friction_coulomb, "", "N m"))) if p]
+    noise = part(d.torque_noise_rel, d.torque_noise, "", "N m")
+    varied = [f"links x 1 +- {d.link_scale:g}" if d.link_scale else "links as the model", pay,
+              ("added friction: " + ", ".join(fr)) if fr else "no added friction",
+              f"torque noise sd {noise}" if noise else "no torque noise"]
+    torque = ", ".join(f"{x:.3g}" for x in z.torque)
+    return (f"plants: distributions sized to the arm ({', '.join(varied)}; tau_j, joint j's largest torque on the "
+            f"path: {torque} N m)")
