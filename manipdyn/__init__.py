@@ -24,8 +24,8 @@ Importing it imports both engines, which register themselves with the model.
 from ._support.interrupt import quiet_interrupt_while_starting as _quiet_interrupt
 
 _quiet_interrupt()
-from ._support.errors import (ModelError, ModelNoteWarning, PhysicalConsistencyWarning, SingularMassMatrixError,
-                     StateError, SuspiciousValueWarning, UnreachablePoseError)
+from ._support.errors import (FormatLossWarning, ModelError, ModelNoteWarning, PhysicalConsistencyWarning,
+                     SingularMassMatrixError, StateError, SuspiciousValueWarning, UnreachablePoseError)
 from .model.inertia import LinkInertia
 from .model.kinematics import transform_inverse
 from .model.links import ChainJoint, DHLink
@@ -119,7 +119,7 @@ __version__ = "0.1.0"
 
 __all__ = ["Transmission", "Friction", "FrictionTerms", 
     "Arm", "ChainJoint", "Convention", "CompareReport", "CrosscheckReport", "DHLink", "DynamicsEngine", "JacobianEngine",
-    "LinkInertia", "Manipulator", "ModelError", "ModelNoteWarning", "PhysicalConsistencyWarning", "SingularMassMatrixError",
+    "FormatLossWarning", "LinkInertia", "Manipulator", "ModelError", "ModelNoteWarning", "PhysicalConsistencyWarning", "SingularMassMatrixError",
     "StateError", "SuspiciousValueWarning", "URDFArm", "UnreachablePoseError", "codegen", "compare", "crosscheck", "linearize", "load", "load_with_notes", "models", "save",
     "simulate", "replay", "identify", "validate", "observe", "MomentumObserver", "to_mjcf", "to_toml", "to_urdf", "transform_inverse", "write_mjcf", "write_urdf",
 ]

@@ -46,7 +46,7 @@ def _pipelines():
         "check/crosscheck": (md.crosscheck, same("samples", "seed", "scheduler", "workers")),
         "compare/compare": (md.compare, same("samples", "seed")),
         "identify/identify": (identify, same(*IDENTIFY_OPTIONS, *LOG_OPTIONS)),
-        "validate/validate": (validate, same("tip", "predictions", *LOG_OPTIONS)),
+        "validate/validate": (validate, same("tip", "predictions", "compare_column", *LOG_OPTIONS)),
         "observe/observe": (md.observe, same("false_alarms", "min_duration", "hysteresis")),
     }
 
@@ -55,7 +55,7 @@ def _pipelines():
 IDENTIFY_OPTIONS = ("method", "tip", "friction", "friction_terms", "friction_side", "smoothing", "stribeck_velocity",
                     "sigmoid_alpha", "armature", "mass_bound", "com_bound", "total_mass_bound", "no_bounds",
                     "prior_weight", "bootstrap", "scheduler", "band_folds", "identify_torque_constants", "output",
-                    "base_json")
+                    "base_json", "scale_from_gravity")
 #: how to read the logs, shared by identify and validate
 LOG_OPTIONS = ("columns", "deg", "rate", "time_scale", "resample", "cutoff", "no_decimate", "t_range", "topic",
                "joint_names", "extra_joints")

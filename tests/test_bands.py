@@ -164,7 +164,8 @@ def test_validate_scores_several_models_side_by_side(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "2 models on 1000 samples" in text and fig.stat().st_size > 0
     rows = [line.split() for line in text.splitlines() if line[:5].strip().isdigit()]
-    assert len(rows) == 6 and all(r[2].endswith("*") for r in rows[1:4]), text
+    # the torque table, then the forward dynamics' (issue 44 item 4), 6 joints each
+    assert len(rows) == 12 and all(r[2].endswith("*") for r in rows[1:4]), text
     assert main(["validate", str(heavier), str(truth), str(log), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert [m["model"] for m in out["models"]] == ["heavier", "ur5"]

@@ -109,18 +109,19 @@ def test_a_noisy_velocity_gets_lower_thresholds_and_a_push_is_still_found_within
     # 5e-3 rad/s of white velocity noise, the order of the Panda log's qd above 10 Hz; 0.05 N m on the torque
     cal = _log(panda, 10.0, qd_noise=5e-3, tau_noise=0.05, seed=1)
     push = _log(panda, 2.0, [(1.0, 1.3, np.array([0.0, 0.0, -20.0]))], qd_noise=5e-3, tau_noise=0.05, seed=2)
-    raw = calibrate_thresholds(panda, cal, velocity_cutoff=0)
-    low = calibrate_thresholds(panda, cal)                       # the default, 20 Hz
+    # at one gain, 100 1/s (left out, the gain is chosen on the data, manipdyn/control/collision/gain.py)
+    raw = calibrate_thresholds(panda, cal, 100.0, velocity_cutoff=0)
+    low = calibrate_thresholds(panda, cal, 100.0)                # the default, 20 Hz
     assert low.velocity_cutoff == 20.0 and raw.velocity_cutoff == 0.0
     # measured 2.4, 2.6, 2.0, 3.0, 2.1, 1.7, 1.2x lower: most where K M(q) qd_noise is largest (joints 1-4);
     # the wrist's joint 7 is nearly as much the torque noise's
     assert np.all(low.threshold < raw.threshold), (raw.threshold, low.threshold)
     assert np.all(low.threshold[:4] < raw.threshold[:4] / 1.5), (raw.threshold, low.threshold)
-    res = observe(panda, push, calibrate=cal, direct=False)
+    res = observe(panda, push, 100.0, calibrate=cal, direct=False)
     (event,) = res.events
     assert 1.0 <= event.detected <= 1.02                          # measured 7 ms (5 ms without the low-pass)
     # the same push in the raw observer: found too, and not much earlier (the low-pass's lag)
-    (early,) = observe(panda, push, calibrate=cal, direct=False, velocity_cutoff=0).events
+    (early,) = observe(panda, push, 100.0, calibrate=cal, direct=False, velocity_cutoff=0).events
     assert early.detected <= event.detected <= early.detected + 0.01
 
 
@@ -184,7 +185,7 @@ def test_the_thresholds_keep_their_cutoff_and_another_is_refused(ur5, tmp_path, 
     assert main(["observe", "ur5", "--calibrate", str(tmp_path / "cal.csv"), "--save-model", str(model)]) == 0
     capsys.readouterr()
     assert main(["observe", str(model), str(tmp_path / "cal.csv"), "--velocity-cutoff", "5"]) == 2
-    assert "velocity_cutoff: the model's thresholds are for the observer with its output low-pass at 20 Hz, not " \
+    assert "--velocity-cutoff: the model's thresholds are for the observer with its output low-pass at 20 Hz, not " \
         "with its output low-pass at 5 Hz" in \
         capsys.readouterr().err
 

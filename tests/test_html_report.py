@@ -370,13 +370,13 @@ def test_montecarlo_library_call(tmp_path):
 
 def test_report_without_matplotlib_says_how_to_install(monkeypatch, capsys, tmp_path):
     """No plot extra: --report is refused before any work, in one line with the install command."""
-    from manipdyn.cli import common
+    from manipdyn.cli import outputs
 
     def missing():
         raise md.ModelError("--plot needs matplotlib: pip install 'manipdyn[plot]' (in a source checkout: "
                             "pip install -e '.[plot]')")
 
-    monkeypatch.setattr(common, "pyplot", missing)
+    monkeypatch.setattr(outputs, "pyplot", missing)
     assert main(["montecarlo", "puma560", "--runs", "1", "--report", str(tmp_path / "r.html")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--report" in err and "pip install -e '.[plot]'" in err

@@ -140,5 +140,5 @@ def test_point_in_base_is_eq_2_8():
     # the origin of the last frame is the end position
     np.testing.assert_allclose(arm.point_in_base(q, np.zeros(3)), arm.fkine(q)[:3, 3], atol=1e-15)
     assert arm.point_in_base(np.tile(q, (5, 1)), p).shape == (5, 3)
-    with pytest.raises(ValueError, match="link: expected 1..4"):
+    with pytest.raises(ValueError, match="link: expected a link number 1..4"):
         arm.point_in_base(q, p, link=5)

@@ -14,8 +14,8 @@ import warnings
 
 _PACKAGE_DIR = os.path.dirname(os.path.dirname(os.path.abspath(__file__))) + os.sep  # manipdyn/, not _support/
 
-__all__ = ["ModelError", "TipError", "UnreachablePoseError", "ModelNoteWarning", "PhysicalConsistencyWarning",
-           "SuspiciousValueWarning", "SingularMassMatrixError", "StateError", "warn_at_caller", "warn_notes",
+__all__ = ["is_solver_panic", "ModelError", "TipError", "UnreachablePoseError", "ModelNoteWarning", "PhysicalConsistencyWarning",
+           "SuspiciousValueWarning", "FormatLossWarning", "SingularMassMatrixError", "StateError", "warn_at_caller", "warn_notes",
            "MissingExtraError"]
 
 
@@ -101,6 +101,13 @@ class SuspiciousValueWarning(ModelNoteWarning):
     """
 
 
+class FormatLossWarning(ModelNoteWarning):
+    """A file was written (``md.write_urdf``, ``md.write_mjcf``) that does not hold all of the model: a
+    friction law, rotor inertia, gravity, placeholder limits.  The message lists them, one clause each,
+    as the file's opening comment and ``manipdyn urdf`` / ``manipdyn mjcf``'s ``not held:`` lines do.
+    """
+
+
 class ToolFrameWarning(ModelNoteWarning):
     """A URDF's tool frame was chosen by the default rule (the last moving link) while
     fixed frames beyond it (``tool0``, ``ee_link``, ...) sit elsewhere: pass ``tip=`` to
@@ -160,3 +167,17 @@ class MissingExtraError(ImportError):
     def __init__(self, message: str, cli_message: str | None = None):
         super().__init__(message)
         self.cli_message = cli_message if cli_message is not None else message
+
+
+def is_solver_panic(exc: BaseException) -> bool:
+    """Whether ``exc`` is a panic of a solver written in Rust (Clarabel): pyo3's
+    ``PanicException``, which derives from ``BaseException``, so ``except Exception`` misses it.
+
+    The solver wrappers (:mod:`manipdyn.model.completion`,
+    :mod:`manipdyn.identification.estimation.solvers`) catch ``BaseException``, keep what this
+    says is a panic as that solver's failure (the next solver is tried, and a
+    :class:`ModelError` says none answered), and raise everything else again (Ctrl-C included).
+    """
+    t = type(exc)
+    return (t.__name__ == "PanicException" and t.__module__ == "pyo3_runtime"
+            and not isinstance(exc, (KeyboardInterrupt, SystemExit, GeneratorExit)))

@@ -72,7 +72,9 @@ def escape(text) -> Markup:
     """``text`` as HTML text: ``& < > " '`` escaped; :class:`Markup` unchanged; None as ``""``."""
     if isinstance(text, Markup):
         return text
-    return Markup(_html.escape("" if text is None else str(text), quote=True))
+    from .text import visible        # control and invisible characters shown escaped, never raw
+
+    return Markup(_html.escape("" if text is None else visible(text, keep="\n\t"), quote=True))
 
 
 def number(x, digits: int = 4, unit: str = "") -> str:

@@ -76,6 +76,12 @@ MAX_EXCITATION_SAMPLES = 100_000
 #: most integration steps of one Monte-Carlo run (``--duration / --dt``, as ``manipdyn
 #: track``): each run draws an n-wide torque-noise row per step
 MAX_RUN_STEPS = 2_000_000
+#: lowest cut-off (Hz) of the collision observer's residual low-pass other than 0 (none): its time constant
+#: 1 / (2 pi f) is then 16 s, longer than any contact it is meant to see; 1e-300 Hz gave 6e-12 N m thresholds
+MIN_VELOCITY_CUTOFF = 0.01
+#: most integration steps of one replay (start states x steps to the longest horizon x substeps, every
+#: model together): at some 20 microseconds a step, 5e7 steps are about 20 minutes
+MAX_REPLAY_STEPS = 5e7
 #: most integration steps of a whole Monte-Carlo study (runs x controllers x steps):
 #: at some 20 microseconds a step, 1e9 steps are about 6 core-hours
 MAX_STUDY_STEPS = 1e9

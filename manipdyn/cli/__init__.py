@@ -22,6 +22,7 @@ import warnings
 from .._support.errors import MissingExtraError, ModelError, SingularMassMatrixError, StateError
 from . import (bench, check, codegen, compare, excite, identify, mjcf, models, montecarlo, observe, replay, synthesize, track,
                urdf, validate)
+from .._support.text import EscapingWriter
 from .._support.threads import blas_threads
 from .common import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, one_line
 
@@ -47,6 +48,22 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_USAGE, f"{self.prog}: error: {one_line(message)} (see {self.prog} --help)\n")
 
 
+class _CommandParser(_Parser):
+    """A subcommand's parser: options may stand between the positional arguments
+    (``manipdyn mjcf erd:panda --tip panda_hand OUT``), as argparse's intermixed parsing reads them."""
+
+    _inside = False
+
+    def parse_known_args(self, args=None, namespace=None):
+        if self._inside:        # the intermixed parse's own two passes
+            return super().parse_known_args(args, namespace)
+        self._inside = True
+        try:
+            return self.parse_known_intermixed_args(args, namespace)
+        finally:
+            self._inside = False
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``manipdyn`` argument parser with every subcommand of :data:`COMMANDS`."""
     p = _Parser(
@@ -61,7 +78,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="BLAS threads of this process (default 1: manipdyn's matrices are small, and more "
                         "threads only slow it on a shared machine; 0 leaves the BLAS library's own "
                         "choice; needs threadpoolctl, otherwise ignored)")
-    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_CommandParser)
     for command in COMMANDS:
         command.register(sub)
     return p
@@ -118,6 +135,8 @@ def _main(argv) -> int:
     if args.blas_threads < 0:
         print(f"manipdyn: error: --blas-threads: expected >= 0, got {args.blas_threads}", file=sys.stderr)
         return EXIT_USAGE
+    real = sys.stdout
+    sys.stdout = EscapingWriter(real)       # no raw control character from a name reaches the terminal
     try:
         with blas_threads(args.blas_threads or None):
             return args.func(args)
@@ -149,6 +168,9 @@ def _main(argv) -> int:
         print(f"manipdyn {args.command}: internal error: {type(exc).__name__}: {one_line(exc)} "
               "(rerun with --debug for the traceback)", file=sys.stderr)
         return EXIT_INTERNAL
+    finally:
+        if isinstance(sys.stdout, EscapingWriter):
+            sys.stdout = real
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -47,8 +47,14 @@ OPTIONS = (
     ("--band-folds", 5, int, "K", "refit on K-1 of K blocks in time and score the held-out one, for the 95 %% "
      "prediction band validate draws (model error and correlated noise; default 5, 0: none)"),
     ("--identify-torque-constants", False, "store_true", None, "k_t per motor from currents (i1..in), written "
-     "to [transmission]; the scale from a payload run (--logs) or the model's torque_constant"),
+     "to [transmission]; the scale from a payload run (--logs), the model's torque_constant, or else the "
+     "prior's gravity torque (--scale-from-gravity)"),
     ("--torque-constant-reference", None, str, "K1,K2", "motors whose model k_t sets the scale (default all)"),
+    ("--scale-from-gravity", None, str, "J1,J2", "with --identify-torque-constants and neither a payload run nor "
+     "the model's torque_constant: the motors whose gravity torque in the prior sets the scale of the torque "
+     "constants, i.e. trust the prior's masses and centres of mass of the links from the first of them to the tool "
+     "(joint j carries links j..n); default: every motor whose prior gravity torque varies over the logs "
+     "(a UR arm: 2,3)"),
     ("--base-json", None, str, "FILE.json", "also write the base model (base parameters, std) here"))
 
 
@@ -119,6 +125,12 @@ def run(args) -> int:
             except ValueError:
                 raise ModelError("--torque-constant-reference: expected motor numbers like 1,2, got "
                                  f"{args.torque_constant_reference!r}") from None
+        if args.scale_from_gravity is not None:
+            try:
+                opts["scale_from_gravity"] = [int(k) for k in args.scale_from_gravity.split(",")]
+            except ValueError:
+                raise ModelError("--scale-from-gravity: expected motor numbers like 2,3, got "
+                                 f"{args.scale_from_gravity!r}") from None
         opts["progress"] = stages(progress_wanted(args))
         result = identify(args.model, logs, **opts)
     except ModelError as exc:

@@ -7,7 +7,8 @@ from __future__ import annotations
 
 from ..formats.mjcf import mjcf_losses
 from ..formats.save import to_mjcf
-from .urdf import add_model_arguments, write_models
+from .argblocks import add_writer_command
+from .urdf import write_models
 
 __all__ = ["register", "run"]
 
@@ -47,23 +48,19 @@ def _losses_measured(arm, as_published: bool = False) -> list:
                     f"M (qacc - qdd), N m or N: {per_joint(r['torque'])}; in qdd, rad/s^2 or m/s^2: "
                     f"{per_joint(r['qdd'])}"]
 
+
 def register(sub) -> None:
     """Add ``manipdyn mjcf``."""
-    u = sub.add_parser("mjcf", help="write the MJCF (MuJoCo) of arms",
-                       usage="manipdyn mjcf [-h] [--all] [--tip LINK] [--as-published] [MODEL_OR_FILE ...] OUTDIR  (options first)",
-                       description="Write <name>.xml, MuJoCo's MJCF, for each arm into OUTDIR (created if "
-                                   "needed): bodies and inertials at full precision; joints with axis, range, "
-                                   "armature (rotor inertia), damping and frictionloss; one motor per joint; a "
-                                   "'tool' site; gravity. A body MuJoCo's compiler refuses (mass or a principal "
-                                   "moment at or below 1e-15, a triangle inequality broken) is written completed: a "
-                                   "physical body with the model's base parameters, so the dynamics are the "
-                                   "model's (or, where none exists, the nearest physical arm, with its largest "
-                                   "torque difference); --as-published keeps the raw values. What MJCF cannot hold "
-                                   "of the model (friction terms, limits, bodies completed) is written in the file's "
-                                   "comment and printed, one 'not held:' line each. Any model `manipdyn load` reads, an "
-                                   "identified one included. Exit 0 written, 2 usage or model error.")
-    add_model_arguments(u, "xml")
-    u.add_argument("--as-published", action="store_true",
-                   help="write every body as the model has it, even one MuJoCo's compiler refuses (default: "
-                        "such bodies are completed with the model's base parameters)")
-    u.set_defaults(func=run)
+    add_writer_command(sub, "mjcf", "write the MJCF (MuJoCo) of arms",
+                       "Write <name>.xml, MuJoCo's MJCF, for each arm into OUTDIR (created if "
+                       "needed): bodies and inertials at full precision; joints with axis, range, "
+                       "armature (rotor inertia), damping and frictionloss; one motor per joint; a "
+                       "'tool' site; gravity. A body MuJoCo's compiler refuses (mass or a principal "
+                       "moment at or below 1e-15, a triangle inequality broken) is written completed: a "
+                       "physical body with the model's base parameters, so the dynamics are the "
+                       "model's (or, where none exists, the nearest physical arm, with its largest "
+                       "torque difference); --as-published keeps the raw values. What MJCF cannot hold "
+                       "of the model (friction terms, limits, bodies completed) is written in the file's "
+                       "comment and printed, one 'not held:' line each. Any model `manipdyn load` reads, an "
+                       "identified one included. Exit 0 written, 2 usage or model error.", "xml", run,
+                       "MuJoCo's compiler refuses")

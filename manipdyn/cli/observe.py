@@ -15,17 +15,18 @@ from __future__ import annotations
 import json
 
 from .._support.errors import ModelError
-from .common import (EXIT_DISAGREE, EXIT_OK, TIP_HELP, check_outputs, check_report_target, cli_message,
+from .argblocks import add_command, add_outputs
+from .common import (EXIT_DISAGREE, EXIT_OK, check_outputs, check_report_target, cli_message,
                      command_line, load_arm, usage_error)
-from .logopts import DATA_HELP, log_options_from_args, model_joint_names, register_log_options
+from .logopts import DATA_HELP, log_options_from_args, model_joint_names
 
 __all__ = ["register", "run"]
 
 
 def register(subparsers) -> None:
     """Add ``manipdyn observe`` to the command line."""
-    p = subparsers.add_parser(
-        "observe", help="collision detection: the momentum observer against thresholds with a false-alarm rate",
+    p = add_command(
+        subparsers, "observe", run=run, help="collision detection: the momentum observer against thresholds with a false-alarm rate",
         description="Run the generalized-momentum observer of MODEL on the logs and report the collision events: "
                     "crossings of a per-joint threshold that last, their joints, the last link touched and the "
                     "force at the tool. The thresholds come from --threshold, from --calibrate (collision-free logs "
@@ -37,7 +38,9 @@ def register(subparsers) -> None:
     p.add_argument("logs", metavar="LOG", nargs="*", help="the logs to watch. A log: " + DATA_HELP)
     p.add_argument("--gain", type=float, default=None, metavar="K",
                    help="the observer's gain, 1/s: the residual follows the external torque with time constant 1/K "
-                        "(default: the model's thresholds' gain, else 100)")
+                        "(default: the model's thresholds' gain; with --calibrate or --fit-data, chosen on those "
+                        "data among 10, 20, 30, 50, 100 for the smallest torque detected within 20 ms; with "
+                        "--threshold, 100)")
     p.add_argument("--velocity-cutoff", type=float, default=None, metavar="HZ",
                    help="the cut-off, Hz, of the causal first-order low-pass on the observer's residual, against the "
                         "measured velocity's noise (0: none; library default 20); thresholds are only used with the cut-off they were calibrated with (default: the "
@@ -62,22 +65,15 @@ def register(subparsers) -> None:
                    help="an event ends when every joint is below this fraction of its threshold (default 0.5)")
     p.add_argument("--save-model", metavar="OUT.toml", default=None,
                    help="write MODEL with the thresholds in its trust record, so later runs need no --calibrate")
-    p.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
-    p.add_argument("--json", action="store_true", help="print a JSON object instead of text")
-    p.add_argument("--plot", metavar="FILE.png", default=None,
-                   help="draw the residuals against the thresholds, events shaded (first log; needs the plot extra)")
-    p.add_argument("--report", metavar="FILE.html", default=None,
-                   help="also write one self-contained HTML page: thresholds, events, the figure per log")
+    add_outputs(p, "draw the residuals against the thresholds, events shaded (first log; needs the plot extra)",
+                "also write one self-contained HTML page: thresholds, events, the figure per log", "FILE.png")
     p.add_argument("--predictions", metavar="FILE.csv", default=None,
                    help="write per sample: log, t, r1..n (observer), d1..n (direct residual), T1..n, event")
-    register_log_options(p)
-    p.set_defaults(func=run)
 
 
 def run(args) -> int:
     from ..control.collision import observe
-    from ..control.collision.observe import carried_thresholds, resolve_thresholds, with_thresholds
-    from ..identification.uncertainty.thresholds import DEFAULT_GAIN
+    from ..control.collision.observe import resolve_thresholds, with_thresholds
 
     try:
         if not args.logs and args.save_model is None:
@@ -97,11 +93,7 @@ def run(args) -> int:
         opts = log_options_from_args(args, model_joint_names(arm))
         if opts.get("decimate") is None:
             opts["decimate"] = False            # the observer runs at the log's rate
-        gain = args.gain
-        if gain is None:
-            carried = (carried_thresholds(arm) if args.threshold is None and args.calibrate is None
-                       and args.fit_data is None else None)
-            gain = carried.gain if carried is not None else DEFAULT_GAIN
+        gain = args.gain            # None: the thresholds' own, or chosen on --calibrate / --fit-data
         cal_opts = opts
         if args.calibrate_t_range is not None:
             from ..formats.logs.read import as_t_range
@@ -111,7 +103,7 @@ def run(args) -> int:
                                  args.hysteresis, cal_opts, args.fit_data, args.velocity_cutoff)
         res = None
         if args.logs:
-            res = observe(arm, args.logs, gain, false_alarms=args.false_alarms, threshold=thr.threshold,
+            res = observe(arm, args.logs, thr.gain, false_alarms=args.false_alarms, threshold=thr.threshold,
                           min_duration=args.min_duration, hysteresis=args.hysteresis,
                           velocity_cutoff=thr.velocity_cutoff, **opts)
             res.thresholds = thr

@@ -16,7 +16,7 @@ from .._support import limits
 from .._support.errors import ModelError
 from .common import check_outputs, check_report_target
 
-__all__ = ["check_identify"]
+__all__ = ["check_identify", "check_cutoff"]
 
 
 def _implied_base(args):
@@ -26,6 +26,20 @@ def _implied_base(args):
             or out.lower().endswith(".json") or args.method not in ("ols", "wls")):
         return None
     return os.path.splitext(out)[0] + ".base.json"
+
+
+def check_cutoff(value, option: str = "--velocity-cutoff") -> None:
+    """Refuse a residual low-pass cut-off that is no frequency (negative, nan, inf) or none a log resolves
+    (over limits.MAX_BANDWIDTH, or under limits.MIN_VELOCITY_CUTOFF but 0), before the fit: after it,
+    the thresholds would be missing (or 1e-12 N m) with the reason on stdout only."""
+    if value is None:
+        return
+    fc = float(value)
+    if fc == 0:
+        return
+    if not (limits.MIN_VELOCITY_CUTOFF <= fc <= limits.MAX_BANDWIDTH):
+        raise ModelError(f"{option}: expected 0 (no low-pass) or a cut-off in Hz from {limits.MIN_VELOCITY_CUTOFF:g} "
+                         f"(manipdyn.limits.MIN_VELOCITY_CUTOFF) to {limits.MAX_BANDWIDTH:g}, got {value}")
 
 
 def check_identify(args) -> None:
@@ -42,6 +56,7 @@ def check_identify(args) -> None:
         if not 0 <= w <= limits.MAX_PRIOR_WEIGHT:
             raise ModelError(f"--prior-weight: expected a number in [0, {limits.MAX_PRIOR_WEIGHT:g}] "
                              f"(manipdyn.limits.MAX_PRIOR_WEIGHT) or 'auto', got {args.prior_weight}")
+    check_cutoff(getattr(args, "velocity_cutoff", None))
     if args.scheduler is not None:
         from ..check.scale import check_scheduler
 

@@ -14,8 +14,9 @@ from __future__ import annotations
 import json
 
 from .._support.errors import ModelError
-from .common import EXIT_OK, TIP_HELP, check_outputs, check_report_target, cli_message, command_line, usage_error
-from .logopts import DATA_HELP, log_options_from_args, register_log_options
+from .argblocks import add_command, add_models_and_logs, add_outputs
+from .common import EXIT_OK, check_outputs, check_report_target, cli_message, command_line, usage_error
+from .logopts import log_options_from_args
 from .validate import split_inputs
 
 __all__ = ["register", "run"]
@@ -25,16 +26,14 @@ def register(subparsers) -> None:
     """Add ``manipdyn replay`` to the command line."""
     from ..control.replay import DEFAULT_EVERY, DEFAULT_HORIZONS
 
-    p = subparsers.add_parser(
-        "replay", help="how far each model's simulated motion drifts from a real log over a horizon",
-        description="From states along the log (every --every samples), simulate each MODEL forward for each "
-                    "horizon with the logged torque and compare q and qd at the horizon with the log: RMS per "
-                    "joint and pooled, the models side by side (the best per joint marked *), beside the "
-                    "constant-velocity guess q + H qd, which a model must beat to predict anything. Exit codes: "
-                    "0 replayed, 2 usage, model or data error.")
-    p.add_argument("inputs", metavar="MODEL|LOG", nargs="+",
-                   help="the models (name, .toml, .urdf), then the logs (.csv, .mcap, .bag, a bag folder; without "
-                        "any, the last argument is the log). A log: " + DATA_HELP)
+    p = add_command(
+        subparsers, "replay", "how far each model's simulated motion drifts from a real log over a horizon",
+        "From states along the log (every --every samples), simulate each MODEL forward for each "
+        "horizon with the logged torque and compare q and qd at the horizon with the log: RMS per "
+        "joint and pooled, the models side by side (the best per joint marked *), beside the "
+        "constant-velocity guess q + H qd, which a model must beat to predict anything. Exit codes: "
+        "0 replayed, 2 usage, model or data error.", run)
+    add_models_and_logs(p)
     p.add_argument("--horizon", type=float, nargs="+", default=list(DEFAULT_HORIZONS), metavar="S",
                    help="horizons in s (default " + " ".join(f"{h:g}" for h in DEFAULT_HORIZONS) + ")")
     p.add_argument("--every", type=int, default=DEFAULT_EVERY, metavar="K",
@@ -45,15 +44,9 @@ def register(subparsers) -> None:
     p.add_argument("--mujoco-plant", choices=("model", "file"), default=None,
                    help="with --simulator mujoco: 'model' (default) the plant manipdyn simulates (constraints off, "
                         "the whole friction law), or 'file' the MJCF as MuJoCo loads it")
-    p.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
-    p.add_argument("--json", action="store_true", help="print a JSON object instead of text")
-    p.add_argument("--plot", metavar="FIG.png", default=None,
-                   help="draw the q error against the horizon per joint (needs the plot extra)")
-    p.add_argument("--report", metavar="FILE.html", default=None,
-                   help="also write one self-contained HTML page (no scripts, nothing fetched): what was replayed, "
-                        "the verdict, the tables per horizon, the figure (default: none)")
-    register_log_options(p)
-    p.set_defaults(func=run)
+    add_outputs(p, "draw the q error against the horizon per joint (needs the plot extra)",
+                "also write one self-contained HTML page (no scripts, nothing fetched): what was replayed, "
+                "the verdict, the tables per horizon, the figure (default: none)")
 
 
 def run(args) -> int:

@@ -27,7 +27,7 @@ def run(args) -> int:
     from ..formats.logs.data import write_measurements_csv
     from ..model.arm import Manipulator
     from ..identification.experiments.demo import true_arm
-    from ..identification.experiments.synthesize import contact_torques, parse_contact, read_trajectory, synthesize
+    from ..identification.experiments.synthesize import check_contacts_act, contact_torques, parse_contact, read_trajectory, synthesize
 
     if not (args.noise >= 0 and args.noise < float("inf")):
         raise ModelError(f"--noise: expected a finite fraction >= 0 of each joint's peak torque, got {args.noise}")
@@ -49,6 +49,7 @@ def run(args) -> int:
     robot = synthesize_static.apply(args, true_arm(arm, args.seed) if args.perturb else arm)
     traj = read_trajectory(args.trajectory, arm.n)
     contacts = [parse_contact(c, robot) for c in (args.contact or [])]
+    check_contacts_act(contacts, traj.t)
     tau = synthesize(robot, traj.q, traj.qd, traj.qdd, noise=args.noise, seed=args.seed,
                      static_friction=args.static_friction is not None)
     if contacts:
@@ -64,7 +65,7 @@ def run(args) -> int:
         def write_extras():
             if args.truth is not None:
                 save(Manipulator(robot.links, convention=robot.convention, gravity=robot.gravity, name=robot.name,
-                                 source=robot.source, sources=robot.sources,
+                                 source=robot.source, sources=robot.sources, base=robot.base, tool=robot.tool,
                                  friction=robot.friction_model if args.static_friction is not None else None,
                                  description=f"the true arm that manipdyn synthesize --perturb --seed {args.seed} "
                                              f"drew around {args.model} (masses, centres of mass and friction off), "

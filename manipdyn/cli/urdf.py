@@ -13,7 +13,8 @@ from .._support.files import atomic_write_text, link_out_of
 from ..formats.save import to_urdf
 from ..formats.loading import models
 from ..formats.urdf.writer import urdf_losses
-from .common import EXIT_OK, TIP_HELP, creatable_folder, is_urdf, load_all, output_folder, urdf_target, usage_error
+from .argblocks import add_writer_command
+from .common import EXIT_OK, creatable_folder, is_urdf, load_all, output_folder, urdf_target, usage_error
 
 __all__ = ["register", "run", "write_models"]
 
@@ -79,28 +80,12 @@ def run(args) -> int:
                         lambda arm: urdf_losses(arm, as_published=raw))
 
 
-def add_model_arguments(u, ext: str) -> None:
-    """MODEL_OR_FILE ..., OUTDIR, --all and --tip of ``manipdyn urdf`` and ``manipdyn mjcf``."""
-    u.add_argument("models", nargs="*", metavar="MODEL_OR_FILE",
-                   help="bundled model name, .toml model file, .urdf file or erd:NAME (manipdyn models --erd) "
-                        "(several allowed)")
-    u.add_argument("outdir", metavar="OUTDIR", help=f"the folder to write the .{ext} files into (created if needed)")
-    u.add_argument("--all", action="store_true", help="every bundled model")
-    u.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
-
-
 def register(sub) -> None:
     """Add ``manipdyn urdf``."""
-    u = sub.add_parser("urdf", help="write the URDF of arms",
-                       usage="manipdyn urdf [-h] [--all] [--tip LINK] [--as-published] [MODEL_OR_FILE ...] OUTDIR  (options first)",
-                       description="Write <name>.urdf for each arm into OUTDIR (created if needed). "
-                                   "The URDF carries the arm's joint limits and says in a comment which "
-                                   "values are manipdyn's defaults and what URDF cannot hold of the model "
-                                   "(printed too, one 'not held:' line each). A body MuJoCo refuses is written "
-                                   "completed, with the model's base parameters (--as-published: as given). "
-                                   "Exit 0 written, 2 usage or model error.")
-    add_model_arguments(u, "urdf")
-    u.add_argument("--as-published", action="store_true",
-                   help="write every body as the model has it, even one MuJoCo's URDF reader refuses (default: "
-                        "such bodies are completed with the model's base parameters)")
-    u.set_defaults(func=run)
+    add_writer_command(sub, "urdf", "write the URDF of arms",
+                       "Write <name>.urdf for each arm into OUTDIR (created if needed). "
+                       "The URDF carries the arm's joint limits and says in a comment which "
+                       "values are manipdyn's defaults and what URDF cannot hold of the model "
+                       "(printed too, one 'not held:' line each). A body MuJoCo refuses is written "
+                       "completed, with the model's base parameters (--as-published: as given). "
+                       "Exit 0 written, 2 usage or model error.", "urdf", run, "MuJoCo's URDF reader refuses")

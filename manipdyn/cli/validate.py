@@ -18,8 +18,9 @@ import json
 import os
 
 from .._support.errors import ModelError
-from .common import EXIT_OK, TIP_HELP, check_outputs, check_report_target, cli_message, command_line, usage_error
-from .logopts import DATA_HELP, library_options, register_log_options
+from .argblocks import add_command, add_models_and_logs, add_outputs
+from .common import EXIT_OK, check_outputs, check_report_target, cli_message, command_line, usage_error
+from .logopts import library_options
 
 __all__ = ["register", "run", "split_inputs", "load_model"]
 
@@ -29,32 +30,28 @@ LOG_SUFFIXES = (".csv", ".mcap", ".bag", ".db3", ".txt", ".tsv")
 
 def register(subparsers) -> None:
     """Add ``manipdyn validate`` to the command line."""
-    p = subparsers.add_parser(
-        "validate", help="score a model's torque predictions on (held-out) joint data",
-        description="Predict the joint torques of the logs with each MODEL (a model, or a base model JSON from "
-                    "identify) and report per joint the RMS error, the RMS relative to the measured RMS, R^2 and "
-                    "the mean error; with a model from identify, how often its 95 % prediction band holds the "
-                    "measured torque and which joints leave the states it was fitted on (EXTRAPOLATES). Several "
-                    "models: one table, the best per joint marked. Exit codes: 0 scored, 2 usage, model or data "
-                    "error.")
-    p.add_argument("inputs", metavar="MODEL|LOG", nargs="+",
-                   help="the models (name, .toml, .urdf, base model .json), then the logs (.csv, .mcap, .bag, a bag "
-                        "folder; without any, the last argument is the log). A log: " + DATA_HELP)
+    p = add_command(
+        subparsers, "validate", "score a model's torque predictions on (held-out) joint data",
+        "Predict the joint torques of the logs with each MODEL (a model, or a base model JSON from "
+        "identify) and report per joint the RMS error, the RMS relative to the measured RMS, R^2 and "
+        "the mean error; with a model from identify, how often its 95 % prediction band holds the "
+        "measured torque and which joints leave the states it was fitted on (EXTRAPOLATES). Several "
+        "models: one table, the best per joint marked. Exit codes: 0 scored, 2 usage, model or data "
+        "error.", run)
+    add_models_and_logs(p, "name, .toml, .urdf, base model .json")
     p.add_argument("--logs", metavar="RUNS.toml", default=None, help="[[log]] tables, as identify --logs reads them")
-    p.add_argument("--tip", default=None, metavar="LINK", help=TIP_HELP)
-    p.add_argument("--json", action="store_true", help="print a JSON object instead of text")
-    p.add_argument("--plot", metavar="FIG.png", default=None,
-                   help="draw measured and predicted torque per joint (needs the plot extra)")
+    add_outputs(p, "draw measured and predicted torque per joint (needs the plot extra)",
+                "also write one self-contained HTML page (no scripts, nothing fetched): what was done, the "
+                "verdict, per joint RMS, band coverage and extrapolation (flagged joints highlighted), the "
+                "figure with the stretches beyond the fit shaded, the models side by side, the data notes "
+                "(default: none)")
     p.add_argument("--predictions", metavar="OUT.csv", default=None,
                    help="write t, tau1..n (measured), pred1..n, lo1..n, hi1..n (the 95 %% band) and x1..n (1 where "
                         "the sample is beyond the fit data by the leverage of the joint's regressor row) per sample")
-    p.add_argument("--report", metavar="FILE.html", default=None,
-                   help="also write one self-contained HTML page (no scripts, nothing fetched): what was done, the "
-                        "verdict, per joint RMS, band coverage and extrapolation (flagged joints highlighted), the "
-                        "figure with the stretches beyond the fit shaded, the models side by side, the data notes "
-                        "(default: none)")
-    register_log_options(p)
-    p.set_defaults(func=run)
+    p.add_argument("--compare-column", metavar="NAME[=LABEL]", default=None,
+                   help="also score a torque the log itself holds, as one more model: NAME1..NAMEn columns in N m "
+                        "at the joints, e.g. a UR log's controller target torque: --compare-column 'm=UR controller "
+                        "target torque' (its label in the table; default 'logged torque NAME1..')")
 
 
 def load_model(spec: str, tip=None):

@@ -33,6 +33,7 @@ import math
 
 import numpy as np
 
+from .._support.errors import ModelError
 from .._support.state import as_state
 from .regressor import Regressor
 
@@ -81,6 +82,10 @@ def pd_gains(arm, wn: float, zeta: float = 1.0, q=None):
     """
     q = np.mean(arm.qlim, axis=1) if q is None else as_state(q, "q", arm.n)
     d = np.diag(arm.mass_matrix(q))
+    still = [j + 1 for j in range(len(d)) if not d[j] > 0]
+    if still:      # D singular: no gain makes such a joint a second-order system (and no simulation runs)
+        raise ModelError(f"{getattr(arm, 'name', '') or 'arm'}: the mass matrix D(q) is singular: joint(s) {still} move "
+                         "no mass; give the links after them mass or the joints rotor inertia")
     return wn**2 * d, 2.0 * zeta * wn * d
 
 

@@ -30,6 +30,17 @@ bits of the velocity decide the sign, and manipdyn's own run started 1e-15 rad o
 as MuJoCo's does (3.9e-2 rad over 1 s of computed torque on an identified UR5): the two agree to
 that sensitivity to rounding, not to 1e-15 (tests/test_mujoco_track.py).
 
+A plant too stiff for RK4 (:mod:`manipdyn.control.implicit`: a light link with a steep
+friction; ``log.integrator == "rosenbrock"``) is stepped by MuJoCo's ``implicitfast`` integrator,
+which takes the joints' damping implicitly (semi-implicit Euler with ``D - h dqfrc/dqd``).  For
+the ``"model"`` plant, the friction's slope at the step's start velocity is put into the
+joints' damping (``dof_damping``, the diagonal of ``dF/dqd``, at least the MJCF's own) before
+each step, and the passive-force callback takes that damping back out of the law it adds, so
+the force is the law's and its stiff part is implicit, as manipdyn's own Rosenbrock step holds
+it (a coupled transmission's off-diagonal slope stays explicit).  The ``"file"`` plant needs
+nothing more: its damping is MuJoCo's, its Coulomb a constraint.  That step is of first order:
+it agrees with manipdyn's to the step's own error, not to RK4's.
+
 MuJoCo resets its data (to the model's reference pose) when it meets a non-finite or huge
 acceleration, position or velocity (``mjWARN_BADQACC``, ``BADQPOS``, ``BADQVEL``), and sets a
 non-finite or huge control (over 1e10) to zero (``mjWARN_BADCTRL``), so such a run would go on
@@ -54,11 +65,15 @@ __all__ = ["integrate_mujoco", "mujoco_plant_model", "SIMULATORS", "INTEGRATOR",
 MUJOCO_PLANTS = ("file", "model")
 #: MuJoCo's passive-force callback is one per process
 _CALLBACK = threading.Lock()
+#: id(model) -> the hook called before each step of that model (under _CALLBACK)
+_HOOKS = {}
 
 #: the simulators a closed-loop run can use
 SIMULATORS = ("manipdyn", "mujoco")
 #: MuJoCo's integrator in these runs (the scheme of manipdyn's own loop)
 INTEGRATOR = "RK4"
+#: MuJoCo's integrator for a plant too stiff for RK4 (module docstring)
+STIFF_INTEGRATOR = "IMPLICITFAST"
 
 
 def integrate_mujoco(log, watch, plant, controller, trajectory, q, qd, progress, mujoco_plant: str = "file",
@@ -66,6 +81,8 @@ def integrate_mujoco(log, watch, plant, controller, trajectory, q, qd, progress,
     """The loop of :func:`manipdyn.control.simulate.simulate` with MuJoCo stepping ``plant``
     (``mujoco_plant``: module docstring); fills ``log`` in place (``log.substeps`` MuJoCo steps
     per control period)."""
+    if getattr(log, "integrator", "rk4") == "rosenbrock":
+        integrator = STIFF_INTEGRATOR
     with mujoco_plant_model(plant, log.dt / log.substeps, mujoco_plant, integrator) as (mj, model):
         _loop(mj, model, log, watch, controller, trajectory, q, qd, progress)
 
@@ -86,15 +103,41 @@ def mujoco_plant_model(plant, timestep: float, mujoco_plant: str = "file", integ
         yield mj, model
         return
     beyond = engine.friction_beyond_damping
+    base = np.array(model.dof_damping, dtype=np.float64)
+    if str(integrator).upper() == STIFF_INTEGRATOR:
+        slope = _slope_beyond_damping(engine)
 
-    def passive(m, d):                    # the law beyond damping, at every evaluation
-        d.qfrc_passive[:] -= beyond(d.qvel)
+        def passive(m, d):                # the law beyond the damping set for this step
+            d.qfrc_passive[:] -= beyond(d.qvel) + (base - m.dof_damping) * d.qvel
+
+        def before_step(d):               # the friction's slope at the step's start, taken implicitly
+            model.dof_damping[:] = base + np.maximum(slope(d.qvel), 0.0)
+        _HOOKS[id(model)] = before_step
+    else:
+        def passive(m, d):                # the law beyond damping, at every evaluation
+            d.qfrc_passive[:] -= beyond(d.qvel)
     with _CALLBACK:
         mj.set_mjcb_passive(passive)
         try:
             yield mj, model
         finally:
             mj.set_mjcb_passive(None)
+            _HOOKS.pop(id(model), None)
+
+
+def _slope_beyond_damping(engine):
+    """``qd -> (n,)``: the diagonal of the friction law's ``dF/dqd`` beyond the MJCF's damping."""
+    base = np.array(engine.simulation_model(1.0)[1].dof_damping, dtype=np.float64)
+
+    def slope(qd):
+        return np.diagonal(engine.friction_derivative(np.array(qd, dtype=np.float64))) - base
+    return slope
+
+
+def step_hook(model):
+    """What to call with the data before each ``mj_step`` of ``model`` (the implicit friction's
+    damping, :func:`mujoco_plant_model`), or None."""
+    return _HOOKS.get(id(model))
 
 
 #: MuJoCo's warnings of a run that went wrong: it zeroed a control, or reset its data after a non-finite or
@@ -116,6 +159,7 @@ def _loop(mj, model, log, watch, controller, trajectory, q, qd, progress) -> Non
     every = max(1, N // 100)
     bad = bad_warnings(mj)
     warned = d.warning
+    hook = step_hook(model)
     if isinstance(controller, Controller) and controller.trajectory is trajectory:
         step = controller.step
         rows = (list(log.q_d), list(log.qd_d), list(log.qdd_d))
@@ -135,6 +179,8 @@ def _loop(mj, model, log, watch, controller, trajectory, q, qd, progress) -> Non
             TAU[k] = tau
             d.ctrl[:] = tau
             for _ in range(m_sub):
+                if hook is not None:
+                    hook(d)
                 mj.mj_step(model, d)
             if warned[bad[0]].number or warned[bad[1]].number or warned[bad[2]].number or warned[bad[3]].number:
                 watch.fail(k + 1, "state", d.qvel, math.inf, "MuJoCo met a non-finite or huge control, acceleration, "

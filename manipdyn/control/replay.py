@@ -38,11 +38,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._support.errors import ModelError, StateError
+from .._support import limits
+from .._support.errors import ModelError
 from .._support.jsonsafe import finite_or_null
 from .replay_page import BASELINE, figure, write_page
 from .mjsim import MUJOCO_PLANTS, SIMULATORS
-from .simulate import DEFAULT_MAX_POSITION, DEFAULT_MAX_VELOCITY, rk4_step
+from .replay_run import plan, run_manipdyn, run_mujoco
 
 __all__ = ["replay", "ReplayResult", "DEFAULT_HORIZONS", "DEFAULT_EVERY", "BASELINE"]
 
@@ -74,7 +75,10 @@ class ReplayResult:
     diverged : dict
         ``label -> (H,)`` start states whose replay diverged before each horizon.
     substeps : dict
-        ``label -> m``, Runge-Kutta steps per log sample.
+        ``label -> m``, integrator steps per log sample.
+    integrators : dict
+        ``label -> "rk4" | "rosenbrock"``: who stepped the model (:mod:`manipdyn.control.implicit`:
+        a model too stiff for RK4 gets the Rosenbrock step with its friction implicit).
     simulator, mujoco_plant : str
     joint_types : tuple of str
     notes : list of str
@@ -97,6 +101,7 @@ class ReplayResult:
     notes: list = field(default_factory=list)
     logs: list = field(default_factory=list)
     every: int = DEFAULT_EVERY
+    integrators: dict = field(default_factory=dict)
 
     def pooled(self, label: str, what: str = "q") -> np.ndarray:
         """(H,): the RMS over joints of ``label``'s per-joint RMS (``what`` ``"q"`` or ``"qd"``)."""
@@ -151,15 +156,27 @@ class ReplayResult:
 
     def format(self) -> str:
         """The whole text report: what was replayed, the q and qd tables, the verdict, the notes."""
-        who = ("MuJoCo's RK4 on each model's MJCF (" + self.mujoco_plant + " plant)" if self.simulator == "mujoco"
-               else "manipdyn's RK4 (Pinocchio's ABA)")
+        who = ("MuJoCo on each model's MJCF (" + self.mujoco_plant + " plant)" if self.simulator == "mujoco"
+               else "manipdyn (Pinocchio's ABA)")
         head = (f"replay of {', '.join(self.logs)}: {self.starts} start states (every {self.every} samples of "
-                f"{self.dt * 1e3:.4g} ms), the logged torque, {who}; "
-                + ", ".join(f"{lab} {m} RK4 step(s) per sample" for lab, m in self.substeps.items()))
+                f"{self.dt * 1e3:.4g} ms), the logged torque, {who}; " + "; ".join(self.steppers()))
         notes = "".join(f"\n  note: {x}" for x in self.notes)
         return f"{head}\n{self.table('q')}\n{self.table('qd')}\n{self.verdict()}{notes}"
 
     __str__ = format
+
+    def steppers(self) -> list:
+        """Per model, ``"label: RK4, m steps per sample"`` (or the Rosenbrock step's phrase)."""
+        from .implicit import describe
+
+        out = []
+        for lab, m in self.substeps.items():
+            kind = self.integrators.get(lab, "rk4")
+            if self.simulator == "mujoco" and kind == "rosenbrock":
+                out.append(f"{lab}: MuJoCo's implicitfast (the friction's slope as damping), {m} steps per sample")
+            else:
+                out.append(f"{lab}: " + describe(kind, m, "sample"))
+        return out
 
     def to_dict(self) -> dict:
         """JSON-ready: per model and horizon, the per-joint and pooled RMS errors."""
@@ -172,6 +189,7 @@ class ReplayResult:
                 **({"mujoco_plant": self.mujoco_plant} if self.simulator == "mujoco" else {}),
                 "dt": self.dt, "every": self.every, "starts": self.starts, "horizons": list(self.horizons),
                 "horizon_samples": list(self.steps), "substeps": dict(self.substeps),
+                "integrators": {lab: self.integrators.get(lab, "rk4") for lab in self.labels},
                 "models": {lab: per(lab) for lab in self.labels}, "baseline": {BASELINE: per(BASELINE)},
                 "notes": list(self.notes)})
 
@@ -218,7 +236,7 @@ def _check_horizons(horizons) -> tuple:
 
 
 def replay(models, logs, horizons=DEFAULT_HORIZONS, every: int = DEFAULT_EVERY, simulator: str = "manipdyn",
-           mujoco_plant: str = "model", tip=None, substeps=None, **log_options) -> ReplayResult:
+           mujoco_plant: str = "model", tip=None, substeps=None, integrator=None, **log_options) -> ReplayResult:
     """Simulate each model forward from states along real logs with the logged torque; score q and
     qd at each horizon against the log (module docstring).
 
@@ -240,7 +258,11 @@ def replay(models, logs, horizons=DEFAULT_HORIZONS, every: int = DEFAULT_EVERY, 
     tip : str, optional
         The tip link of a tree URDF given as a model.
     substeps : int, optional
-        RK4 steps per log sample; default what each model needs along the log.
+        Integrator steps per log sample; default what each model needs along the log.
+    integrator : None | "rk4" | "rosenbrock"
+        Default: RK4, or the Rosenbrock step (friction implicit) for a model too stiff for RK4
+        (:func:`manipdyn.control.implicit.integration_plan`); given, insisted on.  In MuJoCo the
+        Rosenbrock choice steps ``implicitfast`` with the friction's slope as damping.
     **log_options
         Passed to ``read_log`` (``t_range=(10, 21)``, ``columns``, ``deg``, ``rate``, ``cutoff``, ...).
 
@@ -256,9 +278,15 @@ def replay(models, logs, horizons=DEFAULT_HORIZONS, every: int = DEFAULT_EVERY, 
         raise ModelError(f"mujoco_plant: expected 'model' or 'file', got {mujoco_plant!r:.40}")
     if isinstance(every, bool) or not isinstance(every, (int, np.integer)) or every < 1:
         raise ModelError(f"every: expected an integer >= 1 (log samples), got {every!r:.40}")
+    if every > limits.MAX_DATA_BYTES:       # no log has more samples than bytes: one start state per log
+        shown = f"{every}" if every < 10**30 else f"an integer of {len(str(every))} digits"
+        raise ModelError(f"every: expected an integer from 1 to {limits.MAX_DATA_BYTES} (log samples; no log "
+                         f"holds more), got {shown}")
     if substeps is not None and (isinstance(substeps, bool) or not isinstance(substeps, (int, np.integer))
                                  or substeps < 1):
         raise ModelError(f"substeps: expected an integer >= 1, got {substeps!r:.40}")
+    if integrator is not None and integrator not in ("rk4", "rosenbrock"):
+        raise ModelError(f"integrator: expected 'rk4' or 'rosenbrock', got {integrator!r:.40}")
     hs = _check_horizons(horizons)
     if isinstance(models, (str, os.PathLike)) or hasattr(models, "forward_dynamics"):
         models = [models]
@@ -284,6 +312,7 @@ def replay(models, logs, horizons=DEFAULT_HORIZONS, every: int = DEFAULT_EVERY, 
         m = read_log(path, n, transmission=getattr(arms[0][0], "transmission", None), **log_options)
         datas.append(m)
         notes += [f"{os.path.basename(os.fspath(path))}: {x}" for x in m.notes]
+    notes[:0] = _fit_data_notes(arms, labels, logs, datas)     # first: what the figures are
     dts = [float(np.median(np.diff(m.t))) for m in datas]
     if max(dts) - min(dts) > 1e-9 * max(dts):
         raise ModelError(f"logs: read at different sample periods ({', '.join(f'{d:.6g}' for d in dts)} s); "
@@ -299,16 +328,24 @@ def replay(models, logs, horizons=DEFAULT_HORIZONS, every: int = DEFAULT_EVERY, 
     if total == 0:
         raise ModelError(f"logs: shorter than the longest horizon ({hs[-1]:g} s = {kmax} samples) plus one; "
                          "give a shorter --horizon or a longer log")
-    q_rms, qd_rms, div, subs = {}, {}, {}, {}
+    q_rms, qd_rms, div, subs, kinds = {}, {}, {}, {}, {}
     for (arm, _), lab in zip(arms, labels):
-        m_sub = substeps if substeps is not None else max(_substeps(arm, m, dt) for m in datas)
-        subs[lab] = int(m_sub)
+        if substeps is not None and integrator is not None:
+            kind, m_sub = integrator, substeps                  # both given: no plan, no cap (a reference)
+        else:
+            kind, m_sub = plan(arm, datas, dt, integrator)
+            m_sub = substeps if substeps is not None else m_sub
+        subs[lab], kinds[lab] = int(m_sub), kind
+    limits.check_count(total * kmax * sum(subs.values()), "replay", "the integration steps (start states x "
+                       "samples to the longest horizon x substeps, the models together)", "MAX_REPLAY_STEPS")
+    for (arm, _), lab in zip(arms, labels):
+        m_sub, kind = subs[lab], kinds[lab]
         eq, eqd, bad = [], [], []
         for m, st in zip(datas, starts):
             if simulator == "mujoco":
-                Q, V = _run_mujoco(arm, m, st, steps, dt, m_sub, mujoco_plant)
+                Q, V = run_mujoco(arm, m, st, steps, dt, m_sub, mujoco_plant, kind)
             else:
-                Q, V = _run_manipdyn(arm, m, st, steps, dt, m_sub)
+                Q, V = run_manipdyn(arm, m, st, steps, dt, m_sub, kind)
             idx = st[None, :] + np.array(steps)[:, None]          # (H, W)
             eq.append(Q - m.q[idx])
             eqd.append(V - m.qd[idx])
@@ -329,7 +366,20 @@ def replay(models, logs, horizons=DEFAULT_HORIZONS, every: int = DEFAULT_EVERY, 
         if abs(k * dt - h) > 0.05 * h:
             notes.append(f"horizon {h:g} s is {k} samples of {dt:.6g} s = {k * dt:.6g} s")
     return ReplayResult(labels, hs, steps, dt, int(total), q_rms, qd_rms, div, subs, simulator, mujoco_plant,
-                        tuple(arms[0][0].joint_types), notes, [os.fspath(p) for p in logs], int(every))
+                        tuple(arms[0][0].joint_types), notes, [os.fspath(p) for p in logs], int(every), kinds)
+
+
+def _fit_data_notes(arms, labels, logs, datas) -> list:
+    """One line per model replayed on a log it was fitted on (:func:`~manipdyn.identification.results.heldout.fit_data_note`)."""
+    from ..identification.results.heldout import fit_data_note
+
+    out = []
+    for (arm, _), lab in zip(arms, labels):
+        hits = [p for p, m in zip(logs, datas) if fit_data_note(arm, [p], (float(m.t[0]), float(m.t[-1])))]
+        line = fit_data_note(arm, hits, None, lab, "its drift figures") if hits else None
+        if line:
+            out.append(line)
+    return out
 
 
 def _unique(labels):
@@ -347,85 +397,3 @@ def _rms(x) -> np.ndarray:
     if len(x) == 0:
         return np.full(x.shape[-1], np.nan)
     return np.sqrt(np.mean(x**2, axis=0))
-
-
-def _substeps(arm, m, dt) -> int:
-    from .stiffness import rk4_substeps, reference_samples
-
-    i = reference_samples(len(m.t) - 1)
-    return rk4_substeps(arm, m.q[i], m.qd[i], m.qdd[i], dt)[0]
-
-
-def _torques(tau, starts, j):
-    """The torque held over the log interval from sample ``starts + j`` to the next, (W, n): the
-    mean of its two ends (the interval's mean for a torque linear in time)."""
-    return 0.5 * (tau[starts + j] + tau[np.minimum(starts + j + 1, len(tau) - 1)])
-
-
-def _run_manipdyn(arm, m, starts, steps, dt, m_sub):
-    """``(Q, V)`` (H, W, n): the states at the horizons of the windows starting at ``starts``,
-    NaN for a window that diverged."""
-    W, n = len(starts), arm.n
-    q, qd = m.q[starts].copy(), m.qd[starts].copy()
-    alive = np.ones(W, dtype=bool)
-    Q, V = np.full((len(steps), W, n), np.nan), np.full((len(steps), W, n), np.nan)
-    h = dt / m_sub
-    h2, h6 = 0.5 * h, h / 6.0
-    fd = arm.forward_dynamics
-    want = {k: i for i, k in enumerate(steps)}
-
-    def f(x, v, u):
-        try:
-            return fd(x, v, u)
-        except (StateError, ValueError):       # one window went non-finite: the others go on
-            out = np.empty_like(x)
-            for w in range(len(x)):
-                try:
-                    out[w] = fd(x[w], v[w], u[w])
-                except (StateError, ValueError):
-                    out[w] = np.nan
-            return out
-
-    with np.errstate(over="ignore", invalid="ignore"):
-        for j in range(steps[-1]):
-            idx = np.flatnonzero(alive)
-            if len(idx) == 0:
-                break
-            x, v = q[idx], qd[idx]
-            u = _torques(m.tau, starts[idx], j)
-            for _ in range(m_sub):
-                x, v = rk4_step(f, x, v, u, h, h2, h6)
-                bad = ~(np.isfinite(x).all(axis=1) & np.isfinite(v).all(axis=1))
-                x[bad], v[bad] = 0.0, 0.0
-                bad |= (np.abs(x) > DEFAULT_MAX_POSITION).any(axis=1) | (np.abs(v) > DEFAULT_MAX_VELOCITY).any(axis=1)
-                alive[idx[bad]] = False
-            q[idx], qd[idx] = x, v
-            q[~alive] = qd[~alive] = np.nan
-            if j + 1 in want:
-                Q[want[j + 1]], V[want[j + 1]] = q, qd
-    return Q, V
-
-
-def _run_mujoco(arm, m, starts, steps, dt, m_sub, mujoco_plant):
-    """As :func:`_run_manipdyn`, MuJoCo stepping the arm's MJCF (module docstring)."""
-    from .mjsim import bad_warnings, mujoco_plant_model
-
-    W, n = len(starts), arm.n
-    Q, V = np.full((len(steps), W, n), np.nan), np.full((len(steps), W, n), np.nan)
-    want = {k: i for i, k in enumerate(steps)}
-    with mujoco_plant_model(arm, dt / m_sub, mujoco_plant) as (mj, model):
-        bad = bad_warnings(mj)      # BADCTRL never fires here: the torque goes in as qfrc_applied, d.ctrl stays 0
-        d = mj.MjData(model)
-        for w, k0 in enumerate(starts):
-            mj.mj_resetData(model, d)
-            d.qpos[:], d.qvel[:] = m.q[k0], m.qd[k0]
-            for j in range(steps[-1]):
-                d.qfrc_applied[:] = _torques(m.tau, k0, j)
-                for _ in range(m_sub):
-                    mj.mj_step(model, d)
-                if any(d.warning[b].number for b in bad) or not (
-                        np.abs(d.qpos).max() <= DEFAULT_MAX_POSITION and np.abs(d.qvel).max() <= DEFAULT_MAX_VELOCITY):
-                    break                   # diverged: MuJoCo reset its data, or it left the bounds
-                if j + 1 in want:
-                    Q[want[j + 1], w], V[want[j + 1], w] = d.qpos, d.qvel
-    return Q, V

@@ -56,7 +56,7 @@ def write_page(result, path, command=None) -> str:
         ("command", command or "(library call) manipdyn.replay(...)"), ("logs", ", ".join(result.logs)),
         ("start states", f"{result.starts}, every {result.every} samples of {result.dt * 1e3:.4g} ms"),
         ("simulator", result.simulator + (f" ({result.mujoco_plant} plant)" if result.simulator == "mujoco" else "")),
-        ("RK4 steps per sample", ", ".join(f"{k}: {v}" for k, v in result.substeps.items())),
+        ("integrator", "; ".join(result.steppers())),
         ("manipdyn", H.version())])),
         # one box per model, as the command prints one line each; orange where it does not beat the guess
         H.section("Verdict", *[H.verdict(line, "warn" if "no better than the constant-velocity guess" in line else "ok")

@@ -12,6 +12,9 @@ fast path, Pinocchio's ABA, friction included) is integrated over the step by
 the classical 4th-order Runge-Kutta method, in ``m`` equal steps when the
 plant is too stiff for one (:mod:`manipdyn.control.stiffness`: a light link
 with friction; ``m = 1`` otherwise, and ``SimulationLog.substeps`` says which).
+A plant too stiff for RK4 (over 100 steps per period) is stepped by a Rosenbrock
+step with its friction implicit instead (:mod:`manipdyn.control.implicit`;
+``SimulationLog.integrator`` says which).
 So the integration error is O((dt/m)^4) for the given torque sequence; the
 sampling itself (the hold) is part of the simulated system, not an error of
 the integrator.
@@ -91,7 +94,10 @@ class SimulationLog:
     wall_time : float
         Seconds the run took.
     substeps : int
-        Runge-Kutta steps per control period (:mod:`manipdyn.control.stiffness`).
+        Integrator steps per control period (:mod:`manipdyn.control.stiffness`).
+    integrator : str
+        ``"rk4"``, or ``"rosenbrock"`` for a plant too stiff for RK4 (the friction stepped
+        implicitly, :mod:`manipdyn.control.implicit`).
     """
 
     t: np.ndarray
@@ -107,6 +113,7 @@ class SimulationLog:
     joint_types: tuple = ()
     wall_time: float = 0.0
     substeps: int = 1
+    integrator: str = "rk4"
 
     @property
     def e(self) -> np.ndarray:
@@ -138,8 +145,7 @@ class SimulationLog:
         """A table: RMS and max error and peak torque per joint (units by joint type)."""
         rms, mx, pk = self.rms_error(since), self.max_error(since), self.peak_torque(since)
         head = f"{self.controller or 'controller'} on {self.plant or 'plant'}: " \
-               f"{self.t[-1]:g} s at {1 / self.dt:g} Hz (RK4" + \
-               (f", {self.substeps} steps per period" if self.substeps > 1 else "") + \
+               f"{self.t[-1]:g} s at {1 / self.dt:g} Hz (" + self._stepper() + \
                f", zero-order hold), {self.wall_time:.2f} s wall"
         if since is not None:
             head += f"; errors over t >= {since:g} s"
@@ -151,11 +157,20 @@ class SimulationLog:
                         f"{'':1}{pk[i]:10.4g} {tu}")     # 4 significant digits: a wrist's 3e-4 N m too
         return "\n".join(rows)
 
+    def _stepper(self) -> str:
+        if self.integrator == "rk4":
+            return "RK4" + (f", {self.substeps} steps per period" if self.substeps > 1 else "")
+        from .implicit import describe
+
+        if self.plant.endswith("(MuJoCo)"):              # simulate() names a MuJoCo run's plant so
+            return f"MuJoCo's implicitfast (the friction's slope as damping), {self.substeps} steps per period"
+        return describe(self.integrator, self.substeps)
+
     def truncated(self, k: int) -> "SimulationLog":
         """The first ``k`` samples."""
         return SimulationLog(self.t[:k], self.q[:k], self.qd[:k], self.q_d[:k], self.qd_d[:k],
                              self.qdd_d[:k], self.tau[:k], self.dt, self.controller, self.plant,
-                             self.joint_types, self.wall_time, self.substeps)
+                             self.joint_types, self.wall_time, self.substeps, self.integrator)
 
 
 def _reference(trajectory, t: np.ndarray, n: int):
@@ -178,7 +193,7 @@ def _name(x) -> str:
 def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, plant=None,
              q0=None, qd0=None, max_position: float = DEFAULT_MAX_POSITION,
              max_velocity: float = DEFAULT_MAX_VELOCITY, progress=None, substeps=None,
-             simulator: str = "manipdyn", mujoco_plant: str = "file") -> SimulationLog:
+             simulator: str = "manipdyn", mujoco_plant: str = "file", integrator=None) -> SimulationLog:
     """Simulate ``controller`` tracking ``trajectory`` on ``plant`` (default ``arm``).
 
     Parameters
@@ -206,8 +221,15 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
         Called as ``progress(steps_done, steps_total)`` about a hundred times
         over the run, and once at its end.
     substeps : int, optional
-        Runge-Kutta steps per control period; default as many as the plant needs
-        along the reference (:func:`manipdyn.control.stiffness.rk4_substeps`).
+        Integrator steps per control period; default as many as the plant needs
+        along the reference (:func:`manipdyn.control.implicit.integration_plan`).
+    integrator : None | "rk4" | "rosenbrock"
+        Default (None): RK4, or for a plant too stiff for it (a light link with a steep
+        friction) the Rosenbrock step with the friction implicit
+        (:mod:`manipdyn.control.implicit`); the log's ``integrator`` says which ran.  With
+        ``substeps`` given and no integrator, RK4.  With MuJoCo, ``"rosenbrock"`` steps MuJoCo's
+        ``implicitfast`` integrator with the friction's slope as the joints' damping
+        (:mod:`manipdyn.control.mjsim`).
     simulator : "manipdyn" | "mujoco"
         Who steps the plant: manipdyn's RK4 on the plant's forward dynamics (default), or
         MuJoCo's RK4 on the plant's MJCF with the torque as the actuators' control
@@ -236,22 +258,10 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
     q, qd = _initial_state(q_d, qd_d, q0, qd0, n)
     # once, checked: a model problem (a singular D) is named here, not met as a NaN in the loop
     plant.forward_dynamics(q, qd, np.zeros(n))
-    if substeps is None:
-        from .stiffness import reference_samples, rk4_substeps
-
-        i = reference_samples(N)
-        substeps, _ = rk4_substeps(plant, q_d[i], qd_d[i], qdd_d[i], dt)
-    elif isinstance(substeps, bool) or not isinstance(substeps, (int, np.integer)) or substeps < 1:
-        raise ValueError(f"substeps: expected an integer >= 1, got {substeps!r}")
-    else:
-        from .stiffness import MAX_SUBSTEPS
-
-        if substeps > MAX_SUBSTEPS:
-            raise ValueError(f"substeps: at most {MAX_SUBSTEPS} Runge-Kutta steps per control period, got "
-                             f"{substeps}; a shorter dt is the way to a finer integration")
+    integrator, substeps = _plan(plant, integrator, substeps, q_d, qd_d, qdd_d, dt, N)
     log = SimulationLog(t, np.empty((N + 1, n)), np.empty((N + 1, n)), q_d, qd_d, qdd_d,
                         np.empty((N + 1, n)), dt, _name(controller), plant.name or "plant",
-                        tuple(plant.joint_types), substeps=int(substeps))
+                        tuple(plant.joint_types), substeps=int(substeps), integrator=integrator)
     watch = _Divergence(log, plant, N, dt, max_position, max_velocity)
     if simulator == "mujoco":
         from .mjsim import integrate_mujoco
@@ -262,6 +272,27 @@ def simulate(arm, controller, trajectory=None, duration=None, dt: float = 1e-3, 
         _integrate(log, watch, plant, controller, trajectory, q, qd, progress)
     log.wall_time = time.perf_counter() - t_wall
     return log
+
+
+def _plan(plant, integrator, substeps, q_d, qd_d, qdd_d, dt, N):
+    """``(integrator, substeps)`` of a run: as given, or as the plant needs along the reference."""
+    from .implicit import INTEGRATORS, integration_plan, stiff_parts
+    from .stiffness import MAX_SUBSTEPS, reference_samples
+
+    if integrator is not None and integrator not in INTEGRATORS:
+        raise ValueError(f"integrator: expected one of {', '.join(INTEGRATORS)}, got {integrator!r:.40}")
+    if integrator == "rosenbrock" and stiff_parts(plant) is None:
+        raise ValueError("integrator: 'rosenbrock' needs the plant's mass matrix and friction derivative")
+    if substeps is None:
+        i = reference_samples(N)
+        plan = integration_plan(plant, q_d[i], qd_d[i], qdd_d[i], dt, integrator)
+        return plan.integrator, plan.substeps
+    if isinstance(substeps, bool) or not isinstance(substeps, (int, np.integer)) or substeps < 1:
+        raise ValueError(f"substeps: expected an integer >= 1, got {substeps!r}")
+    if substeps > MAX_SUBSTEPS:
+        raise ValueError(f"substeps: at most {MAX_SUBSTEPS} Runge-Kutta steps per control period, got "
+                         f"{substeps}; a shorter dt is the way to a finer integration")
+    return integrator or "rk4", int(substeps)
 
 
 def _check_arguments(arm, controller, trajectory, duration, dt, plant):
@@ -370,6 +401,16 @@ def rk4_step(fd, q, qd, tau, h, h2, h6):
     return q + h6 * (qd + 2.0 * (v2 + v3) + v4), qd + h6 * (a1 + 2.0 * (a2 + a3) + a4)
 
 
+def _stepper(integrator, plant, fd, h, h2, h6):
+    """``step(q, qd, tau) -> (q, qd)`` over ``h`` s: RK4, or the Rosenbrock step (friction implicit)."""
+    if integrator == "rosenbrock":
+        from .implicit import rosenbrock_step, stiff_parts
+
+        mass, fric = stiff_parts(plant)
+        return lambda q, qd, tau: rosenbrock_step(fd, mass, fric, q, qd, tau, h)
+    return lambda q, qd, tau: rk4_step(fd, q, qd, tau, h, h2, h6)
+
+
 def _integrate(log, watch, plant, controller, trajectory, q, qd, progress) -> None:
     """The fixed-step RK4 loop with the torque held over each step; fills ``log`` in place.
 
@@ -389,6 +430,7 @@ def _integrate(log, watch, plant, controller, trajectory, q, qd, progress) -> No
     m = log.substeps
     h = dt / m                               # m == 1: exactly dt, the arithmetic it always had
     h2, h6 = 0.5 * h, h / 6.0
+    stepper = _stepper(log.integrator, plant, fd, h, h2, h6)
     # Non-finite values are detected below and end the run with SimulationDiverged,
     # so numpy's overflow and invalid-value warnings would only repeat it.
     with np.errstate(over="ignore", invalid="ignore"):
@@ -406,8 +448,8 @@ def _integrate(log, watch, plant, controller, trajectory, q, qd, progress) -> No
             TAU[k] = tau
             for _ in range(m):       # the torque is held over the whole period
                 try:
-                    q, qd = rk4_step(fd, q, qd, tau, h, h2, h6)
-                except StateError:   # checked plant: a stage went non-finite, the step blew up
+                    q, qd = stepper(q, qd, tau)
+                except (StateError, np.linalg.LinAlgError):   # a stage went non-finite, the step blew up
                     watch.fail(k + 1, "state", qd, math.inf, "an intermediate Runge-Kutta stage is not finite")
             watch.check_state(k + 1, q, qd)
             if progress is not None and (k + 1) % every == 0:

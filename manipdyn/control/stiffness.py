@@ -27,6 +27,9 @@ A sharp Coulomb sign has no derivative off ``v = 0`` and adds nothing (it
 chatters at rest, boundedly); a smoothed sign ``tanh(v / v_s)`` is stiff near
 ``v = 0`` (``Fc / (v_s J)``) and is counted.  Plants without analytical
 derivatives (a user's callable) keep ``m = 1`` unless ``substeps`` is given.
+Past :data:`~manipdyn.control.implicit.RK4_LIMIT` steps, ``simulate``, ``replay`` and the
+Monte-Carlo studies step the plant by a Rosenbrock step with the friction implicit instead
+(:func:`manipdyn.control.implicit.integration_plan`); :func:`rk4_substeps` still counts RK4's.
 
 What more steps cannot fix: the *loop*.  The torque is held over the whole period
 whatever ``m``, so a controller whose damping ``K_d`` moves the plant at a rate
@@ -45,7 +48,7 @@ import numpy as np
 
 from .._support.errors import ModelError, SingularMassMatrixError, StateError
 
-__all__ = ["rk4_substeps", "reference_samples", "sampled_loop_rate", "SAFE_STEP", "MAX_SUBSTEPS", "SAMPLES",
+__all__ = ["rk4_substeps", "state_jacobians", "reference_samples", "sampled_loop_rate", "SAFE_STEP", "MAX_SUBSTEPS", "SAMPLES",
            "SAMPLED_LIMIT"]
 
 #: the largest ``h |lambda|`` allowed (RK4 is stable to 2.785 on the negative real axis)
@@ -71,23 +74,10 @@ def rk4_substeps(plant, q, qd, qdd, dt: float):
     None when the plant has no analytical derivatives (``m`` is then 1).  Raises
     :class:`~manipdyn.ModelError` (a ValueError) when ``m`` would exceed :data:`MAX_SUBSTEPS`.
     """
-    fdd, inv = _call(plant, "forward_dynamics_derivatives"), _call(plant, "inverse_dynamics")
-    if fdd is None or inv is None:
+    got = state_jacobians(plant, q, qd, qdd)
+    if got is None:
         return 1, None
-    q, qd, qdd = (np.atleast_2d(np.asarray(x, dtype=np.float64)) for x in (q, qd, qdd))
-    try:
-        tau = np.asarray(inv(q, qd, qdd), dtype=np.float64).reshape(q.shape)
-        dq, dv, _ = fdd(q, qd, tau)
-    except (SingularMassMatrixError, StateError, np.linalg.LinAlgError):
-        # a singular D somewhere on the path: the simulation meets it and says so (a run that
-        # diverges); the step count cannot be read there
-        return 1, None
-    dq, dv = np.asarray(dq).reshape(len(q), q.shape[1], -1), np.asarray(dv).reshape(len(q), q.shape[1], -1)
-    S, n = q.shape
-    A = np.zeros((S, 2 * n, 2 * n))
-    A[:, :n, n:] = np.eye(n)
-    A[:, n:, :n], A[:, n:, n:] = dq, dv
-    lam = np.linalg.eigvals(A)
+    lam = np.linalg.eigvals(got[0])
     rho = float(np.max(np.abs(lam)))
     if not math.isfinite(rho):
         return 1, None
@@ -99,6 +89,29 @@ def rk4_substeps(plant, q, qd, qdd, dt: float):
                          "period (montecarlo: --friction-viscous, --friction-coulomb, --dt), or give "
                          "simulate() substeps= to insist")
     return m, rho
+
+
+def state_jacobians(plant, q, qd, qdd):
+    """``(A, (q, qd))``: the state Jacobians ``A = [[0, I], [dqdd/dq, dqdd/dqd]]`` (S, 2n, 2n) of
+    ``plant`` at reference states ``q, qd, qdd`` (S, n), at the torque that tracks them, with the
+    states as float arrays; None without analytical derivatives or where ``D`` is singular."""
+    fdd, inv = _call(plant, "forward_dynamics_derivatives"), _call(plant, "inverse_dynamics")
+    if fdd is None or inv is None:
+        return None
+    q, qd, qdd = (np.atleast_2d(np.asarray(x, dtype=np.float64)) for x in (q, qd, qdd))
+    try:
+        tau = np.asarray(inv(q, qd, qdd), dtype=np.float64).reshape(q.shape)
+        dq, dv, _ = fdd(q, qd, tau)
+    except (SingularMassMatrixError, StateError, np.linalg.LinAlgError):
+        # a singular D somewhere on the path: the simulation meets it and says so (a run that
+        # diverges); the step count cannot be read there
+        return None
+    S, n = q.shape
+    A = np.zeros((S, 2 * n, 2 * n))
+    A[:, :n, n:] = np.eye(n)
+    A[:, n:, :n] = np.asarray(dq).reshape(S, n, n)
+    A[:, n:, n:] = np.asarray(dv).reshape(S, n, n)
+    return A, (q, qd)
 
 
 def reference_samples(N: int) -> np.ndarray:

@@ -32,11 +32,22 @@ __all__ = ["Trajectory", "PiecewisePolynomial", "Quintic", "ViaPoints", "Sampled
 _DEG = 5  # every segment is stored as a quintic (lower degrees are zero-padded)
 
 
-def _points(x, name, n=None) -> np.ndarray:
+def _real(x, name: str) -> np.ndarray:
+    """``x`` as float64, refusing a complex value by ``name`` (numpy would keep its real part and only warn)."""
     try:
-        arr = np.array(x, dtype=np.float64)
+        complex_given = np.iscomplexobj(np.asarray(x)) or isinstance(x, complex)
+    except (TypeError, ValueError):       # ragged: float64 below says so
+        complex_given = False
+    if complex_given:
+        raise ValueError(f"{name}: expected real numbers, got a complex value (its imaginary part would be dropped)")
+    try:
+        return np.array(x, dtype=np.float64)
     except (TypeError, ValueError):
         raise ValueError(f"{name}: expected a real array, got {type(x).__name__}") from None
+
+
+def _points(x, name, n=None) -> np.ndarray:
+    arr = _real(x, name)
     if arr.ndim == 1 and n is None:
         arr = arr[:, None]
     if arr.ndim != 2 or (n is not None and arr.shape[1] != n):
@@ -48,7 +59,7 @@ def _points(x, name, n=None) -> np.ndarray:
 
 
 def _times(t, name, count) -> np.ndarray:
-    t = np.array(t, dtype=np.float64)
+    t = _real(t, name)
     if t.shape != (count,):
         raise ValueError(f"{name}: expected {count} times, got shape {t.shape}")
     if not np.all(np.isfinite(t)):
@@ -97,8 +108,8 @@ class PiecewisePolynomial(Trajectory):
     """
 
     def __init__(self, breaks, coefs):
-        breaks = np.asarray(breaks, dtype=np.float64)
-        coefs = np.asarray(coefs, dtype=np.float64)
+        breaks = _real(breaks, "breaks")
+        coefs = _real(coefs, "coefs")
         m = len(breaks) - 1
         if m < 1 or coefs.shape[:2] != (m, _DEG + 1):
             raise ValueError(f"coefs: expected shape ({m}, {_DEG + 1}, n), got {coefs.shape}")
@@ -158,8 +169,8 @@ class Quintic(PiecewisePolynomial):
     """
 
     def __init__(self, q0, q1, duration: float, t0: float = 0.0):
-        q0 = np.atleast_1d(np.asarray(q0, dtype=np.float64))
-        q1 = np.atleast_1d(np.asarray(q1, dtype=np.float64))
+        q0 = np.atleast_1d(_real(q0, "q0"))
+        q1 = np.atleast_1d(_real(q1, "q1"))
         if q0.ndim != 1 or q0.shape != q1.shape:
             raise ValueError(f"q0, q1: expected two (n,) arrays, got shapes {q0.shape} and {q1.shape}")
         if not (np.all(np.isfinite(q0)) and np.all(np.isfinite(q1))):

@@ -7,12 +7,11 @@ both build models and know nothing of the engines.
 
 from __future__ import annotations
 
-import difflib
 import os
 import warnings
 
 from .._support.errors import ModelError, ModelNoteWarning, PhysicalConsistencyWarning, ToolFrameWarning, warn_notes
-from .modelfile import load_bundled, load_model_file, models
+from .modelfile import close_names, load_bundled, load_model_file, models
 from .urdf.reader import load_urdf
 
 __all__ = ["load", "load_with_notes", "models", "did_you_mean", "ERD_PREFIX"]
@@ -70,7 +69,7 @@ def load(x, tip: str | None = None, **kw):
 
 def did_you_mean(name: str, candidates) -> str:
     """``"; did you mean 'x'?"`` for the closest of ``candidates`` to ``name``, or ``""``."""
-    close = difflib.get_close_matches(name, list(candidates), n=3, cutoff=0.6)
+    close = close_names(name, candidates)
     return f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
 
 

@@ -39,7 +39,7 @@ import numpy as np
 from .._support.errors import ModelError
 from ..model.friction import Friction
 
-__all__ = ["written_bodies", "completion_lines", "format_losses", "friction_held", "friction_difference", "nonphysical_inertias",
+__all__ = ["written_bodies", "completion_lines", "format_losses", "friction_held", "urdf_friction_words", "friction_difference", "nonphysical_inertias",
            "VELOCITY_RANGE", "URDF_GRAVITY", "TARGETS"]
 
 #: the formats :func:`format_losses` knows
@@ -90,8 +90,7 @@ def friction_held(arm, target: str):
         held = Friction(viscous=fv, coulomb=fc, smoothing=0.0)
         if held == law:
             return law, ["viscous and Coulomb friction as <dynamics damping friction>"]
-        return held, ["the links' viscous and Coulomb friction as <dynamics damping friction>; the rest of "
-                      f"the law ({', '.join(law.terms)}, {law.side} side) dropped"]
+        return held, [urdf_friction_words(law, fv, fc)]
     # MJCF: damping (reflected or on a tendon) and frictionloss hold viscous and a symmetric level
     if law.asymmetric:
         coulomb = 0.5 * (law.coulomb_pos + law.coulomb_neg)
@@ -111,6 +110,30 @@ def friction_held(arm, target: str):
                        "A l0 (l0 = logistic(alpha p3)); its offset and smooth slope are not held",
         }.get(t, f"{t} dropped (MJCF has no such term)"))
     return held, words
+
+
+def urdf_friction_words(law, fv, fc) -> str:
+    """What a URDF's ``<dynamics damping friction>`` (the links' ``fv``, ``fc``, (n,) each) holds of the
+    :class:`Friction` ``law``, and what it drops: only the terms and shapes it does not hold are named."""
+    def same(a, b):
+        return np.allclose(np.zeros(len(b)) if a is None else np.asarray(a, dtype=np.float64), b, rtol=1e-12, atol=0)
+
+    joint = law.side == "joint"
+    kept = [name for name, a, b in (("viscous", law.viscous, fv), ("Coulomb", law.coulomb, fc))
+            if joint and b.any() and same(a, b)]
+    dropped = [t for t in law.terms if not (t == "viscous" and "viscous" in kept)
+               and not (t == "coulomb" and "Coulomb" in kept)]
+    if not joint:
+        dropped = [f"the {law.side}-side law ({', '.join(law.terms)})"]
+    shapes = [f"the Coulomb smoothing {law.smoothing:g}" for _ in [0] if law.smoothing and "Coulomb" in kept]
+    shapes += [f"the deadband {law.deadband:g}" for _ in [0] if law.deadband and "Coulomb" in kept]
+    out = ("the links' " + " and ".join(kept) + " friction held as <dynamics damping friction>" if kept else
+           "the links' joint-side friction as <dynamics damping friction>, which is not the model's law")
+    if dropped:
+        out += "; dropped: " + ", ".join(dropped)
+    if shapes:
+        out += "; not held: " + ", ".join(shapes) + " (URDF's friction is a sharp sign)"
+    return out
 
 
 def friction_difference(arm, held) -> np.ndarray:
@@ -152,10 +175,11 @@ def written_bodies(arm, as_published: bool = False, exact_only: bool = False):
     MuJoCo accepts every body as it is).  ``exact_only`` (the URDF, read by every tool, not only by
     simulators): where no physical arm has the model's base parameters, the model's own bodies, with
     the completion that was not used (its ``exact`` False says so)."""
-    from ..model.completion import complete_bodies, mujoco_refusal
+    from ..model.completion import complete_bodies, is_massless, mujoco_refusal
 
     joints, _tool = arm.chain()
-    if as_published or not any(mujoco_refusal(j.body) is not None for j in joints):
+    if (as_published or not any(mujoco_refusal(j.body) is not None for j in joints)
+            or (exact_only and is_massless(arm))):        # no dynamics: the URDF holds the massless arm as it is
         return [j.body for j in joints], None
     for a, bodies, c in _COMPLETIONS:
         if a is arm:

@@ -7,8 +7,11 @@ Format (``format = "manipdyn-model/1"``)::
     format = "manipdyn-model/1"
     name = "puma560"
     convention = "standard"            # "standard" (distal, eq. 2.3) or "modified" (Craig)
-    gravity = [0.0, 0.0, -9.81]        # m/s^2, in the base frame (optional; this default)
+    gravity = [0.0, 0.0, -9.81]        # m/s^2, in the world (the base frame without `base`; optional)
     source = "citation of the data"    # required for bundled models
+    base = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.5], [0.0, 0.0, 0.0, 1.0]]
+                                       # optional: the base in the world, 4x4 (translation in the length unit)
+    tool = [[...], [...], [...], [...]]  # optional: the tool frame in DH frame n, 4x4
 
     [sources]                          # optional: citation per group of values
     kinematics = "..."
@@ -73,7 +76,6 @@ from __future__ import annotations
 
 import math
 import os
-import tomllib
 from importlib import resources
 
 import numpy as np
@@ -85,7 +87,7 @@ from .._support.errors import ModelError, SuspiciousValueWarning, warn_notes
 from ..model.links import DHLink
 from .modelfile_drive import drive_to_toml, parse_drive, parse_poses, poses_to_toml
 from .modelfile_urdf import parse_urdf_model, urdf_model_to_toml
-from .tomltext import toml_key, toml_list, toml_num, toml_str
+from .tomltext import read_toml_text, toml_key, toml_list, toml_num, toml_str
 from .trust import trust_from_toml, trust_to_toml
 
 __all__ = ["models", "load_bundled", "load_model_file", "parse_model", "save_model", "model_to_toml", "FORMAT"]
@@ -96,7 +98,7 @@ _ANGLE = {"rad": 1.0, "deg": math.pi / 180.0}
 _MASS = {"kg": 1.0, "g": 0.001}
 
 _TOP_KEYS = {"format", "name", "convention", "gravity", "source", "sources", "units", "links", "description",
-             "transmission", "friction", "poses", "trust"}
+             "transmission", "friction", "poses", "trust", "base", "tool"}
 _LINK_REQUIRED = ("joint", "a", "alpha", "d", "theta", "mass")
 _LINK_OPTIONAL = ("name", "qlim", "com", "inertia", "motor_inertia", "gear_ratio", "friction_viscous", "friction_coulomb")
 _INERTIA_KEYS = ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")
@@ -115,12 +117,20 @@ def models() -> list[str]:
     return sorted(p.name[:-5] for p in _bundled_dir().iterdir() if p.name.endswith(".toml"))
 
 
+def close_names(name, candidates) -> list:
+    """Up to three of ``candidates`` closest to ``name``, case aside (``"UR5"``: ``["ur5", ...]``), best first."""
+    import difflib
+
+    folded: dict = {}
+    for c in candidates:
+        folded.setdefault(str(c).casefold(), c)
+    return [folded[k] for k in difflib.get_close_matches(str(name).casefold(), list(folded), n=3, cutoff=0.6)]
+
+
 def load_bundled(name: str, strict: bool = False) -> Manipulator:
     """A bundled model by name (see :func:`models`)."""
     if name not in models():
-        import difflib
-
-        close = difflib.get_close_matches(str(name), models(), n=3, cutoff=0.6)
+        close = close_names(name, models())
         hint = f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
         raise ModelError(f"unknown model {name!r}: not a bundled model ({', '.join(models())}){hint}")
     path = _bundled_dir() / f"{name}.toml"
@@ -199,6 +209,20 @@ def _inertia(value, scale: float, where: str) -> np.ndarray:
                      f"3 diagonal values [ixx, iyy, izz] or a 3x3 list, got {value!r}")
 
 
+def _transform(data: dict, key: str, origin: str, L: float):
+    """The optional top-level ``base`` / ``tool``: a 4x4 homogeneous transform as four rows, its
+    translation in the file's length unit (checked by :class:`Manipulator`); None when absent."""
+    if key not in data:
+        return None
+    raw = data[key]
+    if not isinstance(raw, list) or len(raw) != 4 or not all(isinstance(r, list) for r in raw):
+        raise ModelError(f"{origin}: key {key!r}: expected a 4x4 homogeneous transform as four rows of four "
+                         f"numbers, got {raw!r:.80}")
+    T = np.array([_nums(r, 4, f"{origin}: key {key!r} row {i + 1}") for i, r in enumerate(raw)])
+    T[:3, 3] *= L
+    return T
+
+
 def parse_model(text: str, origin: str = "<model>", strict: bool = False) -> Manipulator:
     """Parse model-file text; ``origin`` names the file in error messages.
 
@@ -222,7 +246,8 @@ def parse_model(text: str, origin: str = "<model>", strict: bool = False) -> Man
     try:
         arm = Manipulator(links, convention=convention, gravity=gravity, name=name, strict=strict,
                           source=source, sources=sources, description=description, **drive,
-                          poses=parse_poses(data, origin, [l.joint for l in links], L, A))
+                          poses=parse_poses(data, origin, [l.joint for l in links], L, A),
+                          base=_transform(data, "base", origin, L), tool=_transform(data, "tool", origin, L))
     except ModelError as exc:
         if origin in str(exc):
             raise
@@ -256,13 +281,7 @@ def _read_toml(text, origin: str) -> dict:
     if len(text) > limits.MAX_MODEL_FILE_BYTES:
         raise limits.over_limit(origin, "the model text length", f"{len(text)} characters",
                                 "MAX_MODEL_FILE_BYTES")
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ModelError(f"{origin}: not valid TOML: {exc}") from None
-    except RecursionError:
-        raise ModelError(f"{origin}: not a model file: arrays or tables nested too deeply") from None
-    return data
+    return read_toml_text(text, origin, "model file")
 
 
 def _top_level(data: dict, origin: str):
@@ -413,6 +432,10 @@ def model_to_toml(arm: Manipulator) -> str:
     ]
     if arm.description:
         lines.append(f"description = {toml_str(arm.description, 'description')}")
+    for key in ("base", "tool"):       # rows of a 4x4 homogeneous transform, metres; none: the identity
+        T = getattr(arm, key, None)
+        if T is not None and not np.array_equal(T, np.eye(4)):
+            lines.append(f"{key} = [" + ", ".join(toml_list(r) for r in T) + "]")
     sources = arm.sources
     if sources:
         if not isinstance(sources, dict):

@@ -40,8 +40,25 @@ def to_urdf(arm, as_published: bool = False) -> str:
 
 
 def write_urdf(arm, path, as_published: bool = False) -> None:
-    """Write :func:`to_urdf` to ``path`` atomically (no partial file on failure)."""
+    """Write :func:`to_urdf` to ``path`` atomically (no partial file on failure).  What the URDF does not
+    hold of the model (the file's opening comment lists it) is also warned, one
+    :class:`~manipdyn.FormatLossWarning` naming every item, so a Python caller learns it too."""
+    from .urdf.writer import urdf_losses
+
     atomic_write_text(path, arm_to_urdf(arm, as_published=as_published))
+    _warn_losses(arm, path, "URDF", urdf_losses(arm, as_published=as_published))
+
+
+def _warn_losses(arm, path, kind: str, lines) -> None:
+    """One :class:`~manipdyn.FormatLossWarning` listing ``lines`` (what the ``kind`` file at ``path`` does not hold)."""
+    import os
+
+    from .._support.errors import FormatLossWarning, warn_at_caller
+
+    if lines:
+        warn_at_caller(f"{os.fspath(path)}: the {kind} does not hold all of {arm.name or 'the model'} (its opening "
+                       "comment says the same): " + "; ".join(" ".join(str(x).split()) for x in lines),
+                       FormatLossWarning)
 
 
 register_service("save", save)
@@ -61,5 +78,9 @@ def to_mjcf(arm, as_published: bool = False) -> str:
 
 
 def write_mjcf(arm, path, as_published: bool = False) -> None:
-    """Write :func:`to_mjcf` to ``path`` atomically (no partial file on failure)."""
+    """Write :func:`to_mjcf` to ``path`` atomically (no partial file on failure); what the MJCF does not
+    hold of the model is also warned (:class:`~manipdyn.FormatLossWarning`, as :func:`write_urdf`)."""
+    from .mjcf import mjcf_losses
+
     atomic_write_text(path, arm_to_mjcf(arm, as_published=as_published))
+    _warn_losses(arm, path, "MJCF", mjcf_losses(arm, as_published=as_published))

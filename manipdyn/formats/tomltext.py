@@ -11,7 +11,27 @@ import re
 
 from .._support.errors import ModelError
 
-__all__ = ["toml_str", "toml_key", "toml_num", "toml_list"]
+__all__ = ["toml_str", "toml_key", "toml_num", "toml_list", "read_toml_text"]
+
+def read_toml_text(text: str, where: str, what: str = "file") -> dict:
+    """The TOML document ``text`` (a leading byte-order mark, which some editors write, skipped), or a
+    ModelError naming ``where``: not TOML, arrays or tables nested too deeply, or an integer of more
+    digits than Python converts (4300), which tomllib raises as a bare ValueError."""
+    import tomllib
+
+    if text.startswith("\ufeff"):
+        text = text[1:]
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ModelError(f"{where}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise ModelError(f"{where}: not a {what}: arrays or tables nested too deeply") from None
+    except ValueError as exc:       # "Exceeds the limit (4300 digits) for integer string conversion"
+        digits = re.search(r"has (\d+) digits", str(exc))
+        raise ModelError(f"{where}: not a {what}: an integer of {digits.group(1) if digits else 'too many'} digits "
+                         "(no quantity needs more than a few; Python reads at most 4300)") from None
+
 
 _TOML_ESCAPES = {"\\": "\\\\", '"': '\\"', "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
 

@@ -32,6 +32,8 @@ The record's keys (all optional but ``format``; JSON types; SI units)::
     collision         collision thresholds (manipdyn.control.collision): {"threshold", "gain", ...}
     decided           what the data decided and what the prior kept: {"weight", "links" (n of "data",
                       "prior", "floor"), "prior" (the base parameters the logs do not excite)}
+    torque_constants  one line: the k_t found from currents, their standard deviations and where the scale came
+                      from (a payload, the model's k_t, the prior's gravity)
 
 A record that does not read is a :class:`ModelError` naming the file and the key.
 """

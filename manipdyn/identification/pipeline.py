@@ -58,7 +58,7 @@ __all__ = ["identify", "IdentifyResult"]
 #: the options a model's provenance records (those given: not None, False or 0)
 PROVENANCE_KEYS = ("method", "friction", "friction_terms", "friction_side", "smoothing", "stribeck_velocity",
                    "sigmoid_alpha", "armature", "mass_bound", "com_bound", "total_mass_bound", "no_bounds",
-                   "prior_weight", "bootstrap", "scheduler", "identify_torque_constants", "cutoff", "columns", "deg",
+                   "prior_weight", "bootstrap", "scheduler", "identify_torque_constants", "scale_from_gravity", "cutoff", "columns", "deg",
                    "rate", "time_scale", "resample", "no_decimate", "t_range", "topic", "joint_names", "extra_joints")
 #: the file kinds ``output`` may name
 OUTPUTS = (".toml", ".urdf", ".json")
@@ -110,21 +110,22 @@ def _with_transmission(arm, transmission):
     if isinstance(arm, Manipulator):
         return Manipulator(arm.links, convention=arm.convention, gravity=arm.gravity, name=arm.name,
                            source=arm.source, sources=arm.sources, description=arm.description,
-                           transmission=transmission, friction=law)
+                           transmission=transmission, friction=law, base=arm.base, tool=arm.tool)
     return load_urdf(arm.urdf_text, tip=arm.tip, name=arm.name, gravity=arm.gravity, transmission=transmission,
                      friction=law if arm.custom_drive else None)
 
 
-def _torque_constants(arm, runs, friction, armature, reference):
+def _torque_constants(arm, runs, friction, armature, reference, scale=None):
     """Step 3: ``(arm with k_t, runs with rescaled torques, TorqueConstants)``."""
     from ..model.drive import Transmission
-    from .payload.torque_constants import CURRENT_NOTE, identify_torque_constants
+    from .payload.gravity_scale import torque_constants
+    from .payload.torque_constants import CURRENT_NOTE
 
     for data, _ in runs:
         if not any(CURRENT_NOTE in note for note in data.notes):
             raise ModelError(f"identify_torque_constants: {data.source} has no current columns (i1..in, or "
                              "columns='i=...'): torque constants are identified from currents")
-    tc = identify_torque_constants(arm, runs, armature=armature, friction=friction, reference=reference)
+    tc = torque_constants(arm, runs, armature=armature, friction=friction, reference=reference, scale_from_gravity=scale)
     tr = arm.transmission
     R = np.asarray(tr.R, dtype=np.float64)
     gain = R.T @ np.diag(tc.values) @ np.linalg.inv(R).T        # tau = R^T diag(k) i, i = R^-T tau_read
@@ -167,7 +168,7 @@ def identify(prior, logs, *, method: str = "consistent", tip=None, friction: boo
              friction_side=None, smoothing=None, stribeck_velocity=None, sigmoid_alpha=None,
              armature: bool = False, mass_bound=None, com_bound=None, total_mass_bound=None, no_bounds: bool = False,
              prior_weight=None, bootstrap: int = 0, scheduler=None, band_folds: int = 5, identify_torque_constants: bool = False,
-             torque_constant_reference=None, output=None, base_json=None, name=None, columns=None,
+             torque_constant_reference=None, scale_from_gravity=None, output=None, base_json=None, name=None, columns=None,
              deg: bool = False, rate=None, time_scale: float = 1.0, resample=None, cutoff=None,
              no_decimate: bool = False, t_range=None, topic=None, joint_names=None, extra_joints: bool = False,
              blas_threads=1, progress=None) -> IdentifyResult:
@@ -190,10 +191,11 @@ def identify(prior, logs, *, method: str = "consistent", tip=None, friction: boo
     band_folds : int
         Blocked hold-outs of the fit data for the 95 % prediction band the model carries
         (:func:`.provenance.fit_record`; 2 to 100, default 5, each a refit; 0: no band).
-    identify_torque_constants, torque_constant_reference
+    identify_torque_constants, torque_constant_reference, scale_from_gravity
         ``k_t`` per motor from current logs (:mod:`.torque_constants`); the scale from a run
         with a known payload, else from the prior's ``k_t`` of the reference motors (1-based;
-        default all).
+        default all), else (or with ``scale_from_gravity``, 1-based motors) from the prior's
+        gravity torque on those motors (:mod:`.payload.gravity_scale`; default: where it varies).
     output, base_json
         Write the model (.toml, .urdf) or the base model (.json) there
         (:meth:`IdentifyResult.save`), and the base model also at ``base_json``.
@@ -225,7 +227,7 @@ def _identify(prior, logs, o) -> IdentifyResult:
     if o["method"] not in METHODS:
         raise OptionError("{}: expected one of " + ", ".join(METHODS) + ", got " + brace_safe(repr(o["method"])), "method")
     arm, prior_label = _load(prior, o["tip"])
-    prior_notes = []
+    as_loaded, prior_notes = arm, []
     if o["method"] == "consistent":      # the pull starts from physical bodies (.estimation.prior)
         from .estimation.prior import physical_prior
 
@@ -245,6 +247,8 @@ def _identify(prior, logs, o) -> IdentifyResult:
         raise OptionError("{}: expected 0 (no band) or 2 to 100, got " + brace_safe(repr(folds)), "band_folds")
     if o["torque_constant_reference"] is not None and not o["identify_torque_constants"]:
         raise OptionError("{}: only with {}", "torque_constant_reference", "identify_torque_constants")
+    if o["scale_from_gravity"] is not None and not o["identify_torque_constants"]:
+        raise OptionError("{}: only with {}", "scale_from_gravity", "identify_torque_constants")
     ref = o["torque_constant_reference"]
     if ref is not None and (isinstance(ref, (str, bytes)) or not hasattr(ref, "__iter__") or not all(
             isinstance(k, (int, np.integer)) and not isinstance(k, bool) and 1 <= k <= arm.n for k in ref) or not len(ref)):
@@ -273,7 +277,8 @@ def _identify(prior, logs, o) -> IdentifyResult:
     tc, as_read = None, arm
     if o["identify_torque_constants"]:
         tell("torque constants from the currents")
-        arm, runs, tc = _torque_constants(arm, runs, law, o["armature"], o["torque_constant_reference"])
+        arm, runs, tc = _torque_constants(arm, runs, law, o["armature"], o["torque_constant_reference"],
+                                          o["scale_from_gravity"])
     payload_logs = [os.path.basename(str(d.source)) for d, p in runs if p is not None]
     data = _known_payloads(arm, runs)
     labels, group_note = _trajectory_groups(runs, data)
@@ -295,7 +300,7 @@ def _identify(prior, logs, o) -> IdentifyResult:
         law, shapes = fit_shapes(arm, data, law, armature=o["armature"])
         if tc is not None:         # the gains again, with the fitted shapes
             arm, runs, tc = _torque_constants(as_read, _reread(runs, tc, arm), law, o["armature"],
-                                              o["torque_constant_reference"])   # the scale: the prior's k_t again
+                                              o["torque_constant_reference"], o["scale_from_gravity"])
             data = _known_payloads(arm, runs)
     selection = None
     if weight == "auto":
@@ -334,6 +339,8 @@ def _identify(prior, logs, o) -> IdentifyResult:
                                       friction=law, armature=o["armature"], bounds=bounds, prior_weight=weight,
                                       segments=segments, labels=labels, refits=refits)
     prov.update(record)
+    if tc is not None:       # the constants and where their scale came from, in one line (payload.torque_constants)
+        prov["torque_constants"] = tc.as_dict()["summary"]
     doubts = _doubts(result, data, runs)
     if doubts:
         prov["doubts"] = doubts
@@ -344,9 +351,9 @@ def _identify(prior, logs, o) -> IdentifyResult:
     if decided is not None:
         prov["decided"] = {"weight": decided["weight"], "links": decided["links"],
                            "prior": [x["what"] for x in decided["base"] if x["by"] == "prior"]}
-    rep["fit_notes"] = ([group_note] if group_note else []) + prior_notes + law_notes \
+    rep["fit_notes"] = _units_notes(arm, data) + ([group_note] if group_note else []) + prior_notes + law_notes \
         + list(rep.get("fit_notes", [])) + (describe_attribution(decided) if decided is not None else []) \
-        + record_notes + doubts
+        + record_notes + doubts + _prior_notes(as_loaded, prior_label)
     if decided is not None:
         rep["decided"] = decided
     rep["doubts"] = doubts
@@ -388,6 +395,25 @@ def _attribution(result, arm, weight, data, method):
     prior_pi = prior_parameters(arm, result.base)
     floored = [int(x.split()[1]) - 1 for x in result.report.get("active_bounds", []) if "radius of gyration" in x]
     return attribution(result, prior_pi, float(weight), len(data.q) * arm.n, floored)
+
+
+def _units_notes(arm, data) -> list[str]:
+    """Torques in another unit than the prior's (:mod:`.inputs.units`): first among the notes, and warned."""
+    from .._support.errors import SuspiciousValueWarning, warn_at_caller
+    from .inputs.units import prior_torque_note
+
+    note = prior_torque_note(arm, data)
+    if note:
+        warn_at_caller(note, SuspiciousValueWarning)
+    return [note] if note else []
+
+
+def _prior_notes(arm, label) -> list[str]:
+    """The prior's own doubt: no physical arm (:func:`manipdyn.model.plausible.not_physical_note`)."""
+    from ..model.plausible import not_physical_note
+
+    note = not_physical_note(arm, os.path.basename(str(label)), "the prior")
+    return [note] if note else []
 
 
 def _held_out(refits, record, labels, folds):

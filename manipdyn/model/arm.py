@@ -14,77 +14,23 @@ each arm builds each engine lazily, on first use, and keeps it:
 """
 from __future__ import annotations
 
-import math
 import warnings
-from typing import Callable, Literal, NamedTuple, get_args
 
 import numpy as np
 
 from .._support import limits
 from .._support.errors import ModelError, PhysicalConsistencyWarning, warn_notes
-from .kinematics import ChainKinematics, DHKinematics, rot_x, rot_z, trans
+from .kinematics import ChainKinematics, DHKinematics
 from .drive import arm_drive
 from .arm_calls import ArmCalls, as_poses
 from .reach import ReachCalls
 from .links import ChainJoint, DHLink, as_dh_links, as_gravity, check_name, dh_links_equal, physical_note
+from .dh_chain import as_transform, dh_chain, dh_link_offsets
+from .registry import (CONVENTIONS, DEFAULT_QLIM, ENGINE_FACTORIES, REQUIRED, SERVICES, Convention, TraceFormData,
+                       joint_letters, register_engine, register_service)
 
 __all__ = ["Arm", "Manipulator", "URDFArm", "Convention", "TraceFormData", "register_engine",
            "register_service", "DEFAULT_QLIM", "joint_letters", "as_gravity"]
-
-#: the two DH conventions; there is no default (see :class:`Manipulator`)
-Convention = Literal["standard", "modified"]
-CONVENTIONS = get_args(Convention)
-_REQUIRED: Convention = "<required>"  # type: ignore[assignment]  # sentinel: convention not given
-
-#: engine factories by name (``"lagrange"``, ``"pinocchio"``), registered by
-#: the engine modules when they are imported (``import manipdyn`` imports them)
-_ENGINES: dict[str, Callable] = {}
-#: functions of the layers above that the deprecated convenience methods call
-#: (``"save"``, ``"write_urdf"``, ``"to_urdf"``, ``"crosscheck"``)
-_SERVICES: dict[str, Callable] = {}
-
-
-def register_engine(name: str, factory: Callable) -> None:
-    """Make ``arm.<name>`` build an engine with ``factory(arm)`` on first use.
-
-    This is how an engine plugs into the model without the model importing it.
-    """
-    _ENGINES[name] = factory
-
-
-def register_service(name: str, fn: Callable) -> None:
-    """Back a deprecated convenience method (``arm.save`` ...) with ``fn(arm, ...)``."""
-    _SERVICES[name] = fn
-
-
-class TraceFormData(NamedTuple):
-    """What the trace-form engine needs of an arm (:meth:`Arm.trace_form_data`).
-
-    kinematics : DHKinematics or ChainKinematics
-        Link frames T_i and joint generators, batched.
-    J : (n, 4, 4)
-        Pseudo-inertias (eq. 2.21) in the frames ``kinematics`` produces.
-    armature : (n,)
-        Reflected rotor inertias ``R_kk^2 Jm_k``, kg m^2 (kg for prismatic joints).
-    friction : Friction or None
-        The friction law (:class:`manipdyn.model.drive.Friction`); the transmission and
-        the rotors' ``Jm`` are ``arm.transmission`` and ``arm.motor_inertia``.
-    """
-
-    kinematics: object
-    J: np.ndarray
-    armature: np.ndarray
-    friction: object
-
-#: joint-limit defaults used when a link has no ``qlim``: revolute +-pi rad,
-#: prismatic +-1 m.  They bound the states the cross-check draws.
-DEFAULT_QLIM = {"revolute": (-math.pi, math.pi), "prismatic": (-1.0, 1.0)}
-
-
-def joint_letters(joint_types) -> str:
-    """``("revolute", "prismatic")`` -> ``"RP"``."""
-    return "".join("R" if t == "revolute" else "P" for t in joint_types)
-
 
 #: the calls that go to Pinocchio when made on the arm itself
 _FAST_PATH = ("mass_matrix", "coriolis_torque", "gravity_torque", "inverse_dynamics", "forward_dynamics")
@@ -147,10 +93,10 @@ class Arm(ArmCalls, ReachCalls):  # jacobian, inverse_dynamics, poses, ...: .arm
         except KeyError:
             pass
         try:
-            factory = _ENGINES[name]
+            factory = ENGINE_FACTORIES[name]
         except KeyError:
             raise ModelError(f"engine: no engine {name!r} is registered "
-                             f"(registered: {', '.join(sorted(_ENGINES)) or 'none'}); import manipdyn") from None
+                             f"(registered: {', '.join(sorted(ENGINE_FACTORIES)) or 'none'}); import manipdyn") from None
         self.set_engine(name, eng := factory(self))
         return eng
 
@@ -214,13 +160,14 @@ class Arm(ArmCalls, ReachCalls):  # jacobian, inverse_dynamics, poses, ...: .arm
         eng = self._engines.get("pinocchio") or self.engine("pinocchio")
         return eng.gravity_torque(q)
 
-    def linearize(self, q, qd, tau, dt=None, engine="pinocchio"): return _SERVICES["linearize"](self, q, qd, tau, dt, engine)
+    def linearize(self, q, qd, tau, dt=None, engine="pinocchio"): return SERVICES["linearize"](self, q, qd, tau, dt, engine)
 
     def with_payload(self, mass: float, com=(0.0, 0.0, 0.0), inertia=None, name=None) -> "Arm":
         """A new arm of the same kind (DH or URDF) carrying a payload fixed at the tool: ``mass`` kg, ``com``
-        (3,) m in the tool frame; ``inertia`` (3, 3) or (3,) kg m^2 about that COM, tool axes (default 0)
+        (3,) m in the tool frame; ``inertia`` (3, 3), (6,) ``[ixx, iyy, izz, ixy, ixz, iyz]`` or (3,) kg m^2
+        about that COM, tool axes (default 0)
         (:func:`manipdyn.model.variants.with_payload`; ``name`` default ``"<arm>+<mass>kg"``)."""
-        return _SERVICES["with_payload"](self, mass, com, inertia, name)
+        return SERVICES["with_payload"](self, mass, com, inertia, name)
 
     # -- kinematics ---------------------------------------------------------
     def link_poses(self, q) -> np.ndarray:
@@ -230,7 +177,8 @@ class Arm(ArmCalls, ReachCalls):  # jacobian, inverse_dynamics, poses, ...: .arm
     def fkine(self, q) -> np.ndarray:
         """Pose of the tool frame in the base frame: ``T`` (4, 4) or (N, 4, 4), metres, with
         ``p_base = T @ [p_tool, 1]``.  The tool frame is DH frame n (``T_n`` of eq. 2.7; the
-        ``tool`` link of the generated URDF) for a :class:`Manipulator`, and the tip link
+        ``tool`` link of the generated URDF) for a :class:`Manipulator`, or ``base T_n tool`` when
+        it has a ``base`` (then in the world) or a ``tool`` transform, and the tip link
         (``arm.tip``) for a :class:`URDFArm` (loaded without ``tip=``: the last moving link, and
         ``arm.notes`` names the fixed frames beyond it that were passed over, e.g. ``tool0``);
         :meth:`jacobian` is this frame's."""
@@ -245,7 +193,7 @@ class Arm(ArmCalls, ReachCalls):  # jacobian, inverse_dynamics, poses, ...: .arm
     # -- deprecated conveniences (the model knows nothing of files) -------------
     def _service(self, name: str, replacement: str):
         warnings.warn(f"arm.{name}(...) is deprecated; use {replacement}", DeprecationWarning, stacklevel=3)
-        return _SERVICES[name]
+        return SERVICES[name]
 
     def to_urdf(self) -> str:
         """Deprecated: use :func:`manipdyn.to_urdf` (``md.to_urdf(arm)``)."""
@@ -301,19 +249,28 @@ class Manipulator(Arm):
         joint side, sharp sign (then the links' friction must be zero).
     poses : dict, optional
         Named joint vectors ``{"ready": (n,), ...}`` (rad or m), kept as ``arm.poses``.
+    base : (4, 4), optional
+        The pose of the arm's base (the frame the DH table starts from) in the world, a rigid
+        homogeneous transform (metres), as the Robotics Toolbox's ``base``: every link frame,
+        :meth:`fkine` and the Jacobians are in the world, and ``gravity`` is given in the world.
+        Default the identity.
+    tool : (4, 4), optional
+        The tool frame in DH frame n (the Toolbox's ``tool``): :meth:`fkine`, ``jacobian``
+        and ``f_tool`` are this frame's.  Default the identity.
     """
 
-    def __init__(self, links, convention: Convention = _REQUIRED, gravity=(0.0, 0.0, -9.81),
+    def __init__(self, links, convention: Convention = REQUIRED, gravity=(0.0, 0.0, -9.81),
                  name: str = "", strict: bool = False, source: str = "", sources=None,
-                 description: str = "", transmission=None, friction=None, poses=None):
+                 description: str = "", transmission=None, friction=None, poses=None, base=None, tool=None):
         super().__init__()
-        if convention is _REQUIRED:
+        if convention is REQUIRED:
             raise TypeError("Manipulator: the argument 'convention' is required: 'standard' (distal DH, "
                             "eq. 2.3) or 'modified' (Craig's proximal DH); there is no default")
         if not isinstance(convention, str) or convention not in CONVENTIONS:
             raise ModelError(f"convention: must be 'standard' or 'modified', got {convention!r}")
         self.links = links = as_dh_links(links)
         self.convention = convention
+        self.base, self.tool = as_transform(base, "base"), as_transform(tool, "tool")
         self.gravity = as_gravity(gravity)
         self.name = check_name(str(name), "Manipulator", "name")
         self.source = str(source)
@@ -341,6 +298,7 @@ class Manipulator(Arm):
                 and self.source == other.source and self.sources == other.sources
                 and self.description == other.description
                 and np.array_equal(self.gravity, other.gravity)
+                and np.array_equal(self.base, other.base) and np.array_equal(self.tool, other.tool)
                 and len(self.links) == len(other.links) and self.transmission == other.transmission
                 and self.poses.keys() == other.poses.keys()
                 and all(np.array_equal(v, other.poses[k]) for k, v in self.poses.items())
@@ -351,7 +309,7 @@ class Manipulator(Arm):
 
     def trace_form_data(self) -> TraceFormData:
         """DH kinematics (eq. 2.3 or Craig's) and each link's J in its DH frame (eq. 2.21)."""
-        kin = DHKinematics(self.links, self.convention)
+        kin = DHKinematics(self.links, self.convention, self.base, self.tool)
         J = np.array([l.body.J for l in self.links])
         return TraceFormData(kin, J, self.armature, self.friction_model)
 
@@ -364,40 +322,13 @@ class Manipulator(Arm):
         return [l.name or f"link{i + 1}" for i, l in enumerate(self.links)]
 
     def chain(self):
-        """The DH arm as a URDF-ready chain (see :meth:`Arm.chain`).
-
-        Standard DH: joint i turns about z of frame i-1, so its URDF frame is
-        ``T_{i-1} Rz(theta_i) Tz(d_i)``, and DH frame i is that frame (after
-        the motion) times ``S_i = Tx(a_i) Rx(alpha_i)``; ``S_i`` moves into the
-        next joint's origin, and ``S_n`` into the tool joint.  Modified DH:
-        the URDF link frame IS DH frame i.  The fixed offsets theta and d go
-        into the origins, so URDF joint positions are the DH joint variables q.
-        """
-        joints = []
-        prev_S = np.eye(4)
-        names = self.link_names()
-        offsets = self.urdf_link_offsets()
-        for i, l in enumerate(self.links):
-            S = offsets[i]
-            if self.convention == "standard":
-                origin = prev_S @ rot_z(l.theta) @ trans(0, 0, l.d)
-            else:
-                origin = rot_x(l.alpha) @ trans(l.a, 0, 0) @ rot_z(l.theta) @ trans(0, 0, l.d)
-            body = l.body.transformed(S)  # frame-i data into the URDF link frame
-            joints.append(ChainJoint(
-                name=f"joint{i + 1}", joint=l.joint, origin=origin, axis=(0.0, 0.0, 1.0),
-                body=body, qlim=tuple(self._qlim[i]), armature=l.armature,
-                friction_viscous=l.friction_viscous, friction_coulomb=l.friction_coulomb,
-                link_name=names[i],
-            ))
-            prev_S = S
-        return tuple(joints), prev_S
+        """The DH arm as a URDF-ready chain (see :meth:`Arm.chain`; :func:`manipdyn.model.dh_chain.dh_chain`)."""
+        return dh_chain(self.links, self.convention, self._qlim, self.link_names(), self.urdf_link_offsets(),
+                        self.base, self.tool)
 
     def urdf_link_offsets(self) -> np.ndarray:
         """``S_i`` (n, 4, 4): DH frame i = URDF link i frame @ S_i (identity for modified DH)."""
-        if self.convention == "modified":
-            return super().urdf_link_offsets()
-        return np.array([trans(l.a, 0, 0) @ rot_x(l.alpha) for l in self.links])
+        return dh_link_offsets(self.links, self.convention)
 
 
 class URDFArm(Arm):

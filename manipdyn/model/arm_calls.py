@@ -18,7 +18,7 @@ import numpy as np
 
 from .._support.errors import ModelError
 from .._support.state import as_state
-from .reach import as_wrench, wrench_torque
+from .reach import as_wrench, check_link, wrench_torque
 
 __all__ = ["ArmCalls", "as_poses", "MANIPULABILITY_AXES"]
 
@@ -68,6 +68,19 @@ class ArmCalls:
                              "manipdyn.engines.protocol.JacobianEngine); use engine='pinocchio' or 'lagrange'")
         return getattr(eng, method)
 
+    def link_number(self, link) -> int:
+        """``link`` as its number 1..n: a number 1..n, or the name of a link of the chain (the URDF's link
+        names of a :class:`manipdyn.URDFArm`, the links' names, else ``link1 .. linkn``, of a
+        :class:`manipdyn.Manipulator`); a :class:`ModelError` naming the choices otherwise."""
+        if isinstance(link, str):
+            names = [j.link_name for j in self.chain()[0]]
+            if link in names:
+                return names.index(link) + 1
+            shown = ", ".join(repr(x) for x in names[:12]) + (", ..." if len(names) > 12 else "")
+            raise ModelError(f"link: {link[:80]!r} is not a link of {self.name or 'the arm'}; its links are "
+                             f"{shown} (or their numbers 1..{self.n})")
+        return check_link(link, self.n)
+
     def jacobian(self, q, engine: str = "pinocchio", *, frame: str = "world", link=None) -> np.ndarray:
         """Geometric Jacobian of the tool frame (the frame ``fkine`` gives): (6, n) or (N, 6, n).
 
@@ -76,10 +89,12 @@ class ArmCalls:
         (Pinocchio's ``LOCAL_WORLD_ALIGNED``, the Toolbox's ``jacob0``; note: at the frame's
         origin, not Pinocchio's ``WORLD`` point at the base origin); ``frame="tool"``: in the
         frame's own axes (Pinocchio's ``LOCAL``, the Toolbox's ``jacobe``).  ``link=k``
-        (1..n) gives link k's frame instead, ``arm.link_poses(q)[k - 1]`` (DH frame k of a
-        :class:`Manipulator`); its columns after k are zero.  ``engine="lagrange"`` derives it
-        from the chapter's ``dT/dq`` (eq. 2.5 to 2.8); ``md.crosscheck`` compares the two.
+        (1..n, or the link's name, :meth:`link_number`) gives link k's frame instead,
+        ``arm.link_poses(q)[k - 1]`` (DH frame k of a :class:`Manipulator`); its columns after k are
+        zero.  ``engine="lagrange"`` derives it from the chapter's ``dT/dq`` (eq. 2.5 to 2.8);
+        ``md.crosscheck`` compares the two.
         """
+        link = None if link is None else self.link_number(link)
         return self._engine_with(engine, "jacobian")(q, frame=frame, link=link)
 
     def jacobian_dot(self, q, qd, engine: str = "pinocchio", *, link=None) -> np.ndarray:
@@ -92,7 +107,7 @@ class ArmCalls:
         """
         if link is None:
             return self._engine_with(engine, "jacobian_dot")(q, qd)
-        return self._engine_with(engine, "jacobian_dot")(q, qd, link=link)
+        return self._engine_with(engine, "jacobian_dot")(q, qd, link=self.link_number(link))
 
     def manipulability(self, q, axes: str = "all", engine: str = "pinocchio"):
         """Yoshikawa's manipulability ``sqrt(det(J_a J_a^T))``: float, or (N,) for a batch.
@@ -108,47 +123,54 @@ class ArmCalls:
         w = np.sqrt(np.maximum(det, 0.0))        # det(J J^T) >= 0; round-off may give -1e-20
         return float(w) if np.ndim(w) == 0 else w
 
-    def point_in_base(self, q, point, link: int | None = None) -> np.ndarray:
-        """A point given in link frame ``link`` (1..n, default n), in the base frame (eq. 2.8).
+    def point_in_base(self, q, point, link=None) -> np.ndarray:
+        """A point given in link frame ``link`` (1..n or its name, default n), in the base frame (eq. 2.8).
 
         ``point`` is (3,) in metres; the result is (3,) or (N, 3) for a batch of q.
         """
         p = np.asarray(point, dtype=np.float64)
         if p.shape != (3,) or not np.all(np.isfinite(p)):
             raise ValueError(f"point: expected 3 finite numbers (x, y, z) in metres, got {point!r}")
-        k = self.n if link is None else int(link)
-        if not 1 <= k <= self.n:
-            raise ValueError(f"link: expected 1..{self.n}, got {link!r}")
+        k = self.n if link is None else self.link_number(link)
         T = self.link_poses(q)[..., k - 1, :, :]
         return T[..., :3, :3] @ p + T[..., :3, 3]          # r = T_k [p, 1] (eq. 2.8)
 
     # -- the fast path (Pinocchio) ------------------------------------------------
-    def inverse_dynamics(self, q, qd, qdd, f_tool=None):
+    def inverse_dynamics(self, q, qd, qdd, f_tool=None, *, link=None):
         """tau = D qdd + h + g (+ friction) - J^T f_tool, (n,) or (N, n), N m: Pinocchio's RNEA.
 
         ``f_tool`` (6,) or (N, 6): the wrench ``[force (N); moment (N m)]`` the environment
         applies to the tool, in base-frame axes at the tool origin (``fkine``'s frame);
         ``J`` is :meth:`jacobian` (``frame="world"``).  None (the default) costs nothing.
+        ``link`` (1..n or a link's name): the wrench acts on that link instead, at the origin of
+        its frame ``arm.link_poses(q)[k - 1]`` (base axes), and ``J`` is ``jacobian(q, link=link)``.
         """
         eng = self._engines.get("pinocchio") or self.engine("pinocchio")
         if f_tool is None:
+            if link is not None:
+                self.link_number(link)
             return eng.inverse_dynamics(q, qd, qdd)
-        return eng.inverse_dynamics(q, qd, qdd) - self._wrench_torque(eng, q, f_tool)
+        return eng.inverse_dynamics(q, qd, qdd) - self._wrench_torque(eng, q, f_tool, link)
 
-    def forward_dynamics(self, q, qd, tau, f_tool=None):
+    def forward_dynamics(self, q, qd, tau, f_tool=None, *, link=None):
         """qdd solving D qdd = tau + J^T f_tool - h - g (- friction), (n,) or (N, n): Pinocchio's ABA.
 
-        ``f_tool`` as in :meth:`inverse_dynamics`: the wrench the environment applies to the tool.
+        ``f_tool`` and ``link`` as in :meth:`inverse_dynamics`: the wrench the environment applies
+        to the tool, or to link ``link``.
         """
         eng = self._engines.get("pinocchio") or self.engine("pinocchio")
         if f_tool is None:
+            if link is not None:
+                self.link_number(link)
             return eng.forward_dynamics(q, qd, tau)
         tau = as_state(tau, "tau", self.n)
-        return eng.forward_dynamics(q, qd, tau + self._wrench_torque(eng, q, f_tool))
+        return eng.forward_dynamics(q, qd, tau + self._wrench_torque(eng, q, f_tool, link))
 
-    def _wrench_torque(self, eng, q, f_tool):
-        """``J(q)^T f_tool`` (n,) or (N, n) by ``eng``: the joint torques with which a tool wrench acts."""
-        return wrench_torque(eng.jacobian(q), as_wrench(f_tool, as_state(q, "q", self.n)))
+    def _wrench_torque(self, eng, q, f_tool, link=None):
+        """``J(q)^T f_tool`` (n,) or (N, n) by ``eng``: the joint torques with which a wrench on the tool (or
+        on link ``link``, at its frame's origin) acts."""
+        J = eng.jacobian(q) if link is None else eng.jacobian(q, link=self.link_number(link))
+        return wrench_torque(J, as_wrench(f_tool, as_state(q, "q", self.n)))
 
     def potential_energy(self, q):
         """P = -sum_i m_i g^T c_i (zero at the base origin's height): float or (N,), J (Pinocchio).

@@ -43,12 +43,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._support.errors import ModelError
+from .._support.errors import ModelError, is_solver_panic
 from .inertia import LinkInertia, parameters_from_pseudo_inertia, pseudo_inertia_from_parameters
 from .parameters import stacked_regressor
-from .plausible import GYRATION_FLOOR, MJ_MINVAL, arm_scale, gyration_floor, mujoco_refusal
+from .plausible import (GYRATION_FLOOR, MASSLESS, MJ_MINVAL, arm_scale, gyration_floor, is_massless, mujoco_refusal,
+                        without_subnormals)
 
-__all__ = ["Completion", "complete_parameters", "complete_bodies", "gyration_floor", "mujoco_refusal",
+__all__ = ["Completion", "complete_parameters", "complete_bodies", "is_massless", "gyration_floor", "mujoco_refusal",
            "arm_scale", "MARGIN", "MJ_MINVAL", "GYRATION_FLOOR", "EXACT_RTOL"]
 
 #: the margin of a changed body, ``J >= MARGIN I`` in the arm's units (module docstring): a changed
@@ -157,6 +158,9 @@ def _body_constraints(cp, y, links, floor, ceiling, margin):
 
 
 def _solve(cp, prob):
+    """The solver that answered ``prob`` (Clarabel, else SCS), or None.  A solver's error, its
+    refusal of the data (NaN, inf) or its panic (Clarabel's Rust ``PanicException``, a
+    ``BaseException``: :func:`manipdyn._support.errors.is_solver_panic`) is that solver's failure."""
     import warnings
 
     for solver in ("CLARABEL", "SCS"):
@@ -166,7 +170,11 @@ def _solve(cp, prob):
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", UserWarning)
                 prob.solve(solver=solver)
-        except cp.error.SolverError:
+        except (cp.error.SolverError, ValueError, ArithmeticError):
+            continue
+        except BaseException as exc:
+            if not is_solver_panic(exc):
+                raise
             continue
         if prob.status in ("optimal", "optimal_inaccurate"):
             return solver + ("" if prob.status == "optimal" else " (inaccurate)")
@@ -234,6 +242,10 @@ def complete_parameters(arm, pi=None, *, K=None, prior=None, links=None, floor=N
     prior = pi if prior is None else np.asarray(prior, dtype=np.float64)
     if prior.shape != pi.shape:
         raise ModelError(f"prior: expected shape {pi.shape}, got {prior.shape}")
+    given = pi          # the bodies as given, for what the notes say was completed
+    pi, prior, sub_notes = without_subnormals(pi, prior, n)
+    if not np.any(pi[:10 * n]):
+        raise ModelError(MASSLESS)
     if K is not None:
         K = np.asarray(K, dtype=np.float64)
         if K.ndim != 2 or K.shape[1] != p:
@@ -245,12 +257,12 @@ def complete_parameters(arm, pi=None, *, K=None, prior=None, links=None, floor=N
     if floor is None:
         floor = gyration_floor(arm)
     floor = np.asarray(floor, dtype=np.float64)
-    bodies = [_body(pi, i) for i in range(n)]
+    bodies = [_body(given, i) for i in range(n)]
     refused = {i: mujoco_refusal(b) for i, b in enumerate(bodies)}
     want = sorted(range(n) if links is None else {int(i) for i in links})
     bad = [i for i in want if refused[i] is not None or not _physical(pi, [i], m_ref, L, 0.0)]
     if not bad:
-        return Completion(parameters=pi.copy(), exact=True, changed=[], solver="none")
+        return Completion(parameters=pi.copy(), exact=True, changed=[], notes=sub_notes, solver="none")
     from .._support.deps import require
 
     cp = require("cvxpy", "completing a body that no rigid body can be (manipdyn.model.completion)")
@@ -261,7 +273,7 @@ def complete_parameters(arm, pi=None, *, K=None, prior=None, links=None, floor=N
     near = sorted(set(bad) | {i - 1 for i in bad if i > 0})
     attempts = [a for a in (bad, near) if links is not None and len(a) < n] + [list(range(n))]
     attempts = [a for k, a in enumerate(attempts) if a not in attempts[:k]]
-    notes: list = []
+    notes: list = list(sub_notes)
     result = None
     for free_links in attempts:
         result = _exact(cp, pi, prior, A, s, n, p, free_links, floor, plausible, nonnegative, K is not None,

@@ -232,9 +232,12 @@ def _dh_coefficients(a, alpha, convention: str) -> np.ndarray:
 class DHKinematics:
     """Link frames and generators of a DH chain, computed from the A matrices."""
 
-    def __init__(self, links, convention: str):
+    def __init__(self, links, convention: str, base=None, tool=None):
         self.n = len(links)
         self.convention = convention
+        #: the base frame in the world (T_i = base A_1 .. A_i) and the tool in DH frame n; None: identity
+        self._base = None if base is None or np.array_equal(base, np.eye(4)) else np.asarray(base, dtype=np.float64)
+        self._tool = None if tool is None or np.array_equal(tool, np.eye(4)) else np.asarray(tool, dtype=np.float64)
         self.revolute = np.array([l.joint == "revolute" for l in links])
         self.a = np.array([l.a for l in links])
         self.alpha = np.array([l.alpha for l in links])
@@ -255,11 +258,12 @@ class DHKinematics:
         return (coef @ self._K).reshape(B, n, 4, 4)
 
     def poses(self, q: np.ndarray) -> np.ndarray:
-        """``T_1 .. T_n`` (eq. 2.7), (B, n, 4, 4)."""
-        return _cumulative(self.A(q))
+        """``T_1 .. T_n`` (eq. 2.7), (B, n, 4, 4), in the world: the base transform first."""
+        T = _cumulative(self.A(q))
+        return T if self._base is None else self._base @ T
 
     def tool(self, T: np.ndarray) -> np.ndarray:
-        return T[:, -1]
+        return T[:, -1] if self._tool is None else T[:, -1] @ self._tool
 
     def frames(self, q: np.ndarray):
         """Return ``(T, Delta)``: link frames and base-frame generators, (B, n, 4, 4) each."""
@@ -267,7 +271,7 @@ class DHKinematics:
         if self.convention == "standard":
             # joint j moves about z of frame j-1: Delta_j = T_{j-1} Q T_{j-1}^{-1}
             G = np.empty_like(T)
-            G[:, 0] = self._eye
+            G[:, 0] = self._eye if self._base is None else self._base
             G[:, 1:] = T[:, :-1]
         else:
             # modified DH: joint j moves about z of frame j itself

@@ -136,7 +136,9 @@ def _refuse_negative_moment(I: np.ndarray, where: str) -> None:
     if not np.any(I):
         return
     low = float(np.linalg.eigvalsh(I)[0])
-    if low < -1e-9 * float(np.max(np.abs(I))):   # the tolerance of LinkInertia.consistency_problems
+    # the tolerance of LinkInertia.consistency_problems, and never below MuJoCo's mjMINVAL (1e-15 kg m^2):
+    # a massless body's zero tensor rebuilt through sums (diag(0, 1e-19, -1e-19)) is rounding, not a body
+    if low < -max(1e-9 * float(np.max(np.abs(I))), 1e-15):
         raise ModelError(f"{where}: field 'inertia' has a negative principal moment of inertia "
                          f"{low:.6g} kg m^2; no body has one, as no body has a negative mass")
 

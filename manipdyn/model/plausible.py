@@ -11,6 +11,10 @@ Layer 1 (model).
 * :func:`smallest_gyration`: each body's smallest radius of gyration about its centre of mass,
   the one number the fit's active bounds and its doubts give of a model.
 * :func:`arm_scale`: the arm's units (mean link mass, size).
+* :func:`not_physical_note`: one line when a model is no physical arm (a published model with
+  negative principal moments): what ``validate`` and ``identify`` (of it as the prior) say.
+* :func:`is_massless` and :func:`without_subnormals`: an arm with no dynamics, and subnormal
+  parameters taken as 0, which the completion refuses and cleans before any solver sees them.
 """
 
 from __future__ import annotations
@@ -19,7 +23,7 @@ import numpy as np
 
 from .inertia import pseudo_inertia_from_parameters, tensor_from_pseudo_inertia
 
-__all__ = ["mujoco_refusal", "gyration_floor", "gyration_radius", "smallest_gyration", "arm_scale", "MJ_MINVAL", "GYRATION_FLOOR"]
+__all__ = ["not_physical_note", "is_massless", "without_subnormals", "MASSLESS", "mujoco_refusal", "gyration_floor", "gyration_radius", "smallest_gyration", "arm_scale", "MJ_MINVAL", "GYRATION_FLOOR"]
 
 #: MuJoCo's mjMINVAL: a mass or principal moment at or below it is refused by MuJoCo's compiler
 MJ_MINVAL = 1e-15
@@ -95,3 +99,63 @@ def smallest_gyration(pi, n: int) -> np.ndarray:
             m, _c, I = tensor_from_pseudo_inertia(0.5 * (J[i] + J[i].T))
             out[i] = gyration_radius(m, I)
     return out
+
+
+def not_physical_note(arm, label: str | None = None, role: str = "the model") -> str | None:
+    """One line, or None when every body of ``arm`` is physical: which links (numbered 1 to n along the
+    chain) have a negative principal moment, which break the triangle inequality of their principal
+    moments only, which have inertia without mass.  ``role`` and ``label`` open it: e.g. "the prior
+    kuka_lwr4_gaz.urdf is not a physical arm: links 1, 5, 6, 7 have negative principal moments; ..."."""
+    chain = getattr(arm, "chain", None)
+    if chain is None:
+        return None
+    groups = {"have negative principal moments": [], "break the triangle inequality of their principal moments": [],
+              "have inertia without mass": []}
+    for i, j in enumerate(chain()[0]):
+        problems = " ".join(j.body.consistency_problems())
+        key = ("have negative principal moments" if "negative principal moment" in problems else
+               "break the triangle inequality of their principal moments" if "triangle inequality" in problems else
+               "have inertia without mass" if problems else None)
+        if key:
+            groups[key].append(str(i + 1))
+    parts = [("links " if len(v) > 1 else "link ") + ", ".join(v) + " "
+             + (k if len(v) > 1 else k.replace("have ", "has ").replace("break ", "breaks ").replace("their", "its"))
+             for k, v in groups.items() if v]
+    if not parts:
+        return None
+    name = label or getattr(arm, "name", None) or "arm"
+    return (f"{role} {name} is not a physical arm: " + "; ".join(parts) + ": no rigid body has such mass properties "
+            "(manipdyn check names them), so what is compared with it, or pulled towards it, is no real arm")
+
+
+#: why a massless arm is not completed (:func:`manipdyn.model.completion.complete_parameters`)
+MASSLESS = ("completion: every link of the arm is massless (mass 0 and no inertia; a subnormal value counts as "
+            "0): the arm has no dynamics, and no physical body has all-zero base parameters, so there is "
+            "nothing to complete; give the links their masses, or write the bodies as the model has them "
+            "(--as-published, as_published=True), which MuJoCo's compiler refuses on a moving body")
+
+
+def without_subnormals(pi, prior, n: int):
+    """``(pi, prior, notes)`` with every subnormal entry (under 2.2e-308 in magnitude, not 0) taken as 0:
+    no solver works in units a subnormal needs (a 5e-324 kg link made every scale of the problem NaN),
+    and such a body is no body; one note says which entries were."""
+    tiny = np.finfo(np.float64).tiny
+    sub = (pi != 0) & (np.abs(pi) < tiny)
+    if not sub.any():
+        return pi, prior, []
+    idx = [int(k) for k in np.flatnonzero(sub)]
+    where = ", ".join(f"link {k // 10 + 1} entry {k % 10}" if k < 10 * n else f"entry {k}" for k in idx[:6])
+    note = (f"{len(idx)} subnormal parameter(s) (|x| < {tiny:.3g}: {where}{', ...' if len(idx) > 6 else ''}) "
+            "taken as 0")
+    pi = np.where(sub, 0.0, pi)
+    prior = np.where((prior != 0) & (np.abs(prior) < tiny), 0.0, prior)
+    return pi, prior, [note]
+
+
+def is_massless(arm) -> bool:
+    """Whether every link of ``arm`` has mass 0 and no inertia (subnormal values counting as 0): an arm
+    with no dynamics, which :func:`manipdyn.model.completion.complete_parameters` refuses (a URDF holds it as it is)."""
+    tiny = np.finfo(np.float64).tiny
+    joints, _tool = arm.chain()
+    return all(abs(float(j.body.mass)) < tiny and not np.any(np.abs(np.asarray(j.body.inertia)) >= tiny)
+               for j in joints)

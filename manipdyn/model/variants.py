@@ -39,13 +39,29 @@ def _rebuild(arm: Manipulator, links, name: str) -> Manipulator:
         warnings.simplefilter("ignore", PhysicalConsistencyWarning)
         return Manipulator(links, convention=arm.convention, gravity=arm.gravity, name=name,
                            strict=arm.strict, source=arm.source, sources=arm.sources,
-                           transmission=arm.transmission, friction=law, poses=dict(arm.poses))
+                           transmission=arm.transmission, friction=law, poses=dict(arm.poses),
+                           base=arm.base, tool=arm.tool)
 
 
 def _dh_arm(arm, fn: str) -> Manipulator:
     if not isinstance(arm, Manipulator):
         raise ModelError(f"{fn}: needs a DH arm (manipdyn.Manipulator), got {type(arm).__name__}")
     return arm
+
+
+def _six(inertia):
+    """Six numbers ``[ixx, iyy, izz, ixy, ixz, iyz]`` (RUNS.toml's payload order) as the (3, 3) tensor;
+    anything else as given (:class:`LinkInertia` checks it and names what it expects)."""
+    if isinstance(inertia, (str, bytes, dict)):
+        return inertia
+    try:
+        v = np.asarray(inertia, dtype=np.float64)
+    except (TypeError, ValueError):
+        return inertia
+    if v.shape != (6,):
+        return inertia
+    ixx, iyy, izz, ixy, ixz, iyz = v
+    return np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
 
 
 def with_payload(arm, mass: float, com=(0.0, 0.0, 0.0), inertia=None, name=None):
@@ -60,9 +76,10 @@ def with_payload(arm, mass: float, com=(0.0, 0.0, 0.0), inertia=None, name=None)
     com : (3,)
         Payload centre of mass in the tool frame, the frame :meth:`~manipdyn.Arm.fkine`
         gives (a DH arm's frame n; a URDF arm's tip link), m.
-    inertia : (3, 3) or (3,), optional
+    inertia : (3, 3), (6,) or (3,), optional
         Payload inertia tensor about its own centre of mass (tensor sign, tool-frame
-        axes; three values are the diagonal), kg m^2; default 0 (a point mass).
+        axes; six values are ``[ixx, iyy, izz, ixy, ixz, iyz]``, the order of RUNS.toml's
+        ``payload.inertia``; three values are the diagonal), kg m^2; default 0 (a point mass).
     name : str, optional
         Default ``"<arm>+<mass>kg"``.
 
@@ -78,12 +95,14 @@ def with_payload(arm, mass: float, com=(0.0, 0.0, 0.0), inertia=None, name=None)
         raise ModelError(f"with_payload: needs an arm (manipdyn.Manipulator or manipdyn.URDFArm), "
                          f"got {type(arm).__name__}")
     mass = nonnegative(mass, "with_payload: mass", "kg")
-    payload = LinkInertia(mass, com, np.zeros((3, 3)) if inertia is None else inertia, name="payload")
+    payload = LinkInertia(mass, com, np.zeros((3, 3)) if inertia is None else _six(inertia), name="payload")
     payload.check_physical(strict=True, where="with_payload: payload")
     name = name if name is not None else f"{arm.name or 'arm'}+{mass:g}kg"
     if isinstance(arm, URDFArm):
         return _urdf_with_payload(arm, payload, name)
     last = arm.links[-1]
+    if not np.array_equal(arm.tool, np.eye(4)):       # given in the tool frame: into DH frame n
+        payload = payload.transformed(arm.tool)
     body = LinkInertia.from_pseudo_inertia(last.body.J + payload.J, name=last.name or "last link")
     links = arm.links[:-1] + (dataclasses.replace(last, mass=body.mass, com=body.com, inertia=body.inertia),)
     return _rebuild(arm, links, name)

@@ -36,10 +36,12 @@ from dataclasses import replace
 import numpy as np
 
 from ..._support.errors import ModelError
+from ...identification.inputs.options import OptionError, brace_safe
 from ...identification.uncertainty.bands import DEFAULT_FOLDS
-from ...identification.uncertainty.thresholds import (DEFAULT_GAIN, DEFAULT_HYSTERESIS, DEFAULT_MIN_DURATION,
+from ...identification.uncertainty.thresholds import (DEFAULT_HYSTERESIS, DEFAULT_MIN_DURATION,
                                                       DEFAULT_RATE, CollisionThresholds, fit_thresholds)
-from .observer import check_gain, check_velocity_cutoff, momentum_residual
+from .gain import choose_gain
+from .observer import check_gain, check_velocity_cutoff, momentum_input, observer_output
 from .reading import read_observed
 
 __all__ = ["held_out_thresholds", "identified_thresholds", "READ_KEYS"]
@@ -61,7 +63,7 @@ def _names(sources) -> list[str]:
     return [os.path.basename(os.fspath(s)) if s else f"run {k + 1}" for k, s in enumerate(sources)]
 
 
-def identified_thresholds(result, logs, gain: float = DEFAULT_GAIN, false_alarms: float = DEFAULT_RATE, *,
+def identified_thresholds(result, logs, gain: float | None = None, false_alarms: float = DEFAULT_RATE, *,
                           min_duration: float = DEFAULT_MIN_DURATION, hysteresis: float = DEFAULT_HYSTERESIS,
                           kind: str | None = None, velocity_cutoff: float | None = None,
                           **read_options) -> CollisionThresholds:
@@ -70,7 +72,8 @@ def identified_thresholds(result, logs, gain: float = DEFAULT_GAIN, false_alarms
     ``result``: an :class:`~manipdyn.identification.IdentifyResult` with its band's hold-outs
     (``band_folds`` > 0); ``logs``: the logs it was given (paths, RUNS.toml or LogSpecs, not arrays: the
     observer reads each file again, nearly raw); ``read_options``: identify's reading options
-    (:data:`READ_KEYS`; others are ignored).  ``gain`` 1/s, ``false_alarms`` per hour, ``min_duration`` s
+    (:data:`READ_KEYS`; others are ignored).  ``gain`` 1/s (None: chosen on the hold-outs for the smallest
+    torque detected within 20 ms, :mod:`manipdyn.control.collision.gain`), ``false_alarms`` per hour, ``min_duration`` s
     and ``hysteresis`` as :func:`~manipdyn.control.collision.observe` takes them.  ``kind``: ``"trajectories"``
     or ``"blocks"`` (default: the band's own, held-out trajectories when there are two or more; the blocks are
     computed too, for a comparison).  ``velocity_cutoff``: Hz of the observer's output low-pass (None: the
@@ -82,7 +85,7 @@ def identified_thresholds(result, logs, gain: float = DEFAULT_GAIN, false_alarms
     from ...formats.logs.read import model_joint_names
     from ...identification.inputs.runs import Measurements, as_log_specs
 
-    K = check_gain(gain)
+    K = None if gain is None else check_gain(gain)
     fc = check_velocity_cutoff(velocity_cutoff)
     held = getattr(result, "held_out", None)
     if held is None:
@@ -126,8 +129,7 @@ def identified_thresholds(result, logs, gain: float = DEFAULT_GAIN, false_alarms
                     if np.sum(inside) < 10:
                         raise ModelError(f"thresholds: a hold-out of {os.path.basename(spec.path)} holds "
                                          f"{int(np.sum(inside))} raw samples; fewer folds")
-                    out.append(momentum_residual(arm, raw.q[inside], raw.qd[inside], raw.tau[inside], raw.dt, K,
-                                                 fc))
+                    out.append(momentum_input(arm, raw.q[inside], raw.qd[inside], raw.tau[inside], raw.dt))
     if max(dts) > 1.01 * min(dts):
         raise ModelError(f"thresholds: the fit logs' sample periods differ ({min(dts):.4g} to {max(dts):.4g} s); "
                          "resample them to one rate (--resample)")
@@ -141,21 +143,38 @@ def identified_thresholds(result, logs, gain: float = DEFAULT_GAIN, false_alarms
     else:
         source = (f"{held.folds} blocked hold-outs of the fit data {', '.join(names)}, each watched by the observer "
                   "of the band's refit on the others")
-    thr = fit_thresholds(np.vstack(parts), float(np.median(dts)), false_alarms, gain=K, min_duration=min_duration,
+    dt = float(np.median(dts))
+
+    def at(k):
+        return _at_gain(parts, block_parts, dt, k, fc, false_alarms, min_duration, hysteresis, source, held.folds)
+
+    return at(K) if K is not None else choose_gain(at)
+
+
+def _at_gain(parts, block_parts, dt, K, fc, false_alarms, min_duration, hysteresis, source, folds):
+    """:func:`identified_thresholds` at gain ``K``: ``parts`` (and ``block_parts``) the observer's inputs of
+    the hold-outs (:func:`~manipdyn.control.collision.observer.momentum_input`)."""
+    def residuals(xs):
+        return np.vstack([observer_output(x, dt, K, fc) for x in xs])
+
+    thr = fit_thresholds(residuals(parts), dt, false_alarms, gain=K, min_duration=min_duration,
                          hysteresis=hysteresis, source=source, velocity_cutoff=fc)
     if not block_parts:
         return thr
     # as the band does: at least the blocks' thresholds per joint (two or three held-out trajectories may
     # happen to carry over well on a joint, below what the noise and the within-run error give on any run)
-    blocks = fit_thresholds(np.vstack(block_parts), float(np.median(dts)), false_alarms, gain=K,
-                            min_duration=min_duration, hysteresis=hysteresis)
+    blocks = fit_thresholds(residuals(block_parts), dt, false_alarms, gain=K, min_duration=min_duration,
+                            hysteresis=hysteresis)
     wider = blocks.threshold > thr.threshold
     if not np.any(wider):
         return thr
     pick = {k: np.where(wider, getattr(blocks, k), getattr(thr, k)) for k in ("threshold", "tail_a", "tail_b",
                                                                                "observed_max")}
+    # the blocks' tail per hour, in the record's hours (ln N = a - b u counts events in `hours`): the picked
+    # joints' stored threshold stays their tail's level, and for_rate moves them as their own data say
+    pick["tail_a"] = np.where(wider, blocks.tail_a + np.log(thr.hours) - np.log(blocks.hours), thr.tail_a)
     joints = ", ".join(str(j + 1) for j in np.flatnonzero(wider))
-    return replace(thr, **pick, source=f"{source}; at least the {held.folds} blocked hold-outs' thresholds, which "
+    return replace(thr, **pick, source=f"{source}; at least the {folds} blocked hold-outs' thresholds, which "
                                         f"set joint(s) {joints}")
 
 
@@ -164,13 +183,46 @@ _NOT_REDONE = ("bootstrap", "scheduler")
 
 
 def _identify_options(record) -> dict:
-    opts = dict(record.get("options") or {})
+    """identify's keyword arguments from the trust record's ``options`` (and ``method``), checked in shape:
+    a record edited by hand is refused naming its key, never blamed on a command-line option."""
+    raw = record.get("options")
+    if raw is not None and not isinstance(raw, dict):
+        raise ModelError(f"the model's trust record: options: expected a table of identify's options, got {raw!r:.60}")
+    opts = dict(raw or {})
     out = {k: v for k, v in opts.items() if k not in _NOT_REDONE}
-    out["method"] = str(record.get("method") or opts.get("method") or "consistent")
+    method = record.get("method") or opts.get("method") or "consistent"
+    if not isinstance(method, str):
+        raise ModelError(f"the model's trust record: method: expected a method's name, got {method!r:.60}")
+    out["method"] = method
     t_range = opts.get("t_range")
     if t_range is not None:
-        out["t_range"] = tuple(None if x in (None, "none") else float(x) for x in t_range)
+        ok = isinstance(t_range, (list, tuple)) and len(t_range) == 2
+        vals = []
+        for x in (t_range if ok else []):
+            if x in (None, "none"):
+                vals.append(None)
+            elif isinstance(x, (int, float)) and not isinstance(x, bool) and np.isfinite(float(x)):
+                vals.append(float(x))
+            else:
+                ok = False
+        if not ok:
+            raise ModelError(f"the model's trust record: options.t_range: expected [t0, t1] (s, or \"none\"), got "
+                             f"{t_range!r:.60}")
+        out["t_range"] = tuple(vals)
     return out
+
+
+def _record_folds(record) -> int:
+    """The record's band's folds (``prediction_band.folds``), else :data:`DEFAULT_FOLDS`; refused when not an integer >= 2."""
+    band = record.get("prediction_band") or {}
+    folds = band.get("folds") if isinstance(band, dict) else None
+    if folds is None:
+        return DEFAULT_FOLDS
+    if (isinstance(folds, bool) or not isinstance(folds, (int, float)) or not 2 <= folds <= 1000
+            or folds != int(folds)):
+        raise ModelError(f"the model's trust record: prediction_band.folds: expected an integer from 2 to 1000, got "
+                         f"{folds!r:.60}")
+    return int(folds)
 
 
 def _prior(arm, record):
@@ -189,7 +241,7 @@ def _prior(arm, record):
     return arm, f"; refits on the model itself (its prior {label or '?'} does not load)"
 
 
-def held_out_thresholds(arm, log, gain: float = DEFAULT_GAIN, false_alarms: float = DEFAULT_RATE, *,
+def held_out_thresholds(arm, log, gain: float | None = None, false_alarms: float = DEFAULT_RATE, *,
                         folds: int | None = None, min_duration: float = DEFAULT_MIN_DURATION,
                         hysteresis: float = DEFAULT_HYSTERESIS, check_sha256: bool = True,
                         velocity_cutoff: float | None = None) -> CollisionThresholds:
@@ -202,33 +254,40 @@ def held_out_thresholds(arm, log, gain: float = DEFAULT_GAIN, false_alarms: floa
     from ...identification.pipeline import identify
     from ...identification.results.provenance import file_sha256
 
-    K = check_gain(gain)
+    K = None if gain is None else check_gain(gain)
     record = getattr(arm, "trust", None)
     if not isinstance(record, dict):
-        raise ModelError("fit data: the model has no trust record (it was not identified by manipdyn identify); "
-                         "give collision-free logs it was not fitted on instead (calibrate=, --calibrate)")
+        raise OptionError("{}: the model has no trust record (it was not identified by manipdyn identify); "
+                          "give collision-free logs it was not fitted on instead ({})", "fit_data", "calibrate")
     logs = [os.fspath(x) for x in (log if isinstance(log, (list, tuple)) else [log])]
     if check_sha256 and record.get("data_sha256"):
         known = str(record["data_sha256"]).split(", ")
         shas = [file_sha256(x) for x in logs]
         for where, sha in zip(logs, shas):
             if sha not in known:
-                raise ModelError(f"fit data {where}: sha256 {sha[:16]}... is not the model's fit data "
-                                 f"({record.get('data')}, sha256 {str(record['data_sha256'])[:16]}...)")
+                raise OptionError("{} " + brace_safe(f"{where}: sha256 {sha[:16]}... is not the model's fit data "
+                                                     f"({record.get('data')}, sha256 "
+                                                     f"{str(record['data_sha256'])[:16]}...)"), "fit_data")
         if len(set(shas)) < len(set(known)):
-            raise ModelError(f"fit data: the model was fitted on {len(set(known))} logs ({record.get('data')}); "
-                             "give them all, for the same hold-outs")
+            raise OptionError("{}: " + brace_safe(f"the model was fitted on {len(set(known))} logs "
+                                                  f"({record.get('data')}); give them all, for the same hold-outs"),
+                              "fit_data")
         logs = sorted(logs, key=lambda x: known.index(shas[logs.index(x)]))      # identify's order
     if folds is None:
-        folds = int((record.get("prediction_band") or {}).get("folds") or DEFAULT_FOLDS)
+        folds = _record_folds(record)
     prior, note = _prior(arm, record)
     options = _identify_options(record)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             result = identify(prior, logs, band_folds=int(folds), **options)
-    except TypeError as exc:       # an option this manipdyn's identify does not take
-        raise ModelError(f"fit data: the trust record's options do not replay ({exc})") from None
-    out = identified_thresholds(result, logs, K, false_alarms, min_duration=min_duration, hysteresis=hysteresis,
-                                velocity_cutoff=velocity_cutoff, **options)
+        out = identified_thresholds(result, logs, K, false_alarms, min_duration=min_duration, hysteresis=hysteresis,
+                                    velocity_cutoff=velocity_cutoff, **options)
+    except (TypeError, ValueError, KeyError, OverflowError) as exc:   # an option this identify does not take
+        raise ModelError(f"the model's trust record: its identify options do not replay ({exc!s:.200})") from None
+    except ModelError as exc:
+        if isinstance(exc, OptionError):    # an option of the record's, not one the user gave on the command line
+            exc = ModelError(str(exc))
+        raise ModelError(f"the model's trust record: identify with its options "
+                         f"({', '.join(sorted(options)) or 'none'}) failed: {exc}") from None
     return replace(out, source=out.source + note) if note else out

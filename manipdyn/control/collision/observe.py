@@ -25,10 +25,13 @@ from dataclasses import replace
 import numpy as np
 
 from ..._support.errors import ModelError
+from ...identification.inputs.options import OptionError, brace_safe
 from ...identification.uncertainty.thresholds import (DEFAULT_GAIN, DEFAULT_HYSTERESIS, DEFAULT_MIN_DURATION,
                                                       DEFAULT_RATE, CollisionThresholds, fit_thresholds)
 from .events import detect_events
-from .observer import check_gain, check_velocity_cutoff, direct_residual, momentum_residual
+from .gain import choose_gain
+from .observer import (check_gain, check_velocity_cutoff, direct_residual, momentum_input, momentum_residual,
+                       observer_output)
 from .reading import Observed, read_observed
 
 __all__ = ["observe", "calibrate_thresholds", "with_thresholds", "carried_thresholds", "resolve_thresholds",
@@ -43,23 +46,52 @@ def _residual(arm, obs: Observed, gain, velocity_cutoff) -> np.ndarray:
     return momentum_residual(arm, obs.q, obs.qd, obs.tau, obs.dt, gain, velocity_cutoff)
 
 
-def calibrate_thresholds(arm, logs, gain: float = DEFAULT_GAIN, false_alarms: float = DEFAULT_RATE, *,
+def calibrate_thresholds(arm, logs, gain: float | None = None, false_alarms: float = DEFAULT_RATE, *,
                          min_duration: float = DEFAULT_MIN_DURATION, hysteresis: float = DEFAULT_HYSTERESIS,
                          velocity_cutoff: float | None = None, **log_options) -> CollisionThresholds:
     """Thresholds from collision-free ``logs`` the model was not fitted on (paths or arrays, as
     :func:`observe` takes them), for ``false_alarms`` events per hour (the detector's, all joints), of the
-    observer at ``gain`` with its output low-pass at ``velocity_cutoff`` Hz (None: the default,
-    :data:`~manipdyn.control.collision.observer.DEFAULT_VELOCITY_CUTOFF`; 0: none), which the record keeps."""
-    K, fc = check_gain(gain), check_velocity_cutoff(velocity_cutoff)
+    observer at ``gain`` 1/s (None: chosen on these logs for the smallest torque detected within 20 ms,
+    :mod:`manipdyn.control.collision.gain`) with its output low-pass at ``velocity_cutoff`` Hz (None: the
+    default, :data:`~manipdyn.control.collision.observer.DEFAULT_VELOCITY_CUTOFF`; 0: none), which the record
+    keeps.  A log given twice is refused (it would count twice)."""
+    K = None if gain is None else check_gain(gain)
+    fc = check_velocity_cutoff(velocity_cutoff)
+    _refuse_repeats(logs)
     parts = read_observed(arm, logs, **log_options)
-    res = [_residual(arm, p, K, fc) for p in parts]
     dts = [p.dt for p in parts]
     if max(dts) > 1.01 * min(dts):
-        raise ModelError(f"calibrate: the logs' sample periods differ ({min(dts):.4g} to {max(dts):.4g} s); "
-                         "resample them to one rate (--resample)")
-    return fit_thresholds(np.vstack(res), dts[0], false_alarms, gain=K, min_duration=min_duration,
-                          hysteresis=hysteresis, source="calibration logs " + ", ".join(p.label for p in parts),
-                          velocity_cutoff=fc)
+        raise OptionError("{}: " + f"the logs' sample periods differ ({min(dts):.4g} to {max(dts):.4g} s); "
+                          "resample them to one rate ({})", "calibrate", "resample")
+    xs = [momentum_input(arm, p.q, p.qd, p.tau, p.dt) for p in parts]
+
+    def at(k):
+        res = [observer_output(x, p.dt, k, fc) for x, p in zip(xs, parts)]
+        return fit_thresholds(np.vstack(res), dts[0], false_alarms, gain=k, min_duration=min_duration,
+                              hysteresis=hysteresis, source="calibration logs " + ", ".join(p.label for p in parts),
+                              velocity_cutoff=fc)
+
+    return at(K) if K is not None else choose_gain(at)
+
+
+def _refuse_repeats(logs) -> None:
+    """Refuse a calibration log given twice (by its content's sha256, under any name): its residual would count
+    twice, and the thresholds' stated rate of false events be off by the copies (identify refuses the same)."""
+    import os
+
+    from ...identification.results.provenance import file_sha256
+
+    items = list(logs) if isinstance(logs, (list, tuple)) else [logs]
+    seen = {}
+    for item in items:
+        if not isinstance(item, (str, os.PathLike)) or not os.path.isfile(item):
+            continue                      # arrays, or a file the reader will name as missing
+        sha = file_sha256(item)
+        if sha in seen:
+            raise OptionError("{}: " + brace_safe(f"{os.fspath(item)} holds the same data as {os.fspath(seen[sha])} "
+                                                  "(sha256): a log counted twice makes the false-alarm rate "
+                                                  "wrong; give each once"), "calibrate")
+        seen[sha] = item
 
 
 def carried_thresholds(arm) -> CollisionThresholds | None:
@@ -91,7 +123,9 @@ def _explicit(threshold, n, gain, rate, min_duration, hysteresis, velocity_cutof
     if len(T) == 1:
         T = np.full(n, T[0])
     if len(T) != n or not np.all(np.isfinite(T)) or np.any(T <= 0):
-        raise ModelError(f"threshold: expected 1 or {n} numbers > 0 (N m per joint), got {np.asarray(threshold)!r}")
+        got = ", ".join(f"{x:g}" for x in T[:12]) + (", ..." if len(T) > 12 else "")
+        raise OptionError("{}: " + brace_safe(f"expected 1 or {n} numbers > 0 (N m per joint), got [{got}]"),
+                          "threshold")
     return CollisionThresholds(T, rate, gain, min_duration, hysteresis, 1.0, np.zeros(n), np.zeros(n), T,
                                "given (threshold=)", velocity_cutoff)
 
@@ -101,8 +135,10 @@ def resolve_thresholds(arm, gain, false_alarms, calibrate, threshold, min_durati
     """The :class:`CollisionThresholds` of :func:`observe` (module docstring), or a refusal; ``log_options``
     are the calibration logs' reading options.  ``velocity_cutoff`` (Hz; None: the carried thresholds' own,
     else the default) is the cut-off of the observer's output low-pass the thresholds are for; the returned record's
-    ``velocity_cutoff`` is the one to watch with."""
-    gain = check_gain(gain)
+    ``velocity_cutoff`` and ``gain`` are the ones to watch with.  ``gain`` None: the carried thresholds' own,
+    else chosen on the calibration data or hold-outs (:mod:`manipdyn.control.collision.gain`), else (numbers
+    given) :data:`DEFAULT_GAIN`."""
+    gain = None if gain is None else check_gain(gain)
     for name, v, ok in (("min_duration", min_duration, lambda x: x >= 0), ("hysteresis", hysteresis,
                                                                           lambda x: 0 <= x < 1)):
         try:
@@ -110,10 +146,12 @@ def resolve_thresholds(arm, gain, false_alarms, calibrate, threshold, min_durati
         except (TypeError, ValueError):
             good = False
         if not good:
-            raise ModelError(f"{name}: expected " + ("seconds >= 0" if name == "min_duration" else
-                                                     "a fraction in [0, 1) of the threshold") + f", got {v!r}")
+            raise OptionError("{}: expected " + ("seconds >= 0" if name == "min_duration" else
+                                                 "a fraction in [0, 1) of the threshold") + brace_safe(f", got {v!r:.40}"),
+                              name)
     if threshold is not None:
-        return _explicit(threshold, arm.n, gain, false_alarms, min_duration, hysteresis,
+        return _explicit(threshold, arm.n, DEFAULT_GAIN if gain is None else gain, false_alarms, min_duration,
+                         hysteresis,
                          check_velocity_cutoff(velocity_cutoff))
     if calibrate is not None:
         return calibrate_thresholds(arm, calibrate, gain, false_alarms, min_duration=min_duration,
@@ -125,29 +163,29 @@ def resolve_thresholds(arm, gain, false_alarms, calibrate, threshold, min_durati
                                    hysteresis=hysteresis, velocity_cutoff=velocity_cutoff)
     carried = carried_thresholds(arm)
     if carried is None:
-        raise ModelError("thresholds: the model carries no collision thresholds (its trust record has no "
-                         f"{TRUST_KEY!r} key); give calibrate= (--calibrate LOG...: collision-free logs the model was "
-                         "not fitted on), fit_data= (--fit-data LOG...: the logs it was identified from, for the "
-                         "band's hold-outs; manipdyn identify writes these by default) or threshold= "
-                         "(--threshold N_M...)")
-    if abs(carried.gain - gain) > 1e-9 * gain:
-        raise ModelError(f"gain: the model's thresholds are for gain {carried.gain:g} 1/s, not {gain:g}; use that "
-                         "gain, or calibrate= / threshold= for this one")
+        raise OptionError("thresholds: the model carries no collision thresholds (its trust record has no "
+                          f"{TRUST_KEY!r} key); give {{}} (collision-free logs the model was not fitted on), {{}} (the "
+                          "logs it was identified from, for the band's hold-outs; manipdyn identify writes these by "
+                          "default) or {} (N m per joint)", "calibrate", "fit_data", "threshold")
+    if gain is not None and abs(carried.gain - gain) > 1e-9 * gain:
+        raise OptionError("{}: " + f"the model's thresholds are for gain {carried.gain:g} 1/s, not {gain:g}; use that "
+                          "gain, or {} / {} for this one", "gain", "calibrate", "threshold")
     if velocity_cutoff is not None:
         fc = check_velocity_cutoff(velocity_cutoff)
         if abs(fc - carried.velocity_cutoff) > 1e-9 * (1.0 + carried.velocity_cutoff):
             def with_(x):
                 return f"with its output low-pass at {x:g} Hz" if x > 0 else "with no output low-pass (0)"
 
-            raise ModelError(f"velocity_cutoff: the model's thresholds are for the observer {with_(carried.velocity_cutoff)}, "
-                             f"not {with_(fc)} (a residual filtered otherwise has other noise); use that cut-off "
-                             "(--velocity-cutoff), or calibrate= / fit_data= for this one")
+            raise OptionError("{}: " + brace_safe(f"the model's thresholds are for the observer "
+                                                  f"{with_(carried.velocity_cutoff)}, not {with_(fc)} (a residual "
+                                                  "filtered otherwise has other noise)") + "; use that cut-off, or "
+                              "{} / {} for this one", "velocity_cutoff", "calibrate", "fit_data")
     out = carried.for_rate(false_alarms)
     return replace(out, min_duration=min_duration, hysteresis=hysteresis,
                    source=out.source or "the model's trust record")
 
 
-def observe(arm, log_or_arrays, gain: float = DEFAULT_GAIN, *, false_alarms: float = DEFAULT_RATE, calibrate=None,
+def observe(arm, log_or_arrays, gain: float | None = None, *, false_alarms: float = DEFAULT_RATE, calibrate=None,
             threshold=None, min_duration: float = DEFAULT_MIN_DURATION, hysteresis: float = DEFAULT_HYSTERESIS,
             direct: bool = True, wrench: bool = True, calibrate_t_range=None, fit_data=None,
             velocity_cutoff: float | None = None, **log_options) -> "ObserveResult":
@@ -155,7 +193,8 @@ def observe(arm, log_or_arrays, gain: float = DEFAULT_GAIN, *, false_alarms: flo
 
     ``log_or_arrays``: a log path (CSV, bag), a list of them, or arrays (a dict or an object with ``t``
     (N,) s, uniform; ``q``, ``qd``, ``tau`` (N, n); optionally ``qdd``).  ``gain``: the momentum observer's
-    K, 1/s.  ``false_alarms``: false events per hour the thresholds allow (all joints together).
+    K, 1/s (None: the carried thresholds' own, else chosen on the calibration data or hold-outs for the
+    smallest torque detected within 20 ms, :mod:`manipdyn.control.collision.gain`, else 100).  ``false_alarms``: false events per hour the thresholds allow (all joints together).
     ``calibrate``: collision-free logs or arrays for the thresholds; ``threshold``: N m per joint.
     ``fit_data``: the log, or list of logs, the model was identified from (its trust record checks the
     sha256): thresholds from the band's hold-outs of them (:mod:`manipdyn.control.collision.holdouts`).
@@ -171,10 +210,10 @@ def observe(arm, log_or_arrays, gain: float = DEFAULT_GAIN, *, false_alarms: flo
     """
     from .report import ObserveResult
 
-    K = check_gain(gain)
     cal_options = dict(log_options, t_range=calibrate_t_range) if calibrate_t_range is not None else log_options
-    thr = resolve_thresholds(arm, K, false_alarms, calibrate, threshold, min_duration, hysteresis, cal_options,
+    thr = resolve_thresholds(arm, gain, false_alarms, calibrate, threshold, min_duration, hysteresis, cal_options,
                              fit_data, velocity_cutoff)
+    K = thr.gain
     runs = []
     for obs in read_observed(arm, log_or_arrays, **log_options):
         r = _residual(arm, obs, K, thr.velocity_cutoff)

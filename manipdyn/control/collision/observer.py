@@ -72,9 +72,10 @@ import math
 import numpy as np
 
 from ..._support.errors import ModelError
+from ...identification.inputs.options import OptionError, brace_safe
 from ...identification.uncertainty.thresholds import DEFAULT_GAIN, low_pass, positive
 
-__all__ = ["MomentumObserver", "momentum_residual", "direct_residual", "coriolis_transpose_qd", "check_gain",
+__all__ = ["MomentumObserver", "momentum_residual", "momentum_input", "observer_output", "direct_residual", "coriolis_transpose_qd", "check_gain",
            "check_velocity_cutoff", "output_low_pass", "DEFAULT_VELOCITY_CUTOFF"]
 
 #: the output low-pass's cut-off by default, Hz (0: none; module docstring: the delay budget at K = 100 1/s)
@@ -98,11 +99,12 @@ def check_velocity_cutoff(velocity_cutoff, dt=None) -> float:
     except (TypeError, ValueError):
         fc = math.nan
     if not (math.isfinite(fc) and fc >= 0):
-        raise ModelError(f"velocity_cutoff: expected the cut-off of the observer's low-pass in Hz, a number "
-                         f"> 0 (0 or None: no filter), got {velocity_cutoff!r}")
+        raise OptionError("{}: " + brace_safe(f"expected the cut-off of the observer's low-pass in Hz, a number "
+                                              f"> 0 (0 or None: no filter), got {velocity_cutoff!r:.40}"),
+                          "velocity_cutoff")
     if fc > 0 and dt is not None and fc >= 0.5 / float(dt):
-        raise ModelError(f"velocity_cutoff: expected a cut-off below the Nyquist frequency {0.5 / float(dt):g} Hz "
-                         f"of the samples, got {fc:g} Hz")
+        raise OptionError("{}: " + f"expected a cut-off below the Nyquist frequency {0.5 / float(dt):g} Hz "
+                          f"of the samples, got {fc:g} Hz", "velocity_cutoff")
     return fc
 
 
@@ -162,15 +164,29 @@ def momentum_residual(arm, q, qd, tau, dt: float, gain: float = DEFAULT_GAIN,
     ``r(0) = 0``: the observer starts at the first sample.
     """
     K, dt = check_gain(gain), _dt(dt)
-    q, qd, tau = _states(q, qd, tau, arm.n)
     fc = check_velocity_cutoff(velocity_cutoff, dt)
+    return observer_output(momentum_input(arm, q, qd, tau, dt), dt, K, fc)
+
+
+def observer_output(x, dt: float, gain: float, velocity_cutoff) -> np.ndarray:
+    """The residual (N, n), N m, from the observer's input ``x`` (:func:`momentum_input`): the loop at ``gain``
+    K, 1/s, then the output low-pass at ``velocity_cutoff`` Hz (0: none).  One input serves every gain."""
+    return output_low_pass(low_pass(x, dt, check_gain(gain)), dt, velocity_cutoff)
+
+
+def momentum_input(arm, q, qd, tau, dt: float) -> np.ndarray:
+    """The observer's input ``x`` (N, n), N m: the external torque over each sample period, ``dp/dt`` less the
+    model's ``tau_meas + C^T qd - g - tau_f`` (trapezoid), 0 at the first sample; the residual is ``x``
+    through the loop's first order (:func:`observer_output`)."""
+    dt = _dt(dt)
+    q, qd, tau = _states(q, qd, tau, arm.n)
     p = np.empty_like(q)
     for a in range(0, len(q), CHUNK):
         p[a:a + CHUNK] = np.einsum("kij,kj->ki", arm.mass_matrix(q[a:a + CHUNK]), qd[a:a + CHUNK])
     beta = tau + coriolis_transpose_qd(arm, q, qd) - arm.gravity_torque(q) - _friction(arm, qd)
     x = np.zeros_like(q)
     x[1:] = (p[1:] - p[:-1]) / dt - 0.5 * (beta[1:] + beta[:-1])     # tau_ext over each period
-    return output_low_pass(low_pass(x, dt, K), dt, fc)
+    return x
 
 
 def direct_residual(arm, q, qd, qdd, tau) -> np.ndarray:

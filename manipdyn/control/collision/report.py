@@ -11,7 +11,30 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .events import WRENCH_CONDITION
+
 __all__ = ["ObserveResult"]
+
+
+def _vec(x, fmt=".3g") -> str:
+    return "[" + ", ".join(format(float(v), fmt) for v in x) + "]"
+
+
+def _force_text(e) -> str:
+    """An event's force as far as it is determined: the point force (a push at the tool's point, no moment),
+    and the 6-D wrench only where the tool's Jacobian is well conditioned (events.WRENCH_CONDITION)."""
+    if e.point_force is None:
+        return ""
+    f = e.point_force
+    s = f"; force at the tool's point {_vec(f)} N (base frame, no moment assumed), |f| {np.linalg.norm(f):.3g} N"
+    if e.wrench is None:
+        return s
+    w, u = e.wrench, e.wrench_uncertainty
+    if e.wrench_determined:
+        return s + (f"; tool wrench: force {_vec(w[:3])} N +- {_vec(u[:3], '.2g')}, moment {_vec(w[3:])} N m "
+                    f"+- {_vec(u[3:], '.2g')} (cond(J) {e.condition:.3g})")
+    return s + (f"; the 6-D tool wrench is not determined here (cond(J) {e.condition:.3g} > "
+                f"{WRENCH_CONDITION:g}: force and moment trade off)")
 
 
 @dataclass
@@ -57,6 +80,8 @@ class ObserveResult:
         lines = [f"collision thresholds, N m (momentum observer, gain {thr.gain:g} 1/s{vel}; {thr.false_alarms_per_hour:g} "
                  f"false events/h; events last >= {1e3 * thr.min_duration:g} ms; {thr.source}):",
                  "  " + "  ".join(f"j{j + 1} {x:.3g}" for j, x in enumerate(thr.threshold))]
+        if thresholds_warning(thr):
+            lines.append("warning: " + thresholds_warning(thr))
         for obs, r, d, ev in self.runs:
             lines.append(f"{obs.label}: {len(obs.t)} samples, {obs.t[-1] - obs.t[0]:.3g} s at {1 / obs.dt:.4g} Hz; "
                          f"peak |r| / threshold " + " ".join(f"{x:.2f}" for x in np.abs(r).max(axis=0) / thr.threshold)
@@ -65,11 +90,7 @@ class ObserveResult:
                 s = (f"  event {k + 1}: {e.onset:.4f} to {e.end:.4f} s (detected {e.detected:.4f} s), peak at "
                      f"{e.peak_time:.4f} s, {e.peak_ratio:.2f} x threshold; joints "
                      f"{','.join(map(str, e.joints))}; last link touched <= {e.link}")
-                if e.wrench is not None:
-                    f, u = e.wrench, e.wrench_uncertainty
-                    s += (f"; tool force [{f[0]:.3g}, {f[1]:.3g}, {f[2]:.3g}] N +- [{u[0]:.2g}, {u[1]:.2g}, "
-                          f"{u[2]:.2g}], moment [{f[3]:.3g}, {f[4]:.3g}, {f[5]:.3g}] N m (base frame)")
-                lines.append(s)
+                lines.append(s + _force_text(e))
         return "\n".join(lines)
 
     def write_predictions(self, path) -> None:
@@ -136,30 +157,44 @@ class ObserveResult:
 
         thr = self.thresholds
         n = thr.n
+        low = (f"its residual low-passed at {thr.velocity_cutoff:g} Hz (the thresholds' own cut-off)"
+               if thr.velocity_cutoff > 0 else "no low-pass on its residual (velocity cut-off 0)")
         parts = [H.facts([("command", command or "md.observe"), ("model", getattr(self.arm, "name", "")),
-                          ("observer", f"generalized momentum, gain {thr.gain:g} 1/s"
-                                       + (f", residual low-passed at {thr.velocity_cutoff:g} Hz"
-                                          if thr.velocity_cutoff > 0 else "")),
+                          ("observer", f"generalized momentum, gain {thr.gain:g} 1/s, {low}"),
                           ("thresholds from", thr.source),
                           ("false events per hour asked", f"{thr.false_alarms_per_hour:g}"),
                           ("an event", f"a crossing lasting >= {1e3 * thr.min_duration:g} ms; ends below "
                                        f"{thr.hysteresis:g} x threshold")])]
+        warn = thresholds_warning(thr)
+        if warn:
+            parts.append(H.verdict(warn, "warn"))
         total = len(self.events)
         parts.append(H.verdict(f"{total} event(s) in {len(self.runs)} log(s)", "ok" if total == 0 else "warn"))
-        parts.append(H.section("Thresholds", H.table(["joint", "threshold, N m", "highest calibration level, N m"],
-                                                     [[f"j{j + 1}", float(thr.threshold[j]),
-                                                       float(thr.observed_max[j])] for j in range(n)],
-                                                     name="thresholds")))
+        given = getattr(thr, "given", False)
+        parts.append(H.section("Thresholds", H.table(
+            ["joint", "threshold, N m"] + ([] if given else ["highest level seen in calibration, N m"]),
+            [[f"j{j + 1}", float(thr.threshold[j])] + ([] if given else [float(thr.observed_max[j])])
+             for j in range(n)], name="thresholds"),
+            H.paragraph("The highest level seen: the largest residual, sustained over the event's minimum "
+                        "duration, that the collision-free calibration data reached on the joint; a threshold "
+                        "is never below it.") if not given else H.paragraph("Thresholds given as numbers.")))
         for i, (obs, r, d, ev) in enumerate(self.runs):
             rows = []
             for k, e in enumerate(ev):
-                f = e.wrench
-                rows.append([k + 1, e.onset, e.detected, e.end, e.peak_ratio, ",".join(map(str, e.joints)), e.link,
-                             "" if f is None else f"[{f[0]:.3g}, {f[1]:.3g}, {f[2]:.3g}]",
-                             "" if f is None else float(np.linalg.norm(f[:3]))])
+                f = e.point_force
+                rows.append([k + 1, e.onset, e.detected, e.end, e.peak_ratio, ",".join(map(str, e.joints)),
+                             f"<= {e.link}", "" if f is None else _vec(f), "" if f is None else float(np.linalg.norm(f)),
+                             "" if e.wrench is None else (f"{_vec(e.wrench[:3])} N, {_vec(e.wrench[3:])} N m"
+                                                          if e.wrench_determined else "not determined"),
+                             "" if e.condition is None else float(e.condition)])
             blocks = [H.table(["event", "onset, s", "detected, s", "end, s", "peak / threshold", "joints",
-                               "last link", "tool force (base), N", "|f|, N"], rows, name=f"events-{i + 1}")
+                               "last link touched", "force at the tool's point (base), N", "|f|, N",
+                               "6-D tool wrench", "cond(J)"], rows, name=f"events-{i + 1}")
                       if rows else H.paragraph("no events")]
+            if rows:
+                blocks.append(H.paragraph("Last link touched: a force on link k moves joints 1..k only, so the link is "
+                                          "at most the last joint crossing. The point force assumes a push at the "
+                                          f"tool's point; the 6-D wrench is given where cond(J) <= {WRENCH_CONDITION:g}."))
             try:
                 blocks.append(H.figure(self.figure(i), alt=f"residuals of {obs.label} against thresholds"))
             except Exception as exc:          # no matplotlib: the page without the figure, said so
@@ -169,3 +204,16 @@ class ObserveResult:
             parts.append(H.section(f"{obs.label}", *blocks))
         H.write_page(path, H.page("Collision detection", f"{getattr(self.arm, 'name', '')}: manipdyn observe",
                                   parts, generator=f"manipdyn {H.version()}"))
+
+
+def thresholds_warning(thr) -> str:
+    """A warning when the thresholds were read off one trajectory only (its blocks, or one calibration log):
+    the model's error on another motion may be larger than what one motion showed; else ''."""
+    src = str(thr.source or "")
+    if "blocked hold-outs" in src and "held-out trajectories" not in src:
+        return ("thresholds from one trajectory (blocks of the fit data): on other motions the model's error may be "
+                "larger; calibrate on a collision-free log of another motion (--calibrate) to check")
+    if src.startswith("calibration logs ") and "," not in src:
+        return ("thresholds from one calibration log: on other motions the model's error may be larger; "
+                "calibrate on several collision-free motions to check")
+    return ""

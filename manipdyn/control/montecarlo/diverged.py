@@ -92,7 +92,7 @@ def explain(study, setup, key: str, log, diverged: bool, ran_away: bool, loop: f
 
     Returns ``{"criterion": "bounds" | "range" | "torque", "joint", "t", "value", "limit",
     "off_path_t", "off_path_joint", "heavier", "heavier_joint", "payload_mass", "sampled_loop",
-    "substeps", "text"}``: joints 1-based; times in s; ``value``/``limit`` in rad (m) or N m (N);
+    "substeps", "integrator", "text"}``: joints 1-based; times in s; ``value``/``limit`` in rad (m) or N m (N);
     ``heavier`` the largest ratio of the plant's ``D_jj`` to the model's at the path's start;
     ``text`` one sentence of it all."""
     if not (diverged or ran_away):
@@ -133,7 +133,8 @@ def explain(study, setup, key: str, log, diverged: bool, ran_away: bool, loop: f
     h = int(np.argmax(ratio))
     draw = setup.plant.draw
     out.update(heavier=float(ratio[h]), heavier_joint=h + 1, payload_mass=float(draw.payload_mass),
-               sampled_loop=float(loop), substeps=int(setup.substeps))
+               sampled_loop=float(loop), substeps=int(setup.substeps),
+               integrator=str(getattr(setup, "integrator", "rk4")))
     parts = [what]
     if out["off_path_t"] is not None:
         parts.append(f"{OFF_PATH:g} {unit[out['off_path_joint'] - 1]} off the path first at t = "
@@ -142,9 +143,10 @@ def explain(study, setup, key: str, log, diverged: bool, ran_away: bool, loop: f
                  + (f" (payload {draw.payload_mass:.3g} kg, undeclared)" if draw.payload_mass else ""))
     from ..stiffness import SAMPLED_LIMIT
 
+    stepper = "Rosenbrock" if getattr(setup, "integrator", "rk4") == "rosenbrock" else "RK4"
     parts.append(f"sampled loop {loop:.3g} " + ("> " if loop > SAMPLED_LIMIT else "<= ") + f"{SAMPLED_LIMIT:g}, "
-                 f"{setup.substeps} RK4 step(s) per period" + ("" if loop > SAMPLED_LIMIT
-                                                               else ": not the period, not the integrator"))
+                 f"{setup.substeps} {stepper} step(s) per period" + ("" if loop > SAMPLED_LIMIT
+                                                                    else ": not the period, not the integrator"))
     if key in _GAINS and out["off_path_t"] is not None:
         parts.append(_GAINS[key])
     label = CONTROLLERS.get(key, key)

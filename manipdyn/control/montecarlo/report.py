@@ -53,10 +53,11 @@ class StudyReport:
     per_run : list of dict
         One record per (run, controller), in run order then controller order:
         ``run, controller, rms_error, max_error, peak_torque, diverged, saturated,
-        substeps, sampled_loop, cause, why`` (errors in rad, or m for prismatic joints; torque in N m or N; the
-        figures of a diverged run cover the samples before it diverged; ``substeps``
-        the Runge-Kutta steps per control period its plant needed,
-        :mod:`manipdyn.control.stiffness`; ``sampled_loop`` its controller's
+        substeps, integrator, sampled_loop, cause, why`` (errors in rad, or m for prismatic joints; torque in
+        N m or N; the figures of a diverged run cover the samples before it diverged; ``substeps``
+        the integrator's steps per control period its plant needed,
+        :mod:`manipdyn.control.stiffness`, ``integrator`` ``"rk4"`` or ``"rosenbrock"``
+        (:mod:`manipdyn.control.implicit`); ``sampled_loop`` its controller's
         ``dt |eig(D_plant^-1 K_d)|``; ``cause`` why a diverged run diverged, a key of
         :data:`.diverged.CAUSES`, None for the others; ``why`` what happened to that run,
         :func:`.diverged.explain`, None for the others).
@@ -190,10 +191,15 @@ class StudyReport:
         steps = {}
         for r in self.per_run:
             steps[r["run"]] = max(steps.get(r["run"], 1), int(r.get("substeps", 1)))
-        stiff = [m for m in steps.values() if m > 1]
-        if not stiff:
-            return ""
-        return (f"integration: {len(stiff)} of {len(steps)} plants are too fast for one RK4 step per "
-                f"{self.study.dt * 1e3:g} ms period and took up to {max(stiff)} (manipdyn.control.stiffness)\n")
+        implicit = {r["run"] for r in self.per_run if r.get("integrator", "rk4") == "rosenbrock"}
+        stiff = [m for run, m in steps.items() if m > 1 and run not in implicit]
+        out = "" if not stiff else (
+            f"integration: {len(stiff)} of {len(steps)} plants are too fast for one RK4 step per "
+            f"{self.study.dt * 1e3:g} ms period and took up to {max(stiff)} (manipdyn.control.stiffness)\n")
+        if implicit:
+            out += (f"integration: {len(implicit)} of {len(steps)} plants are too stiff for RK4 (over "
+                    "manipdyn.control.implicit.RK4_LIMIT steps per period) and were stepped by the Rosenbrock "
+                    f"step with the friction implicit, up to {max(steps[r] for r in implicit)} steps per period\n")
+        return out
 
 

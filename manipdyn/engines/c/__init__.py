@@ -2,7 +2,8 @@
 
 Layer 3 (engines: c).  ``md.codegen(arm, dir, prefix=None)`` writes ``dir/P.h`` and
 ``dir/P.c`` (:mod:`.source`); ``arm.compiled`` (``arm.engine("c")``) is the
-same C compiled and called through ctypes (:mod:`.engine`).  The recursive
+same C compiled and called through ctypes (:mod:`.engine`; one state through
+bound buffers, :mod:`.fast`).  The recursive
 algorithms are written as CasADi SX graphs (:mod:`.graph`) and emitted as
 plain C by our own emitter (:mod:`.emit`); :mod:`.build` compiles and caches.
 Shares no code with ``engines.lagrange`` or ``engines.pinocchio`` (the

@@ -15,7 +15,9 @@ energy ``qd^T D qd / 2`` and regressor friction columns other than the arm's own
 
 Batches of states (N, n) run in one C loop (the ``*_batch`` functions), and
 ctypes releases the GIL during each call: two threads may call one engine at
-once (the C keeps no state).
+once (the C keeps no state).  One state of plain float64 arrays takes the
+single-state shortcuts of :mod:`manipdyn.engines.c.fast` (bound buffers, no
+per-call conversion), with the same answers and the same errors.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ from ..._support.errors import ModelError, SingularMassMatrixError
 from ...model.friction import Friction, friction_spec
 from . import build, cache
 from .emit import check_prefix
+from .fast import install_fast_path
 
 __all__ = ["CompiledEngine", "compiled_engine", "library_for", "ENGINE_PREFIX"]
 
@@ -183,6 +186,7 @@ class CompiledEngine:
             f.argtypes = [ctypes.c_long] + [ctypes.c_void_p] * (nin + len(_FUNCS[name][1]))
             self._fn[name] = f
         self._sizes = {"n": self.n, "nn": self.n * self.n, "np": self.n * self.p, "16": 16, "1": 1}
+        install_fast_path(self, lib, prefix)   # one state: the single-state C on bound buffers (fast.py)
 
     def _check_library(self, lib, prefix: str, sha) -> None:
         """The library's own n, p and model sha256 against the ones asked for."""

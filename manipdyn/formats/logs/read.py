@@ -103,7 +103,7 @@ def _from_csv(path, n, where, columns, deg, time_scale, drive_args, rate, extra_
                              "transmission: give transmission= (R, motor_offset, torque_constant)")
         if "i" in get and drive.torque_constant is None:
             raise ModelError(f"{where}: current columns {cmap.patterns['i']!r} need the torque constants "
-                             "(torque_constant, N m/A at the motor)")
+                             "(torque_constant, N m/A at the motor; or let identify find them: --identify-torque-constants)")
         if "qm" in get:
             get["q"] = drive.positions(get.pop("qm"))
         if "qdm" in get and "qd" not in get:

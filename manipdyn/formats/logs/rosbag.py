@@ -177,7 +177,9 @@ def read_joint_states(path, joint_names, topic: str | None = None):
     if not qs:
         missing = [nm for nm in names if nm not in seen]
         raise ModelError(f"{where}: topic {topic}: no message has position and effort for all of the joints "
-                         f"{names}" + (f"; never seen: {missing}; the bag's joints: {sorted(seen)}" if missing else
+                         f"{names}" + (f"; never seen: {missing}; the bag's joints: {sorted(seen)}: give the model's "
+                                       "joints by the bag's names, in the model's order, with joint_names= "
+                                       "(--joint-names A,B,...)" if missing else
                                        "; the effort (or position) arrays are empty"))
     notes = [f"ros: {len(qs)} {JOINT_STATE} messages on {topic}, joints mapped by name"]
     if skipped:

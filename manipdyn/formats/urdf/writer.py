@@ -124,6 +124,21 @@ def urdf_losses(arm, as_published: bool = True) -> list:
     return lines
 
 
+def _unheld_fit(arm) -> str | None:
+    """What of an identified arm's fit a URDF does not hold, in words ("the fitted friction law (...)",
+    "rotor inertia"), or None when it holds all: a friction law the links' ``<dynamics>`` carry as
+    it is (viscous and sharp Coulomb on the joint side) is held."""
+    from ..losses import friction_held
+
+    parts = []
+    law = getattr(arm, "friction_model", None)
+    if law is not None and friction_held(arm, "urdf")[0] is not law:
+        parts.append(f"the fitted friction law ({', '.join(law.terms)}, {law.side} side) as it is")
+    if np.any(getattr(arm, "armature", 0)):
+        parts.append("rotor inertia")
+    return " nor ".join(parts) or None
+
+
 def tool_link(arm) -> str:
     """Name of the fixed link at the tool frame in :func:`arm_to_urdf`'s text: a URDF arm's
     tip (``arm.tip``) when that is no chain link's name, so the written file loads with the
@@ -201,9 +216,10 @@ def arm_to_urdf(arm, as_published: bool = True) -> str:
     _clean_numbers(root)
     root.insert(0, etree.Comment(xml_comment(comment) + " "))
     trust = getattr(arm, "trust", None)      # what an identified arm carries (formats.trust)
-    if trust is not None and (getattr(arm, "friction_model", None) is not None or np.any(getattr(arm, "armature", 0))):
+    unheld = _unheld_fit(arm) if trust is not None else None
+    if unheld:
         trust = dict(trust, doubts=list(trust.get("doubts", [])) + [
-            "written as URDF, which holds neither the fitted friction law nor rotor inertia: the band and the "
+            f"written as URDF, which does not hold {unheld}: the band and the "
             "leverage were calibrated with them, so this URDF's predictions are not the ones the band covers "
             "(keep the model file)"])
     record = trust_comment(trust)

@@ -114,7 +114,7 @@ def arm_with_parameters(arm, pi, armature: bool = False, friction: bool = False,
     out = Manipulator(links, convention=arm.convention, gravity=arm.gravity,
                       name=arm.name if name is None else name, strict=strict,
                       source=source, sources=sources, description=description,
-                      transmission=arm.transmission, friction=law)
+                      transmission=arm.transmission, friction=law, base=arm.base, tool=arm.tool)
     out.trust = trust
     return out
 

@@ -102,12 +102,11 @@ def physical_prior(arm, label: str = "the prior"):
     what = "with the same base parameters, so the same dynamics" if c.exact else c.summary()
     said = []
     if negative:
-        said.append(f"{label} is not a physical arm ({names(negative)}: J has a negative eigenvalue, a negative "
-                    "principal moment or a broken triangle inequality)")
+        said.append(f"{names(negative)} no rigid body (J has a negative eigenvalue)")
     if degenerate:
-        said.append(f"{label} has degenerate bodies ({names(degenerate)}: J singular, a point mass, a rod or a "
-                    "plate)")
-    note = "; ".join(said) + f"; the pull towards the prior starts from the nearest solid bodies ({what})"
+        said.append(f"{names(degenerate)} degenerate (J singular: a point mass, a rod or a plate)")
+    note = (f"{label}: " + "; ".join(said) + f"; the pull towards the prior starts from the nearest solid bodies "
+            f"({what}): the log-det divergence needs J0 positive definite")
     import warnings
 
     from ..._support.errors import PhysicalConsistencyWarning

@@ -64,8 +64,12 @@ weight 0.1; on a noise-free new motion that fit's acceleration error on the wris
 alone's there, because this prior is wrong where the data are silent: a pull can only be as good as its prior.)
 A model whose masses inflate to hide its torque error pays in torque; one whose wrist is
 too light pays in acceleration.  The one-standard-error rule above then applies to the sum, and a
-candidate must also keep every joint's pooled held-out torque RMS within :data:`TORQUE_SLACK` of the
-default's: the forward dynamics may not be bought with a worse torque prediction on any joint.
+candidate must also keep its pooled held-out torque RMS within :data:`TORQUE_SLACK` (5 %) of the default's on
+average over the joints, and within twice that on every joint: the forward dynamics may not be bought with a
+worse torque prediction.  (Measured on the real logs, ratios of each candidate's held-out torque RMS to the data
+alone's: the Panda's weight 1 is at most 1.085 on a joint (joint 6) and 1.009 on average, and simulates best;
+its weight 10, 1.151 on joint 6, is passed over.  A per-joint bound of 5 % alone passed over the Panda's weight
+1 for that one joint and kept a model whose replay at 50 ms was 4.79e-3 rad pooled against weight 1's 3.64e-3.)
 """
 
 from __future__ import annotations
@@ -86,7 +90,8 @@ MIN_GAIN = 0.005
 ACCEL_SAMPLES = 200
 #: the horizon (s) over which the torque error is averaged before it is turned into an acceleration error
 ACCEL_HORIZON = 0.05
-#: the most a candidate prior weight may raise any joint's pooled held-out torque RMS over the default's
+#: the most a candidate prior weight may raise the pooled held-out torque RMS over the default's, on average over the
+#: joints (twice that on any one joint)
 TORQUE_SLACK = 0.05
 
 
@@ -247,18 +252,25 @@ def choose_prior_weight(arm, q, qd, qdd, tau, weights=DEFAULT_WEIGHTS, folds: in
 
 def exclude_worse_torque(table, key: str, default) -> None:
     """Mark (``row["excluded"]``, the reason) every candidate whose pooled held-out torque RMS (``row["rms"]``, per
-    joint) is over :data:`TORQUE_SLACK` above the default's on some joint: :func:`one_se_choice` then passes it over,
-    whatever its forward dynamics."""
+    joint) is, against the default's, over :data:`TORQUE_SLACK` worse on average over the joints (geometric mean
+    of the ratios) or over twice that on some joint: :func:`one_se_choice` then passes it over, whatever its
+    forward dynamics."""
     ref = next((row for row in table if row[key] == default and row.get("rms") is not None), None)
     if ref is None:
         return
+    base = np.maximum(np.asarray(ref["rms"], dtype=np.float64), 1e-300)
     for row in table:
         if row is ref or row.get("rms") is None:
             continue
-        worse = [j + 1 for j, (a, b) in enumerate(zip(row["rms"], ref["rms"])) if a > (1 + TORQUE_SLACK) * b]
+        ratio = np.asarray(row["rms"], dtype=np.float64) / base
+        mean = float(np.exp(np.mean(np.log(np.maximum(ratio, 1e-300)))))
+        worse = [j + 1 for j, r in enumerate(ratio) if r > 1 + 2 * TORQUE_SLACK]
         if worse:
-            row["excluded"] = (f"its held-out torque RMS is over {100 * TORQUE_SLACK:g} % above the default's on "
+            row["excluded"] = (f"its held-out torque RMS is over {200 * TORQUE_SLACK:g} % above the default's on "
                                f"joint{'s' if len(worse) > 1 else ''} " + ", ".join(map(str, worse)))
+        elif mean > 1 + TORQUE_SLACK:
+            row["excluded"] = (f"its held-out torque RMS is {100 * (mean - 1):.1f} % above the default's on average "
+                               f"over the joints (over {100 * TORQUE_SLACK:g} %)")
 
 
 def horizon_mean(err, test, dt) -> np.ndarray:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..._support.errors import ModelError
+from ..._support.errors import ModelError, is_solver_panic
 
 #: an answer's constraints may be violated by at most this (in the solver's units) to count as
 #: feasible when two solvers' answers are weighed against each other; below the PSD margin EPS,
@@ -61,6 +61,11 @@ def solve(cp, problem, what, solvers=("CLARABEL", "SCS")):
                 problem.solve(solver=solver)
         except cp.error.SolverError as exc:
             errors.append(f"{solver}: {exc}")
+            continue
+        except BaseException as exc:      # Clarabel's Rust panic is a BaseException
+            if not is_solver_panic(exc):
+                raise
+            errors.append(f"{solver}: the solver panicked ({str(exc)[:200]})")
             continue
         if problem.status == "optimal" and not candidates:
             return solver

@@ -26,6 +26,7 @@ arm still follows the trajectory, so its drives give ``J^T f`` less: the logged 
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -34,7 +35,7 @@ from ..._support import limits
 from ..._support.errors import ModelError
 from ...formats.logs.trajectory import Trajectory, read_trajectory
 
-__all__ = ["Trajectory", "read_trajectory", "synthesize", "Contact", "parse_contact", "contact_torques"]
+__all__ = ["Trajectory", "read_trajectory", "synthesize", "Contact", "parse_contact", "check_contacts_act", "contact_torques"]
 
 
 def synthesize(arm, q, qd, qdd, noise: float = 0.01, seed: int = 0, static_friction: bool = False) -> np.ndarray:
@@ -55,8 +56,11 @@ def synthesize(arm, q, qd, qdd, noise: float = 0.01, seed: int = 0, static_frict
         from .static_friction import rest_torque, static_levels
 
         tau = tau + rest_torque(np.asarray(qd, dtype=np.float64).reshape(len(q), arm.n), static_levels(arm), seed)
-    if not np.all(np.isfinite(tau)):
-        raise ModelError("synthesize: the torques along this trajectory overflow; check the model's units")
+    peak = float(np.max(np.abs(tau))) if tau.size else 0.0
+    if not peak <= limits.MAX_SIGNAL:      # inf, nan, or more than a log's readers take (1e307 N m)
+        raise ModelError(f"synthesize: the torques along this trajectory reach {peak:.3g} N m, over "
+                         f"{limits.MAX_SIGNAL:g} (manipdyn.limits.MAX_SIGNAL, what a log's readers take); "
+                         "check the model's units and the trajectory's")
     peak = np.abs(tau).max(axis=0)
     return tau + noise * peak * np.random.default_rng(seed).standard_normal(tau.shape)
 
@@ -92,13 +96,23 @@ def parse_contact(text: str, arm, where: str = "--contact") -> Contact:
     if link:
         names = getattr(arm, "link_names", None)
         names = list((names() if callable(names) else names) or [])
-        if link.strip().isdigit():
+        if re.fullmatch(r"[0-9]{1,6}", link.strip()):      # ASCII digits only ('²' is a digit to str.isdigit)
             k = int(link)
         elif link in names:
             k = names.index(link) + 1
         if k is None or not 1 <= k <= arm.n:
             raise ModelError(f"{where}: LINK: expected 1..{arm.n} or a link name, got {link!r}")
     return Contact(t0, t1, f, k)
+
+
+def check_contacts_act(contacts, t, where: str = "--contact") -> None:
+    """Refuse a :class:`Contact` that holds at no sample of the times ``t`` (N,), s: a contact after the
+    trajectory's end (5 to 6 s on a 4 s one) never acts, and its truth would record one that did."""
+    t = np.asarray(t, dtype=np.float64)
+    for c in contacts:
+        if not np.any((t >= c.t0) & (t < c.t1)):
+            raise ModelError(f"{where} {c.t0:g}:{c.t1:g}: acts at no sample of the trajectory (t = {t[0]:g} to "
+                             f"{t[-1]:g} s): give T0:T1 within it")
 
 
 def contact_torques(arm, t, q, contacts) -> np.ndarray:

@@ -215,18 +215,16 @@ def _spec(raw, i, origin, base) -> LogSpec:
 def read_runs_file(path) -> list[LogSpec]:
     """The runs of a RUNS.toml file (module docstring); a bad entry raises a
     :class:`~manipdyn.ModelError` naming the key and the ``[[log]]`` index (from 1)."""
-    import tomllib
-
     from ..._support import limits
+    from ...formats.tomltext import read_toml_text
 
     where = os.fspath(path)
     raw = limits.read_regular(where, where, "MAX_MODEL_FILE_BYTES", "the runs file", "the runs file")
     try:                       # a regular file of bounded size: not a FIFO, not /dev/zero
-        data = tomllib.loads(raw.decode("utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
         raise ModelError(f"{where}: not a TOML file: {exc}") from None
-    except RecursionError:
-        raise ModelError(f"{where}: not a runs file: arrays or tables nested too deeply") from None
+    data = read_toml_text(text, where, "runs file")
     extra = sorted(set(data) - {"log"})
     if extra:
         raise ModelError(f"{where}: key '{extra[0]}': unknown; a runs file holds [[log]] tables only")

@@ -36,7 +36,7 @@ import numpy as np
 
 from ..._support.errors import ModelError
 
-__all__ = ["TorqueConstants", "identify_torque_constants", "CURRENT_NOTE"]
+__all__ = ["TorqueConstants", "identify_torque_constants", "CURRENT_NOTE", "one_line"]
 
 #: what :func:`~manipdyn.identification.read_log` notes when it converts currents
 CURRENT_NOTE = "tau_m = k_t i"
@@ -52,12 +52,14 @@ class TorqueConstants:
     scale: str
     reference: tuple = ()
     notes: list = field(default_factory=list)
+    detail: dict = field(default_factory=dict)      # how a gravity scale was found (:mod:`.gravity_scale`)
 
     def as_dict(self) -> dict:
         """JSON-ready (an undetermined motor's infinite standard deviation as None)."""
         return {"values": self.values.tolist(), "std": [float(x) if np.isfinite(x) else None for x in self.std],
                 "scale": self.scale,
-                "reference": list(self.reference), "notes": list(self.notes)}
+                "reference": list(self.reference), "notes": list(self.notes),
+                **({"detail": dict(self.detail)} if self.detail else {}), "summary": one_line(self)}
 
 
 def _blocks(arm, runs, base, armature, friction):
@@ -164,7 +166,7 @@ def _linear_gains(blocks, D):
 
 
 def identify_torque_constants(arm, runs, *, armature: bool = False, friction=False,
-                              reference=None) -> TorqueConstants:
+                              reference=None, model_constants=None) -> TorqueConstants:
     """``k_t`` per motor from runs read with unit torque constants (module docstring).
 
     Parameters
@@ -179,12 +181,15 @@ def identify_torque_constants(arm, runs, *, armature: bool = False, friction=Fal
     reference : sequence of int, optional
         1-based motors whose model ``k_t`` (``arm.transmission.torque_constant``) fixes
         the scale when no run carries a payload; default all of them.
+    model_constants : (n,) array, optional
+        Used instead of ``arm.transmission.torque_constant`` as the model's ``k_t``
+        (:mod:`.gravity_scale` gives the prior's gravity's).
     """
     from ..estimation.base import base_parameters
 
     n = arm.n
     has_payload = any(p is not None for _, p in runs)
-    kt_model = arm.transmission.torque_constant
+    kt_model = arm.transmission.torque_constant if model_constants is None else np.asarray(model_constants, float)
     notes, ref = [], ()
     if not has_payload:
         if kt_model is None:
@@ -266,3 +271,24 @@ def _estimate(arm, runs, base, armature, friction, has_payload, kt_model, ref, n
                          "the current columns' signs or the transmission's gear-ratio signs disagree")
     return TorqueConstants(values=k, std=std, scale="payload" if has_payload else "model", reference=ref,
                            notes=notes)
+
+
+def one_line(tc) -> str:
+    """The torque constants in one line: their values, standard deviations and where the scale came from."""
+    d = dict(getattr(tc, "detail", None) or {})
+    if tc.scale == "gravity":
+        S = d.get("scale_motors", list(tc.reference))
+        lo, n = d.get("links", [S[0], len(tc.values)])
+        where = (f"the prior's gravity torque on joint(s) {', '.join(map(str, S))} (the masses and centres of "
+                 f"mass of links {lo} to {n})")
+    elif tc.scale == "payload":
+        where = "the known payload"
+    else:
+        where = f"the model's k_t of motor(s) {', '.join(map(str, tc.reference))}"
+    cells = []
+    for j, (v, s) in enumerate(zip(tc.values, tc.std)):
+        if s is None or not np.isfinite(s):
+            cells.append(f"k{j + 1} {v:.4g} (not determined by the runs)")
+        else:
+            cells.append(f"k{j + 1} {v:.4g} +- {s:.2g}")
+    return f"torque constants from the currents, N m/A, scale from {where}: " + ", ".join(cells)

@@ -6,5 +6,6 @@ rooms ``uncertainty``, ``payload``, ``inputs`` and ``estimation`` and the layers
 * ``result``: :class:`~manipdyn.identification.IdentifyResult` (save, report, score);
 * ``provenance``: the trust data a model carries (band, fitted range, data);
 * ``basemodel``: the base-model JSON; ``scoring`` and ``validation``: ``validate``;
-* ``comparison``: several models side by side; ``doubts``: what the fit should have doubted.
+* ``comparison``: several models side by side; ``logged``: a log's own torque (a controller's target) as one more;
+* ``doubts``: what the fit should have doubted.
 """

@@ -52,6 +52,9 @@ def format_side_by_side(results, unit: str = "N m", units=None) -> str:
         cells = [f"{r.rms[j]:.4g}" + ("*" if best[j] == k else " ") for k, r in enumerate(results)]
         lines.append(f"{j + 1:>5} " + "".join(f"{c:>{width}}" for c in cells) + ("" if same else f"  {units[j]}"))
     lines.append("best  " + ", ".join(f"j{j + 1}: {labels[best[j]]}" for j in range(n)))
+    from .forward_error import format_accel_side_by_side
+
+    lines += format_accel_side_by_side(results, labels, units)
     for lab, r in zip(labels, results):
         extra = []
         if r.coverage is not None:
@@ -68,8 +71,15 @@ def format_side_by_side(results, unit: str = "N m", units=None) -> str:
 
 
 def side_by_side_dict(results) -> dict:
-    """JSON-ready: ``{"models": [each model's scores], "best": [{"joint", "model", "index"}, ...]}``."""
+    """JSON-ready: ``{"models": [each model's scores], "best": [{"joint", "model", "index"}, ...],
+    "best_accel": [...]}`` (``best_accel``: the smallest acceleration RMS per joint, None when a
+    model has none, :mod:`.forward_error`)."""
+    from .forward_error import best_accel_per_joint
+
     best = best_per_joint(results)
     labels = model_labels(results)
+    acc = best_accel_per_joint(results)
     return {"models": [r.to_dict() for r in results],
-            "best": [{"joint": j + 1, "model": labels[k], "index": int(k)} for j, k in enumerate(best)]}
+            "best": [{"joint": j + 1, "model": labels[k], "index": int(k)} for j, k in enumerate(best)],
+            "best_accel": None if acc is None else [{"joint": j + 1, "model": labels[k], "index": int(k)}
+                                                    for j, k in enumerate(acc)]}

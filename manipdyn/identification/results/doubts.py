@@ -102,11 +102,13 @@ def solver_doubts(report) -> list[str]:
 def floor_doubts(active_bounds) -> list[str]:
     """One sentence naming the bodies that sit on the radius-of-gyration floor (``report["active_bounds"]``)."""
     links = [b.split(" radius")[0] for b in active_bounds or [] if "radius of gyration" in b and "at its floor" in b]
-    if not links:
-        return []
-    return [", ".join(links) + ": radius of gyration at the plausibility floor (1 % of the arm's size, or half the "
-            "prior's own; from the geometry where the prior's body is degenerate): the data do "
-            "not decide these bodies' shapes, the floor does (their smallest principal moments are not measured)"]
+    below = [b.split(" radius")[0] for b in active_bounds or [] if "radius of gyration" in b and "below its floor" in b]
+    out = [", ".join(links) + ": radius of gyration at the plausibility floor (1 % of the arm's size, or half the "
+           "prior's own; from the geometry where the prior's body is degenerate): the data do "
+           "not decide these bodies' shapes, the floor does (their smallest principal moments are not measured)"]
+    out += [", ".join(below) + ": radius of gyration below the plausibility floor: the floor does not hold on "
+            "these bodies (the fit's answer is off it), and the data do not decide their shapes"]
+    return [line for line, names in zip(out, (links, below)) if names]
 
 
 def run_doubts(fit_result, data, report) -> list[str]:

@@ -108,12 +108,17 @@ def _draw(t, measured, series, units, beyond=None, xlabel="time (s)"):
             handles.setdefault(f"beyond {series[0][0]}'s fit (extrapolates)", h)
         (h,) = ax.plot(t, measured[:, j], color="0.45", lw=1.1)
         handles.setdefault("measured", h)
-        for k, (label, pred, band) in enumerate(series):
-            if band is not None:
-                h = ax.fill_between(t, pred[:, j] - band[:, j], pred[:, j] + band[:, j], color=f"C{k}", alpha=0.22,
-                                    lw=0)
+        for k, (label, pred, band) in enumerate(series):     # every band first, under every line, edged in
+            if band is not None:                                # its model's colour: no model sits on another's
+                lo, hi = pred[:, j] - band[:, j], pred[:, j] + band[:, j]
+                h = ax.fill_between(t, lo, hi, facecolor=f"C{k}", alpha=0.18 if len(series) > 1 else 0.22,
+                                    edgecolor="none", zorder=1)
+                if len(series) > 1:
+                    for edge in (lo, hi):
+                        ax.plot(t, edge, color=f"C{k}", lw=0.5, ls="--", zorder=1.5)
                 handles.setdefault(f"{label}: 95 % band", h)
-            (h,) = ax.plot(t, pred[:, j], color=f"C{k}", lw=0.9)
+        for k, (label, pred, band) in enumerate(series):
+            (h,) = ax.plot(t, pred[:, j], color=f"C{k}", lw=0.9, zorder=3)
             handles.setdefault(f"{label}: predicted", h)
             axr.plot(t, measured[:, j] - pred[:, j], color=f"C{k}", lw=0.7)
         axr.axhline(0.0, color="0.3", lw=0.6)
@@ -148,9 +153,11 @@ def torque_figure(t, measured, series, units, beyond, what: str, flagged_text: s
               "q or qd beyond the fitted interval by over 10 % of its width, their leverage beyond the held-out "
               "data's, or at rest where the fit never rested)." if beyond is not None and beyond.any() else
               f" Nothing is shaded: {flagged_text}.")
-    banded = any(len(s) > 2 and s[2] is not None for s in series)
-    return H.figure(fig, alt=alt, caption=f"{what}. Grey: measured; coloured: predicted"
-                                          + (" and its 95 % band" if banded else "")
+    banded = [s[0] for s in series if len(s) > 2 and s[2] is not None]
+    whose = ("" if not banded else " and its 95 % band" if len(series) == 1 else
+             "; shaded between dashed lines of its colour, the 95 % band of " + ", ".join(banded)
+             + " only (drawn under every line)")
+    return H.figure(fig, alt=alt, caption=f"{what}. Grey: measured; coloured: predicted" + whose
                                           + "; the small panel under each: measured minus predicted." + shaded)
 
 
@@ -174,7 +181,7 @@ def _joint_rows(r, d: dict, units):
     for j in range(n):
         e = ex[j] if j < len(ex) else None
         row = [f"joint {j + 1}", d["rms"][j], d["relative_rms"][j], d["r2"][j], d["mean_error"][j],
-               None if mean_hw is None else mean_hw[j], None if cov is None else cov[j],
+               None if d.get("accel_rms") is None else d["accel_rms"][j], None if mean_hw is None else mean_hw[j], None if cov is None else cov[j],
                None if e is None else e["outside_fraction"], None if e is None else e["far_outside_fraction"],
                None if e is None else e.get("beyond_fit_fraction")]
         flags, why = [], []
@@ -211,7 +218,8 @@ def _extrapolation_reasons(e: dict) -> list[str]:
     return why
 
 
-_JOINT_HEADERS = ["joint", "RMS error", "RMS / measured RMS", "R^2", "mean error", "band half-width (mean)",
+_JOINT_HEADERS = ["joint", "RMS error", "RMS / measured RMS", "R^2", "mean error",
+                  "acceleration error RMS (D^-1 of the torque error)", "band half-width (mean)",
                   "band coverage", "outside fitted range", "far outside", "beyond the fit by leverage", "flags",
                   "why flagged"]
 
@@ -251,7 +259,26 @@ def _verdict_validate(v) -> tuple[str, str]:
             text += (f"; {r.model} extrapolates on joint(s) "
                      + ", ".join(str(j + 1) for j in np.flatnonzero(ex.flagged)))
             level = "warn"
+    for line in (getattr(v, "fit_data", None) or []) + (getattr(v, "model_notes", None) or []):
+        text += "; " + line
+        level = "warn"
     return text + ".", level
+
+
+def _accel_side_by_side(rs, labels, units) -> list:
+    """The section of the forward dynamics' error per joint and model, the best in bold ([] without any)."""
+    from .forward_error import acceleration_units, best_accel_per_joint
+
+    best = best_accel_per_joint(rs)
+    if best is None:
+        return []
+    au = acceleration_units(units)
+    rows = [[f"joint {j + 1}", *(r.accel_rms[j] for r in rs), au[j], labels[best[j]]] for j in range(len(best))]
+    return [H.section("Forward dynamics side by side", H.table(
+        ["joint", *(f"{lab}: acceleration error RMS" for lab in labels), "unit", "best"], rows, name="accel_side_by_side",
+        best={(j, 1 + int(best[j])) for j in range(len(best))},
+        caption="RMS of D^-1 (tau - tau_hat) per joint and model, on each model's own mass matrix D at the "
+                "measured q: what the forward dynamics a simulator runs miss by; the best per joint in bold"))]
 
 
 def validation_page(v, command: str | None = None, options: dict | None = None, model_files=()) -> str:
@@ -271,7 +298,8 @@ def validation_page(v, command: str | None = None, options: dict | None = None, 
         ("manipdyn", H.version())]
     text, level = _verdict_validate(v)
     parts = [H.section("What was done", H.facts(done)), H.section("Verdict", H.verdict(text, level))]
-    unit_note = f"Torques in {', '.join(sorted(set(units)))}; fractions from 0 to 1."
+    unit_note = (f"Torques in {', '.join(sorted(set(units)))}; accelerations in "
+                 f"{', '.join(sorted(set('m/s^2' if u == 'N' else 'rad/s^2' for u in units)))}; fractions from 0 to 1.")
     joint_parts, any_flag = [], set()
     for k, r in enumerate(rs):
         name = "joints" if len(rs) == 1 else f"joints_{k + 1}"
@@ -292,6 +320,7 @@ def validation_page(v, command: str | None = None, options: dict | None = None, 
             ["joint", *(f"{lab}: RMS error" for lab in labels), "best"], rows, name="side_by_side",
             best={(j, 1 + int(best[j])) for j in range(n)},
             caption="RMS error per joint and model on the same samples; the best per joint in bold")))
+        parts += _accel_side_by_side(rs, labels, units)
     parts.append(H.section("Per joint", *joint_parts, unit_note,
                            "Highlighted rows: the joint extrapolates (more than 5 % of its samples beyond the "
                            "fitted states by over 10 % of their width, or beyond every fitted sample by the "
@@ -320,6 +349,32 @@ def validation_page(v, command: str | None = None, options: dict | None = None, 
 # ---------------------------------------------------------------------------------------- identify
 
 
+def band_words(band: dict) -> str:
+    """How a prediction band (its trust-record dict) was held out, in a few words: the trajectories,
+    the posture regions, or the blocks it came from."""
+    if band.get("method") == "held-out trajectories":
+        return f"{band.get('trajectories')} held-out trajectories, each predicted by a fit on the others"
+    if band.get("regions"):
+        return f"{band.get('regions')} held-out posture regions and {band.get('folds')} blocks, within one trajectory"
+    return f"blocked, {band.get('folds')} folds, within one trajectory"
+
+
+def _collision(prov: dict):
+    """The collision thresholds the model carries (its trust record's ``collision``), or why none."""
+    thr = prov.get("collision")
+    if not isinstance(thr, dict) or not thr.get("threshold"):
+        return H.section("Collision thresholds", "None in this model's trust record (--no-thresholds, no model file "
+                         "written, or none could be had: the command's output says which).")
+    facts = [("observer gain", f"{thr.get('gain')} 1/s"),
+             ("false alarms", f"{thr.get('false_alarms_per_hour')} per hour, all joints together"),
+             ("residual low-pass", f"{thr.get('velocity_cutoff')} Hz" if thr.get("velocity_cutoff") else "none"),
+             ("from", str(thr.get("source", "")))]
+    rows = [[f"joint {j + 1}", x] for j, x in enumerate(thr["threshold"])]
+    return H.section("Collision thresholds", H.facts(facts), H.table(
+        ["joint", "threshold (N m or N)"], rows, name="collision_thresholds",
+        caption="What manipdyn observe watches the momentum observer's residual against, stored in the model file"))
+
+
 def _verdict_identify(rep: dict, unit: str = "N m") -> tuple[str, str]:
     band = (rep.get("provenance") or {}).get("prediction_band")
     text = (f"The {rep['method']} fit of {rep['n_base']} base parameters to {rep['samples']} samples is "
@@ -327,7 +382,7 @@ def _verdict_identify(rep: dict, unit: str = "N m") -> tuple[str, str]:
             + "; its RMS residual per joint is " + ", ".join(H.number(x, 3) for x in rep["rms_residual"])
             + f" {unit}")
     if band:
-        text += ("; held out (blocked, " + str(band.get("folds")) + " folds): "
+        text += ("; held out (" + band_words(band) + "): "
                  + ", ".join(H.number(x, 3) for x in band.get("held_out_rms", [])) + f" {unit}")
     active = rep.get("active_bounds") or []
     if active:
@@ -425,6 +480,7 @@ def identify_page(result, command: str | None = None) -> str:
     except (ModelError, ValueError) as exc:
         fig = f"No figure: {exc}"
     parts.append(H.section("Measured and predicted (fit data)", fig))
+    parts.append(_collision(prov))
     active = rep.get("active_bounds") or []
     parts.append(H.section("Parameters",
                            H.section("Active bounds", H.bullets(active) if active else
@@ -440,7 +496,10 @@ def identify_page(result, command: str | None = None) -> str:
     if tc:
         rows = [[f"motor {j + 1}", v, s] for j, (v, s) in enumerate(zip(tc.get("values", []), tc.get("std", [])))]
         extra.append(H.table(["motor", "k_t (N m/A)", "std"], rows, name="torque_constants",
-                             caption="Torque constants from the currents (scale: " + str(tc.get("scale")) + ")"))
+                             caption="Torque constants from the currents (scale: " + {
+                                 "gravity": "the prior's gravity torque", "payload": "the known payload",
+                                 "model": "the model's k_t"}.get(str(tc.get("scale")), str(tc.get("scale")))
+                             + "; the notes on the fit say which and how sure)"))
     if extra:
         parts.append(H.section("Drives", *extra))
     parts.append(H.section("Data notes", H.bullets(rep.get("data_notes") or []) if rep.get("data_notes") else

@@ -141,7 +141,7 @@ def fit_record(arm, data, folds: int | None = None, smoothing: float | None = No
 
 #: the provenance keys that go into the trust record (manipdyn.formats.trust), in order
 TRUST_KEYS = ("data", "data_sha256", "method", "options", "date", "prior", "rms_residual", "fitted_range",
-              "prediction_band", "leverage", "doubts", "collision", "decided")
+              "prediction_band", "leverage", "doubts", "collision", "decided", "torque_constants")
 
 
 def trust_record(prov: dict) -> dict:

@@ -183,6 +183,7 @@ class IdentifyResult:
             rep["friction_shapes"] = self.shapes
         if self.torque_constants is not None:
             rep["torque_constants"] = self.torque_constants.as_dict()
+            rep["fit_notes"] = list(rep.get("fit_notes", [])) + [rep["torque_constants"]["summary"]]
         rep.update({"model": self.prior_label, "data": self.logs_label or self.provenance["data"], "name": self.name,
                     "output": self.output, "base_model": self.base_model,
                     "derived_derivatives": self.data.derived, "provenance": self.provenance,
@@ -219,11 +220,8 @@ class IdentifyResult:
                 lines.append(f"  not determined by the data (the residual does not change with them over the log's "
                              f"speeds; another start?): {', '.join(sh['undetermined'])}")
         tc = self.torque_constants
-        if tc is not None:
-            where = "the known payload" if tc.scale == "payload" else f"the model's k_t of motor(s) {list(tc.reference)}"
-            lines.append(f"torque constants, N m/A (scale from {where}): " + ", ".join(
-                f"k{j + 1} {v:.5g} +- {s:.2g}" for j, (v, s) in enumerate(zip(tc.values, tc.std))))
-            lines += [f"  {note}" for note in tc.notes]
+        if tc is not None:          # the constants' one line is among the notes above
+            lines += [f"  torque constants: {note}" for note in tc.notes]
         if self.bootstrap is not None:
             from ..uncertainty.bootstrap import format_bootstrap
 

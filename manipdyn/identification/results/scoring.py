@@ -65,6 +65,8 @@ class Validation:
     notes: list = field(default_factory=list)
     units: list | None = None
     held_out: list | None = None       # per model, :func:`.heldout.held_out_label`
+    fit_data: list = field(default_factory=list)    # one line per model scored on its own fit data
+    model_notes: list = field(default_factory=list)  # one line per model that is no physical arm
 
     def title(self) -> str:
         """The figure's title: the models, the logs, the scored window and, per model, whether
@@ -81,7 +83,8 @@ class Validation:
         from .comparison import side_by_side_dict
 
         out = self.results[0].to_dict() if len(self.results) == 1 else side_by_side_dict(self.results)
-        out.update({"runs": self.per_run(), "data_notes": list(self.notes)})
+        out.update({"runs": self.per_run(), "data_notes": list(self.notes), "fit_data": list(self.fit_data),
+                    "model_notes": list(self.model_notes)})
         return out
 
     def per_run(self) -> list:
@@ -102,7 +105,9 @@ class Validation:
 
         body = (self.results[0].format(units=self.units) if len(self.results) == 1
                 else format_side_by_side(self.results, units=self.units))
-        return "\n".join([f"data: {note}" for note in self.notes] + [body] + self._runs_text())
+        return "\n".join([f"data: {note}" for note in self.notes] + [f"note: {x}" for x in self.fit_data + self.model_notes]
+                         + [body]
+                         + self._runs_text())
 
     def report_html(self, path, command: str | None = None, options: dict | None = None, model_files=()) -> str:
         """Write the scores as one self-contained HTML page to ``path`` (atomically; what
@@ -143,7 +148,7 @@ class Validation:
 
 def validate(models, logs, *, tip=None, columns=None, deg: bool = False, rate=None, time_scale: float = 1.0,
              resample=None, cutoff=None, no_decimate: bool = False, t_range=None, topic=None, joint_names=None,
-             extra_joints: bool = False, predictions=None, blas_threads=1) -> Validation:
+             extra_joints: bool = False, predictions=None, compare_column=None, blas_threads=1) -> Validation:
     """Score ``models`` on ``logs`` (module docstring); ``manipdyn validate``.
 
     Parameters
@@ -158,6 +163,9 @@ def validate(models, logs, *, tip=None, columns=None, deg: bool = False, rate=No
     predictions : path or None
         Write the one model's measured and predicted torques and its 95 % band per sample there
         (:meth:`Validation.write_predictions`; refused with several models or a path that is a log).
+    compare_column : str, optional
+        A torque the log itself holds, scored as one more model (:mod:`.logged`): ``"m"`` for columns
+        ``m1..mn``, ``"m=UR controller target torque"`` to name it.
     blas_threads : int or None
         BLAS threads while scoring (None: the library's own choice).
     """
@@ -182,10 +190,11 @@ def validate(models, logs, *, tip=None, columns=None, deg: bool = False, rate=No
         if any(m.n != first.n for m, _ in loaded):
             raise ModelError(f"models: they differ in their number of joints ({[m.n for m, _ in loaded]})")
         names = joint_names if joint_names is not None else (list(getattr(arm, "joint_names", None) or []) or None)
-        runs = read_runs(logs, arm, transmission=getattr(arm, "transmission", None), joint_names=names,
-                         columns=columns, deg=deg, rate=rate, time_scale=time_scale, resample=resample,
-                         cutoff=cutoff, decimate=False if no_decimate else None, topic=topic, t_range=t_range,
-                         extra_joints=extra_joints)
+        read_options = dict(transmission=getattr(arm, "transmission", None), joint_names=names, columns=columns,
+                            deg=deg, rate=rate, time_scale=time_scale, resample=resample, cutoff=cutoff,
+                            decimate=False if no_decimate else None, topic=topic, t_range=t_range,
+                            extra_joints=extra_joints)
+        runs = read_runs(logs, arm, **read_options)
         from ..inputs.options import check_limits
 
         for data, payload in runs:
@@ -196,11 +205,24 @@ def validate(models, logs, *, tip=None, columns=None, deg: bool = False, rate=No
                                   "subtracted from the measured torques")
         data = stack([d for d, _ in runs])
         results = [score(m, data, name=label) for m, label in loaded]
-    units = ["N" if t == "prismatic" else "N m" for t in getattr(arm, "joint_types", ())] or None
-    from .heldout import held_out_label
+        if compare_column is not None:          # the log's own torque columns, one more model (.logged)
+            from .logged import read_logged
 
+            logged = read_logged(compare_column, data, read_options)
+            results.append(score(logged, data, name=logged.name))
+            loaded.append((logged, logged.name))
+    units = ["N" if t == "prismatic" else "N m" for t in getattr(arm, "joint_types", ())] or None
+    from ...model.plausible import not_physical_note
+    from ..inputs.units import torque_scale_note
+    from .heldout import fit_data_note, held_out_label, scored_window
+
+    fit = [fit_data_note(m, list(data.sources), scored_window(data), label, "its RMS, R^2 and band coverage")
+           for m, label in loaded]
     out = Validation(results=results, data=data, notes=list(data.notes), units=units,
-                     held_out=[held_out_label(m, data) for m, _ in loaded])
+                     held_out=[held_out_label(m, data) for m, _ in loaded], fit_data=[x for x in fit if x],
+                     model_notes=[x for x in [not_physical_note(m, label) for m, label in loaded]
+                                  + [torque_scale_note(r.measured, r.predicted, label) for r, (_m, label)
+                                     in zip(results, loaded)] if x])
     if predictions is not None:
         out.write_predictions(predictions)
     return out

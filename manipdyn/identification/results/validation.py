@@ -76,6 +76,7 @@ class ValidationResult:
     carried_band: object = None             # bands.PredictionBand the model carries, or None
     extrapolation: object = None            # coverage.Extrapolation, or None
     notes: list = field(default_factory=list)
+    accel_rms: np.ndarray | None = None     # (n,) RMS of D^-1 (tau - tau_hat), rad/s^2 (:mod:`.forward_error`)
 
     @property
     def band_missed(self) -> np.ndarray | None:
@@ -107,14 +108,17 @@ class ValidationResult:
         ``band_95_coverage_unflagged`` (per joint, None where no sample is so) and ``band_95_pooled_flagged``,
         ``band_95_pooled_unflagged``; ``extrapolation`` (one object per joint: ``extrapolates``, ``range_extrapolates``,
         ``leverage_extrapolates``, ``beyond_fit_fraction``, ``leverage_ratio``, and per quantity),
-        ``beyond_fit_fraction`` (samples beyond the fit on any joint), ``model_notes``.
+        ``beyond_fit_fraction`` (samples beyond the fit on any joint), ``model_notes``; ``accel_rms``
+        (per joint, rad/s^2 or m/s^2: the forward dynamics' error, :mod:`.forward_error`; None for a
+        base model).
         """
         def clean(a):
             return [float(x) if math.isfinite(x) else None for x in np.asarray(a)]
 
         out = {"model": self.model, "samples": int(len(self.t)), "rms": clean(self.rms),
                "relative_rms": clean(self.relative_rms), "r2": clean(self.r2),
-               "mean_error": clean(self.mean_error)}
+               "mean_error": clean(self.mean_error),
+               "accel_rms": None if self.accel_rms is None else clean(self.accel_rms)}
         if self.coverage is not None:
             out["band_95_coverage"] = clean(self.coverage)
             out["band_95_pooled"] = self.pooled_coverage
@@ -152,11 +156,16 @@ class ValidationResult:
         units = list(units) if units is not None else [unit] * n
         same = len(set(units)) == 1
         head = f" ({units[0]})" if same else ""
+        acc = self.accel_rms is not None
+        ahead = "   accel rms" + (" (rad/s^2)" if same and units[0] != "N" else " (m/s^2)" if same else "")
         lines = [f"model {self.model}: {len(self.t)} samples",
-                 f"joint   rms{head:<7}   rms / measured rms       R^2   mean error{head}" + ("" if same else "   unit")]
+                 f"joint   rms{head:<7}   rms / measured rms       R^2   mean error{head}" + (ahead if acc else "")
+                 + ("" if same else "   unit")]
         for j in range(n):
             lines.append(f"{j + 1:>5}   {self.rms[j]:10.4g}   {self.relative_rms[j]:18.4g}   "
-                         f"{self.r2[j]:7.4f}   {self.mean_error[j]:+14.4g}" + ("" if same else f"   {units[j]}"))
+                         f"{self.r2[j]:7.4f}   {self.mean_error[j]:+14.4g}"
+                         + (f"   {self.accel_rms[j]:{len(ahead) - 3}.4g}" if acc else "")
+                         + ("" if same else f"   {units[j]}"))
         if self.coverage is not None:
             if self.carried_band is not None:
                 lines.append("95 % prediction band: predicted +- " + ", ".join(
@@ -225,6 +234,11 @@ def validate(model, data, name: str | None = None) -> ValidationResult:
         from ..uncertainty.bands import WITHIN_ONE_TRAJECTORY
 
         notes.append(WITHIN_ONE_TRAJECTORY)
+    from .forward_error import acceleration_error
+
+    a_err, why = acceleration_error(model, np.asarray(data.q, dtype=np.float64), err)
+    if why is not None:
+        notes.append(why)
     extrapolation = _extrapolation(fitted, data, u, beyond)
     if extrapolation is not None:
         flags = fitted.far_samples(data)
@@ -236,7 +250,8 @@ def validate(model, data, name: str | None = None) -> ValidationResult:
     return ValidationResult(model=name or getattr(model, "name", "model"), rms=rms, relative_rms=rel,
                             r2=r2, mean_error=err.mean(axis=0), t=np.asarray(data.t), measured=data.tau,
                             predicted=pred, band=band, coverage=coverage, band_method=method, carried_band=held_out,
-                            extrapolation=extrapolation, notes=notes)
+                            extrapolation=extrapolation, notes=notes,
+                            accel_rms=None if a_err is None else np.sqrt(np.mean(a_err**2, axis=0)))
 
 
 def _feature_arm(model):

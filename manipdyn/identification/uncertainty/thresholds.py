@@ -71,7 +71,8 @@ def sustained(residual, dt: float, min_duration: float = DEFAULT_MIN_DURATION) -
     from numpy.lib.stride_tricks import sliding_window_view
 
     r = np.abs(np.asarray(residual, dtype=np.float64))
-    m = max(1, int(math.ceil(float(min_duration) / float(dt) - 1e-9)))
+    # a window longer than the data: the same as the data's length (every sample sees back to the first)
+    m = max(1, int(min(math.ceil(min(float(min_duration) / float(dt), 1e15) - 1e-9), max(len(r), 1))))
     if m == 1:
         return r
     padded = np.concatenate([np.repeat(r[:1], m - 1, axis=0), r])
@@ -156,10 +157,18 @@ class CollisionThresholds:
     def n(self) -> int:
         return len(self.threshold)
 
+    @property
+    def given(self) -> bool:
+        """Thresholds given as numbers (no tail: every ``tail_b`` is 0): the same at every rate."""
+        return bool(np.all(self.tail_b == 0))
+
     def for_rate(self, rate: float) -> "CollisionThresholds":
-        """The same record at another rate of false events per hour (the stored tail; no data needed)."""
+        """The same record at another rate of false events per hour (the stored tail; no data needed); at
+        the record's own rate, the stored thresholds themselves."""
         rate = _rate(rate)
-        T = _levels(self.tail_a, self.tail_b, self.observed_max, self.hours, rate / self.n)
+        if self.given or rate == self.false_alarms_per_hour:
+            return replace(self, false_alarms_per_hour=rate)
+        T = _levels(self.tail_a, self.tail_b, self.observed_max, self.hours, rate, self.n)
         return replace(self, threshold=T, false_alarms_per_hour=rate)
 
     def to_dict(self) -> dict:
@@ -174,30 +183,68 @@ class CollisionThresholds:
 
     @classmethod
     def from_dict(cls, value, n: int, where: str) -> "CollisionThresholds":
+        """The record of a trust record's ``collision`` key, checked: every per-joint field ``n`` numbers,
+        every scalar a number (not a boolean or a string), and ``threshold`` the stored tail's own level at
+        the stored rate (an edited threshold with the tail left alone is refused, never silently
+        recomputed); ``where`` names the record in the errors."""
         if not isinstance(value, dict):
             raise ModelError(f"{where}: expected an object with threshold, false_alarms_per_hour, gain, ...")
+        missing = [k for k in _FIELDS if k not in value]
+        if missing:
+            raise ModelError(f"{where}: malformed collision thresholds (missing {', '.join(missing)})")
+        arrays = {k: _numbers(value[k], n, f"{where}: {k}") for k in ("threshold", "tail_a", "tail_b", "observed_max")}
+        scalars = {k: _number(value.get(k, 0.0), f"{where}: {k}")       # no velocity_cutoff: records before it
+                   for k in ("false_alarms_per_hour", "gain", "min_duration", "hysteresis", "hours", "velocity_cutoff")}
         try:
-            out = cls(np.array(value["threshold"], dtype=np.float64), float(value["false_alarms_per_hour"]),
-                      float(value["gain"]), float(value["min_duration"]), float(value["hysteresis"]),
-                      float(value["hours"]), np.array(value["tail_a"], dtype=np.float64),
-                      np.array(value["tail_b"], dtype=np.float64),
-                      np.array(value["observed_max"], dtype=np.float64), str(value.get("source", "")),
-                      float(value.get("velocity_cutoff", 0.0)))      # records before the filter: none
-        except (KeyError, TypeError, ValueError) as exc:
-            raise ModelError(f"{where}: malformed collision thresholds ({exc})") from None
-        if out.n != n:
-            raise ModelError(f"{where}: threshold: expected {n} numbers, got {out.n}")
+            out = cls(arrays["threshold"], scalars["false_alarms_per_hour"], scalars["gain"], scalars["min_duration"],
+                      scalars["hysteresis"], scalars["hours"], arrays["tail_a"], arrays["tail_b"],
+                      arrays["observed_max"], str(value.get("source", "")), scalars["velocity_cutoff"])
+        except ModelError as exc:
+            raise ModelError(f"{where}: {exc}") from None
+        if not out.given:
+            T = _levels(out.tail_a, out.tail_b, out.observed_max, out.hours, out.false_alarms_per_hour, n)
+            if not np.allclose(out.threshold, T, rtol=1e-6, atol=0.0):
+                raise ModelError(f"{where}: threshold {_short(out.threshold)} is not the level of the record's own "
+                                 f"tail (tail_a, tail_b, observed_max, hours) at {out.false_alarms_per_hour:g} false "
+                                 f"events per hour, {_short(T)}: the record's parts disagree (edited?); "
+                                 "recalibrate (observe --calibrate/--fit-data --save-model) or give --threshold")
         return out
+
+
+#: the fields a stored record must have
+_FIELDS = ("threshold", "false_alarms_per_hour", "gain", "min_duration", "hysteresis", "hours", "tail_a", "tail_b",
+           "observed_max")
+
+
+def _short(x) -> str:
+    return "[" + ", ".join(f"{v:.4g}" for v in np.asarray(x).reshape(-1)) + "]"
+
+
+def _number(value, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ModelError(f"{where}: expected a number, got {value!r:.60}")
+    try:
+        return float(value)
+    except (OverflowError, ValueError):
+        raise ModelError(f"{where}: expected a number within float range") from None
+
+
+def _numbers(value, n: int, where: str) -> np.ndarray:
+    if not isinstance(value, (list, tuple, np.ndarray)) or len(value) != n:
+        raise ModelError(f"{where}: expected a list of {n} numbers (one per joint), got {value!r:.80}")
+    return np.array([_number(v, f"{where}[{k}]") for k, v in enumerate(value)], dtype=np.float64)
 
 
 def positive(value, name: str, what: str) -> float:
     """``value`` as a finite float > 0, else a :class:`ModelError` "``name``: expected ``what``, got ..."."""
+    from ..inputs.options import OptionError, brace_safe
+
     try:
         x = float(value)
-    except (TypeError, ValueError):
-        raise ModelError(f"{name}: expected {what}, got {value!r}") from None
-    if not (math.isfinite(x) and x > 0):
-        raise ModelError(f"{name}: expected {what}, got {value!r}")
+    except (TypeError, ValueError, OverflowError):
+        x = math.nan
+    if not (math.isfinite(x) and x > 0):          # str(): the keyword; cli_message(): --the-flag
+        raise OptionError("{}: " + brace_safe(f"expected {what}, got {value!r:.60}"), name)
     return x
 
 
@@ -205,13 +252,26 @@ def _rate(rate) -> float:
     return positive(rate, "false_alarms", "a rate of false events per hour > 0")
 
 
-def _levels(a, b, top, hours, per_joint_rate) -> np.ndarray:
-    """The threshold per joint: the extrapolated tail's level for ``per_joint_rate`` and never below the
-    highest level seen (module docstring)."""
-    target = math.log(per_joint_rate * hours)      # ln N at the threshold
-    T = np.where(np.asarray(b) > 0, (np.asarray(a) - target) / np.maximum(b, 1e-300), np.inf)
+def _levels(a, b, top, hours, rate, n) -> np.ndarray:
+    """The threshold per joint: the extrapolated tail's level for ``rate / n`` events per hour and joint in
+    ``hours`` and never below the highest level seen (module docstring).  In logarithms, so a rate or
+    ``hours`` as small as 5e-324 gives a (high) level, not ``log(0)``."""
+    target = math.log(rate) - math.log(n) + math.log(hours)      # ln N at the threshold
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        T = np.where(np.asarray(b) > 0, (np.asarray(a) - target) / np.maximum(b, 1e-300), np.inf)
     T = np.where(np.isfinite(T), T, 2.0 * np.asarray(top))
-    return np.maximum(T, np.asarray(top) * (1.0 + 1e-9)) if per_joint_rate * hours < 1 else np.maximum(T, 1e-12)
+    return np.maximum(T, np.asarray(top) * (1.0 + 1e-9)) if target < 0 else np.maximum(T, 1e-12)
+
+
+def _period(dt) -> float:
+    """``dt`` (s) as a float, or a ModelError: a sample period is a finite number > 0 (0 divided)."""
+    try:
+        out = float(dt)
+    except (TypeError, ValueError, OverflowError):
+        out = float("nan")
+    if isinstance(dt, bool) or not (np.isfinite(out) and out > 0):
+        raise ModelError(f"dt: expected the sample period in s, a finite number > 0, got {dt!r:.40}")
+    return out
 
 
 def fit_thresholds(residual, dt: float, rate: float = DEFAULT_RATE, *, gain: float = DEFAULT_GAIN,
@@ -228,6 +288,7 @@ def fit_thresholds(residual, dt: float, rate: float = DEFAULT_RATE, *, gain: flo
     if not np.all(np.isfinite(r)):
         raise ModelError("calibration data: the residual is not finite")
     rate = _rate(rate)
+    dt = _period(dt)
     s = sustained(r, dt, min_duration)
     hours = len(r) * float(dt) / 3600.0
     n = r.shape[1]
@@ -247,6 +308,6 @@ def fit_thresholds(residual, dt: float, rate: float = DEFAULT_RATE, *, gain: flo
         # peaks over the threshold u0: exceedances of an exponential tail, scale = their mean excess (MLE)
         b[j] = 1.0 / beta
         a[j] = math.log(n0) + u0 * b[j]
-    T = _levels(a, b, top, hours, rate / n)
+    T = _levels(a, b, top, hours, rate, n)
     return CollisionThresholds(T, rate, float(gain), float(min_duration), float(hysteresis), hours, a, b, top,
                                source, float(velocity_cutoff or 0.0))
