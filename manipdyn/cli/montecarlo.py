@@ -125,7 +125,7 @@ _DISTRIBUTION_OPTIONS = (
     ("friction_coulomb", "NM", "added Coulomb friction uniform in [0, NM]"),
     ("q0_offset", "RAD", "standard deviation of the initial position offset"),
     ("torque_noise", "NM", "standard deviation of the applied-torque noise"),
-    ("payload_rel", "F", "payload mass bound: the mass whose torque is F tau_j on the joint it loads most"),
+    ("payload_rel", "F", "payload mass bound: the mass whose torque first reaches F tau_j on a joint"),
     ("friction_viscous_rel", "F", "added viscous friction uniform in [0, F tau_j / qd_j] per joint"),
     ("friction_coulomb_rel", "F", "added Coulomb friction uniform in [0, F tau_j] per joint"),
     ("torque_noise_rel", "F", "standard deviation of the applied-torque noise, F tau_j per joint"),
@@ -183,8 +183,9 @@ def register(subparsers) -> None:
     for field, metavar, what in _DISTRIBUTION_OPTIONS:
         default = getattr(d, field)
         replaced = field in _REPLACED_BY_PLANTS
+        rel = {"payload_mass": "payload_rel"}.get(field, field + "_rel")
         said = (f"default {default:g}" if field not in _ABSOLUTE else
-                f"absolute, default 0; given, even 0, its --{field.replace('_', '-')}-rel defaults to 0")
+                f"absolute, default 0; given, even 0, --{rel.replace('_', '-')} then defaults to 0")
         # absolute figures and sized ones: None when not given, so that Distributions tells them apart
         none = field in _ABSOLUTE or field.endswith("_rel")
         p.add_argument("--" + field.replace("_", "-"), type=float, metavar=metavar, default=None if none else default,
