@@ -120,8 +120,9 @@ def test_item7_plants_from_rows_are_explained_by_what_they_draw():
     para = text[text.index("| the prior's hand-chosen"):]
     assert re.search(r"first row draws no payload", para), para[:600]
     assert "second row adds an undeclared" in para
-    d = mc.Distributions()
-    assert d.payload_mass > 0 and d.friction_viscous > 0       # what the second row draws
+    d = mc.ABSOLUTE_DEFAULTS                                 # what the second row draws (issue 46: by options)
+    assert d.payload_mass > 0 and d.friction_viscous > 0
+    assert "--payload-mass 2 --friction-viscous 0.5 --friction-coulomb 0.5 --torque-noise 0.05" in text
     import inspect
     assert "payload, link scale and added friction" in inspect.getdoc(mc.study)
 

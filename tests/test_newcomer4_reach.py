@@ -256,8 +256,9 @@ def test_item9_runaway_runs_count_as_diverged_and_the_draws_are_explained():
     from manipdyn.control.controllers import pd_gains
     from manipdyn.control.montecarlo.diverged import RUNAWAY_TORQUE
     arm = _load("ur5")
-    # runs 0 and 4 of seed 1 are the issue's LQR runaways (a run's plant depends on its index only)
-    study = mc.study(arm, 5, seed=1, controllers=("lqr",))
+    # runs 0 and 4 of seed 1 are the issue's LQR runaways (a run's plant depends on its index only),
+    # drawn from the absolute distributions that were the defaults then (issue 46 sized them to the arm)
+    study = mc.study(arm, 5, seed=1, controllers=("lqr",), distributions=mc.ABSOLUTE_DEFAULTS)
     report = mc.run(study, scheduler="sync")
     span = np.diff(arm.qlim, axis=1)[:, 0]
     scale = study.torque_scale()

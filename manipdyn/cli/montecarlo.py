@@ -125,9 +125,16 @@ _DISTRIBUTION_OPTIONS = (
     ("friction_coulomb", "NM", "added Coulomb friction uniform in [0, NM]"),
     ("q0_offset", "RAD", "standard deviation of the initial position offset"),
     ("torque_noise", "NM", "standard deviation of the applied-torque noise"),
+    ("payload_rel", "F", "payload mass bound: the mass whose torque first reaches F tau_j on a joint"),
+    ("friction_viscous_rel", "F", "added viscous friction uniform in [0, F tau_j / qd_j] per joint"),
+    ("friction_coulomb_rel", "F", "added Coulomb friction uniform in [0, F tau_j] per joint"),
+    ("torque_noise_rel", "F", "standard deviation of the applied-torque noise, F tau_j per joint"),
 )
 #: the draws an identification's distribution replaces (``--plants-from``)
-_REPLACED_BY_PLANTS = ("payload_mass", "link_scale", "friction_viscous", "friction_coulomb")
+_REPLACED_BY_PLANTS = ("payload_mass", "link_scale", "friction_viscous", "friction_coulomb", "payload_rel",
+                       "friction_viscous_rel", "friction_coulomb_rel")
+#: absolute figures: given (even 0), their sized counterpart defaults to 0 (Distributions)
+_ABSOLUTE = ("payload_mass", "friction_viscous", "friction_coulomb", "torque_noise")
 
 
 class _Given(argparse.Action):
@@ -176,9 +183,14 @@ def register(subparsers) -> None:
     for field, metavar, what in _DISTRIBUTION_OPTIONS:
         default = getattr(d, field)
         replaced = field in _REPLACED_BY_PLANTS
-        p.add_argument("--" + field.replace("_", "-"), type=float, metavar=metavar, default=default,
+        rel = {"payload_mass": "payload_rel"}.get(field, field + "_rel")
+        said = (f"default {default:g}" if field not in _ABSOLUTE else
+                f"absolute, default 0; given, even 0, --{rel.replace('_', '-')} then defaults to 0")
+        # absolute figures and sized ones: None when not given, so that Distributions tells them apart
+        none = field in _ABSOLUTE or field.endswith("_rel")
+        p.add_argument("--" + field.replace("_", "-"), type=float, metavar=metavar, default=None if none else default,
                        action=_Given if replaced else "store",
-                       help=f"{what} (default {default:g}" + (", not with --plants-from)" if replaced else ")"))
+                       help=f"{what} ({said}" + (", not with --plants-from)" if replaced else ")"))
     p.add_argument("--plants-from", metavar="IDENTIFIED.json", default=None,
                    help="draw every run's plant from this identification's uncertainty (a base model of "
                         "'manipdyn identify --base-json', method wls or consistent): Gaussian base "

@@ -28,7 +28,7 @@ identification's uncertainty: ``study(arm, runs, plants="F.json")``
 
 from __future__ import annotations
 
-from .distributions import DISTRIBUTIONS_HELP, Distributions, RunDraw
+from .distributions import ABSOLUTE_DEFAULTS, DISTRIBUTIONS_HELP, RELATIVE_DEFAULTS, Distributions, RunDraw
 from .execute import MissingExtraError, run
 from .identified import IdentifiedPlants, load_identified
 from .plant import Plant, make_plant
@@ -39,7 +39,8 @@ from ...check.scale import arm_from_text
 
 __all__ = ["study", "run", "Study", "StudyReport", "Distributions", "RunDraw", "RunSetup", "Plant",
            "make_plant", "plot_report", "TorqueNoise", "CONTROLLER_KEYS", "DISTRIBUTIONS_HELP", "MissingExtraError",
-           "model_text", "check_study_size", "IdentifiedPlants", "load_identified"]
+           "model_text", "check_study_size", "IdentifiedPlants", "load_identified", "ABSOLUTE_DEFAULTS",
+           "RELATIVE_DEFAULTS"]
 
 
 #: slowest controller bandwidth of a study, rad/s
@@ -160,10 +161,14 @@ def study(arm, runs: int, seed: int = 0, controllers=CONTROLLER_KEYS, duration: 
                              f"than the study's arm {arm.name!r} (tool poses differ); give the "
                              f"identified arm's model as MODEL")
         replaced = ("payload_mass", "link_scale", "friction_viscous", "friction_coulomb")
+        sized = ("payload_rel", "friction_viscous_rel", "friction_coulomb_rel")
+        # the sized figures at their defaults are not a choice: the identification replaces them quietly
         given = [f for f in replaced if distributions is not None and getattr(distributions, f)]
+        given += [f for f in sized if distributions is not None
+                  and getattr(distributions, f) not in (0.0, RELATIVE_DEFAULTS[f])]
         if given:
             raise ModelError(f"distributions: {', '.join(given)} must be 0 with plants= (the "
                              "identification's distribution replaces them)")
-        dist = dataclasses.replace(dist, **{f: 0.0 for f in replaced})
+        dist = dataclasses.replace(dist, **{f: 0.0 for f in replaced + sized})
     return Study(model_text(arm), runs, seed, tuple(controllers), float(duration), float(dt),
                  dist, lim, float(bandwidth), float(gamma), plants, simulator, mujoco_plant)

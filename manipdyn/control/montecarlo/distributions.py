@@ -28,7 +28,15 @@ import numpy as np
 from ..._support import limits
 from ..._support.limits import nonnegative
 
-__all__ = ["Distributions", "RunDraw", "draw", "run_rng", "DISTRIBUTIONS_HELP", "effect_on_arm"]
+__all__ = ["Distributions", "RunDraw", "draw", "run_rng", "DISTRIBUTIONS_HELP", "effect_on_arm",
+           "RELATIVE_DEFAULTS", "ABSOLUTE_DEFAULTS", "Bounds"]
+
+#: the sized figures' defaults (fractions of each joint's torque scale, :mod:`.sizing`)
+RELATIVE_DEFAULTS = {"payload_rel": 0.2, "friction_viscous_rel": 0.1, "friction_coulomb_rel": 0.1,
+                     "torque_noise_rel": 0.01}
+#: (absolute figure, its sized counterpart)
+_PAIRS = (("payload_mass", "payload_rel"), ("friction_viscous", "friction_viscous_rel"),
+          ("friction_coulomb", "friction_coulomb_rel"), ("torque_noise", "torque_noise_rel"))
 
 
 @dataclass(frozen=True)
@@ -60,24 +68,53 @@ class Distributions:
         white Gaussian noise of this standard deviation, drawn per joint and
         per sample and held over the step (what a torque loop closed on a noisy
         torque sensor delivers).
+    payload_rel, friction_viscous_rel, friction_coulomb_rel, torque_noise_rel : float
+        The same draws sized to the arm, per joint (:mod:`.sizing`): the payload mass bound is
+        ``payload_rel`` times the mass whose torque, at a corner of the payload box, reaches
+        one joint's torque scale ``tau_j`` (the largest |tau_j| of the nominal arm on the path)
+        first; Coulomb ``friction_coulomb_rel * tau_j``; viscous ``friction_viscous_rel * tau_j
+        / qd_j`` (``qd_j`` the path's top speed of joint j: the added viscous torque at that speed
+        is at most that fraction of ``tau_j``); noise standard deviation ``torque_noise_rel *
+        tau_j``.  Each adds to its absolute figure.
+
+    The defaults (issue 46) are sized: link factors ``1 +- 0.2``, a payload whose torque is at
+    most 20 % of every joint's torque scale (:data:`RELATIVE_DEFAULTS`), friction up to 10 % of it,
+    noise of 1 % of it, and no absolute figure.  Absolute figures (N m, kg: the same for every
+    arm) made the bundled UR5's wrist, whose torque on the path is 2e-3 N m, err by a radian
+    for every controller.  An absolute figure given (``Distributions(friction_coulomb=0.5)``,
+    ``--friction-coulomb 0.5``), even 0, means what it says, and its ``*_rel`` counterpart then
+    defaults to 0: :data:`ABSOLUTE_DEFAULTS` is the study of the defaults before issue 46,
+    plant for plant.
     """
 
-    payload_mass: float = 2.0
+    payload_mass: float | None = None
     payload_com: tuple = (0.05, 0.05, 0.15)
     link_scale: float = 0.2
-    friction_viscous: float = 0.5
-    friction_coulomb: float = 0.5
+    friction_viscous: float | None = None
+    friction_coulomb: float | None = None
     q0_offset: float = 0.01
-    torque_noise: float = 0.05
+    torque_noise: float | None = None
+    payload_rel: float | None = None
+    friction_viscous_rel: float | None = None
+    friction_coulomb_rel: float | None = None
+    torque_noise_rel: float | None = None
 
     def __post_init__(self):
+        # an absolute figure given (even 0) means what it says, and its sized counterpart then
+        # defaults to 0; neither given: the sized default (RELATIVE_DEFAULTS), the absolute 0
+        for absolute, rel in _PAIRS:
+            a, r = getattr(self, absolute), getattr(self, rel)
+            if r is None:
+                object.__setattr__(self, rel, 0.0 if a is not None else RELATIVE_DEFAULTS[rel])
+            if a is None:
+                object.__setattr__(self, absolute, 0.0)
         for name in ("payload_mass", "link_scale", "friction_viscous", "friction_coulomb",
-                     "q0_offset", "torque_noise"):
+                     "q0_offset", "torque_noise", *RELATIVE_DEFAULTS):
             object.__setattr__(self, name, nonnegative(getattr(self, name), name))
         # beyond these no plant is an arm any more, and its numbers overflow float64
         for name, limit in (("payload_mass", "MAX_MASS"), ("q0_offset", "MAX_ANGLE"),
                             ("friction_viscous", "MAX_MAGNITUDE"), ("friction_coulomb", "MAX_MAGNITUDE"),
-                            ("torque_noise", "MAX_MAGNITUDE")):
+                            ("torque_noise", "MAX_MAGNITUDE"), *((r, "MAX_MAGNITUDE") for r in RELATIVE_DEFAULTS)):
             limits.check_count(getattr(self, name), name, f"{name}", limit)
         if self.link_scale >= 1.0:
             raise ValueError(f"link_scale: must be < 1 (a factor 1 - link_scale must stay > 0), "
@@ -88,23 +125,77 @@ class Distributions:
         object.__setattr__(self, "payload_com",
                            tuple(nonnegative(c, f"payload_com[{i}]") for i, c in enumerate(com)))
 
+    @property
+    def sized(self) -> bool:
+        """True when a draw depends on the arm (some ``*_rel`` figure is not 0): :meth:`bounds` needs
+        the arm's :class:`~.sizing.Sizes`."""
+        return any(getattr(self, r) for r in RELATIVE_DEFAULTS)
+
+    @property
+    def noisy(self) -> bool:
+        """True when the applied torque carries noise (``torque_noise`` or ``torque_noise_rel``)."""
+        return bool(self.torque_noise or self.torque_noise_rel)
+
+    def bounds(self, sizes=None) -> "Bounds":
+        """The absolute bounds of the draws on an arm of :class:`~.sizing.Sizes` ``sizes`` (needed
+        when :attr:`sized`): absolute figure plus relative figure times the joint's scale."""
+        if sizes is None:
+            if self.sized:
+                raise ValueError("distributions: the *_rel figures are fractions of the arm's joint torques: "
+                                 "give the arm's sizes (manipdyn.control.montecarlo.sizing.arm_sizes)")
+            return Bounds(self.payload_mass, np.float64(self.friction_viscous), np.float64(self.friction_coulomb),
+                          np.float64(self.torque_noise))
+        tau, speed = sizes.torque, sizes.speed
+        return Bounds(self.payload_mass + self.payload_rel * sizes.payload_kg,
+                      self.friction_viscous + self.friction_viscous_rel * tau / speed,
+                      self.friction_coulomb + self.friction_coulomb_rel * tau,
+                      self.torque_noise + self.torque_noise_rel * tau)
+
     def to_dict(self) -> dict:
         d = asdict(self)
         d["payload_com"] = list(self.payload_com)
         return d
 
 
+#: the defaults before issue 46, absolute (kg, N m: the same for every arm): the same plants,
+#: bit for bit, as the studies of those versions (``--payload-mass 2 --friction-viscous 0.5
+#: --friction-coulomb 0.5 --torque-noise 0.05`` on the command line)
+ABSOLUTE_DEFAULTS = Distributions(payload_mass=2.0, friction_viscous=0.5, friction_coulomb=0.5, torque_noise=0.05)
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """The absolute bounds of a study's draws on one arm (:meth:`.Distributions.bounds`):
+    ``payload_mass`` kg, and per joint (n,) or one number for every joint: ``viscous`` N m s/rad,
+    ``coulomb`` N m, ``noise`` N m (standard deviation)."""
+
+    payload_mass: float
+    viscous: np.ndarray
+    coulomb: np.ndarray
+    noise: np.ndarray
+
+
 #: the text of ``manipdyn montecarlo --help`` on the default distributions
 DISTRIBUTIONS_HELP = """\
 Default distributions (independent; every run draws its own plant from its seed,
-and every controller meets the same plant in that run):
-  payload      mass uniform in [0, 2] kg, a point mass at a centre of mass uniform
-               in [-0.05, 0.05] x [-0.05, 0.05] x [0, 0.15] m of the tool frame
-               (DH frame n, or the tip link of a URDF arm)
+and every controller meets the same plant in that run), sized to the arm: tau_j is
+joint j's torque scale, the largest |tau_j| of the nominal arm on the path, and
+qd_j the path's top speed of joint j:
+  payload      a point mass uniform in [0, M] kg at a centre of mass uniform in
+               [-0.05, 0.05] x [-0.05, 0.05] x [0, 0.15] m of the tool frame (DH
+               frame n, or the tip link of a URDF arm), M the mass whose torque at a
+               corner of that box is at most 0.2 tau_j on every joint (--payload-rel)
   links        each link's mass and inertia times 1 + U(-0.2, 0.2) (COM kept)
-  friction     added per joint: viscous U(0, 0.5) N m s/rad, Coulomb U(0, 0.5) N m
+  friction     added per joint: viscous U(0, 0.1 tau_j / qd_j), Coulomb U(0, 0.1 tau_j)
+               (--friction-viscous-rel, --friction-coulomb-rel)
   start        q(0) = q_d(0) + N(0, 0.01 rad) per joint (0.001 m prismatic), at rest
-  torque noise applied torque = commanded + N(0, 0.05 N m) per joint and sample
+  torque noise applied torque = commanded + N(0, 0.01 tau_j) per joint and sample
+               (--torque-noise-rel)
+--payload-mass, --friction-viscous, --friction-coulomb and --torque-noise are
+absolute (kg, N m s/rad, N m, N m: the same on every arm) and add to the sized
+figure; giving one sets its sized counterpart's default to 0.  The defaults before
+issue 46, absolute: --payload-mass 2 --friction-viscous 0.5 --friction-coulomb 0.5
+--torque-noise 0.05 (on the bundled UR5 they hold the wrist a radian off).
 The controllers know none of this: they are built on the nominal arm."""
 
 
@@ -130,62 +221,75 @@ def run_rng(seed: int, run: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(int(run),)))
 
 
-def draw(dist: Distributions, seed: int, run: int, joint_types, samples: int) -> RunDraw:
-    """Draw run ``run``'s variations; ``samples`` is the number of samples of the run (N+1)."""
+def draw(dist: Distributions, seed: int, run: int, joint_types, samples: int, sizes=None) -> RunDraw:
+    """Draw run ``run``'s variations; ``samples`` is the number of samples of the run (N+1);
+    ``sizes`` the arm's :class:`~.sizing.Sizes` (needed when ``dist.sized``).  The same random
+    numbers whatever the sizes: only the bounds they multiply change."""
+    b = dist.bounds(sizes)
     rng = run_rng(seed, run)
     n = len(joint_types)
     prismatic = np.array([t == "prismatic" for t in joint_types])
-    mass = dist.payload_mass * rng.random()
+    mass = b.payload_mass * rng.random()
     cx, cy, cz = dist.payload_com
     u = rng.uniform(-1.0, 1.0, 2)
     com = np.array([cx * u[0], cy * u[1], cz * rng.random()])
     scale = 1.0 + dist.link_scale * rng.uniform(-1.0, 1.0, n)
-    friction = np.array([dist.friction_viscous, dist.friction_coulomb])[:, None] * rng.random((2, n))
+    bound = np.stack([np.broadcast_to(b.viscous, (n,)), np.broadcast_to(b.coulomb, (n,))])
+    friction = bound * rng.random((2, n))           # elementwise: the products of a scalar bound, bit for bit
     q0 = dist.q0_offset * np.where(prismatic, 0.1, 1.0) * rng.standard_normal(n)
-    noise = dist.torque_noise * rng.standard_normal((int(samples), n))
+    noise = rng.standard_normal((int(samples), n)) * np.broadcast_to(b.noise, (n,))
     return RunDraw(int(run), float(mass), com, scale, friction, q0, noise)
 
 
-def effect_on_arm(dist: Distributions, arm, bandwidth: float) -> dict:
+def effect_on_arm(dist: Distributions, arm, bandwidth: float, sizes=None) -> dict:
     """What the added friction and the torque noise of ``dist`` do to ``arm`` under the demo gains.
 
-    The distributions are absolute (N m), the same for every arm, so on a light joint they
-    may dwarf the controllers: with ``Kp_j = wn^2 D_jj`` and ``Kd_j = 2 wn D_jj`` at mid-range
+    With ``Kp_j = wn^2 D_jj`` and ``Kd_j = 2 wn D_jj`` at mid-range
     (:func:`manipdyn.control.controllers.pd_gains`, ``wn = bandwidth``), the largest added
-    Coulomb friction holds joint j ``Fc / Kp_j`` off (rad or m), one standard deviation of
-    torque noise pushes it ``sigma / Kp_j``, and the largest added viscous friction is ``Fv /
-    Kd_j`` times the controller's damping.  Returns, for the joint where each is largest,
+    Coulomb friction holds joint j ``Fc_j / Kp_j`` off (rad or m), one standard deviation of
+    torque noise pushes it ``sigma_j / Kp_j``, and the largest added viscous friction is ``Fv_j /
+    Kd_j`` times the controller's damping (``Fc_j``, ``sigma_j``, ``Fv_j`` the bounds of
+    :meth:`Distributions.bounds` on ``sizes``, the arm's :class:`~.sizing.Sizes`, needed when
+    ``dist.sized``).  Absolute figures (N m, the same for every arm) may dwarf the controllers on
+    a light joint; sized ones stay in proportion.  Returns, for the joint where each is largest,
     ``{"coulomb_offset": (value, joint), "noise_offset": ..., "viscous_ratio": ...}`` (joints
     1-based), and ``"text"``: one line for the report (empty when the three are zero).
     """
     from ..controllers import pd_gains
 
+    b = dist.bounds(sizes)
     kp, kd = pd_gains(arm, bandwidth)
     kp, kd = np.maximum(kp, 1e-300), np.maximum(kd, 1e-300)
     out = {}
-    for key, value, gain in (("coulomb_offset", dist.friction_coulomb, kp), ("noise_offset", dist.torque_noise, kp),
-                             ("viscous_ratio", dist.friction_viscous, kd)):
-        x = value / gain
+    bounds = {"coulomb_offset": np.broadcast_to(b.coulomb, (arm.n,)), "noise_offset": np.broadcast_to(b.noise, (arm.n,)),
+              "viscous_ratio": np.broadcast_to(b.viscous, (arm.n,))}
+    for key, gain in (("coulomb_offset", kp), ("noise_offset", kp), ("viscous_ratio", kd)):
+        x = bounds[key] / gain
         j = int(np.argmax(x))
         out[key] = (float(x[j]), j + 1)
-    big = dist.friction_coulomb or dist.torque_noise or dist.friction_viscous
     c, nz, v = out["coulomb_offset"], out["noise_offset"], out["viscous_ratio"]
+    fc, sg, fv = (float(bounds[k][j - 1]) for k, (_, j) in zip(("coulomb_offset", "noise_offset", "viscous_ratio"),
+                                                                (c, nz, v)))
 
     def unit(j):                                  # joint j (1-based): rad, or m for a prismatic joint
         return "m" if arm.joint_types[j - 1] == "prismatic" else "rad"
 
+    absolute = not (dist.friction_coulomb_rel or dist.torque_noise_rel or dist.friction_viscous_rel)
     parts = []
-    if dist.friction_coulomb:
-        parts.append(f"added Coulomb friction up to {dist.friction_coulomb:g} N m holds joint {c[1]} up to "
+    if np.any(bounds["coulomb_offset"]):
+        parts.append(f"added Coulomb friction up to {fc:.3g} N m holds joint {c[1]} up to "
                      f"{c[0]:.3g} {unit(c[1])} off")
-    if dist.torque_noise:
-        parts.append(f"torque noise of {dist.torque_noise:g} N m pushes joint {nz[1]} {nz[0]:.3g} {unit(nz[1])} "
+    if np.any(bounds["noise_offset"]):
+        parts.append(f"torque noise of {sg:.3g} N m pushes joint {nz[1]} {nz[0]:.3g} {unit(nz[1])} "
                      "per standard deviation")
-    if dist.friction_viscous:
-        parts.append(f"added viscous friction up to {dist.friction_viscous:g} N m s/rad is {v[0]:.3g} times joint "
+    if np.any(bounds["viscous_ratio"]):
+        parts.append(f"added viscous friction up to {fv:.3g} N m s/rad is {v[0]:.3g} times joint "
                      f"{v[1]}'s damping 2 wn D_jj")
-    out["text"] = "" if not big else (
-        f"what these draws do to {arm.name or 'the arm'} (absolute, not scaled to it) at the demo gains "
-        f"Kp = wn^2 D_jj of {kp.min():.3g} to {kp.max():.3g} N m/rad: {', '.join(parts)}; scale "
-        "--friction-coulomb, --friction-viscous and --torque-noise to the arm where these are large")
+    how = ("absolute, not scaled to it" if absolute else "sized to its joints' torques" if not (
+        dist.friction_coulomb or dist.torque_noise or dist.friction_viscous) else "partly absolute")
+    out["text"] = "" if not parts else (
+        f"what these draws do to {arm.name or 'the arm'} ({how}) at the demo gains "
+        f"Kp = wn^2 D_jj of {kp.min():.3g} to {kp.max():.3g} N m/rad: {', '.join(parts)}"
+        + ("; scale --friction-coulomb, --friction-viscous and --torque-noise to the arm where these are large, "
+           "or leave them out for draws sized to the arm" if how != "sized to its joints' torques" else ""))
     return out

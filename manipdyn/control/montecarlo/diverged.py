@@ -39,7 +39,10 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["cause", "CAUSES", "runaway", "RUNAWAY_TORQUE"]
+__all__ = ["cause", "CAUSES", "runaway", "RUNAWAY_TORQUE", "explain", "OFF_PATH"]
+
+#: rad (m): an error this large is off the path, where no linearisation along it holds
+OFF_PATH = 0.5
 
 #: a torque this many times the nominal arm's largest on the reference is a runaway
 RUNAWAY_TORQUE = 100.0
@@ -77,3 +80,75 @@ def runaway(log, span: np.ndarray, torque_scale: float) -> bool:
         return False
     e = np.abs(log.e)
     return bool(np.any(~(e <= span)) or not np.max(np.abs(log.tau)) <= RUNAWAY_TORQUE * max(torque_scale, 1e-9))
+
+
+#: what a controller's gains are, where a runaway needs it said
+_GAINS = {"lqr": "the LQR's gains are the nominal arm's linearisation along the path, which does not hold that far "
+                 "off it"}
+
+
+def explain(study, setup, key: str, log, diverged: bool, ran_away: bool, loop: float):
+    """What happened to one diverged run (module docstring), or None for a run that did not diverge.
+
+    Returns ``{"criterion": "bounds" | "range" | "torque", "joint", "t", "value", "limit",
+    "off_path_t", "off_path_joint", "heavier", "heavier_joint", "payload_mass", "sampled_loop",
+    "substeps", "integrator", "text"}``: joints 1-based; times in s; ``value``/``limit`` in rad (m) or N m (N);
+    ``heavier`` the largest ratio of the plant's ``D_jj`` to the model's at the path's start;
+    ``text`` one sentence of it all."""
+    if not (diverged or ran_away):
+        return None
+    from ..demo import CONTROLLERS
+
+    arm = study.arm
+    t = np.asarray(log.t, dtype=np.float64)
+    e = np.abs(np.asarray(log.e, dtype=np.float64)).reshape(len(t), arm.n)
+    tau = np.abs(np.asarray(log.tau, dtype=np.float64)).reshape(len(t), arm.n)
+    span = np.diff(arm.qlim, axis=1)[:, 0]
+    unit = ["m" if jt == "prismatic" else "rad" for jt in arm.joint_types]
+    out = {"criterion": None, "joint": None, "t": None, "value": None, "limit": None}
+    if diverged:
+        out.update(criterion="bounds", t=float(t[-1]) if len(t) else 0.0)
+        what = (f"the simulator stopped it after t = {out['t']:.3g} s (a joint past 100 rad or 1000 rad/s, or a "
+                "non-finite torque)")
+    else:
+        past = ~(e <= span)
+        limit = RUNAWAY_TORQUE * max(study.torque_scale(), 1e-9)
+        if past.any():
+            k, j = np.argwhere(past)[0]
+            jj = int(np.argmax(e.max(axis=0) / span))
+            out.update(criterion="range", joint=int(j) + 1, t=float(t[k]), value=float(e[:, j].max()),
+                       limit=float(span[j]))
+            what = (f"joint {j + 1}'s error passed its range {span[j]:.3g} {unit[j]} at t = {t[k]:.3g} s "
+                    f"(largest {e[:, jj].max():.3g} {unit[jj]} on joint {jj + 1})")
+        else:
+            k, j = np.argwhere(~(tau <= limit))[0]
+            out.update(criterion="torque", joint=int(j) + 1, t=float(t[k]), value=float(tau.max()), limit=float(limit))
+            what = f"joint {j + 1}'s torque passed {limit:.3g} N m at t = {t[k]:.3g} s"
+        what += f", peak torque {tau.max():.3g} N m"
+    off = np.argwhere(e > OFF_PATH)
+    out["off_path_t"] = float(t[off[0][0]]) if len(off) else None
+    out["off_path_joint"] = int(off[0][1]) + 1 if len(off) else None
+    q0 = np.asarray(setup.trajectory(0.0)[0], dtype=np.float64)
+    ratio = np.diag(setup.plant.pinocchio.mass_matrix(q0)) / np.maximum(np.diag(arm.mass_matrix(q0)), 1e-300)
+    h = int(np.argmax(ratio))
+    draw = setup.plant.draw
+    out.update(heavier=float(ratio[h]), heavier_joint=h + 1, payload_mass=float(draw.payload_mass),
+               sampled_loop=float(loop), substeps=int(setup.substeps),
+               integrator=str(getattr(setup, "integrator", "rk4")))
+    parts = [what]
+    if out["off_path_t"] is not None:
+        parts.append(f"{OFF_PATH:g} {unit[out['off_path_joint'] - 1]} off the path first at t = "
+                     f"{out['off_path_t']:.3g} s on joint {out['off_path_joint']}")
+    parts.append(f"its plant's joint {h + 1} is {ratio[h]:.3g} x the model's inertia D_jj"
+                 + (f" (payload {draw.payload_mass:.3g} kg, undeclared)" if draw.payload_mass else ""))
+    from ..stiffness import SAMPLED_LIMIT
+
+    stepper = "Rosenbrock" if getattr(setup, "integrator", "rk4") == "rosenbrock" else "RK4"
+    parts.append(f"sampled loop {loop:.3g} " + ("> " if loop > SAMPLED_LIMIT else "<= ") + f"{SAMPLED_LIMIT:g}, "
+                 f"{setup.substeps} {stepper} step(s) per period" + ("" if loop > SAMPLED_LIMIT
+                                                                    else ": not the period, not the integrator"))
+    if key in _GAINS and out["off_path_t"] is not None:
+        parts.append(_GAINS[key])
+    label = CONTROLLERS.get(key, key)
+    out["text"] = f"{label} run {int(draw.run)}: {cause(loop, diverged, ran_away)}: " + "; ".join(parts)
+    return out

@@ -118,6 +118,15 @@ def _divergences(report):
                                             "whose torque met the limit")
 
 
+def _diverged_runs(report):
+    rows = [[_label(w["controller"]), w["run"], w["text"].split(": ", 2)[1], w["text"].split(": ", 2)[2],
+             f"study.replay({w['run']}, {w['controller']!r})"] for w in report.diverged_runs()]
+    return H.table(["controller", "run", "cause", "what happened", "replay"], rows, name="diverged-runs",
+                   flagged=set(range(len(rows))),
+                   caption="Each diverged run: the bound it crossed, when it left the path, how much heavier than "
+                           "the model its plant is, and what the sampled loop and the integrator say")
+
+
 def _worst(report):
     rows, flagged = [], set()
     for key, e in report.controllers.items():
@@ -186,7 +195,8 @@ def study_page(report, command: str | None = None, plants_file=None, notes=None)
                        H.bullets([f"{m.replace('_', ' ')}: {d} ({u})" for m, (d, u) in report.metrics.items()]), fig)]
     notes = _causes(report)
     parts.append(H.section("Divergences and their causes", _divergences(report),
-                           H.bullets(notes) if notes else "No run diverged and no plant needed a shorter period."))
+                           H.bullets(notes) if notes else "No run diverged and no plant needed a shorter period.",
+                           *([_diverged_runs(report)] if report.diverged_runs() else [])))
     parts.append(H.section("Worst runs", _worst(report),
                            "Replay a run alone with study.replay(run, controller), i.e. manipdyn.simulate on the "
                            "run's plant: the plant depends only on the seed and the run's index."))

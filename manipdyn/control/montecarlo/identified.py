@@ -372,6 +372,10 @@ def plant_source(study) -> str:
     p = study.plants
     if p is None:
         d = study.distributions
+        if d.sized:
+            from .sizing import sized_source
+
+            return sized_source(study)
         varied = [f"links x 1 +- {d.link_scale:g}" if d.link_scale else "links as the model",
                   f"payload <= {d.payload_mass:g} kg" if d.payload_mass else "no payload"]
         if d.friction_viscous or d.friction_coulomb:     # say what is added, and only then

@@ -32,6 +32,8 @@ METRICS = {
 PERCENTILES = (50, 90, 99)
 #: worst runs listed per controller
 WORST = 3
+#: diverged runs whose story the text report tells (all are in the JSON and the HTML page)
+SHOWN = 10
 
 
 def _stats(values) -> dict:
@@ -51,13 +53,14 @@ class StudyReport:
     per_run : list of dict
         One record per (run, controller), in run order then controller order:
         ``run, controller, rms_error, max_error, peak_torque, diverged, saturated,
-        substeps, integrator, sampled_loop, cause`` (errors in rad, or m for prismatic joints; torque in N m or N; the
-        figures of a diverged run cover the samples before it diverged; ``substeps``
+        substeps, integrator, sampled_loop, cause, why`` (errors in rad, or m for prismatic joints; torque in
+        N m or N; the figures of a diverged run cover the samples before it diverged; ``substeps``
         the integrator's steps per control period its plant needed,
         :mod:`manipdyn.control.stiffness`, ``integrator`` ``"rk4"`` or ``"rosenbrock"``
         (:mod:`manipdyn.control.implicit`); ``sampled_loop`` its controller's
         ``dt |eig(D_plant^-1 K_d)|``; ``cause`` why a diverged run diverged, a key of
-        :data:`.diverged.CAUSES`, None for the others).
+        :data:`.diverged.CAUSES`, None for the others; ``why`` what happened to that run,
+        :func:`.diverged.explain`, None for the others).
     timing : dict
         Wall time, workers, chunks and where chunks ran (not reproducible).
     """
@@ -94,7 +97,7 @@ class StudyReport:
     def effect(self) -> dict:
         """What the study's added friction and torque noise do to its arm (:func:`.distributions.effect_on_arm`)."""
         s = self.study
-        return effect_on_arm(s.distributions, s.arm, s.bandwidth)
+        return effect_on_arm(s.distributions, s.arm, s.bandwidth, s.sizes() if s.distributions.sized else None)
 
     def report_html(self, path, command: str | None = None, plants_file=None, notes=None) -> str:
         """Write the study as one self-contained HTML page to ``path`` (atomically; what
@@ -167,7 +170,21 @@ class StudyReport:
         for e in self.controllers.values():
             for c, k in e.get("diverged_because", {}).items():
                 total[c] = total.get(c, 0) + k
-        return out + "".join(f"diverged ({c}): {k} run(s): {CAUSES[c]}\n" for c, k in total.items())
+        out += "".join(f"diverged ({c}): {k} run(s): {CAUSES[c]}\n" for c, k in total.items())
+        whys = self.diverged_runs()
+        out += "".join(f"  {w['text']}\n" for w in whys[:SHOWN])
+        if len(whys) > SHOWN:
+            out += f"  and {len(whys) - SHOWN} more diverged run(s): each record's 'why' in --json\n"
+        return out
+
+    def diverged_runs(self) -> list:
+        """Each diverged run's ``why`` (:func:`.diverged.explain`) with its ``run`` and ``controller``,
+        in the study's controller order, then by run."""
+        out = []
+        for key in self.study.controllers:
+            out += [{"run": r["run"], "controller": key, **r["why"]} for r in self.per_run
+                    if r["controller"] == key and r["diverged"] and r.get("why")]
+        return out
 
     def integration(self) -> str:
         """One line when some plants needed more than one Runge-Kutta step per period, else ''."""

@@ -36,7 +36,7 @@ from ..controllers import Controller
 from ..mjsim import MUJOCO_PLANTS, SIMULATORS      # who steps a study's plants, and which plant
 from ...check.scale import arm_from_text, model_text
 from .distributions import Distributions, draw
-from .diverged import cause, runaway
+from .diverged import cause, explain, runaway
 from .plant import Plant, make_plant, plant_arm
 
 __all__ = ["Study", "RunSetup", "TorqueNoise", "run_chunk", "CONTROLLER_KEYS", "model_text"]
@@ -216,7 +216,18 @@ class Study:
     def draw(self, run: int):
         """Run ``run``'s variations (:class:`RunDraw`)."""
         self._check_run(run)
-        return draw(self.distributions, self.seed, run, self.arm.joint_types, self.steps + 1)
+        d = self.distributions
+        return draw(d, self.seed, run, self.arm.joint_types, self.steps + 1, self.sizes() if d.sized else None)
+
+    def sizes(self):
+        """The nominal arm's scales on the path (:class:`.sizing.Sizes`), to which the sized draws of
+        :attr:`distributions` are fractions (computed once per process)."""
+        return _sizes(self.model, float(self.duration), float(self.dt), tuple(self.distributions.payload_com))
+
+    def bounds(self):
+        """The absolute bounds of this study's draws on its arm (:meth:`.Distributions.bounds`)."""
+        d = self.distributions
+        return d.bounds(self.sizes() if d.sized else None)
 
     def plant(self, run: int) -> Plant:
         """Run ``run``'s plant."""
@@ -231,7 +242,7 @@ class Study:
         plant = self.plant(run)
         path = self.path()
         ctrl = _cache[controller] if _cache is not None else self.controller(controller)
-        if self.distributions.torque_noise > 0:
+        if self.distributions.noisy:
             ctrl = TorqueNoise(ctrl, plant.draw.torque_noise, self.dt)
         q0 = path(0.0)[0] + plant.draw.q0_offset
         key = ("substeps", int(run))              # one run's plant, whichever controller drives it
@@ -302,10 +313,17 @@ class Study:
         return {"model": self.model[3], "runs": self.runs, "seed": self.seed,
                 "controllers": list(self.controllers), "duration": self.duration, "dt": self.dt,
                 "distributions": self.distributions.to_dict(),
+                **({"sizes": self.sizes().to_dict(), "bounds": _bounds_dict(self.bounds())}
+                   if self.distributions.sized else {}),
                 "tau_max": None if self.tau_max is None else list(self.tau_max),
                 "bandwidth": self.bandwidth, "gamma": self.gamma, "simulator": self.simulator,
                 **({"mujoco_plant": self.mujoco_plant} if self.simulator == "mujoco" else {}),
                 **({} if self.plants is None else {"plants": self.plants.to_dict(self.seed, self.runs)})}
+
+
+def _bounds_dict(b) -> dict:
+    return {"payload_mass": float(b.payload_mass), **{k: np.asarray(getattr(b, k), dtype=float).tolist()
+                                                      for k in ("viscous", "coulomb", "noise")}}
 
 
 @functools.lru_cache(maxsize=8)
@@ -328,6 +346,13 @@ def _reference_samples(model: tuple, duration: float, dt: float):
     for a in out:
         a.setflags(write=False)
     return out
+
+
+@functools.lru_cache(maxsize=8)
+def _sizes(model: tuple, duration: float, dt: float, payload_com: tuple):
+    from .sizing import arm_sizes
+
+    return arm_sizes(arm_from_text(*model), *_reference_samples(model, duration, dt), payload_com)
 
 
 @functools.lru_cache(maxsize=8)
@@ -380,7 +405,8 @@ def _record(study: Study, setup: RunSetup, key: str, log, diverged: bool) -> dic
             "max_error": m["max_error"], "peak_torque": m["peak_torque"],
             "diverged": diverged or ran_away, "saturated": m["saturated"], "substeps": int(log.substeps),
             "integrator": log.integrator,
-            "sampled_loop": loop, "cause": cause(loop, diverged, ran_away)}
+            "sampled_loop": loop, "cause": cause(loop, diverged, ran_away),
+            "why": explain(study, setup, key, log, diverged, ran_away, loop)}
 
 
 def run_many(study: Study, runs, key: str, cache: dict) -> list:
