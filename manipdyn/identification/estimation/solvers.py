@@ -17,6 +17,17 @@ from ..._support.errors import ModelError
 VIOLATION_TOL = 5e-9
 
 
+_INSTALLED: dict = {}
+
+
+def _installed(cp) -> frozenset:
+    """cvxpy's installed solvers, asked once per process (cvxpy probes every solver's import each time)."""
+    key = id(cp)
+    if key not in _INSTALLED:
+        _INSTALLED[key] = frozenset(cp.installed_solvers())
+    return _INSTALLED[key]
+
+
 def _evaluate(problem) -> tuple[float, float]:
     """``(objective, largest constraint violation)`` of the values the variables now hold."""
     try:
@@ -52,7 +63,7 @@ def solve(cp, problem, what, solvers=("CLARABEL", "SCS")):
     errors = []
     candidates = []      # (solver, status, values, objective, violation)
     for solver in solvers:
-        if solver not in cp.installed_solvers():
+        if solver not in _installed(cp):
             errors.append(f"{solver} not installed")
             continue
         try:
