@@ -195,10 +195,15 @@ def program(cp, kind: str, n: int, p: int, extra_idx, values: dict):
         s.info["uncached"] += 1
         return _build(cp, kind, n, p, extra_idx, values, floor_links, dpp=False)
     slots = _slots(kind, n, values)
-    key = (kind, n, p, extra_idx.tobytes(), floor_links, tuple(sorted((k, np.shape(v)) for k, v in slots.items())))
+    # K (base parameters of the full ones) is sparse: its Parameter holds only its nonzeros (a dense one would
+    # fill the solver's KKT matrix with explicit zeros and slow every iteration), so its pattern is structure
+    pattern = np.nonzero(slots["K"]) if "K" in slots else None
+    key = (kind, n, p, extra_idx.tobytes(), floor_links, tuple(sorted((k, np.shape(v)) for k, v in slots.items())),
+           None if pattern is None else np.packbits(slots["K"] != 0).tobytes())
     hit = s.cache.get(key)
     if hit is None:
-        params = {k: cp.Parameter(np.shape(v), nonneg=k in _NONNEG) for k, v in slots.items()}
+        params = {k: cp.Parameter(np.shape(v), nonneg=k in _NONNEG, **({"sparsity": pattern} if k == "K" else {}))
+                  for k, v in slots.items()}
         problem, x = _build(cp, kind, n, p, extra_idx, params, floor_links, dpp=True)
         if not problem.is_dpp():        # cvxpy would re-canonicalize it anyway: the plain path
             s.info["not_dpp"] += 1
@@ -214,5 +219,15 @@ def program(cp, kind: str, n: int, p: int, extra_idx, values: dict):
         s.info["hits"] += 1
     problem, x, params = hit
     for k, v in slots.items():
-        params[k].value = v
+        if params[k].sparse_idx is not None:
+            params[k].value_sparse = _coo(v, params[k].sparse_idx)
+        else:
+            params[k].value = v
     return problem, x
+
+
+def _coo(a, idx):
+    """The entries ``idx`` of the dense ``a`` as a SciPy COO array (a sparse Parameter's value)."""
+    import scipy.sparse as sp
+
+    return sp.coo_array((np.asarray(a)[idx], idx), shape=np.shape(a))

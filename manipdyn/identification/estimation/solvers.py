@@ -57,7 +57,19 @@ def solve(cp, problem, what, solvers=("CLARABEL", "SCS")):
     checked)"`` when it was so labelled but verified feasible, another solver was tried, and no
     other feasible answer has a smaller objective (SCS's "optimal" often breaks the PSD
     constraints by 1e-3, and then it is no answer at all).
+
+    cvxpy's notes on reading a sparse Parameter's value (:mod:`.programs`' base-parameter map) are
+    silenced: its own canonicalization reads it densely and says so.
     """
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=".*sparse CVXPY expression", category=RuntimeWarning)
+        return _solve(cp, problem, what, solvers)
+
+
+def _solve(cp, problem, what, solvers):
+    """:func:`solve` without its warning filter."""
     import warnings
 
     errors = []
