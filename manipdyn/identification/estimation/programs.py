@@ -22,12 +22,17 @@ So the three kinds of program are built here with their data as *slots*:
   ``A = u R K / sqrt(rows)``, ``lin`` the divergence's linear part (``wn tr(J0_i^-1 J_i)``);
 
 and the constraints (:func:`constraints`): ``J_i(x) - floor_i^2 m_i diag(1, 1, 1, 0) - eps I >= 0``,
-the extras >= 0, mass, centre-of-mass and total-mass bounds.  With ``cached=True`` the slots are
-Parameters and the compiled program is kept, keyed by the structure (sizes, which constraints and
-bounds are present, which links have a gyration floor, which extras are >= 0, whether the extra
-scale term is present); else (or when cvxpy finds the program not DPP) the slots are the numbers
-themselves and the program is built afresh, as before.  The cache is per thread (a program's
-parameters hold one call's numbers while it is solved) and bounded (:data:`CACHE_SIZE`).
+the extras >= 0, mass, centre-of-mass and total-mass bounds; ``"closest"`` may also hold the bodies
+fixed (``x[:10 n] = fixed``).  The compiled program is kept, keyed by the structure (sizes, which
+constraints and bounds are present, which links have a gyration floor, which extras are >= 0, whether
+the extra-scale term is present, the sparsity pattern of ``K``, whose Parameter holds only its
+nonzeros).  Inside :func:`uncached`, or when cvxpy finds the program not DPP, the program is built
+afresh from the numbers with the expressions the fit always built (``||(x - prior) / pscale||^2``,
+``||R (K x) - c|| / ||c|| + REG ||x - prior|| / max(1, ||prior||)``, ``||R K x - c||^2 / rows + w
+sum_i d(J_i, J0_i) / n``), as before the cache.  The two are the same problems scaled differently,
+so the solver stops at points that agree to its accuracy (tests/test_sdp_programs.py).  The cache is
+per thread (a program's Parameters hold one call's numbers while it is solved) and bounded
+(:data:`CACHE_SIZE`).
 :func:`cache_info` counts its hits and compilations; :func:`uncached` switches it off in a block.
 """
 

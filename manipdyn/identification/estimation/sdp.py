@@ -27,7 +27,8 @@ the torques' scale (30 or 1e30 times a UR5's): the answer scales with the data.
 physical after the solver's rounding (the Schur complement of J, the
 second moment about the COM, is then >= eps I, so the triangle inequalities
 hold with that margin).  Solvers: Clarabel (interior point), then SCS if
-Clarabel fails; both are open source.
+Clarabel fails; both are open source.  The programs are compiled once per structure and reused
+with each call's numbers (:mod:`.programs`, cvxpy's DPP); the bounds live in :mod:`.bounds`.
 """
 
 from __future__ import annotations
