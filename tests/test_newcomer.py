@@ -360,9 +360,10 @@ def test_item7_blas_threads_limits_and_restores():
     from manipdyn._support.threads import blas_threads
 
     before = _blas_threads_now()
-    with blas_threads(1) as lim:
-        assert lim.limited and _blas_threads_now() == [1] * len(before)
-    assert _blas_threads_now() == before
+    with blas_threads(1) as lim:     # SciPy's own BLAS is loaded first, and limited too (issue 46 item 19)
+        inside = _blas_threads_now()
+        assert lim.limited and len(inside) >= len(before) and set(inside) == {1}
+    assert _blas_threads_now()[:len(before)] == before
 
 
 def test_item7_without_threadpoolctl_nothing_breaks(monkeypatch):

@@ -44,6 +44,8 @@ from .base import BaseParameters, base_parameters, check_base
 from .sdp import Bounds, consistent_fit
 from ...formats.logs.measurements import segment_edges
 from .covariance import base_covariance
+from .factors import (joint_factors, joint_noise, known_torque, noise_from_factors,  # noqa: F401 (public here)
+                      nonnegative_extras, stack_factors, stacked)
 from .noise import floor_noise
 from .report import FLOOR_DROPPED, build_report, shortfall
 
@@ -137,100 +139,6 @@ class FitResult:
         return b.regressor(Y) @ self.beta + known_torque(self.prior, qd, qdd, b.armature, b.friction)
 
 
-def known_torque(prior, qd, qdd, armature, friction):
-    """Prior torques outside the fitted parameters (rotor inertia, friction), (..., n).
-
-    Shared by :meth:`FitResult.predict`, :func:`fit` (subtracted from the measurements) and
-    :meth:`manipdyn.identification.results.basemodel.BaseModel.inverse_dynamics`."""
-    out = np.zeros(np.shape(qd))
-    if not armature:
-        out = out + np.asarray(qdd) @ np.asarray(prior.rotor_inertia)   # R^T diag(Jm) R, symmetric
-    if (friction is False or friction is None) and prior.friction_model is not None:
-        out = out + prior.lagrange.friction_torque(qd)
-    return out
-
-
-def nonnegative_extras(names, n: int):
-    """Which extra parameters (after the 10 n link ones) are constrained >= 0: all but offsets."""
-    return np.array([not nm.endswith(".offset") for nm in names[10 * n:]], dtype=bool)
-
-
-def _reduce(A, y):
-    """``(R, c, rho0)`` with ``||A b - y||^2 = ||R b - c||^2 + rho0^2`` for every b.
-
-    One QR of ``[A | y]`` (R only, no Q): R (r, r), c (r,), rho0 the part of y
-    outside A's column space.  Cheaper than lstsq or SVD on the tall A.
-    """
-    r = A.shape[1]
-    Ra = np.linalg.qr(np.column_stack([A, y]), mode="r")
-    rho0 = abs(float(Ra[r, r])) if Ra.shape[0] > r else 0.0
-    return Ra[:r, :r], Ra[:r, r], rho0
-
-
-def joint_factors(Yb, y) -> np.ndarray:
-    """Each joint's triangular factor of ``[Yb[:, j, :] | y[:, j]]``, (n, r + 1, r + 1).
-
-    ``||Yb[:, j] b - y[:, j]||^2 = ||F_j [b; -1]||^2`` for every b, so every least-squares
-    problem :func:`fit` solves (each joint's own, the stacked one, the weighted one) is a small
-    problem on these factors: one QR per joint over the samples, none over all joints' rows
-    stacked.  Factors of consecutive blocks of samples stack (``joint_factors`` of the stacked
-    blocks' factors), which is how :mod:`.selection` builds each fold's data.
-    """
-    Yb, y = np.asarray(Yb, dtype=np.float64), np.asarray(y, dtype=np.float64)
-    N, n, r = Yb.shape
-    out = np.zeros((n, r + 1, r + 1))
-    for j in range(n):
-        Ra = np.linalg.qr(np.column_stack([Yb[:, j, :], y[:, j]]), mode="r")
-        out[j, :Ra.shape[0]] = Ra
-    return out
-
-
-def _stack_factors(blocks) -> np.ndarray:
-    """One factor per joint (n, r + 1, r + 1) of several blocks' factors stacked (one small QR each)."""
-    rest, F = np.concatenate(blocks, axis=1), np.zeros_like(blocks[0])
-    for j in range(F.shape[0]):
-        Rj = np.linalg.qr(rest[j], mode="r")
-        F[j, :Rj.shape[0]] = Rj
-    return F
-
-
-def _stacked(F, w=None):
-    """``(R, c, rho0)`` of :func:`_reduce` for the rows of every joint stacked (each weighted by ``w_j``),
-    from the joints' factors ``F`` (n, r + 1, r + 1)."""
-    r = F.shape[-1] - 1
-    w = np.ones(F.shape[0]) if w is None else np.asarray(w, dtype=np.float64)
-    Ra = np.linalg.qr((F * w[:, None, None]).reshape(-1, r + 1), mode="r")
-    return Ra[:r, :r], Ra[:r, r], abs(float(Ra[r, r]))
-
-
-def _noise_from_factors(F, N: int) -> np.ndarray:
-    """:func:`joint_noise` from the joints' factors ``F`` (:func:`joint_factors`) of ``N`` samples."""
-    n, r = F.shape[0], F.shape[-1] - 1
-    sigma = np.empty(n)
-    for j in range(n):
-        A, b = F[j, :, :r], F[j, :, r]
-        norms = np.linalg.norm(A, axis=0)                   # Q is orthogonal: the columns' norms
-        A = A[:, norms > 1e-12 * max(norms.max(), 1e-300)]
-        sol, _, rank, _ = np.linalg.lstsq(A, b, rcond=None)
-        sigma[j] = np.sqrt(np.sum((A @ sol - b) ** 2) / max(1, N - rank))
-    return sigma
-
-
-def joint_noise(Yb, y) -> np.ndarray:
-    """Per-joint noise level ``sigma_j`` (n,) from each joint's own OLS fit (module docstring):
-    ``Yb`` (N, n, p) the regressor, ``y`` (N, n) the torques it should explain."""
-    N, n, _ = Yb.shape
-    sigma = np.empty(n)
-    for j in range(n):
-        A = Yb[:, j, :]
-        norms = np.linalg.norm(A, axis=0)
-        A = A[:, norms > 1e-12 * max(norms.max(), 1e-300)]
-        R, c, rho0 = _reduce(A, y[:, j])
-        sol, _, rank, _ = np.linalg.lstsq(R, c, rcond=None)
-        sigma[j] = np.sqrt((np.sum((R @ sol - c) ** 2) + rho0**2) / max(1, N - rank))
-    return sigma
-
-
 def _check(q, qd, qdd, tau, n):
     """The four data arrays as native float64 (N, n), validated as the dynamics calls do
     (:func:`manipdyn._support.state.state_array`: bool, complex, object, string, datetime and masked
@@ -257,7 +165,7 @@ def _check(q, qd, qdd, tau, n):
 def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armature: bool = False,
         bounds: Bounds | str | None = "plausible", base: BaseParameters | None = None,
         name: str | None = None, prior_weight: float = 0.0, metadata=None, regressor=None,
-        factors=None, *, segments=None, complete: bool = True) -> FitResult:
+        factors=None, *, segments=None, complete: bool = True, extra_scale=None) -> FitResult:
     """Identify ``arm``'s parameters from samples (module docstring).
 
     Parameters
@@ -311,6 +219,11 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         and write those (``report["completion"]`` says what was found, and how far the nearest physical
         arm is when none has them).  Folds of a cross-validation, which need only the base
         parameters, pass False.
+    extra_scale : (p - 10 n,) positive array, optional
+        ``consistent`` with ``prior_weight > 0``: the scale of each armature, friction coefficient and
+        offset (SI units) for the pull of those entries towards the prior's
+        (:func:`manipdyn.identification.estimation.sdp.consistent_fit`, which checks it); None (the
+        default): no such pull.
     """
     if method not in METHODS:
         raise ModelError(f"method: expected one of {', '.join(METHODS)}, got {method!r}")
@@ -329,6 +242,8 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
                          f"(manipdyn.limits.MAX_PRIOR_WEIGHT), got {prior_weight}")
     if prior_weight and method != "consistent":
         raise ModelError("prior_weight: only the 'consistent' method takes a prior weight")
+    if extra_scale is not None and method != "consistent":
+        raise ModelError("extra_scale: only the 'consistent' method takes an extra scale")
     n = arm.n
     q, qd, qdd, tau = _check(q, qd, qdd, tau, n)
     # no MAX_SIGNAL cap: logs are capped where read; the fit is unit-independent (test_fit_scaling)
@@ -355,12 +270,12 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         raise ModelError("factors, segments: give one (factors hold no run boundaries)")
     runs = [joint_factors(Yb[a:b], y[a:b]) for a, b in zip(edges[:-1], edges[1:])] if len(edges) > 2 else None
     if runs is not None:         # each run's factors: its own noise levels, then its weights
-        factors = _stack_factors(runs)
+        factors = stack_factors(runs)
     elif factors is None:
         factors = joint_factors(Yb, y)
     elif np.shape(factors) != (n, r + 1, r + 1):
         raise ModelError(f"factors: expected shape ({n}, {r + 1}, {r + 1}), got {np.shape(factors)}")
-    R0, c0, _ = _stacked(factors)
+    R0, c0, _ = stacked(factors)
     s = np.linalg.svd(R0, compute_uv=False)              # the singular values of the stacked Y_b
     cond = float(s[0] / s[-1]) if s[-1] > 0 else float("inf")
     limit = MAX_CONDITION_CONSISTENT if method == "consistent" else MAX_CONDITION
@@ -370,8 +285,8 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
                          f"constant, or a column scaled wrongly?); use an excitation trajectory "
                          f"(manipdyn excite)")
     counts = np.diff(edges)
-    sigmas = (np.array([_noise_from_factors(F, int(k)) for F, k in zip(runs, counts)]) if runs is not None
-              else _noise_from_factors(factors, N)[None, :])
+    sigmas = (np.array([noise_from_factors(F, int(k)) for F, k in zip(runs, counts)]) if runs is not None
+              else noise_from_factors(factors, N)[None, :])
     sigmas, floored = floor_noise(sigmas, y)          # rounding, not noise, on exact data (.noise)
     sigma = sigmas[0] if runs is None else np.sqrt(counts @ sigmas**2 / N)
     try:
@@ -388,10 +303,10 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     else:
         w = 1.0 / sigma
         if runs is None:
-            R, c, rho_w = _stacked(factors, w)
+            R, c, rho_w = stacked(factors, w)
         else:                    # each run's joints by their noise in that run
             w = np.repeat(1.0 / sigmas, counts, axis=0)                       # (N, n)
-            R, c, rho_w = _stacked(_stack_factors([F * (1.0 / s)[:, None, None] for F, s in zip(runs, sigmas)]))
+            R, c, rho_w = stacked(stack_factors([F * (1.0 / s)[:, None, None] for F, s in zip(runs, sigmas)]))
         cov = base_covariance(R)     # rows have unit variance after weighting (.uncertainty)
         if method == "wls":
             beta = np.linalg.lstsq(R, c, rcond=None)[0]
@@ -405,7 +320,8 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
                 try:
                     pi, solver = consistent_fit(R, c, base.K, n, prior, extra=len(base.names) > 10 * n, bounds=b,
                                                 nonnegative=nonnegative_extras(base.names, n),
-                                                prior_weight=float(prior_weight), rows=N * n)
+                                                prior_weight=float(prior_weight), rows=N * n,
+                                                extra_scale=extra_scale)
                     if b is not None and not b.satisfied(pi, n, rtol=1e-6):
                         raise ModelError("consistent fit: the answer does not satisfy the bounds (the solver "
                                          "cannot resolve them at the data's scale)")

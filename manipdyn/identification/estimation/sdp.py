@@ -27,7 +27,8 @@ the torques' scale (30 or 1e30 times a UR5's): the answer scales with the data.
 physical after the solver's rounding (the Schur complement of J, the
 second moment about the COM, is then >= eps I, so the triangle inequalities
 hold with that margin).  Solvers: Clarabel (interior point), then SCS if
-Clarabel fails; both are open source.
+Clarabel fails; both are open source.  The programs are compiled once per structure and reused
+with each call's numbers (:mod:`.programs`, cvxpy's DPP); the bounds live in :mod:`.bounds`.
 """
 
 from __future__ import annotations
@@ -39,9 +40,12 @@ import numpy as np
 from ..._support.errors import ModelError
 from ...model.parameters import PARAMETER_BASIS
 from ...model.inertia import pseudo_inertia_from_parameters
-from ...model.plausible import gyration_floor, smallest_gyration
+from ...model.plausible import smallest_gyration
+from .bounds import (FLOOR_RTOL, PLAUSIBLE_COM, PLAUSIBLE_GYRATION, PLAUSIBLE_MASS,  # noqa: F401 (their home was here)
+                     PLAUSIBLE_TOTAL, Bounds)
 from ..._support.deps import require
 from .solvers import solve as _solve
+from .programs import bound_values, program
 
 __all__ = ["Bounds", "consistent_fit", "solve_problem", "smallest_gyration", "EPS"]
 
@@ -52,187 +56,6 @@ REG = 1e-7
 #: ratio of the data's torque to the prior's beyond which the prior's magnitude is scaled away
 #: (see :func:`consistent_fit`)
 PRIOR_RANGE = 10.0
-#: defaults of :meth:`Bounds.plausible`: link mass factor, COM box (m), total mass fraction
-PLAUSIBLE_MASS = 0.5
-PLAUSIBLE_COM = 0.1
-PLAUSIBLE_TOTAL = 0.25
-PLAUSIBLE_GYRATION = 0.01
-
-
-@dataclass(frozen=True)
-class Bounds:
-    """Optional bounds of the consistent fit (URDF link frames, SI units).
-
-    Attributes
-    ----------
-    mass : (n, 2) array or None
-        ``lo_i <= m_i <= hi_i`` (kg).
-    com : (n, 2, 3) array or None
-        The centre of mass inside the box ``[lo, hi]`` (m): ``m lo <= m c <= m hi``.
-    gyration : (n,) array or None
-        Floor ``r_i`` (m) of the radii of gyration about the COM: ``J_i - r_i^2 m_i diag(1, 1, 1, 0) >= 0``
-        (linear in J), every principal second moment about the COM at least ``m_i r_i^2``.
-    """
-
-    mass: np.ndarray | None = None
-    com: np.ndarray | None = None
-    total_mass: tuple | None = None
-    gyration: np.ndarray | None = None
-
-    def __post_init__(self):
-        for name in ("mass", "com", "total_mass", "gyration"):
-            v = getattr(self, name)
-            if v is None:
-                continue
-            if isinstance(v, np.ma.MaskedArray):
-                if np.ma.getmaskarray(v).any():
-                    raise ModelError(f"Bounds.{name}: a masked array with masked entries (the mask "
-                                     "would be dropped); pass v.filled(value)")
-                v = np.ma.getdata(v)
-            try:
-                a = np.asarray(v)
-                if a.dtype.kind == "O" and not isinstance(v, np.ndarray):
-                    a = np.array(v, dtype=np.float64)   # nested Python numbers
-                    if any(isinstance(x, (bool, np.bool_)) for x in np.ravel(np.asarray(v, dtype=object))):
-                        raise TypeError("a bool")
-            except (TypeError, ValueError, OverflowError) as exc:
-                raise ModelError(f"Bounds.{name}: expected real numbers, got {v!r:.60} ({exc})") from None
-            if a.dtype.kind not in "fiu":
-                raise ModelError(f"Bounds.{name}: expected real numbers, got dtype {a.dtype} "
-                                 f"({ {'b': 'bool', 'c': 'complex', 'O': 'object', 'U': 'string', 'S': 'bytes', 'M': 'datetime64', 'm': 'timedelta64'}.get(a.dtype.kind, a.dtype.kind)})")
-            a = np.array(a, dtype=np.float64)   # native byte order, a copy we own
-            if not np.all(np.isfinite(a)):
-                raise ModelError(f"Bounds.{name}: must be finite, got {a.tolist()}")
-            want = {"mass": (None, 2), "com": (None, 2, 3), "total_mass": (2,), "gyration": (None,)}[name]
-            if a.ndim != len(want) or any(w is not None and w != s for w, s in zip(want, a.shape)):
-                raise ModelError(f"Bounds.{name}: expected shape {tuple('n' if w is None else w for w in want)}, "
-                                 f"got {a.shape}")
-            lo, hi = ((a[..., 0, :], a[..., 1, :]) if name == "com" else (0 * a, a) if name == "gyration"
-                      else (a[..., 0], a[..., 1]))
-            if np.any(lo > hi):
-                raise ModelError(f"Bounds.{name}: a lower bound exceeds its upper bound")
-            if name in ("mass", "total_mass", "gyration") and np.any(lo < 0):
-                raise ModelError(f"Bounds.{name}: masses must be >= 0")
-            a.setflags(write=False)
-            object.__setattr__(self, name, a)
-
-    @classmethod
-    def plausible(cls, arm, mass: float | None = PLAUSIBLE_MASS, com: float | None = PLAUSIBLE_COM,
-                  total: float | None = PLAUSIBLE_TOTAL, gyration: float | None = PLAUSIBLE_GYRATION) -> "Bounds":
-        """The default bounds of ``identify --method consistent``: plausible around the prior.
-
-        * each link's mass within ``+-mass`` (fraction) of the prior's ``m``: ``[m (1 - mass),
-          m (1 + mass)]`` (default 0.5; a massless prior link may take up to ``mass`` times a
-          tenth of the heaviest prior link's mass);
-        * each centre of mass within ``+-com`` m of the prior's, per axis of the URDF link
-          frame (default 0.1 m: a centre of mass stays on its link);
-        * the total mass within ``+-total`` (fraction) of the prior's (default 0.25);
-        * every radius of gyration about a body's COM at least ``gyration`` (default 0.01) of the
-          arm's size (joint offsets and tool summed), or half the prior body's own if less; from the
-          geometry alone where the prior body is degenerate (massless, a rod or a plate): never 0 m
-          (:func:`manipdyn.model.completion.gyration_floor`).  Else, where the data do not decide a
-          body's shape, the fit ends on ``J_i >= 0`` (issue 30).
-
-        A bound given as None is left out.  Why: ten seconds of data rarely pin down every
-        parameter direction, and an unbounded physically consistent fit can put a 79 kg
-        Panda (the real one is 18 kg) on a face of the feasible set that fits the noise.
-        """
-        joints, _ = arm.chain()
-        m = np.array([j.body.mass for j in joints])
-        c = np.array([j.body.com for j in joints])
-        kw = {}
-        if mass is not None:
-            if not 0 <= mass < float("inf"):
-                raise ModelError(f"mass: expected a finite fraction >= 0, got {mass}")
-            hi = np.where(m > 0, m * (1 + mass), mass * max(float(m.max()), 0.0) / 10)
-            kw["mass"] = np.stack([m * max(0.0, 1 - mass), hi], axis=1)
-        if com is not None:
-            if not 0 <= com < float("inf"):
-                raise ModelError(f"com: expected a finite distance >= 0 m, got {com}")
-            kw["com"] = np.stack([c - com, c + com], axis=1)
-        if total is not None:
-            if not 0 <= total < 1:
-                raise ModelError(f"total: expected a fraction in [0, 1), got {total}")
-            kw["total_mass"] = (float(m.sum()) * (1 - total), float(m.sum()) * (1 + total))
-        if gyration:       # never above half a prior body's own (a flat link stays feasible), never 0 m
-            kw["gyration"] = gyration_floor(arm, gyration)
-        return cls(**kw)
-
-    def scaled(self, factor: float) -> "Bounds":
-        """The same bounds for parameters multiplied by ``factor`` (masses scaled, COM boxes kept)."""
-        return Bounds(mass=None if self.mass is None else self.mass * factor, com=self.com,
-                      total_mass=None if self.total_mass is None else self.total_mass * factor, gyration=self.gyration)
-
-    def check(self, n: int) -> None:
-        """Raise :class:`ModelError` unless these bounds are for an arm of ``n`` links."""
-        for name in ("mass", "com"):
-            a = getattr(self, name)
-            if a is not None and a.shape[0] != n:
-                raise ModelError(f"Bounds.{name}: {a.shape[0]} rows for an arm of {n} links")
-
-    def satisfied(self, pi, n: int, rtol: float = 1e-9) -> bool:
-        """Whether the full parameters ``pi`` satisfy every bound (to ``rtol`` of the bound)."""
-        pi = np.asarray(pi, dtype=np.float64)
-        m = pi[10 * np.arange(n)]
-        if self.mass is not None:
-            tol = rtol * np.maximum(self.mass[:, 1], 1e-12)
-            if np.any(m < self.mass[:, 0] - tol) or np.any(m > self.mass[:, 1] + tol):
-                return False
-        if self.com is not None:
-            mc = pi[(10 * np.arange(n))[:, None] + np.arange(1, 4)]
-            tol = rtol * np.maximum(np.abs(self.com).max(), 1.0) * np.maximum(np.abs(m), 1e-12)[:, None]
-            if np.any(mc < m[:, None] * self.com[:, 0] - tol) or np.any(mc > m[:, None] * self.com[:, 1] + tol):
-                return False
-        if self.total_mass is not None:
-            tot, (lo, hi) = float(m.sum()), self.total_mass
-            if tot < lo - rtol * hi or tot > hi + rtol * hi:
-                return False
-        return True       # the gyration floor is a plausibility floor, best effort: active() names it
-
-    def active(self, pi, n: int, rtol: float = 1e-4) -> list[str]:
-        """The bounds that the full parameters ``pi`` sit on (within ``rtol``), as readable strings."""
-        pi = np.asarray(pi, dtype=np.float64)
-        m = pi[10 * np.arange(n)]
-        out = []
-        if self.mass is not None:
-            for i in range(n):
-                lo, hi = self.mass[i]
-                tol = rtol * max(hi, 1e-9)
-                if m[i] <= lo + tol or m[i] >= hi - tol:
-                    which = "lower" if m[i] <= lo + tol else "upper"
-                    out.append(f"link {i + 1} mass at its {which} bound {m[i]:.4g} kg")
-        if self.com is not None:
-            for i in range(n):
-                if m[i] <= 0:
-                    continue
-                ci = pi[10 * i + 1:10 * i + 4] / m[i]
-                for ax, name in enumerate("xyz"):
-                    lo, hi = self.com[i, 0, ax], self.com[i, 1, ax]
-                    tol = rtol * max(abs(hi - lo), 1e-9)
-                    if ci[ax] <= lo + tol or ci[ax] >= hi - tol:
-                        out.append(f"link {i + 1} centre of mass {name} = {ci[ax]:.4g} m at its bound")
-        if self.total_mass is not None:
-            lo, hi = self.total_mass
-            tot = float(m.sum())
-            if tot <= lo + rtol * hi or tot >= hi - rtol * hi:
-                out.append(f"total mass {tot:.4g} kg at its bound [{lo:.4g}, {hi:.4g}] kg")
-        if self.gyration is not None:      # the body's own radius, as the model on disk has it (issue 38)
-            rg = smallest_gyration(pi, n)
-            out += [f"link {i + 1} radius of gyration {rg[i]:.3g} m at its floor {self.gyration[i]:.3g} m"
-                    if rg[i] >= self.gyration[i] * (1 - FLOOR_RTOL) else
-                    f"link {i + 1} radius of gyration {rg[i]:.3g} m below its floor {self.gyration[i]:.3g} m: the "
-                    "floor does not hold on this body"
-                    for i in range(n) if m[i] > 0 and rg[i] <= self.gyration[i] * (1 + FLOOR_RTOL)]
-        return out
-
-    @classmethod
-    def around(cls, arm, mass: float = 0.5, com: float = 0.1) -> "Bounds":
-        """Masses within ``+-mass`` (fraction) of the prior's, COMs within ``+-com`` m of them."""
-        joints, _ = arm.chain()
-        m = np.array([j.body.mass for j in joints])
-        c = np.array([j.body.com for j in joints])
-        return cls(mass=np.stack([m * (1 - mass), m * (1 + mass)], axis=1),
-                   com=np.stack([c - com, c + com], axis=1))
 
 
 def solve_problem(problem, what: str, solvers=("CLARABEL", "SCS")) -> str:
@@ -246,42 +69,8 @@ def solve_problem(problem, what: str, solvers=("CLARABEL", "SCS")) -> str:
     return _solve(cp, problem, what, solvers)
 
 
-#: a body whose smallest radius of gyration is within this fraction above its floor sits on it
-FLOOR_RTOL = 0.02
-
-
-def _constraints(cp, x, n, extra, bounds, eps=EPS, nonnegative=None):
-    E = PARAMETER_BASIS
-    cons = []
-    floor = None if bounds is None or bounds.gyration is None else bounds.gyration ** 2
-    for i in range(n):
-        J = sum(x[10 * i + k] * E[k] for k in range(10))
-        if floor is not None and floor[i] > 0:
-            J = J - floor[i] * x[10 * i] * np.diag([1.0, 1, 1, 0])
-        cons.append(J - eps * np.eye(4) >> 0)
-    if extra:
-        idx = np.arange(10 * n, x.shape[0])   # armature, friction coefficients (not offsets)
-        if nonnegative is not None:
-            idx = idx[np.asarray(nonnegative, dtype=bool)]
-        if idx.size:
-            cons.append(x[idx] >= 0)
-    if bounds is not None:
-        if bounds.mass is not None:
-            mb = np.asarray(bounds.mass, dtype=np.float64)
-            cons += [x[10 * np.arange(n)] >= mb[:, 0], x[10 * np.arange(n)] <= mb[:, 1]]
-        if bounds.com is not None:
-            cb = np.asarray(bounds.com, dtype=np.float64)
-            for i in range(n):
-                m, mc = x[10 * i], x[10 * i + 1:10 * i + 4]
-                cons += [mc >= m * cb[i, 0], mc <= m * cb[i, 1]]
-        if bounds.total_mass is not None:
-            tot = cp.sum(x[10 * np.arange(n)])
-            cons += [tot >= bounds.total_mass[0], tot <= bounds.total_mass[1]]
-    return cons
-
-
 def consistent_fit(R, c, K, n, prior, extra: bool, bounds: Bounds | None = None,
-                   prior_weight: float = 0.0, rows: int | None = None, nonnegative=None):
+                   prior_weight: float = 0.0, rows: int | None = None, nonnegative=None, extra_scale=None):
     """The two steps of the module docstring.
 
     Parameters
@@ -310,6 +99,13 @@ def consistent_fit(R, c, K, n, prior, extra: bool, bounds: Bounds | None = None,
         Number of weighted equations behind ``R`` (N n); needed with ``prior_weight``.
     nonnegative : (p - 10 n,) bool, optional
         Which extra entries (armature, friction) are constrained >= 0 (default: all).
+    extra_scale : (p - 10 n,) positive array, optional
+        With ``prior_weight > 0``: the scale of each extra entry (armature, friction coefficients,
+        offsets; in their SI units) for a pull of the extras towards the prior's, step 1's objective
+        gaining ``w * sum_e ((pi_e - prior_e) / extra_scale_e)^2 / max(1, p - 10 n)``.  None (the
+        default), or ``prior_weight`` 0: no such term.
+
+    The programs come from :mod:`.programs`: compiled once per structure and reused with new numbers.
 
     Returns ``(pi, solver)``.
     """
@@ -317,6 +113,7 @@ def consistent_fit(R, c, K, n, prior, extra: bool, bounds: Bounds | None = None,
     R, c, prior = (np.asarray(v, dtype=np.float64) for v in (R, c, prior))
     K = np.asarray(K, dtype=np.float64)
     p = K.shape[1]
+    extra_scale = _extra_scale(extra_scale, p - 10 * n)
     # units: the solver works on x = pi / u with u the ratio of the
     # measured torque to the prior's, ||c|| / ||R K prior||.  Data 30 or 1e30 times a prior's
     # torque then give the solver the problem of data of the prior's magnitude: its tolerances, the
@@ -336,8 +133,10 @@ def consistent_fit(R, c, K, n, prior, extra: bool, bounds: Bounds | None = None,
     prior_u = prior / float(np.clip(u, 1.0 / PRIOR_RANGE, PRIOR_RANGE))
     if bounds is not None:
         bounds = bounds.scaled(1.0 / u)
-    x = cp.Variable(p)
     scale = max(1e-300, float(np.linalg.norm(c)))
+    extra_idx = np.arange(10 * n, p) if extra else np.arange(0)
+    if extra and nonnegative is not None:
+        extra_idx = extra_idx[np.asarray(nonnegative, dtype=bool)]
     # step 1: the best fit among physical arms.  The norm, not its square: a
     # conic solver then resolves the residual to its tolerance (~1e-8 of |c|)
     # rather than to the square root of it, which matters on exact data.
@@ -353,32 +152,86 @@ def consistent_fit(R, c, K, n, prior, extra: bool, bounds: Bounds | None = None,
         # as above when the data are beyond PRIOR_RANGE of it
         J0 = pseudo_inertia_from_parameters(prior_u[:10 * n].reshape(n, 10))
         J0 = J0 + EPS * max(1.0, float(np.abs(J0).max())) * np.eye(4)   # a massless prior link
-        E = PARAMETER_BASIS
-        div = sum(cp.trace(np.linalg.inv(J0[i]) @ sum(x[10 * i + k] * E[k] for k in range(10)))
-                  - cp.log_det(sum(x[10 * i + k] * E[k] for k in range(10))) for i in range(n))
-        obj = cp.sum_squares(R @ (K @ x) - c) / rows + float(prior_weight) * div / n
+        step1 = ("weighted", {"R": R, "K": K, "c": c, "rows": float(rows), "J0inv": np.linalg.inv(J0),
+                              "weight": float(prior_weight)})
+        if extra_scale is not None and p > 10 * n:
+            # w sum_e ((x_e - prior_e) / (extra_scale_e / u))^2 / max(1, p - 10 n), in the solver's units
+            d = np.sqrt(float(prior_weight) / max(1, p - 10 * n)) * u / extra_scale
+            step1[1].update(d=d, dt=d * prior_u[10 * n:])
     else:
         # the pull's target is the prior scaled with the data (x = prior): the fit (beta) is
         # then the same problem at any scale of the data
-        obj = cp.norm(R @ (K @ x) - c) / scale + REG * cp.norm(x - prior) / max(1.0, float(np.linalg.norm(prior)))
+        step1 = ("fit", {"R": R, "K": K, "c": c, "scale": scale, "prior": prior, "reg": REG,
+                         "pnorm": max(1.0, float(np.linalg.norm(prior)))})
+    ctx = _Context(cp, K, n, p, extra_idx, prior_u, pscale, eps)
     if not prior_weight:
-        xs = _least_squares_if_physical(cp, R, c, K, n, prior_u, pscale, extra, bounds, nonnegative, eps)
+        xs = _least_squares_if_physical(ctx, R, c, bounds)
         if xs is not None:
             return u * project_physical(xs, n, eps=eps, nonnegative=nonnegative), "CLARABEL; least squares is physical"
-    # bounds are tried last: when the answer without them already satisfies them, they are
-    # inactive and the smaller problem is solved more accurately (interior-point solvers
-    # lose digits on many inactive inequality rows: 1e-7 instead of 1e-11 relative on exact data)
-    if bounds is not None:
+    if bounds is None:
+        xs, solver = _two_steps(ctx, step1, None, (R, c), bodies_fixed=bool(prior_weight))
+        return u * project_physical(xs, n, eps=eps, nonnegative=nonnegative), solver
+    # the answer without the bounds is kept when it satisfies them: they are then inactive and the smaller
+    # problem is solved more accurately (interior-point solvers lose digits on many inactive inequality
+    # rows: 1e-7 instead of 1e-11 relative on exact data).  The answer with them comes first: when one of
+    # its mass, centre-of-mass or total-mass bounds is active, the answer without them crosses it (the
+    # bound binds), and that solve, half the cost of the fit, is skipped
+    try:
+        bounded = _two_steps(ctx, step1, bounds, (R, c), bodies_fixed=bool(prior_weight))
+    except ModelError as exc:
+        bounded = exc
+    if isinstance(bounded, ModelError) or not Bounds(mass=bounds.mass, com=bounds.com,
+                                                     total_mass=bounds.total_mass).active(bounded[0], n):
         try:
-            xs, solver = _two_steps(cp, x, obj, K, n, prior_u, pscale, extra, None, nonnegative, eps, (R, c),
-                                    bodies_fixed=bool(prior_weight))
+            xs, solver = _two_steps(ctx, step1, None, (R, c), bodies_fixed=bool(prior_weight))
             if bounds.satisfied(xs, n):
                 return u * project_physical(xs, n, eps=eps, nonnegative=nonnegative), solver
         except ModelError:
             pass
-    xs, solver = _two_steps(cp, x, obj, K, n, prior_u, pscale, extra, bounds, nonnegative, eps, (R, c),
-                            bodies_fixed=bool(prior_weight))
+    if isinstance(bounded, ModelError):
+        raise bounded
+    xs, solver = bounded
     return u * project_physical(xs, n, eps=eps, nonnegative=nonnegative), solver
+
+
+def _extra_scale(extra_scale, count: int):
+    """``extra_scale`` checked: None, or ``count`` finite positive numbers (a :class:`ModelError` else)."""
+    if extra_scale is None:
+        return None
+    try:
+        a = np.array(extra_scale, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ModelError(f"extra_scale: expected {count} positive numbers (one per armature, friction "
+                         f"coefficient and offset), got {extra_scale!r:.60} ({exc})") from None
+    if a.shape != (count,):
+        raise ModelError(f"extra_scale: expected shape ({count},) (one per armature, friction coefficient and "
+                         f"offset, after the 10 n link parameters), got {a.shape}")
+    if not np.all(np.isfinite(a) & (a > 0)):
+        raise ModelError(f"extra_scale: expected finite numbers > 0, got {a.tolist()}")
+    return a
+
+
+@dataclass(frozen=True)
+class _Context:
+    """What the programs of one :func:`consistent_fit` call share (in the solver's units)."""
+
+    cp: object
+    K: np.ndarray
+    n: int
+    p: int
+    extra_idx: np.ndarray
+    prior: np.ndarray
+    pscale: float
+    eps: float
+
+    def closest(self, beta, bounds, fixed=None):
+        """The program of the full parameters closest to the prior with base parameters ``beta``
+        (margin ``eps / 2``), the bodies held at ``fixed`` (10 n,) when given: ``(problem, x)``."""
+        values = {"prior": self.prior, "pscale": self.pscale, "K": self.K, "beta": np.asarray(beta, dtype=np.float64)}
+        if fixed is not None:
+            values["fixed"] = np.asarray(fixed, dtype=np.float64)
+        values.update(bound_values(bounds, self.eps / 2))
+        return program(self.cp, "closest", self.n, self.p, self.extra_idx, values)
 
 
 def _unit(R, c, K, prior) -> float:
@@ -395,7 +248,7 @@ def _unit(R, c, K, prior) -> float:
     return ratio
 
 
-def _least_squares_if_physical(cp, R, c, K, n, prior, pscale, extra, bounds, nonnegative, eps):
+def _least_squares_if_physical(ctx, R, c, bounds):
     """The full parameters closest to the prior whose base parameters are the least-squares
     ones, ``K x = R^-1 c``, when some physical (and in-bounds) x has them, else None.
 
@@ -403,13 +256,11 @@ def _least_squares_if_physical(cp, R, c, K, n, prior, pscale, extra, bounds, non
     REG pull); taking it directly keeps the least-squares accuracy (1e-11 of the smallest
     joint's torque on exact data) where a conic solver would stop at ~1e-8 of the largest.
     """
+    K, n = ctx.K, ctx.n
     beta = np.linalg.lstsq(R, c, rcond=None)[0]
-    x2 = cp.Variable(K.shape[1])
-    prob = cp.Problem(cp.Minimize(cp.sum_squares((x2 - prior) / pscale)),
-                      [K @ x2 == beta] + _constraints(cp, x2, n, extra, bounds, eps=eps / 2,
-                                                      nonnegative=nonnegative))
+    prob, x2 = ctx.closest(beta, bounds)
     try:
-        if _solve(cp, prob, "least squares", solvers=("CLARABEL",)) != "CLARABEL":
+        if _solve(ctx.cp, prob, "least squares", solvers=("CLARABEL",)) != "CLARABEL":
             return None
     except ModelError:   # infeasible: the least-squares answer is no physical arm
         return None
@@ -422,32 +273,30 @@ def _least_squares_if_physical(cp, R, c, K, n, prior, pscale, extra, bounds, non
     return x
 
 
-def _two_steps(cp, x, obj, K, n, prior, pscale, extra, bounds, nonnegative, eps=EPS, data=None, bodies_fixed=False):
-    """Step 1 (the fit) and step 2 (closest to the prior, same base parameters): ``(pi, solver)``.
-
-    ``bodies_fixed``: step 1 pulled the bodies towards the prior by the log-det divergence, which is strictly
-    convex in them, so its bodies are already the ones closest to the prior in that (physical) measure; a
-    Euclidean step 2 would move them off it, onto the ``J >= 0`` boundary where the Euclidean projection of
-    the prior lands (measured on the Panda: four links degenerate, radius of gyration 1e-4 m).  Step 2 then
-    moves only the entries beyond the bodies (armature, friction)."""
-    p = K.shape[1]
-    step1 = cp.Problem(cp.Minimize(obj), _constraints(cp, x, n, extra, bounds, eps=eps, nonnegative=nonnegative))
-    solver = _solve(cp, step1, "step 1 (fit)")
+def _two_steps(ctx, step1, bounds, data, bodies_fixed: bool = False):
+    """Step 1 (the fit; ``step1`` its program's kind and numbers) and step 2 (closest to the prior,
+    same base parameters): ``(pi, solver)``.  ``bodies_fixed``: step 2 moves only the entries beyond
+    the bodies (armature, friction), the bodies held at step 1's: with a prior weight, step 1 pulled the bodies
+    towards the prior by the log-det divergence, strictly convex in them, so its bodies are already the ones
+    closest to the prior in that physical measure; a Euclidean step 2 would move them off it, onto the
+    ``J >= 0`` boundary where the Euclidean projection of the prior lands (measured on the Panda: four links
+    degenerate, smallest radius of gyration 1e-4 m)."""
+    K = ctx.K
+    kind, values = step1
+    values = dict(values, **bound_values(bounds, ctx.eps))
+    prob1, x = program(ctx.cp, kind, ctx.n, ctx.p, ctx.extra_idx, values)
+    solver = _solve(ctx.cp, prob1, "step 1 (fit)")
     x1 = np.asarray(x.value, dtype=np.float64)
     # step 2: closest to the prior with the same base parameters, K pi = K x1
     # (an equality the interior-point solver keeps to ~1e-9).  Margin EPS / 2:
     # step 1's answer, often on the EPS boundary, is then strictly feasible.
-    x2 = cp.Variable(p)
-    fixed = [x2[:10 * n] == x1[:10 * n]] if bodies_fixed else []
-    if bodies_fixed and p == 10 * n:
+    beta1 = K @ x1
+    if bodies_fixed and ctx.p == 10 * ctx.n:
         return x1, solver
-    step2 = cp.Problem(cp.Minimize(cp.sum_squares((x2 - prior) / pscale)),
-                       [K @ x2 == K @ x1] + fixed + _constraints(cp, x2, n, extra, bounds, eps=eps / 2,
-                                                                 nonnegative=nonnegative))
+    step2, x2 = ctx.closest(beta1, bounds, fixed=x1[:10 * ctx.n] if bodies_fixed else None)
     try:
-        _solve(cp, step2, "step 2 (closest to the prior)", solvers=("CLARABEL",))
+        _solve(ctx.cp, step2, "step 2 (closest to the prior)", solvers=("CLARABEL",))
         pi = np.asarray(x2.value, dtype=np.float64)
-        beta1 = K @ x1
         if np.linalg.norm(K @ pi - beta1) > 1e-7 * max(float(np.linalg.norm(beta1)), 1e-300):
             pi = x1   # an inaccurate step 2 moved the base parameters: keep step 1's
         elif data is not None:

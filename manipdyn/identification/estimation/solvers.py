@@ -17,6 +17,17 @@ from ..._support.errors import ModelError, is_solver_panic
 VIOLATION_TOL = 5e-9
 
 
+_INSTALLED: dict = {}
+
+
+def _installed(cp) -> frozenset:
+    """cvxpy's installed solvers, asked once per process (cvxpy probes every solver's import each time)."""
+    key = id(cp)
+    if key not in _INSTALLED:
+        _INSTALLED[key] = frozenset(cp.installed_solvers())
+    return _INSTALLED[key]
+
+
 def _evaluate(problem) -> tuple[float, float]:
     """``(objective, largest constraint violation)`` of the values the variables now hold."""
     try:
@@ -46,13 +57,25 @@ def solve(cp, problem, what, solvers=("CLARABEL", "SCS")):
     checked)"`` when it was so labelled but verified feasible, another solver was tried, and no
     other feasible answer has a smaller objective (SCS's "optimal" often breaks the PSD
     constraints by 1e-3, and then it is no answer at all).
+
+    cvxpy's notes on reading a sparse Parameter's value (:mod:`.programs`' base-parameter map) are
+    silenced: its own canonicalization reads it densely and says so.
     """
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=".*sparse CVXPY expression", category=RuntimeWarning)
+        return _solve(cp, problem, what, solvers)
+
+
+def _solve(cp, problem, what, solvers):
+    """:func:`solve` without its warning filter."""
     import warnings
 
     errors = []
     candidates = []      # (solver, status, values, objective, violation)
     for solver in solvers:
-        if solver not in cp.installed_solvers():
+        if solver not in _installed(cp):
             errors.append(f"{solver} not installed")
             continue
         try:

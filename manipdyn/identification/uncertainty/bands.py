@@ -359,16 +359,20 @@ def held_out_residuals(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, segment
     parameters are no physical arm), for the collision thresholds, which watch the same hold-outs
     through the observer of the same refits (:mod:`manipdyn.control.collision.holdouts`).
     """
-    from ..estimation.fitting import fit
+    from ..estimation.fitting import fit, known_torque
 
     q, qd, qdd, tau = (np.asarray(x, dtype=np.float64) for x in (q, qd, qdd, tau))
     N = len(q)
     res = np.empty_like(tau)
+    armature, friction = fit_kwargs.get("armature", False), fit_kwargs.get("friction", False)
+    Y = arm.lagrange.regressor(q, qd, qdd, armature=armature, friction=friction)   # once, sliced per fold
+    known = known_torque(arm, qd, qdd, armature, friction)
     for test in _masks(N, folds, masks, segments):
         kept = _kept_segments(segments, test)
         extra = {} if kept is None else {"segments": kept}
-        r = fit(arm, q[~test], qd[~test], qdd[~test], tau[~test], **fit_kwargs, **extra, complete=False)
-        res[test] = tau[test] - r.predict(q[test], qd[test], qdd[test])
+        r = fit(arm, q[~test], qd[~test], qdd[~test], tau[~test], **fit_kwargs, **extra, complete=False,
+                regressor=Y[~test])
+        res[test] = tau[test] - (r.base.regressor(Y[test]) @ r.beta + known[test])     # r.predict, from the sliced Y
         if refits is not None:
             refits.append((test, r.arm))
     return res
