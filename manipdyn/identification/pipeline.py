@@ -303,6 +303,7 @@ def _identify(prior, logs, o) -> IdentifyResult:
             arm, runs, tc = _torque_constants(as_read, _reread(runs, tc, arm), law, o["armature"],
                                               o["torque_constant_reference"], o["scale_from_gravity"])
             data = _known_payloads(arm, runs)
+    extra = _extra_scale(arm, o, law, data)
     selection = None
     if weight == "auto":
         from .estimation.selection import (PRIOR_WEIGHT_FOLDS, choose_prior_weight, describe_weight_choice,
@@ -312,7 +313,7 @@ def _identify(prior, logs, o) -> IdentifyResult:
         dt = float(np.median(np.diff(data.t))) if len(data.t) > 1 else None
         weight, selection = choose_prior_weight(arm, data.q, data.qd, data.qdd, data.tau, friction=law, dt=dt,
                                                 armature=o["armature"], bounds=bounds, labels=labels,
-                                                segments=data.segments)
+                                                segments=data.segments, extra_scale=extra)
         _, why = one_se_choice(selection, "prior_weight", 0.0)
         law_notes.append(describe_weight_choice(selection, weight, why,
                                                 fold_kind(fold_masks(len(data.q), PRIOR_WEIGHT_FOLDS, labels,
@@ -323,7 +324,8 @@ def _identify(prior, logs, o) -> IdentifyResult:
     segments = data.segments if len(data.segments) > 1 else None
     tell(f"fit ({o['method']})")
     result = fit(arm, data.q, data.qd, data.qdd, data.tau, method=o["method"], friction=law,
-                 armature=o["armature"], bounds=bounds, name=name, prior_weight=weight, segments=segments)
+                 armature=o["armature"], bounds=bounds, name=name, prior_weight=weight, segments=segments,
+                 extra_scale=extra)
     chosen = {"prior_weight": weight, "friction_side": side, "smoothing": smoothing}
     options = {k: chosen.get(k, o[k]) for k in PROVENANCE_KEYS}
     options = {k: v for k, v in options.items() if v is not None and v is not False and not (
@@ -338,7 +340,7 @@ def _identify(prior, logs, o) -> IdentifyResult:
     refits = {}
     record, record_notes = fit_record(arm, data, folds=int(folds), smoothing=smoothing, method=o["method"],
                                       friction=law, armature=o["armature"], bounds=bounds, prior_weight=weight,
-                                      segments=segments, labels=labels, refits=refits)
+                                      segments=segments, labels=labels, refits=refits, extra_scale=extra)
     prov.update(record)
     if tc is not None:       # the constants and where their scale came from, in one line (payload.torque_constants)
         prov["torque_constants"] = tc.as_dict()["summary"]
@@ -374,12 +376,29 @@ def _identify(prior, logs, o) -> IdentifyResult:
 
         tell(f"bootstrap ({boot} refits)")
         bs = bootstrap(arm, data, boot, scheduler=o["scheduler"], method=o["method"], friction=law,
-                       armature=o["armature"], bounds=bounds, prior_weight=weight,
+                       armature=o["armature"], bounds=bounds, prior_weight=weight, extra_scale=extra,
                        progress=lambda done, total: tell("bootstrap refits", done, total))
         out.bootstrap = bootstrap_summary(bs)     # its std and covariance go to the base model too
     if o["output"] is not None or o["base_json"] is not None:
         write_model_files(out, o["output"], o["base_json"])
     return out
+
+
+def _extra_scale(arm, o, law, data):
+    """The scales of the pull on the drive terms (:func:`.estimation.prior.extra_scales`), or None when the fit
+    has none (not the consistent method, or no armature or friction identified)."""
+    from types import SimpleNamespace
+
+    from ..model.parameters import parameter_names
+    from .estimation.prior import extra_scales, prior_parameters
+
+    if o["method"] != "consistent" or not (o["armature"] or law):
+        return None
+    names = parameter_names(arm.n, o["armature"], law)
+    if len(names) <= 10 * arm.n:
+        return None
+    prior = prior_parameters(arm, SimpleNamespace(armature=o["armature"], friction=law, names=names))
+    return extra_scales(names, arm.n, data.qd, data.qdd, data.tau, prior[10 * arm.n:])
 
 
 def _held_out(refits, record, labels, folds):

@@ -131,6 +131,12 @@ def consistent_fit(R, c, K, n, prior, extra: bool, bounds: Bounds | None = None,
     # a prior 1e30 times off says nothing about its magnitude, and an interior-point solver
     # cannot resolve parameters 1e30 apart
     prior_u = prior / float(np.clip(u, 1.0 / PRIOR_RANGE, PRIOR_RANGE))
+    if bounds is not None and prior_weight and bounds.gyration is not None:
+        # the radius-of-gyration floor stands in for the prior where nothing pulls towards it (weight 0: the
+        # fit's bodies then end on J >= 0); with the log-det pull the prior's own shape keeps every body solid
+        # (log det is a barrier), and the floor, a fixed fraction of the arm's size, would only override it
+        # (measured on the Panda at weight 1: joint 6's held-out torque 20 % worse with the floor, 8.5 % without)
+        bounds = Bounds(mass=bounds.mass, com=bounds.com, total_mass=bounds.total_mass)
     if bounds is not None:
         bounds = bounds.scaled(1.0 / u)
     scale = max(1e-300, float(np.linalg.norm(c)))
@@ -195,7 +201,8 @@ def consistent_fit(R, c, K, n, prior, extra: bool, bounds: Bounds | None = None,
 
 
 def _extra_scale(extra_scale, count: int):
-    """``extra_scale`` checked: None, or ``count`` finite positive numbers (a :class:`ModelError` else)."""
+    """``extra_scale`` checked: None, or ``count`` positive numbers, ``inf`` for an entry not pulled (a
+    :class:`ModelError` else); None when no entry is pulled."""
     if extra_scale is None:
         return None
     try:
@@ -206,9 +213,9 @@ def _extra_scale(extra_scale, count: int):
     if a.shape != (count,):
         raise ModelError(f"extra_scale: expected shape ({count},) (one per armature, friction coefficient and "
                          f"offset, after the 10 n link parameters), got {a.shape}")
-    if not np.all(np.isfinite(a) & (a > 0)):
-        raise ModelError(f"extra_scale: expected finite numbers > 0, got {a.tolist()}")
-    return a
+    if not np.all((a > 0) & ~np.isnan(a)):
+        raise ModelError(f"extra_scale: expected numbers > 0 (inf: not pulled), got {a.tolist()}")
+    return None if np.all(np.isinf(a)) else a
 
 
 @dataclass(frozen=True)
