@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 import manipdyn as md
-from common import PANDA_LOG, needs_panda_log
+import guide
+from common import LWR4_DIR, PANDA_LOG, needs_lwr4, needs_panda_log
 
 pytest.importorskip("cvxpy", reason="the consistent fit needs the identify extra (cvxpy)")
 
@@ -145,10 +146,19 @@ def test_a_candidate_that_buys_forward_dynamics_with_torque_is_passed_over():
     assert best["prior_weight"] == 0.1, why
 
 
+def _guide_row(page: str, caption: str, label: str) -> np.ndarray:
+    """The row ``label`` of the table whose first header cell starts with ``caption`` on a guide page."""
+    lines = guide.page(page).splitlines()
+    start = next(k for k, line in enumerate(lines) if line.startswith("| " + caption))
+    row = next(line for line in lines[start:] if line.startswith(f"| {label} |"))
+    return np.array([float(c.strip(" *")) for c in row.split("|")[2:-1]])
+
+
 @needs_panda_log
 def test_panda_default_simulates_better_than_the_published_model(tmp_path):
     """Issue 44's Panda case from the README's command: fit on 0 to 10 s, replay on 10 to 21 s.  The former default
-    (the data alone) drifted 1.02e-2 rad pooled at 50 ms against the published model's 6.49e-3, losing the wrist."""
+    (the data alone) drifted 1.02e-2 rad pooled at 50 ms against the published model's 6.49e-3, losing the wrist.
+    The simulator page's row is this replay (3 significant digits, as printed there)."""
     from manipdyn.identification import identify
 
     out = tmp_path / "panda_id.toml"
@@ -157,7 +167,42 @@ def test_panda_default_simulates_better_than_the_published_model(tmp_path):
     ident, pub = rp.q_rms[rp.labels[0]], rp.q_rms[rp.labels[1]]
     assert np.all(ident <= pub), (ident, pub)              # every joint, every horizon (10, 50, 200 ms)
     k = list(rp.horizons).index(0.05)
-    assert rp.pooled(rp.labels[0])[k] < rp.pooled(rp.labels[1])[k]
+    assert rp.pooled(rp.labels[0])[k] <= 4e-3              # the issue's target at 50 ms, pooled
+    said = _guide_row("simulator", "Panda, 10 to 21 s", "`panda_id`")
+    np.testing.assert_allclose(said, np.r_[ident[k], rp.pooled(rp.labels[0])[k]], rtol=5e-3,
+                               err_msg="simulator.md's panda_id row against replay")
+
+
+@needs_lwr4
+def test_lwr4_default_simulates_better_than_the_published_model(tmp_path):
+    """The LWR4+ fit on runs 1 and 2, replayed on run 3: every joint at or below the vendor URDF at 50 ms (the
+    issue's 0.05 rad on joint 7 is not met: see simulator.md), and the simulator page's row is this replay."""
+    from manipdyn.identification import identify
+
+    urdf = LWR4_DIR / "kuka_lwr4_gaz.urdf"
+    out = tmp_path / "lwr4_id.toml"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r = identify(str(urdf), [str(LWR4_DIR / "run1.csv"), str(LWR4_DIR / "run2.csv")],
+                     friction_terms="viscous,coulomb,offset", output=str(out))
+        rp = md.replay([str(out), str(urdf)], str(LWR4_DIR / "run3.csv"))
+    assert any("the pull towards the prior starts from the nearest solid bodies" in x
+               for x in r.report_dict["fit_notes"])
+    k = list(rp.horizons).index(0.05)
+    ident, pub = rp.q_rms[rp.labels[0]][k], rp.q_rms[rp.labels[1]][k]
+    assert np.all(ident <= pub), (ident, pub)
+    said = _guide_row("simulator", "LWR4+, run 3", "`lwr4_id`")
+    np.testing.assert_allclose(said, np.r_[ident, rp.pooled(rp.labels[0])[k]], rtol=5e-3,
+                               err_msg="simulator.md's lwr4_id row against replay")
+
+
+def test_drive_terms_the_prior_does_not_state_are_not_pulled():
+    from manipdyn.identification.estimation.prior import extra_scales
+
+    names = [f"link{i}.m" for i in range(10)] + ["joint1.fv", "joint1.fc", "joint1.offset"]
+    qd, qdd, tau = np.full((4, 1), 2.0), np.full((4, 1), 4.0), np.full((4, 1), 8.0)
+    s = extra_scales(names, 1, qd, qdd, tau, prior_extra=[0.5, 0.0, 20.0])
+    assert s[0] == pytest.approx(4.0) and np.isinf(s[1]) and s[2] == pytest.approx(20.0)
 
 
 @pytest.fixture(scope="module")
