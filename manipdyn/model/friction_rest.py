@@ -115,7 +115,7 @@ def breakaway_level(law, n: int) -> np.ndarray:
     return out
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class StaticFriction:
     """The static band of each joint at rest (module docstring).
 

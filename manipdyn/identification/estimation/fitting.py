@@ -45,7 +45,9 @@ from .sdp import Bounds, consistent_fit
 from ...formats.logs.measurements import segment_edges
 from .covariance import base_covariance
 from .noise import floor_noise
+from .factors import joint_factors, joint_noise, noise_from_factors, stack_factors, stacked
 from .report import FLOOR_DROPPED, build_report, shortfall
+from ...model.friction_rest import at_rest_velocity, rest_mask
 
 __all__ = ["fit", "FitResult", "METHODS", "link_min_eigenvalues", "known_torque", "joint_noise"]
 
@@ -115,6 +117,7 @@ class FitResult:
     arm_error: str | None = None
     covariance: np.ndarray | None = None     # (r, r) of beta, wls and consistent (.uncertainty)
     report: dict = field(default_factory=dict)
+    rest: np.ndarray | None = None           # (n,) rest threshold, rad/s: fit's ``rest``
 
     @property
     def n(self) -> int:
@@ -133,6 +136,7 @@ class FitResult:
         """Torques of the identified model, (N, n) or (n,): ``Y_b beta`` plus the prior's
         armature and friction torques where those were not identified."""
         b = self.base
+        qd = qd if self.rest is None else at_rest_velocity(qd, self.rest)
         Y = self.prior.lagrange.regressor(q, qd, qdd, armature=b.armature, friction=b.friction)
         return b.regressor(Y) @ self.beta + known_torque(self.prior, qd, qdd, b.armature, b.friction)
 
@@ -153,82 +157,6 @@ def known_torque(prior, qd, qdd, armature, friction):
 def nonnegative_extras(names, n: int):
     """Which extra parameters (after the 10 n link ones) are constrained >= 0: all but offsets."""
     return np.array([not nm.endswith(".offset") for nm in names[10 * n:]], dtype=bool)
-
-
-def _reduce(A, y):
-    """``(R, c, rho0)`` with ``||A b - y||^2 = ||R b - c||^2 + rho0^2`` for every b.
-
-    One QR of ``[A | y]`` (R only, no Q): R (r, r), c (r,), rho0 the part of y
-    outside A's column space.  Cheaper than lstsq or SVD on the tall A.
-    """
-    r = A.shape[1]
-    Ra = np.linalg.qr(np.column_stack([A, y]), mode="r")
-    rho0 = abs(float(Ra[r, r])) if Ra.shape[0] > r else 0.0
-    return Ra[:r, :r], Ra[:r, r], rho0
-
-
-def joint_factors(Yb, y) -> np.ndarray:
-    """Each joint's triangular factor of ``[Yb[:, j, :] | y[:, j]]``, (n, r + 1, r + 1).
-
-    ``||Yb[:, j] b - y[:, j]||^2 = ||F_j [b; -1]||^2`` for every b, so every least-squares
-    problem :func:`fit` solves (each joint's own, the stacked one, the weighted one) is a small
-    problem on these factors: one QR per joint over the samples, none over all joints' rows
-    stacked.  Factors of consecutive blocks of samples stack (``joint_factors`` of the stacked
-    blocks' factors), which is how :mod:`.selection` builds each fold's data.
-    """
-    Yb, y = np.asarray(Yb, dtype=np.float64), np.asarray(y, dtype=np.float64)
-    N, n, r = Yb.shape
-    out = np.zeros((n, r + 1, r + 1))
-    for j in range(n):
-        Ra = np.linalg.qr(np.column_stack([Yb[:, j, :], y[:, j]]), mode="r")
-        out[j, :Ra.shape[0]] = Ra
-    return out
-
-
-def _stack_factors(blocks) -> np.ndarray:
-    """One factor per joint (n, r + 1, r + 1) of several blocks' factors stacked (one small QR each)."""
-    rest, F = np.concatenate(blocks, axis=1), np.zeros_like(blocks[0])
-    for j in range(F.shape[0]):
-        Rj = np.linalg.qr(rest[j], mode="r")
-        F[j, :Rj.shape[0]] = Rj
-    return F
-
-
-def _stacked(F, w=None):
-    """``(R, c, rho0)`` of :func:`_reduce` for the rows of every joint stacked (each weighted by ``w_j``),
-    from the joints' factors ``F`` (n, r + 1, r + 1)."""
-    r = F.shape[-1] - 1
-    w = np.ones(F.shape[0]) if w is None else np.asarray(w, dtype=np.float64)
-    Ra = np.linalg.qr((F * w[:, None, None]).reshape(-1, r + 1), mode="r")
-    return Ra[:r, :r], Ra[:r, r], abs(float(Ra[r, r]))
-
-
-def _noise_from_factors(F, N: int) -> np.ndarray:
-    """:func:`joint_noise` from the joints' factors ``F`` (:func:`joint_factors`) of ``N`` samples."""
-    n, r = F.shape[0], F.shape[-1] - 1
-    sigma = np.empty(n)
-    for j in range(n):
-        A, b = F[j, :, :r], F[j, :, r]
-        norms = np.linalg.norm(A, axis=0)                   # Q is orthogonal: the columns' norms
-        A = A[:, norms > 1e-12 * max(norms.max(), 1e-300)]
-        sol, _, rank, _ = np.linalg.lstsq(A, b, rcond=None)
-        sigma[j] = np.sqrt(np.sum((A @ sol - b) ** 2) / max(1, N - rank))
-    return sigma
-
-
-def joint_noise(Yb, y) -> np.ndarray:
-    """Per-joint noise level ``sigma_j`` (n,) from each joint's own OLS fit (module docstring):
-    ``Yb`` (N, n, p) the regressor, ``y`` (N, n) the torques it should explain."""
-    N, n, _ = Yb.shape
-    sigma = np.empty(n)
-    for j in range(n):
-        A = Yb[:, j, :]
-        norms = np.linalg.norm(A, axis=0)
-        A = A[:, norms > 1e-12 * max(norms.max(), 1e-300)]
-        R, c, rho0 = _reduce(A, y[:, j])
-        sol, _, rank, _ = np.linalg.lstsq(R, c, rcond=None)
-        sigma[j] = np.sqrt((np.sum((R @ sol - c) ** 2) + rho0**2) / max(1, N - rank))
-    return sigma
 
 
 def _check(q, qd, qdd, tau, n):
@@ -257,7 +185,7 @@ def _check(q, qd, qdd, tau, n):
 def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armature: bool = False,
         bounds: Bounds | str | None = "plausible", base: BaseParameters | None = None,
         name: str | None = None, prior_weight: float = 0.0, metadata=None, regressor=None,
-        factors=None, *, segments=None, complete: bool = True) -> FitResult:
+        factors=None, *, segments=None, complete: bool = True, rest=None) -> FitResult:
     """Identify ``arm``'s parameters from samples (module docstring).
 
     Parameters
@@ -311,6 +239,11 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         and write those (``report["completion"]`` says what was found, and how far the nearest physical
         arm is when none has them).  Folds of a cross-validation, which need only the base
         parameters, pass False.
+    rest : (n,) or float, optional
+        Rest threshold, rad/s (:mod:`manipdyn.model.friction_rest`): joint j's samples with
+        ``|qd_j| <= rest_j`` are at rest, their velocity taken as 0 (no Coulomb torque on the noise's
+        sign) and their rows left out of joint j's least squares (the torque there holds an unknown
+        static friction); :meth:`FitResult.predict` applies the same threshold.
     """
     if method not in METHODS:
         raise ModelError(f"method: expected one of {', '.join(METHODS)}, got {method!r}")
@@ -331,6 +264,10 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         raise ModelError("prior_weight: only the 'consistent' method takes a prior weight")
     n = arm.n
     q, qd, qdd, tau = _check(q, qd, qdd, tau, n)
+    keep = None
+    if rest is not None:          # the joints at rest: still, and out of their own rows (friction_rest)
+        keep = ~rest_mask(qd, rest)
+        qd, rest = np.where(keep, qd, 0.0), np.broadcast_to(np.asarray(rest, dtype=np.float64), (n,)).copy()
     # no MAX_SIGNAL cap: logs are capped where read; the fit is unit-independent (test_fit_scaling)
     if not np.any(tau):
         raise ModelError("tau: every torque of every joint is 0; a logged torque is never exactly 0 "
@@ -350,17 +287,18 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
                          f"regressor), got {np.shape(regressor)}")
     Yb = base.regressor(regressor)
     y = tau - known_torque(arm, qd, qdd, armature, friction)
+    Yf, yf = (Yb, y) if keep is None else (Yb * keep[:, :, None], y * keep)     # the rows each joint fits
     edges = segment_edges(segments, N)
     if segments is not None and factors is not None:
         raise ModelError("factors, segments: give one (factors hold no run boundaries)")
-    runs = [joint_factors(Yb[a:b], y[a:b]) for a, b in zip(edges[:-1], edges[1:])] if len(edges) > 2 else None
+    runs = [joint_factors(Yf[a:b], yf[a:b]) for a, b in zip(edges[:-1], edges[1:])] if len(edges) > 2 else None
     if runs is not None:         # each run's factors: its own noise levels, then its weights
-        factors = _stack_factors(runs)
+        factors = stack_factors(runs)
     elif factors is None:
-        factors = joint_factors(Yb, y)
+        factors = joint_factors(Yf, yf)
     elif np.shape(factors) != (n, r + 1, r + 1):
         raise ModelError(f"factors: expected shape ({n}, {r + 1}, {r + 1}), got {np.shape(factors)}")
-    R0, c0, _ = _stacked(factors)
+    R0, c0, _ = stacked(factors)
     s = np.linalg.svd(R0, compute_uv=False)              # the singular values of the stacked Y_b
     cond = float(s[0] / s[-1]) if s[-1] > 0 else float("inf")
     limit = MAX_CONDITION_CONSISTENT if method == "consistent" else MAX_CONDITION
@@ -370,8 +308,9 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
                          f"constant, or a column scaled wrongly?); use an excitation trajectory "
                          f"(manipdyn excite)")
     counts = np.diff(edges)
-    sigmas = (np.array([_noise_from_factors(F, int(k)) for F, k in zip(runs, counts)]) if runs is not None
-              else _noise_from_factors(factors, N)[None, :])
+    rows = [k if keep is None else keep[a:b].sum(axis=0) for k, a, b in zip(counts, edges[:-1], edges[1:])]
+    sigmas = (np.array([noise_from_factors(F, k) for F, k in zip(runs, rows)]) if runs is not None
+              else noise_from_factors(factors, N if keep is None else keep.sum(axis=0))[None, :])
     sigmas, floored = floor_noise(sigmas, y)          # rounding, not noise, on exact data (.noise)
     sigma = sigmas[0] if runs is None else np.sqrt(counts @ sigmas**2 / N)
     try:
@@ -388,10 +327,10 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
     else:
         w = 1.0 / sigma
         if runs is None:
-            R, c, rho_w = _stacked(factors, w)
+            R, c, rho_w = stacked(factors, w)
         else:                    # each run's joints by their noise in that run
             w = np.repeat(1.0 / sigmas, counts, axis=0)                       # (N, n)
-            R, c, rho_w = _stacked(_stack_factors([F * (1.0 / s)[:, None, None] for F, s in zip(runs, sigmas)]))
+            R, c, rho_w = stacked(stack_factors([F * (1.0 / s)[:, None, None] for F, s in zip(runs, sigmas)]))
         cov = base_covariance(R)     # rows have unit variance after weighting (.uncertainty)
         if method == "wls":
             beta = np.linalg.lstsq(R, c, rcond=None)[0]
@@ -441,7 +380,7 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         err = (f"{err}; " if err else "") + completion.summary().replace(" on the model's states", " on these data")
     result = FitResult(arm=out_arm, parameters=pi, base=base, beta=beta, residuals=residuals,
                        sigma=sigma, method=method, condition_number=cond, consistent=consistent,
-                       prior=arm, arm_error=err, covariance=cov)
+                       prior=arm, arm_error=err, covariance=cov, rest=rest)
     result.report = build_report(result, solver=solver, samples=N, cov=cov, min_eigenvalues=eig)
     result.report["active_bounds"] = bounds.active(pi, n) if bounds is not None else []
     result.report["prior_weight"] = float(prior_weight)

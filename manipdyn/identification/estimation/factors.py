@@ -1,0 +1,95 @@
+"""Least squares on each joint's triangular factor: the small problems :func:`.fitting.fit` solves.
+
+Layer 5 (identification), room ``estimation``.
+
+Every least-squares problem of a fit (each joint's own, for its noise level; the stacked one;
+the weighted one) is ``||A b - y||^2`` over rows of the samples.  One QR per joint over the
+samples reduces joint j's rows ``[Yb[:, j, :] | y[:, j]]`` to a factor ``F_j`` (r + 1, r + 1)
+with the same sums of squares for every ``b`` (:func:`joint_factors`); factors of blocks of
+samples stack (:func:`stack_factors`), so cross-validation and several runs need no QR over all
+rows, and a row left out (a joint at rest: :mod:`manipdyn.model.friction_rest`) is a zero row.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["joint_factors", "joint_noise", "noise_from_factors", "stack_factors", "stacked", "reduce_rows"]
+
+
+def reduce_rows(A, y):
+    """``(R, c, rho0)`` with ``||A b - y||^2 = ||R b - c||^2 + rho0^2`` for every b.
+
+    One QR of ``[A | y]`` (R only, no Q): R (r, r), c (r,), rho0 the part of y
+    outside A's column space.  Cheaper than lstsq or SVD on the tall A.
+    """
+    r = A.shape[1]
+    Ra = np.linalg.qr(np.column_stack([A, y]), mode="r")
+    rho0 = abs(float(Ra[r, r])) if Ra.shape[0] > r else 0.0
+    return Ra[:r, :r], Ra[:r, r], rho0
+
+
+def joint_factors(Yb, y) -> np.ndarray:
+    """Each joint's triangular factor of ``[Yb[:, j, :] | y[:, j]]``, (n, r + 1, r + 1).
+
+    ``||Yb[:, j] b - y[:, j]||^2 = ||F_j [b; -1]||^2`` for every b, so every least-squares
+    problem :func:`fit` solves (each joint's own, the stacked one, the weighted one) is a small
+    problem on these factors: one QR per joint over the samples, none over all joints' rows
+    stacked.  Factors of consecutive blocks of samples stack (``joint_factors`` of the stacked
+    blocks' factors), which is how :mod:`.selection` builds each fold's data.
+    """
+    Yb, y = np.asarray(Yb, dtype=np.float64), np.asarray(y, dtype=np.float64)
+    N, n, r = Yb.shape
+    out = np.zeros((n, r + 1, r + 1))
+    for j in range(n):
+        Ra = np.linalg.qr(np.column_stack([Yb[:, j, :], y[:, j]]), mode="r")
+        out[j, :Ra.shape[0]] = Ra
+    return out
+
+
+def stack_factors(blocks) -> np.ndarray:
+    """One factor per joint (n, r + 1, r + 1) of several blocks' factors stacked (one small QR each)."""
+    rest, F = np.concatenate(blocks, axis=1), np.zeros_like(blocks[0])
+    for j in range(F.shape[0]):
+        Rj = np.linalg.qr(rest[j], mode="r")
+        F[j, :Rj.shape[0]] = Rj
+    return F
+
+
+def stacked(F, w=None):
+    """``(R, c, rho0)`` of :func:`reduce_rows` for the rows of every joint stacked (each weighted by ``w_j``),
+    from the joints' factors ``F`` (n, r + 1, r + 1)."""
+    r = F.shape[-1] - 1
+    w = np.ones(F.shape[0]) if w is None else np.asarray(w, dtype=np.float64)
+    Ra = np.linalg.qr((F * w[:, None, None]).reshape(-1, r + 1), mode="r")
+    return Ra[:r, :r], Ra[:r, r], abs(float(Ra[r, r]))
+
+
+def noise_from_factors(F, N: int) -> np.ndarray:
+    """:func:`joint_noise` from the joints' factors ``F`` (:func:`joint_factors`) of ``N`` samples
+    (an int, or (n,): each joint's rows, fewer where rows were left out)."""
+    n, r = F.shape[0], F.shape[-1] - 1
+    sigma = np.empty(n)
+    counts = np.broadcast_to(np.asarray(N), (n,))       # per joint: its rows (rest rows left out)
+    for j in range(n):
+        A, b = F[j, :, :r], F[j, :, r]
+        norms = np.linalg.norm(A, axis=0)                   # Q is orthogonal: the columns' norms
+        A = A[:, norms > 1e-12 * max(norms.max(), 1e-300)]
+        sol, _, rank, _ = np.linalg.lstsq(A, b, rcond=None)
+        sigma[j] = np.sqrt(np.sum((A @ sol - b) ** 2) / max(1, int(counts[j]) - rank))
+    return sigma
+
+
+def joint_noise(Yb, y) -> np.ndarray:
+    """Per-joint noise level ``sigma_j`` (n,) from each joint's own OLS fit (module docstring):
+    ``Yb`` (N, n, p) the regressor, ``y`` (N, n) the torques it should explain."""
+    N, n, _ = Yb.shape
+    sigma = np.empty(n)
+    for j in range(n):
+        A = Yb[:, j, :]
+        norms = np.linalg.norm(A, axis=0)
+        A = A[:, norms > 1e-12 * max(norms.max(), 1e-300)]
+        R, c, rho0 = reduce_rows(A, y[:, j])
+        sol, _, rank, _ = np.linalg.lstsq(R, c, rcond=None)
+        sigma[j] = np.sqrt((np.sum((R @ sol - c) ** 2) + rho0**2) / max(1, N - rank))
+    return sigma
