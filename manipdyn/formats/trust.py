@@ -31,7 +31,7 @@ The record's keys (all optional but ``format``; JSON types; SI units)::
     doubts            [strings]: degenerate inertias, contradicted payloads, runs far off
     collision         collision thresholds (manipdyn.control.collision): {"threshold", "gain", ...}
     rest              the joints at rest (manipdyn.model.friction_rest): {"threshold" rad/s, "static_level" N m,
-                      "measured", "rest_fraction"}, n each
+                      "measured", "rest_fraction", "slow" rad/s}, n each
 
 A record that does not read is a :class:`ModelError` naming the file and the key.
 """
@@ -56,7 +56,7 @@ _COMMENT_HEAD = " " + TRUST_FORMAT + " "
 #: the record's numbers that are widths, scales or weights: a negative one is no record manipdyn wrote
 _NONNEGATIVE = {"prediction_band": ("half_width", "held_out_rms", "leverage_gain"),
                 "leverage": ("weights", "scale", "mean", "largest", "smoothing"),
-                "rest": ("threshold", "static_level", "rest_fraction")}
+                "rest": ("threshold", "static_level", "rest_fraction", "slow")}
 
 
 def _plain(value, where: str, depth: int = 0):

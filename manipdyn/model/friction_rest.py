@@ -122,17 +122,22 @@ class StaticFriction:
     ``threshold`` (n,) rad/s (m/s): the rest speed; ``level`` (n,) N m (N): ``Fs``, the half-width of the
     static band; ``measured`` (n,) bool: ``level`` measured on the fit data's rest samples (else the
     law's breakaway level stands in, a lower bound, and the fit never rested there); ``rest_fraction``
-    (n,): the fraction of the fit samples at rest per joint.
+    (n,): the fraction of the fit samples at rest per joint; ``slow`` (n,) rad/s or None: the speed under
+    which the fit data ran too rarely to have checked the law (a joint slower than that, at rest or
+    breaking away, gets the static band too, and where the fit never rested, a flag).
     """
 
     threshold: np.ndarray
     level: np.ndarray
     measured: np.ndarray
     rest_fraction: np.ndarray
+    slow: np.ndarray | None = None
 
     def __post_init__(self):
         n = len(np.atleast_1d(self.threshold))
-        for k in ("threshold", "level", "rest_fraction"):
+        for k in ("threshold", "level", "rest_fraction", "slow"):
+            if getattr(self, k) is None:
+                continue
             a = np.asarray(getattr(self, k), dtype=np.float64).reshape(-1)
             if a.shape != (n,) or not np.all(np.isfinite(a)) or np.any(a < 0):
                 raise ModelError(f"static friction: {k}: expected {n} finite numbers >= 0, got {a.tolist()}")
@@ -161,19 +166,28 @@ class StaticFriction:
         """:func:`at_rest_velocity` at :attr:`threshold`: the velocities a model predicts with."""
         return at_rest_velocity(qd, self.threshold)
 
+    def static(self, qd) -> np.ndarray:
+        """(N, n) bool: the joint at rest, or slower than :attr:`slow`: where the static band applies."""
+        qd = np.atleast_2d(np.asarray(qd, dtype=np.float64))
+        out = self.rest(qd)
+        return out if self.slow is None else out | (np.abs(qd) < self.slow)
+
     def widths(self, qd, moving) -> np.ndarray:
-        """Half-widths (N, n): ``moving`` (N, n) or (n,), the moving band's, plus ``Fs_j`` at rest."""
-        rest = self.rest(qd)
-        return np.broadcast_to(moving, rest.shape) + np.where(rest, self.level, 0.0)
+        """Half-widths (N, n): ``moving`` (N, n) or (n,), the moving band's, plus ``Fs_j`` where the joint is
+        at rest or slower than the fit data ran (:meth:`static`)."""
+        static = self.static(qd)
+        return np.broadcast_to(moving, static.shape) + np.where(static, self.level, 0.0)
 
     def flags(self, qd) -> np.ndarray:
-        """(N, n) bool: at rest on a joint where the fit data never rested (its static level a stand-in)."""
-        return self.rest(qd) & ~self.measured
+        """(N, n) bool: at rest, or slower than the fit data ran, on a joint where the fit data never rested
+        (its static level a stand-in, the break-away never seen)."""
+        return self.static(qd) & ~self.measured
 
     def to_dict(self) -> dict:
         return {"threshold": [float(x) for x in self.threshold], "static_level": [float(x) for x in self.level],
                 "measured": [bool(x) for x in self.measured],
-                "rest_fraction": [float(x) for x in self.rest_fraction]}
+                "rest_fraction": [float(x) for x in self.rest_fraction],
+                **({} if self.slow is None else {"slow": [float(x) for x in self.slow]})}
 
     @classmethod
     def from_dict(cls, value, n: int, where: str) -> "StaticFriction":
@@ -186,7 +200,8 @@ class StaticFriction:
             out = cls(threshold=np.array(value["threshold"], dtype=np.float64),
                       level=np.array(value["static_level"], dtype=np.float64),
                       measured=np.array(measured, dtype=bool),
-                      rest_fraction=np.array(value["rest_fraction"], dtype=np.float64))
+                      rest_fraction=np.array(value["rest_fraction"], dtype=np.float64),
+                      slow=None if value.get("slow") is None else np.array(value["slow"], dtype=np.float64))
         except (KeyError, TypeError, ValueError) as exc:
             raise ModelError(f"{where}: malformed static friction record ({exc})") from None
         if out.n != n:
@@ -200,5 +215,7 @@ class StaticFriction:
         th = ", ".join(f"{x:.2g}" for x in self.threshold)
         star = ("; * the fit never rested there: the law's breakaway level stands in (a lower bound), and rest "
                 "samples there are flagged") if not np.all(self.measured) else ""
-        return (f"at rest (|qd| within {th} rad/s) the prediction is the rigid part and the band widens by the "
-                f"static friction level {lv} N m{star}")
+        slow = "" if self.slow is None else (" (and slower than the fit data ran, "
+                                             + ", ".join(f"{x:.2g}" for x in self.slow) + " rad/s)")
+        return (f"at rest (|qd| within {th} rad/s) the prediction is the rigid part, and there{slow} the band widens "
+                f"by the static friction level {lv} N m{star}")

@@ -20,7 +20,11 @@ are, not as ``sign(noise)``:
 * **the static level** (:func:`static_record`): per joint, the :data:`STATIC_QUANTILE` quantile
   of ``|tau - prediction|`` over the fit's rest samples of that joint, when the fit data rested
   there for at least :data:`MIN_REST_SAMPLES` samples; else the fitted law's breakaway level
-  (Coulomb plus Stribeck) stands in, a lower bound, and validate flags rest samples there.
+  (Coulomb plus Stribeck, read off the fitted model just out of rest) stands in, a lower bound, and
+  validate flags rest samples there.
+  A joint slower than all but :data:`SLOW_FRACTION` of the fit samples ran (an excitation crosses zero
+  speed only briefly; a point-to-point run breaks away from every rest) gets the static band too, and a
+  flag where the fit never rested: the law's break-away there was never checked.
   The record (:class:`~manipdyn.model.friction_rest.StaticFriction`) travels in the trust
   record as ``rest``: ``validate`` predicts the rigid part at rest and widens the band there by
   ``Fs_j`` (the static band); collision thresholds read the same record.
@@ -31,9 +35,10 @@ from __future__ import annotations
 import numpy as np
 
 from ...model.friction_law import DEFAULT_SMOOTHING
-from ...model.friction_rest import StaticFriction, breakaway_level, rest_mask
+from ...model.friction_rest import StaticFriction, rest_mask
 
-__all__ = ["rest_threshold", "static_record", "rest_option", "rest_trust", "REST_NOISE", "STATIC_QUANTILE", "MIN_REST_SAMPLES"]
+__all__ = ["rest_threshold", "static_record", "breakaway_of", "rest_option", "rest_trust", "REST_NOISE",
+           "STATIC_QUANTILE", "MIN_REST_SAMPLES", "SLOW_FRACTION"]
 
 #: a joint is at rest within this many times its velocity noise (module docstring)
 REST_NOISE = 3.0
@@ -41,6 +46,10 @@ REST_NOISE = 3.0
 STATIC_QUANTILE = 0.95
 #: the fit data rested on a joint when at least this many of its samples were at rest
 MIN_REST_SAMPLES = 50
+#: "slower than the fit data ran": under the speed that only this fraction of the fit samples were under
+SLOW_FRACTION = 0.01
+#: the slowest speed, rad/s, at which a model's breakaway level is read (a threshold of 0: exact rest)
+MIN_SPEED = 1e-3
 
 
 def rest_threshold(data, smoothing: float | None = None) -> tuple[np.ndarray, str]:
@@ -68,21 +77,38 @@ def rest_threshold(data, smoothing: float | None = None) -> tuple[np.ndarray, st
     return t, note
 
 
-def static_record(residuals, qd, threshold, law=None) -> tuple[StaticFriction, str]:
+def static_record(residuals, qd, threshold, predict=None, q0=None) -> tuple[StaticFriction, str]:
     """``(record, note)``: the static friction of each joint (module docstring) from the fit's ``residuals``
     (N, n) (measured minus predicted, the prediction taking the velocity of a joint at rest as 0) at the
-    velocities ``qd`` (N, n); ``threshold`` (n,) the rest speed; ``law`` the fitted friction law (its
-    breakaway level stands in where the fit never rested)."""
+    velocities ``qd`` (N, n); ``threshold`` (n,) the rest speed.  Where the fit never rested, the fitted
+    model's breakaway level stands in (:func:`breakaway_of`, from ``predict(q, qd, qdd)`` at the posture
+    ``q0`` (n,)), or 0 without a ``predict``."""
     r, qd = np.asarray(residuals, dtype=np.float64), np.asarray(qd, dtype=np.float64)
+    n = r.shape[1]
     rest = rest_mask(qd, threshold)
     count = np.sum(rest, axis=0)
     measured = count >= MIN_REST_SAMPLES
-    stand_in = breakaway_level(law, r.shape[1])
+    stand_in = np.zeros(n) if predict is None or np.all(measured) else breakaway_of(predict, q0, threshold)
     level = np.array([float(np.quantile(np.abs(r[rest[:, j], j]), STATIC_QUANTILE)) if measured[j] else stand_in[j]
-                      for j in range(r.shape[1])])
+                      for j in range(n)])
+    slow = np.quantile(np.abs(qd), SLOW_FRACTION, axis=0)
     record = StaticFriction(threshold=np.asarray(threshold, dtype=np.float64), level=level, measured=measured,
-                            rest_fraction=np.mean(rest, axis=0))
+                            rest_fraction=np.mean(rest, axis=0), slow=slow)
     return record, record.describe()
+
+
+def breakaway_of(predict, q0, threshold) -> np.ndarray:
+    """(n,) N m: half the jump of each joint's predicted torque from ``-v`` to ``+v`` (that joint alone moving,
+    ``v = 2 threshold``, at least :data:`MIN_SPEED`), at the posture ``q0``: the model's friction just out of
+    rest, its Coulomb plus Stribeck level on any law and side (the rigid terms cancel: gravity is the same, the
+    velocity terms even in v).  The model's own breakaway level, a lower bound of the static one."""
+    q0 = np.asarray(q0, dtype=np.float64)
+    n = len(q0)
+    v = np.maximum(2.0 * np.asarray(threshold, dtype=np.float64), MIN_SPEED)
+    qd = np.diag(v)
+    q = np.repeat(q0[None], n, axis=0)
+    up, down = predict(q, qd, np.zeros((n, n))), predict(q, -qd, np.zeros((n, n)))
+    return np.maximum(0.5 * np.diag(np.asarray(up) - np.asarray(down)), 0.0)
 
 
 def rest_option(data, smoothing, notes: list) -> np.ndarray:
@@ -97,7 +123,6 @@ def rest_trust(prov: dict, result, data, threshold) -> list:
     ``prov`` as ``rest`` (nothing without a ``threshold``); returns the notes to add."""
     if threshold is None:
         return []
-    law = getattr(result.arm, "friction_model", None) if result.arm is not None else None
-    record, note = static_record(result.residuals, data.qd, threshold, law)
+    record, note = static_record(result.residuals, data.qd, threshold, result.predict, data.q[0])
     prov["rest"] = record.to_dict()
     return [note]
