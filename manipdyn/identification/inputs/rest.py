@@ -58,11 +58,16 @@ def rest_threshold(data, smoothing: float | None = None) -> tuple[np.ndarray, st
     how it was chosen.  ``smoothing``: the law's Coulomb smoothing v_s, the fallback (module docstring)."""
     n = data.q.shape[1]
     noise = getattr(data, "qd_noise", None)
-    if noise is not None and np.all(np.isfinite(noise)) and np.all(np.asarray(noise) > 0):
-        t = REST_NOISE * np.asarray(noise, dtype=np.float64)
-        how = f"{REST_NOISE:g} x the velocity's noise on the log"
+    fallback = float(smoothing) if smoothing else DEFAULT_SMOOTHING
+    if noise is not None:
+        noise = np.asarray(noise, dtype=np.float64)
+        known = np.isfinite(noise) & (noise > 0)
+        t = np.where(known, REST_NOISE * np.where(known, noise, 0.0), fallback)
+        how = f"{REST_NOISE:g} x the velocity's noise on the log" + (
+            "" if np.all(known) else f"; {fallback:g} where the log shows no noise (joint(s) "
+            + ", ".join(str(j + 1) for j in np.flatnonzero(~known)) + ")")
     else:
-        t = np.full(n, float(smoothing) if smoothing else DEFAULT_SMOOTHING)
+        t = np.full(n, fallback)
         how = ("the Coulomb smoothing" if smoothing else "the default smoothing") + \
             " (the velocity's noise is not known: qd measured and not filtered)"
     rest = rest_mask(data.qd, t)
