@@ -34,6 +34,8 @@ The record's keys (all optional but ``format``; JSON types; SI units)::
                       "prior", "floor"), "prior" (the base parameters the logs do not excite)}
     torque_constants  one line: the k_t found from currents, their standard deviations and where the scale came
                       from (a payload, the model's k_t, the prior's gravity)
+    rest              the joints at rest (manipdyn.model.friction_rest): {"threshold" rad/s, "static_level" N m,
+                      "measured", "rest_fraction", "slow" rad/s}, n each
 
 A record that does not read is a :class:`ModelError` naming the file and the key.
 """
@@ -57,7 +59,8 @@ _COMMENT_HEAD = " " + TRUST_FORMAT + " "
 
 #: the record's numbers that are widths, scales or weights: a negative one is no record manipdyn wrote
 _NONNEGATIVE = {"prediction_band": ("half_width", "held_out_rms", "leverage_gain"),
-                "leverage": ("weights", "scale", "mean", "largest", "smoothing")}
+                "leverage": ("weights", "scale", "mean", "largest", "smoothing"),
+                "rest": ("threshold", "static_level", "rest_fraction", "slow")}
 
 
 def _plain(value, where: str, depth: int = 0):

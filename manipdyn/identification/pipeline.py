@@ -21,7 +21,8 @@ In order:
    (:mod:`.inputs.smoothing`; folds: the trajectories when there are two or more, else blocks);
    the friction shapes by variable projection (:mod:`.varpro`) when the friction terms have any,
    the prior weight by the same held-out folds and rule when ``"auto"``;
-6. :func:`.fit` with each run's joints weighed by their noise in that run;
+6. :func:`.fit` with each run's joints weighed by their noise in that run, and, with friction, each joint's
+   samples at rest (:mod:`.inputs.rest`) still and out of its rows; their static level goes to the trust record;
 7. with ``band_folds`` (default 5): ``band_folds`` refits, each on all but one block of the
    stacked data in time and keeping the runs' boundaries, and with two or more trajectories a
    refit per trajectory left out, whose held-out residuals give the 95 % prediction band
@@ -223,6 +224,7 @@ def identify(prior, logs, *, method: str = "consistent", tip=None, friction: boo
 def _identify(prior, logs, o) -> IdentifyResult:
     from .estimation.fitting import METHODS, fit
     from .inputs.options import brace_safe, bounds_option, friction_option, prior_weight_option
+    from .inputs.rest import rest_option, rest_trust
     from .results.provenance import fit_record, model_metadata, provenance
 
     if o["method"] not in METHODS:
@@ -322,10 +324,11 @@ def _identify(prior, logs, o) -> IdentifyResult:
     given_name = o["name"]
     name = given_name or _name_from(o["output"]) or f"{arm.name or 'arm'}_identified"
     segments = data.segments if len(data.segments) > 1 else None
+    rest = rest_option(data, smoothing, law_notes) if o["friction"] or o["friction_terms"] is not None else None
     tell(f"fit ({o['method']})")
     result = fit(arm, data.q, data.qd, data.qdd, data.tau, method=o["method"], friction=law,
                  armature=o["armature"], bounds=bounds, name=name, prior_weight=weight, segments=segments,
-                 extra_scale=extra)
+                 extra_scale=extra, rest=rest)
     chosen = {"prior_weight": weight, "friction_side": side, "smoothing": smoothing}
     options = {k: chosen.get(k, o[k]) for k in PROVENANCE_KEYS}
     options = {k: v for k, v in options.items() if v is not None and v is not False and not (
@@ -340,10 +343,11 @@ def _identify(prior, logs, o) -> IdentifyResult:
     refits = {}
     record, record_notes = fit_record(arm, data, folds=int(folds), smoothing=smoothing, method=o["method"],
                                       friction=law, armature=o["armature"], bounds=bounds, prior_weight=weight,
-                                      segments=segments, labels=labels, refits=refits, extra_scale=extra)
+                                      segments=segments, labels=labels, refits=refits, extra_scale=extra, rest=rest)
     prov.update(record)
     if tc is not None:       # the constants and where their scale came from, in one line (payload.torque_constants)
         prov["torque_constants"] = tc.as_dict()["summary"]
+    record_notes += rest_trust(prov, result, data, rest)
     doubts = fit_doubts(result, data, runs)
     if doubts:
         prov["doubts"] = doubts

@@ -5,6 +5,7 @@ identification (``check``, ``engines``, ``formats``, ``model``, ``_support``); n
 
 * ``base``: the identifiable combinations (QR with pivoting);
 * ``fitting``: :func:`~manipdyn.identification.fit` (``ols``, ``wls``, ``consistent``), the joints' noise and weights;
+* ``factors``: least squares on each joint's triangular factor (the small problems a fit solves);
 * ``sdp``: the physically consistent fit (J_i >= 0, cvxpy with Clarabel or SCS);
 * ``varpro``: friction shapes by variable projection;
 * ``selection``: the prior weight chosen by blocked cross-validation;

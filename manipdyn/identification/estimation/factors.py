@@ -85,15 +85,17 @@ def stacked(F, w=None):
 
 
 def noise_from_factors(F, N: int) -> np.ndarray:
-    """:func:`joint_noise` from the joints' factors ``F`` (:func:`joint_factors`) of ``N`` samples."""
+    """:func:`joint_noise` from the joints' factors ``F`` (:func:`joint_factors`) of ``N`` samples
+    (an int, or (n,): each joint's rows, fewer where rows were left out)."""
     n, r = F.shape[0], F.shape[-1] - 1
     sigma = np.empty(n)
+    counts = np.broadcast_to(np.asarray(N), (n,))       # per joint: its rows (rest rows left out)
     for j in range(n):
         A, b = F[j, :, :r], F[j, :, r]
         norms = np.linalg.norm(A, axis=0)                   # Q is orthogonal: the columns' norms
         A = A[:, norms > 1e-12 * max(norms.max(), 1e-300)]
         sol, _, rank, _ = np.linalg.lstsq(A, b, rcond=None)
-        sigma[j] = np.sqrt(np.sum((A @ sol - b) ** 2) / max(1, N - rank))
+        sigma[j] = np.sqrt(np.sum((A @ sol - b) ** 2) / max(1, int(counts[j]) - rank))
     return sigma
 
 

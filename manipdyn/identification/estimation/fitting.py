@@ -48,6 +48,7 @@ from .factors import (joint_factors, joint_noise, known_torque, noise_from_facto
                       nonnegative_extras, stack_factors, stacked)
 from .noise import floor_noise
 from .report import FLOOR_DROPPED, build_report, shortfall
+from ...model.friction_rest import at_rest_velocity, rest_mask
 
 __all__ = ["fit", "FitResult", "METHODS", "link_min_eigenvalues", "known_torque", "joint_noise"]
 
@@ -117,6 +118,7 @@ class FitResult:
     arm_error: str | None = None
     covariance: np.ndarray | None = None     # (r, r) of beta, wls and consistent (.uncertainty)
     report: dict = field(default_factory=dict)
+    rest: np.ndarray | None = None           # (n,) rest threshold, rad/s: fit's ``rest``
 
     @property
     def n(self) -> int:
@@ -135,6 +137,7 @@ class FitResult:
         """Torques of the identified model, (N, n) or (n,): ``Y_b beta`` plus the prior's
         armature and friction torques where those were not identified."""
         b = self.base
+        qd = qd if self.rest is None else at_rest_velocity(qd, self.rest)
         Y = self.prior.lagrange.regressor(q, qd, qdd, armature=b.armature, friction=b.friction)
         return b.regressor(Y) @ self.beta + known_torque(self.prior, qd, qdd, b.armature, b.friction)
 
@@ -165,7 +168,7 @@ def _check(q, qd, qdd, tau, n):
 def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armature: bool = False,
         bounds: Bounds | str | None = "plausible", base: BaseParameters | None = None,
         name: str | None = None, prior_weight: float = 0.0, metadata=None, regressor=None,
-        factors=None, *, segments=None, complete: bool = True, extra_scale=None) -> FitResult:
+        factors=None, *, segments=None, complete: bool = True, extra_scale=None, rest=None) -> FitResult:
     """Identify ``arm``'s parameters from samples (module docstring).
 
     Parameters
@@ -219,6 +222,11 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         and write those (``report["completion"]`` says what was found, and how far the nearest physical
         arm is when none has them).  Folds of a cross-validation, which need only the base
         parameters, pass False.
+    rest : (n,) or float, optional
+        Rest threshold, rad/s (:mod:`manipdyn.model.friction_rest`): joint j's samples with
+        ``|qd_j| <= rest_j`` are at rest, their velocity taken as 0 (no Coulomb torque on the noise's
+        sign) and their rows left out of joint j's least squares (the torque there holds an unknown
+        static friction); :meth:`FitResult.predict` applies the same threshold.
     extra_scale : (p - 10 n,) positive array, optional
         ``consistent`` with ``prior_weight > 0``: the scale of each armature, friction coefficient and
         offset (SI units) for the pull of those entries towards the prior's
@@ -246,6 +254,10 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         raise ModelError("extra_scale: only the 'consistent' method takes an extra scale")
     n = arm.n
     q, qd, qdd, tau = _check(q, qd, qdd, tau, n)
+    keep = None
+    if rest is not None:          # the joints at rest: still, and out of their own rows (friction_rest)
+        keep = ~rest_mask(qd, rest)
+        qd, rest = np.where(keep, qd, 0.0), np.broadcast_to(np.asarray(rest, dtype=np.float64), (n,)).copy()
     # no MAX_SIGNAL cap: logs are capped where read; the fit is unit-independent (test_fit_scaling)
     if not np.any(tau):
         raise ModelError("tau: every torque of every joint is 0; a logged torque is never exactly 0 "
@@ -265,14 +277,15 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
                          f"regressor), got {np.shape(regressor)}")
     Yb = base.regressor(regressor)
     y = tau - known_torque(arm, qd, qdd, armature, friction)
+    Yf, yf = (Yb, y) if keep is None else (Yb * keep[:, :, None], y * keep)     # the rows each joint fits
     edges = segment_edges(segments, N)
     if segments is not None and factors is not None:
         raise ModelError("factors, segments: give one (factors hold no run boundaries)")
-    runs = [joint_factors(Yb[a:b], y[a:b]) for a, b in zip(edges[:-1], edges[1:])] if len(edges) > 2 else None
+    runs = [joint_factors(Yf[a:b], yf[a:b]) for a, b in zip(edges[:-1], edges[1:])] if len(edges) > 2 else None
     if runs is not None:         # each run's factors: its own noise levels, then its weights
         factors = stack_factors(runs)
     elif factors is None:
-        factors = joint_factors(Yb, y)
+        factors = joint_factors(Yf, yf)
     elif np.shape(factors) != (n, r + 1, r + 1):
         raise ModelError(f"factors: expected shape ({n}, {r + 1}, {r + 1}), got {np.shape(factors)}")
     R0, c0, _ = stacked(factors)
@@ -285,8 +298,9 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
                          f"constant, or a column scaled wrongly?); use an excitation trajectory "
                          f"(manipdyn excite)")
     counts = np.diff(edges)
-    sigmas = (np.array([noise_from_factors(F, int(k)) for F, k in zip(runs, counts)]) if runs is not None
-              else noise_from_factors(factors, N)[None, :])
+    rows = [k if keep is None else keep[a:b].sum(axis=0) for k, a, b in zip(counts, edges[:-1], edges[1:])]
+    sigmas = (np.array([noise_from_factors(F, k) for F, k in zip(runs, rows)]) if runs is not None
+              else noise_from_factors(factors, N if keep is None else keep.sum(axis=0))[None, :])
     sigmas, floored = floor_noise(sigmas, y)          # rounding, not noise, on exact data (.noise)
     sigma = sigmas[0] if runs is None else np.sqrt(counts @ sigmas**2 / N)
     try:
@@ -359,7 +373,7 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         err = (f"{err}; " if err else "") + completion.summary().replace(" on the model's states", " on these data")
     result = FitResult(arm=out_arm, parameters=pi, base=base, beta=beta, residuals=residuals,
                        sigma=sigma, method=method, condition_number=cond, consistent=consistent,
-                       prior=arm, arm_error=err, covariance=cov)
+                       prior=arm, arm_error=err, covariance=cov, rest=rest)
     result.report = build_report(result, solver=solver, samples=N, cov=cov, min_eigenvalues=eig)
     result.report["active_bounds"] = bounds.active(pi, n) if bounds is not None else []
     result.report["prior_weight"] = float(prior_weight)

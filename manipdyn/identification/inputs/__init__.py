@@ -7,5 +7,6 @@ identification.
   :class:`~manipdyn.identification.Payload`);
 * ``options``: the options checked, friction specs and bounds;
 * ``choices``: what the log decides when the user does not (friction side, Coulomb smoothing);
-* ``smoothing``: the Coulomb smoothing chosen by blocked held-out error.
+* ``smoothing``: the Coulomb smoothing chosen by blocked held-out error;
+* ``rest``: the joints at rest (a threshold from the velocity's noise) and their static friction levels.
 """

@@ -15,7 +15,8 @@ instead, in the model file's ``source`` and ``[sources]`` table (and in a base m
 * ``residuals``: the RMS residual per joint on the fit data, N m;
 * ``fitted_range``: the states the fit saw (:mod:`.coverage`) and ``prediction_band``: the
   band's half-widths from blocked hold-outs of the fit data (:mod:`.bands`), both written by
-  :func:`fit_record`, with ``leverage`` (:mod:`.leverage`), and read back from a model or a base
+  :func:`fit_record`, with ``leverage`` (:mod:`.leverage`) and ``rest`` (the rest threshold and the
+  static friction levels, :mod:`..inputs.rest`), and read back from a model or a base
   model by :func:`carried_trust`, which is how ``validate`` reports extrapolation and bands on
   new data.
 
@@ -141,7 +142,7 @@ def fit_record(arm, data, folds: int | None = None, smoothing: float | None = No
 
 #: the provenance keys that go into the trust record (manipdyn.formats.trust), in order
 TRUST_KEYS = ("data", "data_sha256", "method", "options", "date", "prior", "rms_residual", "fitted_range",
-              "prediction_band", "leverage", "doubts", "collision", "decided", "torque_constants")
+              "prediction_band", "leverage", "doubts", "collision", "decided", "torque_constants", "rest")
 
 
 def trust_record(prov: dict) -> dict:
@@ -161,6 +162,7 @@ class Carried:
     fitted_range: object = None
     band: object = None
     leverage: object = None
+    rest: object = None             # model.friction_rest.StaticFriction: the rest threshold and static levels
     record: dict | None = None
     notes: list = field(default_factory=list)
 
@@ -188,14 +190,15 @@ def carried_trust(model) -> Carried:
     from ..uncertainty.bands import PredictionBand
     from ..uncertainty.coverage import StateRange
     from ..uncertainty.leverage import Leverage
+    from ...model.friction_rest import StaticFriction
 
     n = model.n
     record, legacy = _record_of(model)
     out = Carried(record=record)
     if record is not None:
         readers = {"fitted_range": StateRange.from_dict, "band": PredictionBand.from_dict,
-                   "leverage": Leverage.from_dict}
-        keys = {"fitted_range": "fitted_range", "band": "prediction_band", "leverage": "leverage"}
+                   "leverage": Leverage.from_dict, "rest": StaticFriction.from_dict}
+        keys = {"fitted_range": "fitted_range", "band": "prediction_band", "leverage": "leverage", "rest": "rest"}
         prov = record
     else:
         readers = {"fitted_range": StateRange.from_text, "band": PredictionBand.from_text}

@@ -20,6 +20,9 @@ measured states; the score per joint is
   of samples outside the states the fit saw, and the joints that extrapolate; with its
   leverage reference (:mod:`.leverage`), per sample and joint whether the state is beyond
   every fitted sample's for that joint's regressor row, and the band widened there;
+* with a model that carries the joints' rest (``rest``: :mod:`..inputs.rest`), a joint at rest is still
+  (the prediction its rigid part, no Coulomb torque on the sign of the velocity's noise) and the band
+  there widens by its static friction level; at rest where the fit never rested, the sample is flagged;
 * a joint whose band holds under 80 % of the samples is flagged (``BAND MISSES``,
   ``--json`` ``band_95_missed``): the band failed there, whatever the flags predicted.
 
@@ -199,7 +202,11 @@ def validate(model, data, name: str | None = None) -> ValidationResult:
         raise ModelError(f"data: {len(data.t)} samples; validation needs at least 2")
     if hasattr(model, "parameters") and hasattr(model, "prediction_std"):    # a base model: a regressor
         check_fit_size(len(data.t), n, len(model.parameters))
-    pred = np.asarray(model.inverse_dynamics(data.q, data.qd, data.qdd), dtype=np.float64)
+    from .provenance import carried_trust
+
+    trust = carried_trust(model)        # at rest (its record): the joint still, the prediction its rigid part
+    qd = data.qd if trust.rest is None else trust.rest.velocity(data.qd)
+    pred = np.asarray(model.inverse_dynamics(data.q, qd, data.qdd), dtype=np.float64)
     err = data.tau - pred
     rms = np.sqrt(np.mean(err**2, axis=0))
     meas_rms = np.sqrt(np.mean(data.tau**2, axis=0))
@@ -207,9 +214,6 @@ def validate(model, data, name: str | None = None) -> ValidationResult:
     with np.errstate(divide="ignore", invalid="ignore"):
         rel = np.where(meas_rms > 0, rms / meas_rms, np.nan)
         r2 = np.where(ss_tot > 0, 1.0 - np.sum(err**2, axis=0) / ss_tot, np.nan)
-    from .provenance import carried_trust
-
-    trust = carried_trust(model)
     fitted, held_out, notes = trust.fitted_range, trust.band, list(trust.notes)
     u = beyond = None
     if trust.leverage is not None:
@@ -221,6 +225,7 @@ def validate(model, data, name: str | None = None) -> ValidationResult:
     std = None
     if held_out is not None:
         band = np.array(np.broadcast_to(held_out.widths(u), pred.shape))
+        band = band if trust.rest is None else trust.rest.widths(data.qd, band)     # the static band at rest
         method = held_out.describe()
     elif hasattr(model, "prediction_std"):
         std = model.prediction_std(data.q, data.qd, data.qdd)
@@ -246,6 +251,8 @@ def validate(model, data, name: str | None = None) -> ValidationResult:
             flags = flags | beyond
         if trust.leverage is not None:
             flags = flags | trust.leverage.rest_flags(data.qd)
+        if trust.rest is not None:         # at rest where the fit never rested: its static level a stand-in
+            flags = flags | trust.rest.flags(data.qd)
         extrapolation.flags = flags
     return ValidationResult(model=name or getattr(model, "name", "model"), rms=rms, relative_rms=rel,
                             r2=r2, mean_error=err.mean(axis=0), t=np.asarray(data.t), measured=data.tau,

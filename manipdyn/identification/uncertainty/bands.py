@@ -382,6 +382,9 @@ def conformal_half_width(residuals, level: float = DEFAULT_LEVEL) -> np.ndarray:
     """Per column, the ``ceil((m + 1) level)``-th smallest ``|r|`` of ``m`` residuals (the largest when
     that rank passes ``m``): the split-conformal half-width (module docstring)."""
     r = np.abs(np.asarray(residuals, dtype=np.float64))
+    if np.isnan(r).any():           # NaN: no score (a joint at rest: the moving band's scores only); each column its own m
+        return np.array([conformal_half_width(c[~np.isnan(c)][:, None], level)[0] if np.any(~np.isnan(c)) else 0.0
+                         for c in r.T])
     m = len(r)
     rank = min(m, math.ceil((m + 1) * float(level)))
     return np.sort(r, axis=0)[rank - 1]
@@ -417,6 +420,14 @@ def _gain(r, u, level) -> tuple[float, float]:
     return g, c
 
 
+def _at_rest(qd, rest) -> np.ndarray:
+    """(N, n) bool: the joints at rest at the fit's ``rest`` threshold (none without one): their torque holds a
+    static friction the moving band does not describe (:mod:`manipdyn.model.friction_rest`)."""
+    from ...model.friction_rest import rest_mask
+
+    return np.zeros(np.shape(qd), dtype=bool) if rest is None else rest_mask(qd, rest)
+
+
 def _weights(rms) -> np.ndarray:
     return 1.0 / np.maximum(rms, 1e-12 * max(float(np.max(rms)), 1e-300))
 
@@ -442,8 +453,9 @@ def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: floa
     if not 0 < float(level) < 1:
         raise ModelError(f"level: expected a fraction in (0, 1), got {level}")
     kept = None if refits is None else refits.setdefault("blocks", [])
-    res = held_out_residuals(arm, q, qd, qdd, tau, folds=folds, refits=kept, **fit_kwargs)
-    rms = np.sqrt(np.mean(res**2, axis=0))
+    still = _at_rest(qd, fit_kwargs.get("rest"))       # the moving band: the joints at rest score elsewhere
+    res = np.where(still, np.nan, held_out_residuals(arm, q, qd, qdd, tau, folds=folds, refits=kept, **fit_kwargs))
+    rms = np.sqrt(np.nanmean(res**2, axis=0))
     groups = None if labels is None else np.unique(np.asarray(labels))
     if groups is not None and len(labels) != len(q):
         raise ModelError(f"labels: expected {len(q)} group labels, one per sample, got {len(labels)}")
@@ -457,8 +469,9 @@ def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: floa
     if groups is not None and len(groups) >= 2:
         masks = [np.asarray(labels) == g for g in groups]
         kept = None if refits is None or n_regions else refits.setdefault("trajectories", [])
-        res_t = held_out_residuals(arm, q, qd, qdd, tau, masks=masks, refits=kept, **fit_kwargs)
-        rms_t = np.sqrt(np.mean(res_t**2, axis=0))
+        res_t = np.where(still, np.nan, held_out_residuals(arm, q, qd, qdd, tau, masks=masks, refits=kept,
+                                                           **fit_kwargs))
+        rms_t = np.sqrt(np.nanmean(res_t**2, axis=0))
         width = np.maximum(conformal_half_width(res_t, level), conformal_half_width(res, level))
         flag = None
         if leverage:
