@@ -89,8 +89,12 @@ def test_the_cached_programs_give_the_fit_of_the_programs_built_afresh(ur5_noisy
         assert programs.cache_info()["uncached"] >= 3
         t1, t2 = cached.predict(q, qd, qdd), plain.predict(q, qd, qdd)
         if kw:
+            # with a prior weight the radius-of-gyration floor gives way to the pull (sdp.consistent_fit), so the
+            # bodies thin where the data and the pull allow and the exponential cones of the log-det are solved
+            # to ~1e-8 in the objective: the parameters agree to 1.4e-5 of the largest (measured; 1e-7 with the
+            # floor), the torques, which the data fix, to 1e-6 of their scale
             scale = np.abs(plain.parameters).max()
-            assert np.max(np.abs(cached.parameters - plain.parameters)) < 1e-6 * scale
+            assert np.max(np.abs(cached.parameters - plain.parameters)) < 1e-4 * scale
             assert np.max(np.abs(t1 - t2)) < 1e-6 * np.abs(tau).max()
         else:
             assert cached.report["relative_residual"] <= plain.report["relative_residual"] * (1 + 1e-8)

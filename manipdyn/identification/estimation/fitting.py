@@ -386,7 +386,8 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
             "torque_difference": completion.torque_difference, "notes": completion.notes}
     if method == "consistent":
         result.report.update(shortfall(R, c, rho_w, y * w, residuals * w, pi, n, nonnegative_extras(base.names, n),
-                                       bounds, solver, result.report["active_bounds"]))
+                                       bounds, solver, result.report["active_bounds"],
+                                       float(prior_weight)))
         if dropped is not None:      # the floor is best effort: say that it went, and why
             result.report["gyration_floor_dropped"] = True
             result.report["fit_notes"].insert(0, FLOOR_DROPPED.format(dropped))

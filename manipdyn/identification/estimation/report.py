@@ -110,9 +110,10 @@ FLOOR_DROPPED = ("the radius-of-gyration floor (a plausibility bound, best effor
                  "shape may be degenerate (a rod or a plate)")
 
 
-def shortfall(R, c, rho0, yw, ew, pi, n, nonnegative, bounds, solver, active_bounds) -> dict:
+def shortfall(R, c, rho0, yw, ew, pi, n, nonnegative, bounds, solver, active_bounds, prior_weight: float = 0.0) -> dict:
     """How much more of the (weighted) torque the consistent fit leaves than least squares,
-    and why: the constraints it sits on, or a solver that stopped short.
+    and why: the constraints it sits on, the pull towards the prior (``prior_weight`` > 0: the gap is the
+    pull's price, chosen, not a solver's failure), or a solver that stopped short.
 
     Returns ``relative_residual`` (``||e_w|| / ||tau_w||``, weighted rows),
     ``least_squares_relative_residual`` (the same for the unconstrained optimum),
@@ -141,7 +142,10 @@ def shortfall(R, c, rho0, yw, ew, pi, n, nonnegative, bounds, solver, active_bou
         return out
     head = (f"the consistent fit leaves {rel:.3g} of the weighted torque unexplained where least squares "
             f"leaves {ls:.3g}")
-    if reasons and not inaccurate:
+    if prior_weight and prior_weight > 0 and not inaccurate:
+        out["fit_notes"].append(f"{head}: the pull towards the prior (weight {prior_weight:.3g}) costs that"
+                                + (f", with the constraints it sits on ({'; '.join(reasons)})" if reasons else ""))
+    elif reasons and not inaccurate:
         out["fit_notes"].append(f"{head}: the constraints it sits on cost that ({'; '.join(reasons)})")
     else:
         out["stopped_short"] = True
