@@ -119,7 +119,15 @@ def test_the_default_fit_keeps_the_pandas_bodies_off_the_boundary(tmp_path):
     J_free = [np.linalg.eigvalsh(j.body.inertia)[0] for j in nofloor.arm.chain()[0]]
     # 2e-8 kg m^2 left free; with the floor the thinnest (link 2, whose published body is nearly flat) 3e-7
     assert min(J_free) < 1e-7 and min(S_min) > 10 * min(J_free)
-    v0 = md.validate(nofloor.arm, PANDA_LOG, t_range=(10, 13.8)).results[0]
+    # the held-out comparison at the default's own prior weight (chosen on the hold-outs, issue 44): the floor
+    # is held in step 2, on the base parameters step 1 found, so it changes no torque at all
+    w = r.provenance["options"].get("prior_weight", 0.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        same = fitting.fit(r.prior, d.q, d.qd, d.qdd, d.tau, method="consistent", friction=r.friction,
+                           bounds=Bounds(mass=b.mass, com=b.com, total_mass=b.total_mass), prior_weight=w,
+                           rest=r.fit.rest)
+    v0 = md.validate(same.arm, PANDA_LOG, t_range=(10, 13.8)).results[0]
     assert np.all(v.rms <= 1.01 * v0.rms), (v.rms, v0.rms)
 
 

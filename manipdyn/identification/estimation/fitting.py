@@ -327,8 +327,6 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
             pi = base.full_closest_to(beta, prior)
             solver = "lstsq"
         else:
-            if prior_weight and bounds is not None and bounds.gyration is not None:   # the pull keeps bodies solid:
-                bounds = Bounds(mass=bounds.mass, com=bounds.com, total_mass=bounds.total_mass)  # no floor (.sdp)
             tries = [bounds] + ([Bounds(mass=bounds.mass, com=bounds.com, total_mass=bounds.total_mass)]  # the floor:
                                 if bounds is not None and bounds.gyration is not None else [])  # best effort
             dropped = None
