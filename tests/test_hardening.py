@@ -410,7 +410,10 @@ def test_track_on_a_massless_arm_is_a_model_error(tmp_path, capsys):
     p.write_text(MASSLESS)
     assert cli_main(["track", str(p), "--duration", "0.2"]) == 2
     err = capsys.readouterr().err
-    assert "error: forward dynamics: the mass matrix D(q) is singular" in err and "internal" not in err
+    # the gains (pd_gains, 61cea87) now refuse the singular D before any forward dynamics runs, naming the
+    # arm and the joints that move no mass (issue 46 item 29): still a model error, exit 2, never internal
+    assert "error: massless: the mass matrix D(q) is singular: joint(s) [1, 2] move no mass" in err
+    assert "internal" not in err
 
 
 def test_check_on_a_massless_arm_is_a_failed_condition(tmp_path, capsys):

@@ -544,7 +544,10 @@ def test_item14_montecarlo_header_wording(capsys):
                  "--controllers", "ct,pd", "--payload-mass", "0"]) == 0
     head = capsys.readouterr().out.splitlines()[:2]
     assert "2 runs x 2 controllers," in head[0]
-    assert "no payload" in head[1] and "added friction: viscous <= 0.5 N m s/rad, Coulomb <= 0.5 N m" in head[1]
+    # the default draws are now sized to the arm (issue 46 item 18, merge f679cd4): the header says so and
+    # gives the sized bounds (fractions of each joint's torque scale tau_j) instead of the old absolute 0.5
+    assert "distributions sized to the arm" in head[1] and "no payload" in head[1]
+    assert "added friction: viscous <= 0.1 tau_j / qd_j, Coulomb <= 0.1 tau_j" in head[1]
 
 
 # -- item 15: figures --------------------------------------------------------------------------
