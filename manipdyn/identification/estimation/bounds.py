@@ -188,6 +188,9 @@ class Bounds:
         if self.gyration is not None:      # the body's own radius, as the model on disk has it (issue 38)
             rg = smallest_gyration(pi, n)
             out += [f"link {i + 1} radius of gyration {rg[i]:.3g} m at its floor {self.gyration[i]:.3g} m"
+                    if rg[i] >= self.gyration[i] * (1 - FLOOR_RTOL) else
+                    f"link {i + 1} radius of gyration {rg[i]:.3g} m below its floor {self.gyration[i]:.3g} m: the "
+                    "floor does not hold on this body"
                     for i in range(n) if m[i] > 0 and rg[i] <= self.gyration[i] * (1 + FLOOR_RTOL)]
         return out
 
