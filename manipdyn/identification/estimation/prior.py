@@ -348,7 +348,8 @@ def describe_attribution(attr: dict, max_items: int = 10) -> list[str]:
 
     parts = [f"{links(groups['data'])}: by the data" if groups["data"] else "",
              f"{links(groups['prior'])}: partly by the prior" if groups["prior"] else "",
-             f"{links(groups['floor'])}: by the radius-of-gyration floor (neither the data nor the prior)"
+             f"{links(groups['floor'])}: shape at the radius-of-gyration floor (what neither the data nor the "
+             "prior decide of the body; its dynamics are the base parameters')"
              if groups["floor"] else ""]
     out.append(f"decided by the data or the prior (prior weight {attr['weight']:.3g}): {nd} of {len(b)} base "
                "parameters by the data; " + "; ".join(x for x in parts if x))
