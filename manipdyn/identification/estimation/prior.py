@@ -20,6 +20,13 @@ simulation can.  This module keeps the prior where the data are silent:
   physical ones with the same base parameters (:func:`manipdyn.model.completion.complete_parameters`,
   the completion the writers use): the same dynamics, a prior the divergence can measure from; the
   notes name the links.
+* **Against the Euclidean pull.**  The former ``--prior-weight`` already pulled by the log-det divergence in
+  the fit (step 1 of :mod:`.sdp`), but then chose the bodies among those with the same base parameters by
+  their Euclidean distance to the prior (step 2), which lands on the ``J >= 0`` boundary wherever the
+  prior's Euclidean projection does (measured on the Panda at weight 0.1: links 3 to 6 degenerate, smallest
+  radius of gyration 7e-5 to 2e-4 m).  With a weight, step 2 now holds the radius-of-gyration floor instead,
+  on the base parameters step 1 found (the same dynamics), and keeps step 1's bodies where the floor cannot
+  be held.
 * **Drive terms on their own scales** (:func:`extra_scales`).  Rotor inertia and friction have no
   pseudo-inertia; each is pulled towards the prior's value by ``((x - x0) / s)^2`` with ``s`` the
   torque that term typically makes on that joint's log turned into the term's unit (the joint's
