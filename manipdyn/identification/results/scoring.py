@@ -83,8 +83,10 @@ class Validation:
         from .comparison import side_by_side_dict
 
         out = self.results[0].to_dict() if len(self.results) == 1 else side_by_side_dict(self.results)
+        # the model's own notes (its carried trust record's: a record ignored, one trajectory) first, then
+        # the notes on the models (no physical arm, torque scale): both, neither replacing the other
         out.update({"runs": self.per_run(), "data_notes": list(self.notes), "fit_data": list(self.fit_data),
-                    "model_notes": list(self.model_notes)})
+                    "model_notes": list(out.get("model_notes") or []) + list(self.model_notes)})
         return out
 
     def per_run(self) -> list:
