@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -143,9 +144,12 @@ def test_identify_takes_a_tree_urdf_with_tip(tmp_path, capsys):
     assert main(["identify", "erd:panda", str(log), "-o", str(out)]) == 2      # a tree: the tip is needed
     assert "--tip" in capsys.readouterr().err
     assert main(["identify", "erd:panda", str(log), "--tip", "panda_hand_tcp", "-o", str(out)]) == 0
-    capsys.readouterr()
+    # identify now chooses the prior weight on the hold-outs by default (--prior-weight auto): the fit the
+    # file must reproduce is the consistent fit at the weight it chose and said
+    weight = re.search(r"note: prior weight (\S+) chosen", capsys.readouterr().out)
+    assert weight, "identify did not say which prior weight it chose"
     ident = md.load(str(out), tip="panda_hand_tcp")
-    fitted = fit(prior, ex.q, ex.qd, ex.qdd, tau, method="consistent")
+    fitted = fit(prior, ex.q, ex.qd, ex.qdd, tau, method="consistent", prior_weight=float(weight.group(1)))
     scale = np.abs(tau).max()
     np.testing.assert_allclose(ident.inverse_dynamics(ex.q, ex.qd, ex.qdd), fitted.predict(ex.q, ex.qd, ex.qdd),
                                rtol=0, atol=1e-9 * scale)
