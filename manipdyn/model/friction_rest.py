@@ -159,15 +159,15 @@ class StaticFriction:
         return self.measured
 
     def rest(self, qd) -> np.ndarray:
-        """(N, n) bool: the joints at rest (:func:`rest_mask` at :attr:`threshold`)."""
+        """(N, n) bool: the joints at rest (:func:`rest_mask` at ``threshold``)."""
         return rest_mask(np.atleast_2d(qd), self.threshold)
 
     def velocity(self, qd) -> np.ndarray:
-        """:func:`at_rest_velocity` at :attr:`threshold`: the velocities a model predicts with."""
+        """:func:`at_rest_velocity` at ``threshold``: the velocities a model predicts with."""
         return at_rest_velocity(qd, self.threshold)
 
     def static(self, qd) -> np.ndarray:
-        """(N, n) bool: the joint at rest, or slower than :attr:`slow`: where the static band applies."""
+        """(N, n) bool: the joint at rest, or slower than ``slow``: where the static band applies."""
         qd = np.atleast_2d(np.asarray(qd, dtype=np.float64))
         out = self.rest(qd)
         return out if self.slow is None else out | (np.abs(qd) < self.slow)

@@ -28,7 +28,7 @@ Layout, shared by both engines' ``regressor`` methods, by
   ``friction`` may also name the terms: a :class:`manipdyn.model.drive.Friction` (its
   terms, side, smoothing and shapes), a :class:`manipdyn.model.drive.FrictionTerms` or
   term names ("viscous", "coulomb", "asymmetric", "offset"); blocks of n columns
-  in :data:`manipdyn.model.friction.FRICTION_TERMS` order, motor-side parameters
+  in :data:`manipdyn.model.friction_law.FRICTION_TERMS` order, motor-side parameters
   reflected to the joints (:mod:`manipdyn.model.friction`, :func:`manipdyn.model.friction.friction_spec`).
 
 All conversions between a link's pseudo-inertia J and its ten parameters go

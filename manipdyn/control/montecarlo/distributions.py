@@ -71,12 +71,14 @@ class Distributions:
     payload_rel, friction_viscous_rel, friction_coulomb_rel, torque_noise_rel : float
         The same draws sized to the arm, per joint (:mod:`.sizing`): the payload mass bound is
         ``payload_rel`` times the mass whose torque, at a corner of the payload box, reaches
-        one joint's torque scale ``tau_j`` (the largest |tau_j| of the nominal arm on the path)
+        one joint's torque scale ``tau_j`` (the largest ``|tau_j|`` of the nominal arm on the path)
         first; Coulomb ``friction_coulomb_rel * tau_j``; viscous ``friction_viscous_rel * tau_j
         / qd_j`` (``qd_j`` the path's top speed of joint j: the added viscous torque at that speed
         is at most that fraction of ``tau_j``); noise standard deviation ``torque_noise_rel *
         tau_j``.  Each adds to its absolute figure.
 
+    Notes
+    -----
     The defaults (issue 46) are sized: link factors ``1 +- 0.2``, a payload whose torque is at
     most 20 % of every joint's torque scale (:data:`RELATIVE_DEFAULTS`), friction up to 10 % of it,
     noise of 1 % of it, and no absolute figure.  Absolute figures (N m, kg: the same for every

@@ -19,7 +19,7 @@ Rules (CONVENTIONS.md for frames and inertia):
   ``floating`` and ``planar`` joints are refused.
 * Joint limits: ``<limit lower upper>`` give :attr:`Arm.qlim`; continuous
   joints, and limits missing or written ``lower == upper`` (CAD exporters
-  write ``0, 0`` for "none"), get :data:`manipdyn.model.arm.DEFAULT_QLIM`.  A chain
+  write ``0, 0`` for "none"), get :data:`manipdyn.model.registry.DEFAULT_QLIM`.  A chain
   joint that moves no mass at all (nothing with ``<inertial>`` from its link
   to the tip) is warned about: the mass matrix is then singular.
 * Without ``tip`` the movable joints must form one root-to-leaf path; the tip

@@ -13,7 +13,7 @@ revolute/prismatic joints): ``effort = 1000`` (N m or N) and
 ``velocity = 10`` (rad/s or m/s).  They are placeholders for tools that
 insist on them; manipdyn's dynamics never read them.  A comment before each
 joint says where its limits came from: the model's values, or these
-documented defaults (and :data:`manipdyn.model.arm.DEFAULT_QLIM` for a DH link
+documented defaults (and :data:`manipdyn.model.registry.DEFAULT_QLIM` for a DH link
 without ``qlim``).
 
 Rotor inertia (armature) has no element in URDF; it is kept in the model

@@ -58,7 +58,7 @@ def _given(pairs):
 
 def bounds_option(arm, method: str, mass_bound=None, com_bound=None, total_mass_bound=None,
                   no_bounds: bool = False):
-    """The :class:`~.sdp.Bounds` of ``consistent`` from the options, or None.
+    """The :class:`~manipdyn.identification.estimation.bounds.Bounds` of ``consistent`` from the options, or None.
 
     ``mass_bound`` (fraction), ``com_bound`` (m), ``total_mass_bound`` (fraction) default to
     :meth:`Bounds.plausible`'s; ``no_bounds`` drops them.  Only ``consistent`` takes bounds.
@@ -91,9 +91,9 @@ def friction_option(arm, friction: bool = False, friction_terms=None, friction_s
 
     ``friction``: viscous and sharp Coulomb (True; on the motors with ``friction_side="motor"``).
     ``friction_terms``: names separated by commas (or a sequence) of
-    :data:`manipdyn.model.friction.FRICTION_TERMS`, on ``friction_side`` ("joint" or "motor"; None:
+    :data:`manipdyn.model.friction_law.FRICTION_TERMS`, on ``friction_side`` ("joint" or "motor"; None:
     the joint side here, :mod:`.choices` chooses it from the log first), Coulomb smoothed as ``tanh(v / smoothing)`` (rad/s, default
-    :data:`manipdyn.model.friction.DEFAULT_SMOOTHING`); with a Stribeck or sigmoid term, a
+    :data:`manipdyn.model.friction_law.DEFAULT_SMOOTHING`); with a Stribeck or sigmoid term, a
     :class:`manipdyn.Friction` holding the shapes' starting values (``stribeck_velocity``
     rad/s, ``sigmoid_alpha`` s/rad, on the law's side).
     """

@@ -43,7 +43,7 @@ __all__ = ["rest_threshold", "static_record", "breakaway_of", "rest_option", "re
 
 #: a joint is at rest within this many times its velocity noise (module docstring)
 REST_NOISE = 3.0
-#: the static level: this quantile of |tau - prediction| over a joint's rest samples
+#: the static level: this quantile of ``|tau - prediction|`` over a joint's rest samples
 STATIC_QUANTILE = 0.95
 #: the fit data rested on a joint when at least this many of its samples were at rest
 MIN_REST_SAMPLES = 50
@@ -120,7 +120,7 @@ def breakaway_of(predict, q0, threshold) -> np.ndarray:
 
 
 def rest_option(data, smoothing, notes: list) -> np.ndarray:
-    """The rest threshold (n,) :func:`identify` fits with (:func:`rest_threshold`); its note appended to ``notes``."""
+    """The rest threshold (n,) :func:`~manipdyn.identification.pipeline.identify` fits with (:func:`rest_threshold`); its note appended to ``notes``."""
     threshold, note = rest_threshold(data, smoothing)
     notes.append(note)
     return threshold

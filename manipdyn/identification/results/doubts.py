@@ -27,7 +27,7 @@ Layer 5 (identification), room ``results``.
   largest.  Such a body predicts the logged motion but is a poor plant for simulation (its
   fastest mode is the smallest moment's) and says nothing of the real link.  The default
   consistent fit keeps every radius of gyration above 1 % of the arm's size
-  (:meth:`..estimation.sdp.Bounds.plausible`), so its bodies sit on that floor instead, which
+  (:meth:`manipdyn.identification.estimation.bounds.Bounds.plausible`), so its bodies sit on that floor instead, which
   :func:`floor_doubts` says: the data did not decide their shape, the floor did.
 
 The sentences go into the fit's notes (``identify``'s text and ``--json`` ``fit_notes``), into
@@ -53,7 +53,7 @@ RUN_FACTOR = 2.0
 #: a fitted payload mass off the declared one by more than this fraction contradicts it
 PAYLOAD_RTOL = 0.25
 #: a smallest radius of gyration under this fraction of the arm's size is degenerate (half the default fit's
-#: floor, ``estimation.sdp.PLAUSIBLE_GYRATION``: a body on the floor is named by the active bounds)
+#: floor, ``estimation.bounds.PLAUSIBLE_GYRATION``: a body on the floor is named by the active bounds)
 GYRATION_FRACTION = 0.005
 #: a pseudo-inertia whose smallest eigenvalue is under this fraction of its largest sits on J >= 0
 BOUNDARY_RTOL = 1e-6

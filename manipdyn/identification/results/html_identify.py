@@ -2,7 +2,7 @@
 out, the fit figure with its band, the bodies, what the data decided, the parameters, the drives, the collision
 thresholds and the data notes.
 
-Layer 5 (identification), room ``results``; the blocks it shares with the ``validate`` page are :mod:`.html`'s.
+Layer 5 (identification), room ``results``; the blocks it shares with the ``validate`` page are :mod:`manipdyn.identification.results.html`'s.
 """
 
 from __future__ import annotations
