@@ -171,8 +171,10 @@ def test_readme_panda_identification_draws_and_divergences(tmp_path, capsys):
     assert all(r["cause"] == "sampled loop" for r in pd if r["diverged"])
     # The figure is a linearisation at the reference samples: it knows neither the states the run
     # really visits nor the plant's nonlinear friction (the bundled panda carries Gaz et al.'s sigmoid
-    # law).  A run flagged right at the limit may hold (measured: run 8 at 2.02 held); every run
-    # flagged clearly above it diverges.
-    assert all(r["diverged"] for r in pd if r["sampled_loop"] > 2.05)
-    assert sum(r["diverged"] for r in pd) >= sum(r["sampled_loop"] > 2.05 for r in pd) >= 4
+    # law).  A run flagged near the limit may hold: measured on the former default fit (the data alone),
+    # run 8 at 2.02 held; on today's (prior weight 1, chosen on the hold-outs: its covariance draws other
+    # plants) runs 6 and 7 at 2.10 and 2.09 held and run 3 at 2.45 diverged.  Every run flagged a tenth
+    # above the limit diverges, and the figure is not idle: some run does.
+    assert all(r["diverged"] for r in pd if r["sampled_loop"] > 2.2)
+    assert sum(r["diverged"] for r in pd) >= sum(r["sampled_loop"] > 2.2 for r in pd) >= 1
     assert rep.controllers["ct"]["diverged"] == 0
