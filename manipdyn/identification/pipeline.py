@@ -324,7 +324,10 @@ def _identify(prior, logs, o) -> IdentifyResult:
     given_name = o["name"]
     name = given_name or _name_from(o["output"]) or f"{arm.name or 'arm'}_identified"
     segments = data.segments if len(data.segments) > 1 else None
-    rest = rest_option(data, smoothing, law_notes) if o["friction"] or o["friction_terms"] is not None else None
+    # joints at rest (.inputs.rest) with the friction terms of a real log's route (--friction-terms, a smoothed
+    # sign); --friction keeps its sharp sign(qd) law at every speed, rest included (a simulated log's exact law:
+    # taken as a static band at rest it cost the README's synthetic UR5 27 % on joint 6's residual)
+    rest = rest_option(data, smoothing, law_notes) if o["friction_terms"] is not None else None
     tell(f"fit ({o['method']})")
     result = fit(arm, data.q, data.qd, data.qdd, data.tau, method=o["method"], friction=law,
                  armature=o["armature"], bounds=bounds, name=name, prior_weight=weight, segments=segments,
