@@ -234,3 +234,18 @@ def test_item29_montecarlo_in_mujoco_takes_a_massless_last_link_with_a_rotor(tmp
     assert "negative principal moment" not in err
     code = main(["montecarlo", str(_massless_last(tmp_path, False)), "--runs", "1", "--workers", "1"])
     _one_line_error(capsys, code, "singular", "joint(s) [6]")
+
+
+def test_the_escaping_writer_left_over_a_closed_stream_writes_to_the_process_stdout():
+    """The CLI's stdout wrapper (issue 46 item 28) left in place over a capture since closed (seen in one pytest
+    call: test_newcomer4_reach then test_newcomer's demo) raised 'I/O operation on closed file' in a later
+    print; it writes to the process's own stdout instead."""
+    import io
+
+    from manipdyn._support.text import EscapingWriter
+
+    buf = io.StringIO()
+    w = EscapingWriter(buf)
+    assert w.write("a\x1bb\n") == 4 and buf.getvalue() == "a\\x1bb\n"
+    buf.close()
+    assert w.write("after\n") == 6          # no ValueError

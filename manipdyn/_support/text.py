@@ -9,6 +9,7 @@ it writes pass their text through :func:`visible`, which shows such characters e
 
 from __future__ import annotations
 
+import sys
 import unicodedata
 
 __all__ = ["visible", "EscapingWriter"]
@@ -41,7 +42,10 @@ class EscapingWriter:
         self._stream = stream
 
     def write(self, text) -> int:
-        self._stream.write(visible(text, keep="\n\t"))
+        stream = self._stream
+        if getattr(stream, "closed", False):   # left in place over a stream since closed (a test's capture):
+            stream = sys.__stdout__            # the process's own stdout, not a ValueError in the caller
+        stream.write(visible(text, keep="\n\t"))
         return len(text)
 
     def __getattr__(self, name):          # flush, isatty, encoding, fileno, ...: the stream's own
