@@ -8,7 +8,7 @@ prior weight is chosen on the hold-outs by torque and acceleration error), then 
 * ``replay``: the position error at 10, 50 and 200 ms, RMS over the start states, per joint and pooled, for
   the identified model, the published one and the constant-velocity guess;
 * ``validate``: the torque RMS per joint (N m), the acceleration error per joint (rad/s^2, ``M^-1`` of the torque
-  error on each model's own ``M``) and the 95 % band's coverage.
+  error on each model's own ``M``, as ``validate`` gives it) and the 95 % band's coverage.
 
 Cases (the real logs beside the project, ``$MANIPDYN_REALDATA``; never copied into it):
 
@@ -50,14 +50,6 @@ def _case(name):
     return str(urdf), [str(runs[k]) for k in fit], {}, str(runs[test]), {}, str(urdf)
 
 
-def _accel_rms(model, data) -> np.ndarray:
-    """Per joint RMS of ``M(q)^-1 (tau - tau_hat)`` over the samples (rad/s^2) on ``model``'s own M."""
-    err = data.tau - np.asarray(model.inverse_dynamics(data.q, data.qd, data.qdd))
-    M = np.asarray(model.mass_matrix(data.q))
-    a = np.linalg.solve(M, err[..., None])[..., 0]
-    return np.sqrt(np.mean(a ** 2, axis=0))
-
-
 def run_case(name, weight=None, out=print) -> dict | None:
     import manipdyn as md
     from manipdyn.identification import identify, read_log
@@ -85,7 +77,7 @@ def run_case(name, weight=None, out=print) -> dict | None:
         ident, pub = md.load(path), md.load(published)
         for lab, model in (("identified", ident), ("published", pub)):
             v = validate(model, data)
-            a = _accel_rms(model, data)
+            a = v.accel_rms                        # validate's acceleration error, on the model's own D
             cover = v.coverage if lab == "identified" else None
             out(f"  {lab}: torque RMS " + " ".join(f"{x:.3g}" for x in v.rms) + " N m; acceleration error "
                 + " ".join(f"{x:.3g}" for x in a) + " rad/s^2"

@@ -394,8 +394,6 @@ def _identify(prior, logs, o) -> IdentifyResult:
 def _extra_scale(arm, o, law, data):
     """The scales of the pull on the drive terms (:func:`.estimation.prior.extra_scales`), or None when the fit
     has none (not the consistent method, or no armature or friction identified)."""
-    from types import SimpleNamespace
-
     from ..model.parameters import parameter_names
     from .estimation.prior import extra_scales, prior_parameters
 
@@ -404,7 +402,7 @@ def _extra_scale(arm, o, law, data):
     names = parameter_names(arm.n, o["armature"], law)
     if len(names) <= 10 * arm.n:
         return None
-    prior = prior_parameters(arm, SimpleNamespace(armature=o["armature"], friction=law, names=names))
+    prior = prior_parameters(arm, o["armature"], law, len(names))
     return extra_scales(names, arm.n, data.qd, data.qdd, data.tau, prior[10 * arm.n:])
 
 

@@ -38,7 +38,8 @@ from ..._support.errors import ModelError, StateError
 from ..._support import limits
 from ..._support.limits import check_fit_size
 from ...model.inertia import pseudo_inertia_from_parameters
-from ...model.parameters import arm_parameters, parameter_count
+from ...model.parameters import arm_parameters  # noqa: F401 (read here by callers of this module)
+from .prior import prior_parameters
 from .model import arm_with_parameters
 from .base import BaseParameters, base_parameters, check_base
 from .sdp import Bounds, consistent_fit
@@ -303,11 +304,7 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
               else noise_from_factors(factors, N if keep is None else keep.sum(axis=0))[None, :])
     sigmas, floored = floor_noise(sigmas, y)          # rounding, not noise, on exact data (.noise)
     sigma = sigmas[0] if runs is None else np.sqrt(counts @ sigmas**2 / N)
-    try:
-        prior = arm_parameters(arm, armature, friction)
-    except ModelError:   # the prior's friction law is not of the asked-for kind: start from none
-        prior = np.concatenate([arm_parameters(arm, armature, False),
-                                np.zeros(len(base.names) - parameter_count(n, armature, False))])
+    prior = prior_parameters(arm, armature, friction, len(base.names))
 
     cov = None
     if method == "ols":

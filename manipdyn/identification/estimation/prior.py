@@ -158,16 +158,16 @@ def _torque_change(arm, full) -> float:
     return float(np.max(np.abs(W[:, :10 * arm.n] @ (full - arm_parameters(arm, False, False)))))
 
 
-def prior_parameters(arm, base) -> np.ndarray:
-    """The prior's full parameters in the layout of ``base`` (its armature and friction entries; zeros for a
-    friction law the prior does not have), (p,), as the fit starts from them."""
+def prior_parameters(arm, armature, friction, count: int) -> np.ndarray:
+    """The prior's full parameters (``count`` of them) with ``armature`` and ``friction`` entries, as the fit
+    starts from them: zeros for a friction law of another kind than the prior's, (count,)."""
     from ...model.parameters import arm_parameters, parameter_count
 
     try:
-        return arm_parameters(arm, base.armature, base.friction)
-    except ModelError:
-        return np.concatenate([arm_parameters(arm, base.armature, False),
-                               np.zeros(len(base.names) - parameter_count(arm.n, base.armature, False))])
+        return arm_parameters(arm, armature, friction)
+    except ModelError:   # the prior's friction law is not of the asked-for kind: start from none
+        return np.concatenate([arm_parameters(arm, armature, False),
+                               np.zeros(count - parameter_count(arm.n, armature, False))])
 
 
 def extra_scales(names, n: int, qd, qdd, tau, prior_extra=None) -> np.ndarray:
@@ -319,13 +319,12 @@ def attribution(result, prior_pi, weight: float, rows: int, floored_links=()) ->
         sh = share(a_full)
         i = int(lab.split()[1]) - 1
         by = "data" if sh >= DATA_SHARE else ("floor" if i in floored and "inertia" in lab else "prior")
-        quantities.append({"what": lab, "value": float(a_full @ pi), "prior": float(a_full @ prior_pi[:p])
-                           if prior_pi.size >= p else float(a @ prior_pi[:10 * n]), "share": sh, "by": by})
+        quantities.append({"what": lab, "value": float(a_full @ pi), "prior": float(a_full @ prior_pi),
+                           "share": sh, "by": by})
     base_rows = []
-    for k, name in enumerate(base.names_base if hasattr(base, "names_base") else _base_labels(base)):
+    for k, name in enumerate(base.expressions(digits=3)):
         sh = share(K[k])
-        base_rows.append({"what": name, "value": float(K[k] @ pi), "prior": float(K[k] @ prior_pi[:p])
-                          if prior_pi.size >= p else float("nan"), "share": sh,
+        base_rows.append({"what": name, "value": float(K[k] @ pi), "prior": float(K[k] @ prior_pi), "share": sh,
                           "by": "data" if sh >= DATA_SHARE else "prior"})
     links = []
     for i in range(n):            # a link is the data's when every base parameter it enters is
@@ -333,13 +332,6 @@ def attribution(result, prior_pi, weight: float, rows: int, floored_links=()) ->
         links.append("floor" if i in floored else "data" if involved and all(b == "data" for b in involved)
                      else "prior")
     return {"quantities": quantities, "base": base_rows, "links": links, "weight": float(weight)}
-
-
-def _base_labels(base) -> list[str]:
-    try:
-        return list(base.expressions(digits=3))
-    except Exception:                       # pragma: no cover - any base map has expressions
-        return [f"beta_{k + 1}" for k in range(np.asarray(base.K).shape[0])]
 
 
 def describe_attribution(attr: dict, max_items: int = 10) -> list[str]:

@@ -21,7 +21,8 @@ def decided_by(result, arm, weight, data, method):
 
     if method == "ols" or result.covariance is None:
         return None, []
-    prior_pi = prior_parameters(arm, result.base)
+    b = result.base
+    prior_pi = prior_parameters(arm, b.armature, b.friction, len(b.names))
     floored = [int(x.split()[1]) - 1 for x in result.report.get("active_bounds", []) if "radius of gyration" in x]
     decided = attribution(result, prior_pi, float(weight), len(data.q) * arm.n, floored)
     return decided, describe_attribution(decided)
