@@ -81,9 +81,10 @@ def _links(rep: dict):
 def _decided(rep: dict):
     """The base parameters with what decided each: the data, or the prior where the logs do not excite them."""
     d = rep["decided"]
-    rows = [[x["what"], x["value"], x["prior"], x["share"], x["by"]] for x in d.get("base", [])]
+    rows = [[x["by"], x["share"], x["value"], x["prior"], x["what"]] for x in d.get("base", [])]   # the long
+    # expressions last: the verdict and the numbers stay on screen
     flagged = {k for k, x in enumerate(d.get("base", [])) if x["by"] != "data"}
-    return H.table(["base parameter", "identified", "prior", "data share", "decided by"], rows, name="decided",
+    return H.table(["decided by", "data share", "identified", "prior", "base parameter"], rows, name="decided",
                    flagged=flagged,
                    caption=f"What the data decided (prior weight {d.get('weight', 0):.3g}): the data's share of each "
                            "base parameter's posterior curvature; highlighted rows the logs do not excite, so the "
