@@ -4,8 +4,39 @@ motor currents with no torque constants given and no payload run, the scale from
 Fit on No6_Acc_slow_Verify_Model and No1 as the issue's command does; score on the held-out runs beside
 the UR controller's own target torque (columns m1..m6), read as one more model.  What the issue targets
 and the data do not give (measured, and said in the xfail reason): No4_Acc alone agreeing with the fit's
-constants.  Joint 2's RMS below the controller's and the band's 90 to 98 % pooled, missed before the prior
+constants within 3 %; what the tool owes there instead, its uncertainty covering the gap, is tested.
+Joint 2's RMS below the controller's and the band's 90 to 98 % pooled, missed before the prior
 weight was chosen by default and joints at rest were left out of their rows, now hold.
+
+Why No4_Acc alone cannot give k2 and k3 within 3 % (measured at its rests, where neither inertia, the
+acceleration estimate nor the moving friction law enters; a rest: every |qd| under 1e-3 rad/s for 25
+samples or more, its first quarter skipped, ``i_j = g_j(q) / k_j + offset`` fitted over a run's rests):
+
+* it rests in two postures only (No6: three), so a rest fit is one slope between them;
+* that slope gives k2 15.8, k3 3.53 (No6's postures: 13.3, 6.65; No3_Acc, the same motion as No4:
+  17.3, 3.51), and the same with the UR controller's own target torque as the gravity (14.6, 3.18 against
+  No6's 12.1, 7.35): the currents' ratio to gravity differs by posture set with either model's gravity;
+* the static friction held at one posture scatters 0.41 A (joint 2) and 0.30 A (joint 3) between rests,
+  against a gravity difference between No4's postures of 2.1 and 0.70 A (at the fit's constants), and
+  neither the last motion's sign nor a load-proportional term explains it (pooled over the 50 rests of
+  the runs without a push, in 11 postures, the residual stays 0.56 A on joint 2 and goes from 0.40 to
+  0.39 A on joint 3); on joint 3 of No4 the last motion's sign at rest is the posture's (every rest
+  but the log's first follows a move towards it the same way), so a held level by that sign cannot be
+  told from gravity there;
+* on the moving samples, the relative fit does not determine k3 / k2 (doubling or halving it raises the
+  residual's sum of squares by 4.1 and 2.4 residual variances; No6: 8 to 9 for a 3 % change), and the gravity
+  factor of its first and second halves (slow moves, then fast) is 1.53 and 1.14.
+
+Estimators tried on No4 alone, none within 3 % of No6 alone on joints 2 and 3 (k2, k3; No6 in brackets):
+the joints at rest out of their rows in steps 2 and 3, 12.8 (std 500) and 0.12 [14.1, 7.83]; the prior's
+gravity held as known and the inertial parameters free (rests out, or with a held level by the last
+motion's sign), 8.3 to 10.5 and 1.1 to 2.7 [10.2 to 12.2, 4.5 to 6.9]; samples with |qdd| over 10 or 4
+rad/s^2 out (5 to 6 %), k3 0 [unchanged]; the scale from the prior's gravity parameters (first moments)
+rather than its torque over the run's postures, k2 1.6 [11.7]: No4's two postures leave most of them free;
+the gravity's slope over stretches at constant speed (a joint over 0.2 rad/s for 25 samples or more, |qdd| of
+joints 1 to 3 under 1 rad/s^2, an offset per stretch for its friction), k2 11.9 +- 0.5 and k3 11.2 +- 1.2
+[12.0 +- 0.3, 8.8 +- 0.3], but with 0.5 or 2 rad/s^2 as the bound, k2 13.5 or 10.9 [12.5, 9.0]: its
+agreement on k2 at one bound is the bound's, not the data's.
 """
 
 from __future__ import annotations
@@ -111,10 +142,29 @@ def test_the_band_holds_90_to_98_percent_pooled(scored):
     assert 0.90 <= m["band_95_pooled"] <= 0.98
 
 
-@pytest.mark.xfail(strict=True, reason="measured: No4_Acc alone gives k2 14.4 against the fit's 12.2 (18 %; No6 alone 12.4) and "
-                   "does not determine k3 (a 10 % change moves its residual by under one standard deviation)")
-def test_no4_alone_agrees_with_the_fit_within_3_percent_on_joints_2_and_3(scored):
+@pytest.fixture(scope="module")
+def no4_alone():
+    """The torque constants found from No4_Acc alone (about 17 s of CPU)."""
+    return md.identify("erd:ur5_robot", str(UR5 / "No4_Acc.csv"), band_folds=0, **OPTIONS).torque_constants
+
+
+def test_no4_alone_says_k3_is_not_determined_and_k2s_deviation_covers_the_fits(scored, no4_alone):
+    """What No4_Acc alone can give (module docstring): k3 said not determined (an infinite standard deviation and
+    a note), and k2's distance to the fit's within two of its standard deviations (a 95 % interval; measured:
+    14.4 +- 2.2 against 12.2, 0.96 of one)."""
     r, _, _ = scored
-    alone = md.identify("erd:ur5_robot", str(UR5 / "No4_Acc.csv"), band_folds=0, **OPTIONS).torque_constants
+    alone = no4_alone
+    assert not np.isfinite(alone.std[2]) and any("[1, 3" in x and "not determined" in x for x in alone.notes), alone
+    assert np.isfinite(alone.std[1]) and abs(alone.values[1] - r.torque_constants.values[1]) <= 2 * alone.std[1]
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "measured: No4_Acc alone gives k2 14.4 +- 2.2 against the fit's 12.2 (No6 alone 12.4) and does not determine "
+    "k3; at rest, its two postures give k2 15.8, k3 3.5 against No6's 13.3, 6.7 with the prior's gravity (14.6, 3.2 "
+    "against 12.1, 7.4 with the UR controller's own torque), the held static friction's scatter 0.41 and 0.30 A "
+    "against a gravity difference between them of 2.1 and 0.70 A (module docstring)"))
+def test_no4_alone_agrees_with_the_fit_within_3_percent_on_joints_2_and_3(scored, no4_alone):
+    r, _, _ = scored
+    alone = no4_alone
     assert np.all(np.isfinite(alone.std[1:3]))
     assert np.all(np.abs(alone.values[1:3] / r.torque_constants.values[1:3] - 1) <= 0.03), alone.values

@@ -33,6 +33,14 @@ and the scale's, the larger of two spreads: ``c`` from the first and the second 
 run (the data's own scatter), and ``c`` from each scale motor alone (how far the prior's gravity
 is self-consistent), over the square root of their number.  Neither counts what the prior's
 masses themselves get wrong: a prior 5 % heavy gives every ``k_t`` 5 % large.
+
+What one run can fix depends on the postures it passes through and how it stops there.  A
+point-to-point run between two postures has one gravity difference per joint, and at each rest the
+joint holds a static friction anywhere in its band (:mod:`manipdyn.model.friction_rest`), which
+neither the last motion's sign nor the load explains on the UR5's logs: a scale from such a run alone
+is as uncertain as that friction is against the gravity difference (on the UR5's ``No4_Acc``, ``k2``
+14.4 +- 2.2 against 12.4 from ``No6``, ``k3`` not determined; ``tests/test_ur5_currents_realdata.py``
+says what was measured and tried).
 """
 
 from __future__ import annotations
