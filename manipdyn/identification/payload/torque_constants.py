@@ -256,8 +256,8 @@ def _estimate(arm, runs, base, armature, friction, has_payload, kt_model, ref, n
         keep = "the model's k_t kept"
         notes.append(f"motor(s) {[m + 1 for m in lost]}: k_t not determined by these runs (a {100 * PROFILE_STEP:g} % "
                      f"change, with the other parameters refitted, moves the residual by less than one standard "
-                     f"deviation: that motor's torque is its own friction and rotor inertia, which scale with "
-                     f"k_t); {keep}; a run with a known payload that loads it determines it")
+                     f"deviation: the parameters refitted with it absorb the change, as its friction and rotor "
+                     f"inertia always can and gravity can when the runs hold too few postures); {keep}; a run with a known payload that loads it determines it")
         if kt_model is not None:
             k[lost] = kt_model[lost] * (k[ref[0] - 1] / kt_model[ref[0] - 1] if ref else 1.0)
     if not has_payload:            # the scale: sum over the reference motors of k / k_model = |reference|
