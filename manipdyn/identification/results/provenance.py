@@ -128,7 +128,7 @@ def fit_record(arm, data, folds: int | None = None, smoothing: float | None = No
     if folds:
         try:
             band = calibrate_band(arm, data.q, data.qd, data.qdd, data.tau, folds=folds, smoothing=smoothing,
-                                  labels=labels, refits=refits, **fit_kwargs)
+                                  labels=labels, refits=refits, notes=notes, **fit_kwargs)
             record["prediction_band"] = band.to_dict()
             weights = 1.0 / np.maximum(band.held_out_rms, 1e-12 * max(float(np.max(band.held_out_rms)), 1e-300))
             record["leverage"] = Leverage.of_fit(arm, data.q, data.qd, data.qdd, weights, smoothing or 0.01,

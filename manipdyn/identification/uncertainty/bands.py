@@ -434,7 +434,7 @@ def _weights(rms) -> np.ndarray:
 
 def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: float = DEFAULT_LEVEL,
                    smoothing: float | None = None, leverage: bool = True, labels=None, regions: bool = True,
-                   refits: dict | None = None,
+                   refits: dict | None = None, notes: list | None = None,
                    **fit_kwargs) -> PredictionBand:
     """The :class:`PredictionBand` of a fit on ``q, qd, qdd, tau`` (N, n) by blocked hold-outs, and by held-out
     trajectories when ``labels`` (N,) gives two or more groups, else by held-out posture regions where they
@@ -447,8 +447,10 @@ def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: floa
     within-run band).  Costs ``folds`` refits, and one per held-out group or posture region.  ``refits``: a
     dict that receives the refits' ``(test, arm)`` pairs (:func:`held_out_residuals`) under ``"blocks"``
     and, with two or more groups, ``"trajectories"`` (not the posture regions': scattered in time, they are
-    no span an observer can watch).  Raises :class:`ModelError` when the data is too short for the
-    blocks or a refit fails.
+    no span an observer can watch).  When the other trajectories cannot be fitted without one of them (a
+    run that alone leaves a base parameter unexcited), the band is one trajectory's, and ``notes`` (a list)
+    receives the line that says why.  Raises :class:`ModelError` when the data is too short for the
+    blocks or a block's refit fails.
     """
     if not 0 < float(level) < 1:
         raise ModelError(f"level: expected a fraction in (0, 1), got {level}")
@@ -460,6 +462,20 @@ def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: floa
     if groups is not None and len(labels) != len(q):
         raise ModelError(f"labels: expected {len(q)} group labels, one per sample, got {len(labels)}")
     n_regions = 0
+    res_t = None
+    if groups is not None and len(groups) >= 2:
+        masks = [np.asarray(labels) == g for g in groups]
+        kept = None if refits is None else []
+        try:
+            res_t = held_out_residuals(arm, q, qd, qdd, tau, masks=masks, refits=kept, **fit_kwargs)
+        except ModelError as exc:       # a trajectory left out leaves the others unable to fit alone
+            if notes is not None:
+                notes.append(f"band: the {len(groups)} trajectories cannot each be predicted by a fit on the others "
+                             f"({exc}); the band is calibrated within the runs instead")
+            groups = labels = None
+        else:
+            if refits is not None:
+                refits["trajectories"] = kept
     if (groups is None or len(groups) < 2) and regions:    # one trajectory: its posture regions (module docstring)
         from ..inputs.trajectories import posture_regions
 
@@ -467,10 +483,10 @@ def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: floa
         groups = None if labels is None else np.unique(labels)
         n_regions = 0 if groups is None else len(groups)
     if groups is not None and len(groups) >= 2:
-        masks = [np.asarray(labels) == g for g in groups]
-        kept = None if refits is None or n_regions else refits.setdefault("trajectories", [])
-        res_t = np.where(still, np.nan, held_out_residuals(arm, q, qd, qdd, tau, masks=masks, refits=kept,
-                                                           **fit_kwargs))
+        if res_t is None:           # the posture regions of one trajectory
+            masks = [np.asarray(labels) == g for g in groups]
+            res_t = held_out_residuals(arm, q, qd, qdd, tau, masks=masks, **fit_kwargs)
+        res_t = np.where(still, np.nan, res_t)
         rms_t = np.sqrt(np.nanmean(res_t**2, axis=0))
         width = np.maximum(conformal_half_width(res_t, level), conformal_half_width(res, level))
         flag = None
