@@ -155,7 +155,7 @@ def trust_record(prov: dict) -> dict:
 @dataclass
 class Carried:
     """What a model carries from its fit (:func:`carried_trust`), each None when it has none:
-    ``fitted_range`` (:class:`.coverage.StateRange`), ``band`` (:class:`.bands.PredictionBand`),
+    ``fitted_range`` (:class:`.coverage.StateRange`), ``band`` (:class:`.band_record.PredictionBand`),
     ``leverage`` (:class:`.leverage.Leverage`), ``record`` (the trust record, a dict) and ``notes``
     (records that did not read, and the fit's ``doubts``)."""
 
