@@ -128,7 +128,7 @@ def fit_record(arm, data, folds: int | None = None, smoothing: float | None = No
     if folds:
         try:
             band = calibrate_band(arm, data.q, data.qd, data.qdd, data.tau, folds=folds, smoothing=smoothing,
-                                  labels=labels, refits=refits, **fit_kwargs)
+                                  labels=labels, refits=refits, notes=notes, **fit_kwargs)
             record["prediction_band"] = band.to_dict()
             weights = 1.0 / np.maximum(band.held_out_rms, 1e-12 * max(float(np.max(band.held_out_rms)), 1e-300))
             record["leverage"] = Leverage.of_fit(arm, data.q, data.qd, data.qdd, weights, smoothing or 0.01,
@@ -155,7 +155,7 @@ def trust_record(prov: dict) -> dict:
 @dataclass
 class Carried:
     """What a model carries from its fit (:func:`carried_trust`), each None when it has none:
-    ``fitted_range`` (:class:`.coverage.StateRange`), ``band`` (:class:`.bands.PredictionBand`),
+    ``fitted_range`` (:class:`.coverage.StateRange`), ``band`` (:class:`.band_record.PredictionBand`),
     ``leverage`` (:class:`.leverage.Leverage`), ``record`` (the trust record, a dict) and ``notes``
     (records that did not read, and the fit's ``doubts``)."""
 

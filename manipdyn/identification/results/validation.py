@@ -76,7 +76,7 @@ class ValidationResult:
     band: np.ndarray | None = None          # (N, n) half-width of the 95 % band
     coverage: np.ndarray | None = None      # (n,) fraction of measured torques inside it
     band_method: str | None = None
-    carried_band: object = None             # bands.PredictionBand the model carries, or None
+    carried_band: object = None             # band_record.PredictionBand the model carries, or None
     extrapolation: object = None            # coverage.Extrapolation, or None
     notes: list = field(default_factory=list)
     accel_rms: np.ndarray | None = None     # (n,) RMS of D^-1 (tau - tau_hat), rad/s^2 (:mod:`.forward_error`)

@@ -117,19 +117,18 @@ new trajectory.)
 :meth:`PredictionBand.interval` takes ``u`` per sample.
 
 The numbers travel with the model in its trust record (:mod:`manipdyn.formats.trust`:
-``prediction_band``, :meth:`PredictionBand.to_dict`), and as a line of a model file's
-``[sources]`` (:meth:`PredictionBand.to_text`) for the reader.
+``prediction_band``, :meth:`.band_record.PredictionBand.to_dict`), and as a line of a model file's
+``[sources]`` (:meth:`.band_record.PredictionBand.to_text`) for the reader.
 """
 
 from __future__ import annotations
 
 import math
-import re
-from dataclasses import dataclass
 
 import numpy as np
 
 from ..._support.errors import ModelError
+from .band_record import WITHIN_ONE_TRAJECTORY, PredictionBand
 
 __all__ = ["PredictionBand", "calibrate_band", "held_out_residuals", "held_out_leverage", "DEFAULT_FOLDS",
            "DEFAULT_LEVEL", "GAINS", "FLAG_LEVEL", "WITHIN_ONE_TRAJECTORY"]
@@ -144,164 +143,6 @@ GAINS = (0.0, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0)
 GAIN_BENEFIT = 0.05
 #: the held-out leverage quantile past which a sample is flagged (module docstring)
 FLAG_LEVEL = 0.99
-#: what a band calibrated on one trajectory says of itself (validate and identify print it)
-WITHIN_ONE_TRAJECTORY = ("the band is calibrated within one trajectory (its posture regions and blocks in time held "
-                         "out, of one run or of runs repeating it): it has not seen how another trajectory differs; log "
-                         "at least two different trajectories to calibrate it on held-out runs")
-
-
-@dataclass(frozen=True)
-class PredictionBand:
-    """A per-joint band ``pred +- half_width`` (module docstring).
-
-    ``level``: the nominal coverage (0.95); ``half_width`` (n,), N m (N for a prismatic joint);
-    ``folds``: the number of blocks; ``samples``: held-out residuals it was computed from;
-    ``held_out_rms`` (n,): their RMS per joint; ``leverage_gain`` (n,) or None: ``g_j`` of
-    ``c_j sqrt(1 + g_j u)`` (module docstring; None or 0: constant); ``trajectories``: the distinct
-    trajectories held out (1: the band is within one trajectory, from the blocks alone);
-    ``flag_leverage`` (n,) or None: the leverage ratio past which a sample is flagged (module docstring);
-    ``regions``: the posture regions held out within one trajectory (0: none, the blocks alone).
-    """
-
-    level: float
-    half_width: np.ndarray
-    folds: int
-    samples: int
-    held_out_rms: np.ndarray
-    leverage_gain: np.ndarray | None = None
-    trajectories: int = 1
-    flag_leverage: np.ndarray | None = None
-    regions: int = 0
-
-    def __post_init__(self):
-        for k in ("half_width", "held_out_rms", "leverage_gain", "flag_leverage"):
-            if getattr(self, k) is None:
-                continue
-            a = np.asarray(getattr(self, k), dtype=np.float64).reshape(-1)
-            if not np.all(np.isfinite(a)) or np.any(a < 0):
-                raise ModelError(f"prediction band: {k}: expected finite numbers >= 0, got {a.tolist()}")
-            a.setflags(write=False)
-            object.__setattr__(self, k, a)
-        if not 0 < float(self.level) < 1:
-            raise ModelError(f"prediction band: level: expected a fraction in (0, 1), got {self.level}")
-        if len(self.held_out_rms) != len(self.half_width):
-            raise ModelError("prediction band: held_out_rms and half_width differ in length")
-        if self.leverage_gain is not None and len(self.leverage_gain) != len(self.half_width):
-            raise ModelError("prediction band: leverage_gain and half_width differ in length")
-        if self.flag_leverage is not None and len(self.flag_leverage) != len(self.half_width):
-            raise ModelError("prediction band: flag_leverage and half_width differ in length")
-        if int(self.trajectories) != self.trajectories or self.trajectories < 1:
-            raise ModelError(f"prediction band: trajectories: expected an integer >= 1, got {self.trajectories!r}")
-        object.__setattr__(self, "trajectories", int(self.trajectories))
-        if int(self.regions) != self.regions or self.regions < 0:
-            raise ModelError(f"prediction band: regions: expected an integer >= 0, got {self.regions!r}")
-        object.__setattr__(self, "regions", int(self.regions))
-
-    @property
-    def within_one_trajectory(self) -> bool:
-        """Whether the band saw a single trajectory (module docstring)."""
-        return self.trajectories < 2
-
-    @property
-    def n(self) -> int:
-        return len(self.half_width)
-
-    @property
-    def grows(self) -> bool:
-        """Whether the half-width grows with the leverage on some joint."""
-        return self.leverage_gain is not None and bool(np.any(self.leverage_gain > 0))
-
-    def widths(self, u=None) -> np.ndarray:
-        """Half-width per sample and joint (N, n) at leverage ratios ``u`` (N, n); ``u`` None: at ``u = 1``."""
-        if u is None or not self.grows:
-            return np.broadcast_to(self.half_width, (1, self.n) if u is None else np.shape(u))
-        g = self.leverage_gain
-        return self.half_width * np.sqrt((1.0 + g * np.asarray(u, dtype=np.float64)) / (1.0 + g))
-
-    def interval(self, predicted, u=None) -> tuple[np.ndarray, np.ndarray]:
-        """``(lo, hi)`` around ``predicted`` (N, n), at the leverage ratios ``u`` (N, n) when the band grows."""
-        p = np.asarray(predicted, dtype=np.float64)
-        w = self.widths(u) if u is not None else self.half_width
-        return p - w, p + w
-
-    def describe(self) -> str:
-        grows = ", growing with the leverage on joint(s) " + ", ".join(
-            str(j + 1) for j in np.flatnonzero(self.leverage_gain > 0)) if self.grows else ""
-        if not self.within_one_trajectory:
-            return (f"held-out trajectories ({self.trajectories} distinct, each predicted by a fit on the others, "
-                    f"{self.samples} held-out samples), at least the {self.folds} blocks' within-run band: model "
-                    "error between runs and correlated noise")
-        if self.regions:
-            return (f"held-out posture regions ({self.regions}, each predicted by a fit on the others), at least the "
-                    f"{self.folds} blocks' band ({self.samples} held-out samples), within one trajectory: model error "
-                    "where the fit must reach postures it did not see, and correlated noise")
-        return (f"blocked hold-outs of the fit data ({self.folds} blocks, {self.samples} held-out samples), within "
-                f"one trajectory: model error and correlated noise{grows}")
-
-    def to_dict(self) -> dict:
-        out = {"method": "blocked hold-out" if self.within_one_trajectory else "held-out trajectories",
-               "trajectories": int(self.trajectories), "level": float(self.level), "folds": int(self.folds),
-               "samples": int(self.samples), "half_width": [float(x) for x in self.half_width],
-               "held_out_rms": [float(x) for x in self.held_out_rms]}
-        if self.leverage_gain is not None:
-            out["leverage_gain"] = [float(x) for x in self.leverage_gain]
-        if self.flag_leverage is not None:
-            out["flag_leverage"] = [float(x) for x in self.flag_leverage]
-        if self.regions:
-            out["regions"] = int(self.regions)
-        return out
-
-    @classmethod
-    def from_dict(cls, value, n: int, where: str) -> "PredictionBand":
-        if not isinstance(value, dict):
-            raise ModelError(f"{where}: expected an object with level, folds, samples, half_width, held_out_rms")
-        try:
-            band = cls(level=float(value["level"]), half_width=np.array(value["half_width"], dtype=np.float64),
-                       folds=int(value["folds"]), samples=int(value["samples"]),
-                       held_out_rms=np.array(value["held_out_rms"], dtype=np.float64),
-                       leverage_gain=(None if value.get("leverage_gain") is None
-                                      else np.array(value["leverage_gain"], dtype=np.float64)),
-                       trajectories=int(value.get("trajectories", 1)), regions=int(value.get("regions", 0)),
-                       flag_leverage=(None if value.get("flag_leverage") is None
-                                      else np.array(value["flag_leverage"], dtype=np.float64)))
-        except (KeyError, TypeError, ValueError, OverflowError) as exc:
-            raise ModelError(f"{where}: malformed prediction band ({exc})") from None
-        if band.n != n:
-            raise ModelError(f"{where}: half_width: expected {n} numbers, got {band.n}")
-        return band
-
-    def to_text(self) -> str:
-        """One line for a model file's ``[sources]`` (:meth:`from_text` reads it back)."""
-        def nums(a):
-            return "[" + ", ".join(f"{x:.6g}" for x in a) + "]"
-
-        how = ("" if self.within_one_trajectory else
-               f" (at least; {self.trajectories} held-out trajectories set it where wider)")
-        if self.within_one_trajectory and self.regions:
-            how = f" (at least; {self.regions} held-out posture regions set it where wider)"
-        return (f"{100 * self.level:g} % band half-width per joint{how} from {self.folds} blocked hold-outs of "
-                f"{self.samples} samples of the fit data: {nums(self.half_width)}; held-out RMS "
-                f"{nums(self.held_out_rms)}" + (f"; growing as sqrt(1 + g u) with the leverage ratio u, g "
-                                                f"{nums(self.leverage_gain)}" if self.grows else ""))
-
-    @classmethod
-    def from_text(cls, text: str, n: int, where: str) -> "PredictionBand":
-        m = re.match(r"\s*([0-9.eE+-]+) % band half-width per joint(?: \([^)]*\))? from (\d+) blocked hold-outs of (\d+) "
-                     r"samples[^:]*:\s*\[([^\]]*)\];\s*held-out RMS\s*\[([^\]]*)\]", text)
-        if m is None:
-            raise ModelError(f"{where}: expected '95 % band half-width per joint from K blocked hold-outs of "
-                             f"N samples ...: [...]; held-out RMS [...]', got {text[:60]!r}")
-        held = re.search(r"\(at least; (\d+) held-out (trajectories|posture regions)", text)
-        extra = {} if held is None else ({"trajectories": int(held.group(1))} if held.group(2) == "trajectories"
-                                         else {"regions": int(held.group(1))})
-        try:
-            return cls.from_dict({"level": float(m.group(1)) / 100, "folds": m.group(2), "samples": m.group(3),
-                                  "half_width": [float(x) for x in m.group(4).split(",")],
-                                  "held_out_rms": [float(x) for x in m.group(5).split(",")], **extra}, n, where)
-        except ValueError:
-            raise ModelError(f"{where}: the band's numbers are not numbers") from None
-
-
 def _blocks(N: int, folds: int) -> np.ndarray:
     if int(folds) != folds or folds < 2:
         raise ModelError(f"folds: expected an integer >= 2, got {folds!r}")
@@ -434,7 +275,7 @@ def _weights(rms) -> np.ndarray:
 
 def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: float = DEFAULT_LEVEL,
                    smoothing: float | None = None, leverage: bool = True, labels=None, regions: bool = True,
-                   refits: dict | None = None,
+                   refits: dict | None = None, notes: list | None = None,
                    **fit_kwargs) -> PredictionBand:
     """The :class:`PredictionBand` of a fit on ``q, qd, qdd, tau`` (N, n) by blocked hold-outs, and by held-out
     trajectories when ``labels`` (N,) gives two or more groups, else by held-out posture regions where they
@@ -447,8 +288,10 @@ def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: floa
     within-run band).  Costs ``folds`` refits, and one per held-out group or posture region.  ``refits``: a
     dict that receives the refits' ``(test, arm)`` pairs (:func:`held_out_residuals`) under ``"blocks"``
     and, with two or more groups, ``"trajectories"`` (not the posture regions': scattered in time, they are
-    no span an observer can watch).  Raises :class:`ModelError` when the data is too short for the
-    blocks or a refit fails.
+    no span an observer can watch).  When the other trajectories cannot be fitted without one of them (a
+    run that alone leaves a base parameter unexcited), the band is one trajectory's, and ``notes`` (a list)
+    receives the line that says why.  Raises :class:`ModelError` when the data is too short for the
+    blocks or a block's refit fails.
     """
     if not 0 < float(level) < 1:
         raise ModelError(f"level: expected a fraction in (0, 1), got {level}")
@@ -460,6 +303,20 @@ def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: floa
     if groups is not None and len(labels) != len(q):
         raise ModelError(f"labels: expected {len(q)} group labels, one per sample, got {len(labels)}")
     n_regions = 0
+    res_t = None
+    if groups is not None and len(groups) >= 2:
+        masks = [np.asarray(labels) == g for g in groups]
+        kept = None if refits is None else []
+        try:
+            res_t = held_out_residuals(arm, q, qd, qdd, tau, masks=masks, refits=kept, **fit_kwargs)
+        except ModelError as exc:       # a trajectory left out leaves the others unable to fit alone
+            if notes is not None:
+                notes.append(f"band: the {len(groups)} trajectories cannot each be predicted by a fit on the others "
+                             f"({exc}); the band is calibrated within the runs instead")
+            groups = labels = None
+        else:
+            if refits is not None:
+                refits["trajectories"] = kept
     if (groups is None or len(groups) < 2) and regions:    # one trajectory: its posture regions (module docstring)
         from ..inputs.trajectories import posture_regions
 
@@ -467,10 +324,10 @@ def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: floa
         groups = None if labels is None else np.unique(labels)
         n_regions = 0 if groups is None else len(groups)
     if groups is not None and len(groups) >= 2:
-        masks = [np.asarray(labels) == g for g in groups]
-        kept = None if refits is None or n_regions else refits.setdefault("trajectories", [])
-        res_t = np.where(still, np.nan, held_out_residuals(arm, q, qd, qdd, tau, masks=masks, refits=kept,
-                                                           **fit_kwargs))
+        if res_t is None:           # the posture regions of one trajectory
+            masks = [np.asarray(labels) == g for g in groups]
+            res_t = held_out_residuals(arm, q, qd, qdd, tau, masks=masks, **fit_kwargs)
+        res_t = np.where(still, np.nan, res_t)
         rms_t = np.sqrt(np.nanmean(res_t**2, axis=0))
         width = np.maximum(conformal_half_width(res_t, level), conformal_half_width(res, level))
         flag = None
