@@ -35,9 +35,11 @@ it there, accelerations included)::
   thresholds are for ``observe``'s offline reading of a log; :class:`~.observer.MomentumObserver` (a
   controller's loop) gives residuals only.
 
-Measured on the UR5 (issue 45's command, gain 100 1/s): ``g`` 0.03, 0.03, 0, 0.3, 0.3, 1 on joints 1 to 6; the
-held-out mean threshold 34.9, 33.5, 20.4, 5.0, 3.3, 1.6 N m against the constant 38.8, 35.9, 20.4, 6.8, 5.0,
-4.4 N m.
+Measured on the UR5 (issue 45's command, gain 100 1/s): ``g`` 0.03, 0.03, 0, 0.3, 0.3, 3 on joints 1 to 6; the
+held-out mean threshold 35.4, 32.4, 20.4, 4.97, 3.24, 1.53 N m against the constant 38.8, 35.9, 20.4, 6.8, 4.98,
+4.42 N m; on the three runs without a push the median threshold 34.3-34.5, 30.6-33.8, 20.4, 4.1-4.75, 2.74-3.0,
+1.09-1.11 N m, the highest 47.9, 38.4, 20.4, 9.93, 6.95, 3.06 N m (No7's fastest moves), and still no event; the
+Panda's log (one trajectory, blocks) keeps ``g = 0`` on every joint, its constant thresholds.
 """
 
 from __future__ import annotations

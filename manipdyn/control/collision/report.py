@@ -79,7 +79,6 @@ class ObserveResult:
                 "logs": [{"log": obs.label, "samples": int(len(obs.t)), "duration": float(obs.t[-1] - obs.t[0]),
                           "rate": 1.0 / obs.dt,
                           "peak_residual": [float(x) for x in np.abs(r).max(axis=0)],
-                          "peak_ratio": [float(x) for x in (np.abs(r) / self.thresholds_of(i)).max(axis=0)],
                           "threshold_range": [[float(a), float(b)] for a, b in
                                               zip(self.thresholds_of(i).min(axis=0), self.thresholds_of(i).max(axis=0))],
                           "peak_direct": None if d is None else [float(x) for x in np.abs(d).max(axis=0)],
