@@ -128,7 +128,7 @@ class ObserveResult:
             for k in range(len(obs.t)):
                 dd = ",".join(repr(float(x)) for x in d[k]) if d is not None else "," * (n - 1)
                 T = ",".join(repr(float(x)) for x in Ts[k])
-                buf.write(f"{label},{obs.t[k]!r},{','.join(repr(float(x)) for x in r[k])},{dd},{T},{inside[k]}\n")
+                buf.write(f"{label},{float(obs.t[k])!r},{','.join(repr(float(x)) for x in r[k])},{dd},{T},{inside[k]}\n")
         atomic_write_text(os.fspath(path), buf.getvalue())
 
     def figure(self, run: int = 0):
