@@ -103,7 +103,7 @@ def run(args) -> int:
                                  args.hysteresis, cal_opts, args.fit_data, args.velocity_cutoff)
         res = None
         if args.logs:
-            res = observe(arm, args.logs, thr.gain, false_alarms=args.false_alarms, threshold=thr.threshold,
+            res = observe(arm, args.logs, thr.gain, false_alarms=args.false_alarms, threshold=thr,
                           min_duration=args.min_duration, hysteresis=args.hysteresis,
                           velocity_cutoff=thr.velocity_cutoff, **opts)
             res.thresholds = thr

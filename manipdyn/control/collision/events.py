@@ -119,16 +119,17 @@ def _spans(t, r, T, min_duration, hysteresis):
 
 def detect_events(arm, t, q, r, T, min_duration: float, hysteresis: float, wrench: bool = True,
                   lag: float = 0.0) -> list[Event]:
-    """The :class:`Event` list of residual ``r`` (N, n) against thresholds ``T`` (n,), N m, at times ``t``
+    """The :class:`Event` list of residual ``r`` (N, n) against thresholds ``T`` (n,) or per sample (N, n), N m, at times ``t``
     (N,) s and positions ``q`` (N, n); ``wrench``: estimate the tool wrench (needs ``n >= 6``).  ``lag``, s:
     how far the residual trails the external torque (the observer's ``1/K``, plus ``1/(2 pi f_c)`` with its
     low-pass): each residual sample is mapped through the Jacobian of the pose ``lag`` earlier, where the
     torque it follows was exerted (near a singular pose a Jacobian a few ms off moves a 6-D wrench far)."""
     t, r, T = np.asarray(t, dtype=np.float64), np.asarray(r, dtype=np.float64), np.asarray(T, dtype=np.float64)
     shift = int(round(float(lag) / float(np.median(np.diff(t))))) if len(t) > 1 and lag > 0 else 0
+    T_at = (lambda a, b: T[a:b]) if T.ndim == 2 else (lambda a, b: T)     # per sample (N, n), or per joint (n,)
     out = []
     for onset, det, end in _spans(t, r, T, min_duration, hysteresis):
-        seg = np.abs(r[onset:end]) / T
+        seg = np.abs(r[onset:end]) / T_at(onset, end)
         ratio = seg.max(axis=1)
         kp = onset + int(np.argmax(ratio))
         joints = [int(j) + 1 for j in np.flatnonzero(np.any(seg > 1.0, axis=0))]
@@ -146,7 +147,7 @@ def detect_events(arm, t, q, r, T, min_duration: float, hysteresis: float, wrenc
             Jt = np.concatenate(np.swapaxes(J, 1, 2))                       # (k n, 6): the J_k^T stacked
             ev.wrench = np.linalg.lstsq(Jt, r[plateau].reshape(-1), rcond=None)[0]
             Pp = np.linalg.pinv(J[np.searchsorted(plateau, kp)].T)      # the peak is on the plateau
-            ev.wrench_uncertainty = np.abs(Pp) @ T
+            ev.wrench_uncertainty = np.abs(Pp) @ (T[kp] if T.ndim == 2 else T)
             ev.condition = float(np.linalg.cond(J[np.searchsorted(plateau, kp)]))
             # a force alone, no moment: well conditioned at every sample (the tool moves in three
             # directions), so the mean of the per-sample estimates, each sample weighed alike (the stacked

@@ -40,6 +40,7 @@ from ...identification.inputs.options import OptionError, brace_safe
 from ...identification.uncertainty.bands import DEFAULT_FOLDS
 from ...identification.uncertainty.thresholds import (DEFAULT_HYSTERESIS, DEFAULT_MIN_DURATION,
                                                       DEFAULT_RATE, CollisionThresholds, fit_thresholds)
+from .extrapolation import choose_leverage_gain, leverage_ratios, model_reference, refit_reference
 from .gain import choose_gain
 from .observer import check_gain, check_velocity_cutoff, momentum_input, observer_output
 from .reading import read_observed
@@ -114,6 +115,8 @@ def identified_thresholds(result, logs, gain: float | None = None, false_alarms:
     starts = np.concatenate([[0], np.cumsum(segments)])
     both = kind == "trajectories" and held.kind == "trajectories" and bool(held.refits.get("blocks"))
     parts, dts, block_parts = [], [], []
+    ratios = {id(parts): [], id(block_parts): []}        # the leverage ratios of the held-out samples (extrapolation)
+    reference = model_reference(result.arm)
     for r, spec in enumerate(specs):
         run_opts = dict(opts)
         for key in ("t_range", "rate", "columns"):
@@ -130,6 +133,9 @@ def identified_thresholds(result, logs, gain: float | None = None, false_alarms:
                         raise ModelError(f"thresholds: a hold-out of {os.path.basename(spec.path)} holds "
                                          f"{int(np.sum(inside))} raw samples; fewer folds")
                     out.append(momentum_input(arm, raw.q[inside], raw.qd[inside], raw.tau[inside], raw.dt))
+                    if reference is not None:
+                        ratios[id(out)].append(leverage_ratios(refit_reference(reference, arm, data, mask), arm,
+                                                               raw.q[inside], raw.qd[inside], raw.dt))
     if max(dts) > 1.01 * min(dts):
         raise ModelError(f"thresholds: the fit logs' sample periods differ ({min(dts):.4g} to {max(dts):.4g} s); "
                          "resample them to one rate (--resample)")
@@ -145,25 +151,34 @@ def identified_thresholds(result, logs, gain: float | None = None, false_alarms:
                   "of the band's refit on the others")
     dt = float(np.median(dts))
 
-    def at(k):
-        return _at_gain(parts, block_parts, dt, k, fc, false_alarms, min_duration, hysteresis, source, held.folds)
+    def at(k, g=0.0):
+        return _at_gain(parts, block_parts, dt, k, fc, false_alarms, min_duration, hysteresis, source, held.folds,
+                        (ratios[id(parts)], ratios[id(block_parts)]) if g > 0 else None, g)
 
-    return at(K) if K is not None else choose_gain(at)
+    thr = at(K) if K is not None else choose_gain(at)
+    if reference is None:
+        return thr
+    # then each joint's threshold may grow with the leverage ratio, at the chosen K (extrapolation.py)
+    return choose_leverage_gain(lambda g: at(thr.gain, g) if g > 0 else thr, ratios[id(parts)])
 
 
-def _at_gain(parts, block_parts, dt, K, fc, false_alarms, min_duration, hysteresis, source, folds):
+def _at_gain(parts, block_parts, dt, K, fc, false_alarms, min_duration, hysteresis, source, folds, ratios=None,
+             leverage_gain=0.0):
     """:func:`identified_thresholds` at gain ``K``: ``parts`` (and ``block_parts``) the observer's inputs of
-    the hold-outs (:func:`~manipdyn.control.collision.observer.momentum_input`)."""
-    def residuals(xs):
-        return np.vstack([observer_output(x, dt, K, fc) for x in xs])
+    the hold-outs (:func:`~manipdyn.control.collision.observer.momentum_input`); with ``ratios`` (the parts' and
+    the block parts' leverage ratios, lists of (N_k, n)), the residuals divided by ``sqrt(1 + leverage_gain u)``."""
+    def residuals(xs, us=None):
+        return np.vstack([observer_output(x, dt, K, fc) / (1.0 if us is None else np.sqrt(1.0 + leverage_gain * u))
+                          for x, u in zip(xs, us if us is not None else [None] * len(xs))])
 
-    thr = fit_thresholds(residuals(parts), dt, false_alarms, gain=K, min_duration=min_duration,
+    us, block_us = ratios if ratios is not None else (None, None)
+    thr = fit_thresholds(residuals(parts, us), dt, false_alarms, gain=K, min_duration=min_duration,
                          hysteresis=hysteresis, source=source, velocity_cutoff=fc)
     if not block_parts:
         return thr
     # as the band does: at least the blocks' thresholds per joint (two or three held-out trajectories may
     # happen to carry over well on a joint, below what the noise and the within-run error give on any run)
-    blocks = fit_thresholds(residuals(block_parts), dt, false_alarms, gain=K, min_duration=min_duration,
+    blocks = fit_thresholds(residuals(block_parts, block_us), dt, false_alarms, gain=K, min_duration=min_duration,
                             hysteresis=hysteresis)
     wider = blocks.threshold > thr.threshold
     if not np.any(wider):

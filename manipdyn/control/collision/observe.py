@@ -29,6 +29,7 @@ from ...identification.inputs.options import OptionError, brace_safe
 from ...identification.uncertainty.thresholds import (DEFAULT_GAIN, DEFAULT_HYSTERESIS, DEFAULT_MIN_DURATION,
                                                       DEFAULT_RATE, CollisionThresholds, fit_thresholds)
 from .events import detect_events
+from .extrapolation import threshold_levels
 from .gain import choose_gain
 from .observer import (check_gain, check_velocity_cutoff, direct_residual, momentum_input, momentum_residual,
                        observer_output)
@@ -149,6 +150,8 @@ def resolve_thresholds(arm, gain, false_alarms, calibrate, threshold, min_durati
             raise OptionError("{}: expected " + ("seconds >= 0" if name == "min_duration" else
                                                  "a fraction in [0, 1) of the threshold") + brace_safe(f", got {v!r:.40}"),
                               name)
+    if isinstance(threshold, CollisionThresholds):        # a record resolved already (the CLI's)
+        return replace(threshold, min_duration=min_duration, hysteresis=hysteresis)
     if threshold is not None:
         return _explicit(threshold, arm.n, DEFAULT_GAIN if gain is None else gain, false_alarms, min_duration,
                          hysteresis,
@@ -195,7 +198,8 @@ def observe(arm, log_or_arrays, gain: float | None = None, *, false_alarms: floa
     (N,) s, uniform; ``q``, ``qd``, ``tau`` (N, n); optionally ``qdd``).  ``gain``: the momentum observer's
     K, 1/s (None: the carried thresholds' own, else chosen on the calibration data or hold-outs for the
     smallest torque detected within 20 ms, :mod:`manipdyn.control.collision.gain`, else 100).  ``false_alarms``: false events per hour the thresholds allow (all joints together).
-    ``calibrate``: collision-free logs or arrays for the thresholds; ``threshold``: N m per joint.
+    ``calibrate``: collision-free logs or arrays for the thresholds; ``threshold``: N m per joint (or a
+    :class:`CollisionThresholds` record, used as it is).
     ``fit_data``: the log, or list of logs, the model was identified from (its trust record checks the
     sha256): thresholds from the band's hold-outs of them (:mod:`manipdyn.control.collision.holdouts`).
     ``calibrate_t_range``: ``(t0, t1)`` s (or ``"T0:T1"``) of the calibration logs, in place of ``t_range``
@@ -214,12 +218,13 @@ def observe(arm, log_or_arrays, gain: float | None = None, *, false_alarms: floa
     thr = resolve_thresholds(arm, gain, false_alarms, calibrate, threshold, min_duration, hysteresis, cal_options,
                              fit_data, velocity_cutoff)
     K = thr.gain
-    runs = []
+    runs, levels = [], []
     for obs in read_observed(arm, log_or_arrays, **log_options):
         r = _residual(arm, obs, K, thr.velocity_cutoff)
         d = direct_residual(arm, obs.q, obs.qd, obs.qdd, obs.tau) if direct and obs.qdd is not None else None
         lag = 1.0 / K + (1.0 / (2.0 * np.pi * thr.velocity_cutoff) if thr.velocity_cutoff > 0 else 0.0)
-        ev = detect_events(arm, obs.t, obs.q, r, thr.threshold, thr.min_duration, thr.hysteresis, wrench=wrench,
-                           lag=lag)
+        T, _ = threshold_levels(thr, arm, obs.q, obs.qd, obs.dt)      # (n,), or (N, n) where they scale
+        ev = detect_events(arm, obs.t, obs.q, r, T, thr.min_duration, thr.hysteresis, wrench=wrench, lag=lag)
         runs.append((obs, r, d, ev))
-    return ObserveResult(arm=arm, thresholds=thr, runs=runs)
+        levels.append(T)
+    return ObserveResult(arm=arm, thresholds=thr, runs=runs, levels=levels)

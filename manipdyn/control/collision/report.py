@@ -44,12 +44,20 @@ class ObserveResult:
     ``thresholds``: :class:`~manipdyn.identification.uncertainty.thresholds.CollisionThresholds`;
     ``runs``: per log ``(observed, residual, direct, events)``: the log (``t``, ``q``, ``qd``, ``tau``),
     the momentum observer's residual (N, n) N m, the direct residual (N, n) or None, and the
-    :class:`~manipdyn.control.collision.events.Event` list.
+    :class:`~manipdyn.control.collision.events.Event` list; ``levels``: per log the thresholds in effect, (n,)
+    or, where they grow with the leverage ratio (:mod:`~manipdyn.control.collision.extrapolation`), (N, n)
+    per sample (None: the thresholds' own, every log).
     """
 
     arm: object
     thresholds: object
     runs: list
+    levels: list | None = None
+
+    def thresholds_of(self, run: int) -> np.ndarray:
+        """The thresholds in effect on log ``run``, (N, n) N m, one row per sample."""
+        T = np.asarray(self.thresholds.threshold if self.levels is None else self.levels[run], dtype=np.float64)
+        return np.broadcast_to(T, (len(self.runs[run][0].t), self.thresholds.n))
 
     @property
     def events(self) -> list:
@@ -67,12 +75,15 @@ class ObserveResult:
                 "false_alarms_per_hour": thr.false_alarms_per_hour, "min_duration": thr.min_duration,
                 "hysteresis": thr.hysteresis, "threshold": [float(x) for x in thr.threshold],
                 "threshold_source": thr.source,
+                **({} if thr.leverage_gain is None else {"leverage_gain": [float(x) for x in thr.leverage_gain]}),
                 "logs": [{"log": obs.label, "samples": int(len(obs.t)), "duration": float(obs.t[-1] - obs.t[0]),
                           "rate": 1.0 / obs.dt,
                           "peak_residual": [float(x) for x in np.abs(r).max(axis=0)],
+                          "threshold_range": [[float(a), float(b)] for a, b in
+                                              zip(self.thresholds_of(i).min(axis=0), self.thresholds_of(i).max(axis=0))],
                           "peak_direct": None if d is None else [float(x) for x in np.abs(d).max(axis=0)],
                           "events": [e.to_dict() for e in ev], "notes": list(obs.notes)}
-                         for obs, r, d, ev in self.runs]}
+                         for i, (obs, r, d, ev) in enumerate(self.runs)]}
 
     def format(self) -> str:
         thr = self.thresholds
@@ -82,10 +93,16 @@ class ObserveResult:
                  "  " + "  ".join(f"j{j + 1} {x:.3g}" for j, x in enumerate(thr.threshold))]
         if thresholds_warning(thr):
             lines.append("warning: " + thresholds_warning(thr))
-        for obs, r, d, ev in self.runs:
+        if thr.leverage_gain is not None:
+            lines.append("  each threshold x sqrt(1 + g u), u the sample's leverage ratio against the fit data (1 on a "
+                         "typical fitted sample): g " + " ".join(f"j{j + 1} {x:g}" for j, x in enumerate(thr.leverage_gain)))
+        for i, (obs, r, d, ev) in enumerate(self.runs):
+            T = self.thresholds_of(i)
+            span = ("" if thr.leverage_gain is None else "; thresholds here (median, max), N m: " + " ".join(
+                f"{a:.3g}/{b:.3g}" for a, b in zip(np.median(T, axis=0), T.max(axis=0))))
             lines.append(f"{obs.label}: {len(obs.t)} samples, {obs.t[-1] - obs.t[0]:.3g} s at {1 / obs.dt:.4g} Hz; "
-                         f"peak |r| / threshold " + " ".join(f"{x:.2f}" for x in np.abs(r).max(axis=0) / thr.threshold)
-                         + f"; {len(ev)} event(s)")
+                         f"peak |r| / threshold " + " ".join(f"{x:.2f}" for x in (np.abs(r) / T).max(axis=0))
+                         + f"{span}; {len(ev)} event(s)")
             for k, e in enumerate(ev):
                 s = (f"  event {k + 1}: {e.onset:.4f} to {e.end:.4f} s (detected {e.detected:.4f} s), peak at "
                      f"{e.peak_time:.4f} s, {e.peak_ratio:.2f} x threshold; joints "
@@ -102,15 +119,16 @@ class ObserveResult:
         buf = io.StringIO()
         buf.write(",".join(["log", "t"] + [f"r{j + 1}" for j in range(n)] + [f"d{j + 1}" for j in range(n)]
                            + [f"T{j + 1}" for j in range(n)] + ["event"]) + "\n")
-        T = ",".join(repr(float(x)) for x in self.thresholds.threshold)
-        for obs, r, d, ev in self.runs:
+        for i, (obs, r, d, ev) in enumerate(self.runs):
+            Ts = self.thresholds_of(i)
             inside = np.zeros(len(obs.t), dtype=int)
             for e in ev:
                 inside[e.samples[0]:e.samples[1]] = 1
             label = obs.label.replace(",", "_")
             for k in range(len(obs.t)):
                 dd = ",".join(repr(float(x)) for x in d[k]) if d is not None else "," * (n - 1)
-                buf.write(f"{label},{obs.t[k]!r},{','.join(repr(float(x)) for x in r[k])},{dd},{T},{inside[k]}\n")
+                T = ",".join(repr(float(x)) for x in Ts[k])
+                buf.write(f"{label},{float(obs.t[k])!r},{','.join(repr(float(x)) for x in r[k])},{dd},{T},{inside[k]}\n")
         atomic_write_text(os.fspath(path), buf.getvalue())
 
     def figure(self, run: int = 0):
@@ -120,19 +138,19 @@ class ObserveResult:
 
         plt = pyplot()
         obs, r, d, ev = self.runs[run]
-        n, T = self.thresholds.n, self.thresholds.threshold
+        n, T = self.thresholds.n, self.thresholds_of(run)
         fig, axes = plt.subplots(n, 1, figsize=(9, 1.3 * n + 1), sharex=True, squeeze=False)
         for j in range(n):
             ax = axes[j, 0]
             if d is not None:
                 ax.plot(obs.t, d[:, j], color="0.75", lw=0.5, label="direct")
             ax.plot(obs.t, r[:, j], color="C0", lw=0.8, label="momentum observer")
-            ax.axhline(T[j], color="C3", lw=0.8, ls="--")
-            ax.axhline(-T[j], color="C3", lw=0.8, ls="--", label="threshold")
+            ax.plot(obs.t, T[:, j], color="C3", lw=0.8, ls="--")
+            ax.plot(obs.t, -T[:, j], color="C3", lw=0.8, ls="--", label="threshold")
             for e in ev:
                 ax.axvspan(e.onset, e.end, color="C1", alpha=0.25, lw=0)
             ax.set_ylabel(f"j{j + 1}, N m", fontsize=8)
-            lim = 1.6 * max(T[j], float(np.max(np.abs(r[:, j]))))
+            lim = 1.6 * max(float(np.median(T[:, j])), float(np.max(np.abs(r[:, j]))))
             ax.set_ylim(-lim, lim)
         axes[0, 0].legend(loc="upper right", fontsize=7, ncol=3)
         axes[-1, 0].set_xlabel("t, s")
@@ -171,10 +189,12 @@ class ObserveResult:
         total = len(self.events)
         parts.append(H.verdict(f"{total} event(s) in {len(self.runs)} log(s)", "ok" if total == 0 else "warn"))
         given = getattr(thr, "given", False)
+        g = thr.leverage_gain
         parts.append(H.section("Thresholds", H.table(
-            ["joint", "threshold, N m"] + ([] if given else ["highest level seen in calibration, N m"]),
+            ["joint", "threshold, N m"] + ([] if given else ["highest level seen in calibration, N m"])
+            + ([] if g is None else ["leverage gain g (threshold x sqrt(1 + g u))"]),
             [[f"j{j + 1}", float(thr.threshold[j])] + ([] if given else [float(thr.observed_max[j])])
-             for j in range(n)], name="thresholds"),
+             + ([] if g is None else [float(g[j])]) for j in range(n)], name="thresholds"),
             H.paragraph("The highest level seen: the largest residual, sustained over the event's minimum "
                         "duration, that the collision-free calibration data reached on the joint; a threshold "
                         "is never below it.") if not given else H.paragraph("Thresholds given as numbers.")))

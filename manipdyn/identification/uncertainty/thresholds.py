@@ -121,7 +121,13 @@ class CollisionThresholds:
     ``ln N(u) = a - b u`` per joint (``tail_a``, ``tail_b``), ``observed_max`` (n,) the highest
     sustained level seen, ``source`` (text) and ``velocity_cutoff`` (Hz, the observer's output low-pass,
     :mod:`manipdyn.control.collision.observer`; 0: none): a residual is compared with them only when it
-    comes from the same observer (the same gain and low-pass)."""
+    comes from the same observer (the same gain and low-pass).
+
+    ``leverage_gain`` (n,) or None: with it, joint j's threshold on a sample is
+    ``threshold_j sqrt(1 + leverage_gain_j u_j)`` (:meth:`levels`), ``u_j`` the sample's leverage ratio against the
+    fit data (:mod:`.leverage`; 1 on a typical fitted sample): the thresholds widen where the state leaves what
+    the fit saw (:mod:`manipdyn.control.collision.extrapolation`); ``threshold``, the tail and ``observed_max``
+    are then those of the residual divided by ``sqrt(1 + leverage_gain_j u_j)``."""
 
     threshold: np.ndarray
     false_alarms_per_hour: float
@@ -134,14 +140,21 @@ class CollisionThresholds:
     observed_max: np.ndarray
     source: str = ""
     velocity_cutoff: float = 0.0
+    leverage_gain: np.ndarray | None = None
 
     def __post_init__(self):
-        for k in ("threshold", "tail_a", "tail_b", "observed_max"):
+        for k in ("threshold", "tail_a", "tail_b", "observed_max", "leverage_gain"):
+            if getattr(self, k) is None:
+                continue
             a = np.asarray(getattr(self, k), dtype=np.float64).reshape(-1)
-            if not np.all(np.isfinite(a)):
-                raise ModelError(f"collision thresholds: {k}: expected finite numbers, got {a.tolist()}")
+            if not np.all(np.isfinite(a)) or (k == "leverage_gain" and (a.shape != self.threshold.shape
+                                                                          or np.any(a < 0))):
+                raise ModelError(f"collision thresholds: {k}: expected finite numbers"
+                                 + (" >= 0, one per joint" if k == "leverage_gain" else "") + f", got {a.tolist()}")
             a.setflags(write=False)
             object.__setattr__(self, k, a)
+        if self.leverage_gain is not None and not np.any(self.leverage_gain > 0):
+            object.__setattr__(self, "leverage_gain", None)      # all zero: the constant thresholds
         if np.any(self.threshold <= 0):
             raise ModelError(f"collision thresholds: threshold: expected numbers > 0, got {self.threshold.tolist()}")
         for name, ok in (("false_alarms_per_hour", self.false_alarms_per_hour > 0), ("hours", self.hours > 0),
@@ -156,6 +169,24 @@ class CollisionThresholds:
     @property
     def n(self) -> int:
         return len(self.threshold)
+
+    @property
+    def scales_with_leverage(self) -> bool:
+        """Whether some joint's threshold grows with the leverage ratio (``leverage_gain`` > 0 there)."""
+        return self.leverage_gain is not None
+
+    def levels(self, u=None) -> np.ndarray:
+        """The thresholds in effect, N m: ``threshold_j sqrt(1 + leverage_gain_j u_j)`` (N, n) at the leverage
+        ratios ``u`` (N, n) of :mod:`.leverage` (``threshold`` itself, (n,), with ``u`` None or no gain)."""
+        if u is None or self.leverage_gain is None:
+            return np.asarray(self.threshold)
+        u = np.asarray(u, dtype=np.float64)
+        return self.threshold * np.sqrt(1.0 + self.leverage_gain * np.maximum(u, 0.0))
+
+    @property
+    def typical(self) -> np.ndarray:
+        """(n,) N m: the thresholds at a typical fitted sample (leverage ratio 1); ``threshold`` without a gain."""
+        return self.levels(np.ones(self.n))
 
     @property
     def given(self) -> bool:
@@ -179,7 +210,8 @@ class CollisionThresholds:
                 "hours": float(self.hours), "tail_a": [float(x) for x in self.tail_a],
                 "tail_b": [float(x) for x in self.tail_b],
                 "observed_max": [float(x) for x in self.observed_max], "source": str(self.source),
-                "velocity_cutoff": float(self.velocity_cutoff)}
+                "velocity_cutoff": float(self.velocity_cutoff),
+                **({} if self.leverage_gain is None else {"leverage_gain": [float(x) for x in self.leverage_gain]})}
 
     @classmethod
     def from_dict(cls, value, n: int, where: str) -> "CollisionThresholds":
@@ -198,7 +230,9 @@ class CollisionThresholds:
         try:
             out = cls(arrays["threshold"], scalars["false_alarms_per_hour"], scalars["gain"], scalars["min_duration"],
                       scalars["hysteresis"], scalars["hours"], arrays["tail_a"], arrays["tail_b"],
-                      arrays["observed_max"], str(value.get("source", "")), scalars["velocity_cutoff"])
+                      arrays["observed_max"], str(value.get("source", "")), scalars["velocity_cutoff"],
+                      None if value.get("leverage_gain") is None else _numbers(value["leverage_gain"], n,
+                                                                                f"{where}: leverage_gain"))
         except ModelError as exc:
             raise ModelError(f"{where}: {exc}") from None
         if not out.given:
