@@ -1,5 +1,5 @@
 """Collision thresholds that widen where the state leaves the fit data (issue 45 item 4;
-manipdyn/control/collision/extrapolation.py): ``c_j sqrt(1 + g_j u)``, the record, the choice of ``g``, the events
+manipdyn/control/collision/extrapolation.py): ``T_j sqrt((1 + g_j u) / (1 + g_j))``, the record, the choice of ``g``, the events
 against per-sample thresholds, and a refusal where the model has no leverage reference."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import pytest
 import manipdyn as md
 from manipdyn.control.collision.events import detect_events
 from manipdyn.control.collision.extrapolation import acceleration, choose_leverage_gain, threshold_levels
-from manipdyn.identification.uncertainty.thresholds import CollisionThresholds, fit_thresholds
+from manipdyn.identification.uncertainty.thresholds import CollisionThresholds, fit_thresholds, leverage_factor
 
 DT = 0.008
 
@@ -24,8 +24,9 @@ def _record(T, g=None):
 def test_the_record_keeps_its_gain_and_the_levels_follow_the_formula():
     thr = _record([2.0, 1.0], [0.5, 0.0])
     u = np.array([[0.0, 3.0], [4.0, 9.0]])
-    assert np.allclose(thr.levels(u), [[2.0, 1.0], [2.0 * np.sqrt(3.0), 1.0]])
-    assert np.allclose(thr.typical, [2.0 * np.sqrt(1.5), 1.0])
+    # threshold is the level at u = 1 (a typical fitted sample): T sqrt((1 + g u) / (1 + g))
+    assert np.allclose(thr.levels(u), [[2.0 / np.sqrt(1.5), 1.0], [2.0 * np.sqrt(3.0 / 1.5), 1.0]])
+    assert np.allclose(thr.typical, [2.0, 1.0]) and np.allclose(thr.levels(np.ones((1, 2))), thr.threshold)
     back = CollisionThresholds.from_dict(thr.to_dict(), 2, "test")
     assert np.array_equal(back.leverage_gain, [0.5, 0.0]) and back.scales_with_leverage
     # every gain 0: the constant thresholds, nothing stored
@@ -48,7 +49,7 @@ def test_the_gain_grows_only_where_the_held_out_error_grows_with_the_leverage():
     r = np.column_stack([e[:, 0] * np.sqrt(1 + 3.0 * u[:, 0]), e[:, 1]])
 
     def record_at(g):
-        return fit_thresholds(r / np.sqrt(1.0 + g * u), DT, 1.0, gain=100.0, source="held out")
+        return fit_thresholds(r / leverage_factor(np.full(2, g), u), DT, 1.0, gain=100.0, source="held out")
 
     thr = choose_leverage_gain(record_at, [u])
     assert thr.leverage_gain is not None and thr.leverage_gain[0] > 0 and thr.leverage_gain[1] == 0, thr.leverage_gain
@@ -57,12 +58,14 @@ def test_the_gain_grows_only_where_the_held_out_error_grows_with_the_leverage():
     assert thr.threshold[1] == const.threshold[1]
     assert "leverage ratio" in thr.source
     # none of the joints' errors care: the constant record itself
-    flat = choose_leverage_gain(lambda g: fit_thresholds(e / np.sqrt(1.0 + g * u), DT, 1.0, gain=100.0), [u])
+    flat = choose_leverage_gain(lambda g: fit_thresholds(e / leverage_factor(np.full(2, g), u), DT, 1.0, gain=100.0),
+                                [u])
     assert flat.leverage_gain is None
 
 
 def test_events_are_read_against_the_thresholds_of_each_sample():
-    """A residual of 3 N m on joint 1 crosses c = 2 where u = 0, and not c sqrt(1 + 1 x 4) = 4.5 where u = 4."""
+    """A residual of 3 N m on joint 1 crosses T sqrt(1 / 2) = 2.12 (T = 3 at u = 1, g = 1) where u = 0, and not
+    T sqrt(5 / 2) = 4.74 where u = 4."""
     arm = md.load("ur5")
     t = np.arange(400) * DT
     r = np.zeros((400, 6))
@@ -70,10 +73,10 @@ def test_events_are_read_against_the_thresholds_of_each_sample():
     r[250:300, 0] = 3.0
     u = np.zeros((400, 6))
     u[200:, 0] = 4.0
-    thr = _record(np.full(6, 2.0), [1.0, 0, 0, 0, 0, 0])
+    thr = _record(np.full(6, 3.0), [1.0, 0, 0, 0, 0, 0])
     ev = detect_events(arm, t, np.zeros((400, 6)), r, thr.levels(u), 0.005, 0.5, wrench=False)
     assert [round(e.onset, 3) for e in ev] == [round(t[100], 3)]
-    assert ev[0].peak_ratio == pytest.approx(1.5)
+    assert ev[0].peak_ratio == pytest.approx(3.0 / (3.0 * np.sqrt(0.5)))
 
 
 def test_a_model_without_a_leverage_reference_is_refused_where_the_thresholds_scale():

@@ -16,12 +16,15 @@ threshold on a sample grows with the sample's **leverage ratio** ``u_j``
 data, 1 on a typical fitted sample, large where the state leaves what the data excited, whichever joint took
 it there, accelerations included)::
 
-    T_j(x) = c_j sqrt(1 + g_j u_j(x))
+    T_j(x) = T_j sqrt((1 + g_j u_j(x)) / (1 + g_j))
+
+(``T_j`` the threshold at a typical fitted sample, ``u = 1``, as a band's half-width is; what a loop reading
+``threshold`` alone gets).
 
 * **Calibration** (:func:`choose_leverage_gain`): each held-out sample's ``u`` is taken against the rows its
   own refit saw (:func:`refit_reference`: the same features, weights and ``v_s`` as the model's reference), so a
-  held-out part is as far from its refit's data as it is; the residual divided by ``sqrt(1 + g u)`` gives
-  ``c_j`` through the same tail fit and false-alarm rate as the constant thresholds
+  held-out part is as far from its refit's data as it is; the residual divided by ``sqrt((1 + g u) / (1 + g))`` gives
+  ``T_j`` through the same tail fit and false-alarm rate as the constant thresholds
   (:func:`~manipdyn.identification.uncertainty.thresholds.fit_thresholds`; with held-out trajectories, the
   blocks' at the same ``g`` a floor).  ``g_j`` is the one of the band's gains
   (:data:`~manipdyn.identification.uncertainty.bands.GAINS`) whose threshold, averaged over the held-out samples,
@@ -49,6 +52,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..._support.errors import ModelError
+from ...identification.uncertainty.thresholds import leverage_factor
 
 __all__ = ["acceleration", "model_reference", "refit_reference", "leverage_ratios", "choose_leverage_gain",
            "threshold_levels", "ACCEL_WINDOW"]
@@ -105,7 +109,7 @@ def choose_leverage_gain(record_at, ratios, gains=None, benefit=None):
     """The thresholds with a leverage gain per joint (module docstring).
 
     ``record_at(g)``: the :class:`~manipdyn.identification.uncertainty.thresholds.CollisionThresholds` of the
-    held-out residuals divided by ``sqrt(1 + g u)`` (every joint at gain ``g``); ``ratios``: the held-out samples'
+    held-out residuals divided by ``sqrt((1 + g u) / (1 + g))`` (every joint at gain ``g``); ``ratios``: the held-out samples'
     ``u``, a list of (N_k, n).  Returns the record whose joint j is ``record_at(g_j)``'s, with ``leverage_gain``
     and its source saying the choice."""
     from ...identification.uncertainty.bands import GAIN_BENEFIT, GAINS
@@ -114,7 +118,8 @@ def choose_leverage_gain(record_at, ratios, gains=None, benefit=None):
     benefit = GAIN_BENEFIT if benefit is None else float(benefit)
     U = np.vstack(ratios)
     recs = {g: record_at(float(g)) for g in gains}
-    mean_level = {g: recs[g].threshold * np.mean(np.sqrt(1.0 + g * U), axis=0) for g in gains}
+    mean_level = {g: recs[g].threshold * np.mean(leverage_factor(np.full(U.shape[1], float(g)), U), axis=0)
+                  for g in gains}
     g0 = gains[0]
     n = recs[g0].n
     pick = []
@@ -131,7 +136,8 @@ def choose_leverage_gain(record_at, ratios, gains=None, benefit=None):
     means = ", ".join(f"{mean_level[pick[j]][j]:.3g}" for j in range(n))
     const = ", ".join(f"{x:.3g}" for x in mean_level[g0])
     return replace(base, **fields, leverage_gain=g,
-                   source=f"{base.source}; each joint's threshold c_j sqrt(1 + g_j u) grows with the sample's "
+                   source=f"{base.source}; each joint's threshold T_j sqrt((1 + g_j u) / (1 + g_j)) grows with "
+                          f"the sample's "
                           f"leverage ratio u against the fit data (g {told}: the lowest held-out mean threshold, "
                           f"{means} N m, against the constant {const} N m)")
 

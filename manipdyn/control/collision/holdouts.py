@@ -39,7 +39,8 @@ from ..._support.errors import ModelError
 from ...identification.inputs.options import OptionError, brace_safe
 from ...identification.uncertainty.bands import DEFAULT_FOLDS
 from ...identification.uncertainty.thresholds import (DEFAULT_HYSTERESIS, DEFAULT_MIN_DURATION,
-                                                      DEFAULT_RATE, CollisionThresholds, fit_thresholds)
+                                                      DEFAULT_RATE, CollisionThresholds, fit_thresholds,
+                                                      leverage_factor)
 from .extrapolation import choose_leverage_gain, leverage_ratios, model_reference, refit_reference
 from .gain import choose_gain
 from .observer import check_gain, check_velocity_cutoff, momentum_input, observer_output
@@ -166,9 +167,10 @@ def _at_gain(parts, block_parts, dt, K, fc, false_alarms, min_duration, hysteres
              leverage_gain=0.0):
     """:func:`identified_thresholds` at gain ``K``: ``parts`` (and ``block_parts``) the observer's inputs of
     the hold-outs (:func:`~manipdyn.control.collision.observer.momentum_input`); with ``ratios`` (the parts' and
-    the block parts' leverage ratios, lists of (N_k, n)), the residuals divided by ``sqrt(1 + leverage_gain u)``."""
+    the block parts' leverage ratios, lists of (N_k, n)), the residuals divided by
+    :func:`~manipdyn.identification.uncertainty.thresholds.leverage_factor` at ``leverage_gain``."""
     def residuals(xs, us=None):
-        return np.vstack([observer_output(x, dt, K, fc) / (1.0 if us is None else np.sqrt(1.0 + leverage_gain * u))
+        return np.vstack([observer_output(x, dt, K, fc) / (1.0 if us is None else leverage_factor(leverage_gain, u))
                           for x, u in zip(xs, us if us is not None else [None] * len(xs))])
 
     us, block_us = ratios if ratios is not None else (None, None)

@@ -94,7 +94,7 @@ class ObserveResult:
         if thresholds_warning(thr):
             lines.append("warning: " + thresholds_warning(thr))
         if thr.leverage_gain is not None:
-            lines.append("  each threshold x sqrt(1 + g u), u the sample's leverage ratio against the fit data (1 on a "
+            lines.append("  each threshold x sqrt((1 + g u) / (1 + g)), u the sample's leverage ratio against the fit data (1 on a "
                          "typical fitted sample): g " + " ".join(f"j{j + 1} {x:g}" for j, x in enumerate(thr.leverage_gain)))
         for i, (obs, r, d, ev) in enumerate(self.runs):
             T = self.thresholds_of(i)
@@ -192,7 +192,7 @@ class ObserveResult:
         g = thr.leverage_gain
         parts.append(H.section("Thresholds", H.table(
             ["joint", "threshold, N m"] + ([] if given else ["highest level seen in calibration, N m"])
-            + ([] if g is None else ["leverage gain g (threshold x sqrt(1 + g u))"]),
+            + ([] if g is None else ["leverage gain g (threshold x sqrt((1 + g u) / (1 + g)))"]),
             [[f"j{j + 1}", float(thr.threshold[j])] + ([] if given else [float(thr.observed_max[j])])
              + ([] if g is None else [float(g[j])]) for j in range(n)], name="thresholds"),
             H.paragraph("The highest level seen: the largest residual, sustained over the event's minimum "

@@ -41,7 +41,7 @@ import numpy as np
 from ..._support.errors import ModelError
 
 __all__ = ["CollisionThresholds", "sustained", "count_events", "event_peaks", "fit_thresholds", "DEFAULT_MIN_DURATION",
-           "DEFAULT_HYSTERESIS", "DEFAULT_RATE", "DEFAULT_GAIN", "low_pass"]
+           "DEFAULT_HYSTERESIS", "DEFAULT_RATE", "DEFAULT_GAIN", "low_pass", "leverage_factor"]
 
 #: seconds a crossing must last to be an event
 DEFAULT_MIN_DURATION = 0.005
@@ -113,6 +113,13 @@ def count_events(s, level, hysteresis: float = DEFAULT_HYSTERESIS) -> int:
     return int(np.sum((states[1:] == 1) & (states[:-1] == -1)) + (states[0] == 1))
 
 
+def leverage_factor(gain, u) -> np.ndarray:
+    """``sqrt((1 + g u) / (1 + g))`` (N, n): a threshold's factor at leverage ratios ``u`` (N, n, negative read as
+    0) for gains ``g`` (n,); 1 at ``u = 1``, the typical fitted sample."""
+    g = np.asarray(gain, dtype=np.float64)
+    return np.sqrt((1.0 + g * np.maximum(np.asarray(u, dtype=np.float64), 0.0)) / (1.0 + g))
+
+
 @dataclass(frozen=True)
 class CollisionThresholds:
     """Per-joint thresholds ``threshold`` (n,), N m (N), for ``false_alarms_per_hour`` (the detector's, all
@@ -124,10 +131,12 @@ class CollisionThresholds:
     comes from the same observer (the same gain and low-pass).
 
     ``leverage_gain`` (n,) or None: with it, joint j's threshold on a sample is
-    ``threshold_j sqrt(1 + leverage_gain_j u_j)`` (:meth:`levels`), ``u_j`` the sample's leverage ratio against the
-    fit data (:mod:`.leverage`; 1 on a typical fitted sample): the thresholds widen where the state leaves what
-    the fit saw (:mod:`manipdyn.control.collision.extrapolation`); ``threshold``, the tail and ``observed_max``
-    are then those of the residual divided by ``sqrt(1 + leverage_gain_j u_j)``."""
+    ``threshold_j sqrt((1 + g_j u_j) / (1 + g_j))`` (:meth:`levels`, ``g`` the ``leverage_gain``), ``u_j`` the
+    sample's leverage ratio against the fit data (:mod:`.leverage`; 1 on a typical fitted sample): the thresholds
+    are lower where the state stays within what the fit saw and higher where it leaves it
+    (:mod:`manipdyn.control.collision.extrapolation`).  ``threshold`` is always the level at a typical fitted
+    sample (``u = 1``, as a prediction band's ``half_width``), so a loop that reads ``threshold`` alone reads the
+    typical level; the tail and ``observed_max`` are those of the residual divided by the same factor."""
 
     threshold: np.ndarray
     false_alarms_per_hour: float
@@ -176,17 +185,16 @@ class CollisionThresholds:
         return self.leverage_gain is not None
 
     def levels(self, u=None) -> np.ndarray:
-        """The thresholds in effect, N m: ``threshold_j sqrt(1 + leverage_gain_j u_j)`` (N, n) at the leverage
+        """The thresholds in effect, N m: ``threshold_j sqrt((1 + g_j u_j) / (1 + g_j))`` (N, n) at the leverage
         ratios ``u`` (N, n) of :mod:`.leverage` (``threshold`` itself, (n,), with ``u`` None or no gain)."""
         if u is None or self.leverage_gain is None:
             return np.asarray(self.threshold)
-        u = np.asarray(u, dtype=np.float64)
-        return self.threshold * np.sqrt(1.0 + self.leverage_gain * np.maximum(u, 0.0))
+        return self.threshold * leverage_factor(self.leverage_gain, u)
 
     @property
     def typical(self) -> np.ndarray:
-        """(n,) N m: the thresholds at a typical fitted sample (leverage ratio 1); ``threshold`` without a gain."""
-        return self.levels(np.ones(self.n))
+        """(n,) N m: the thresholds at a typical fitted sample (leverage ratio 1): ``threshold`` itself."""
+        return np.asarray(self.threshold)
 
     @property
     def given(self) -> bool:
