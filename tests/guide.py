@@ -85,3 +85,10 @@ def section(heading: str, text: str = TEXT) -> str:
 def page(name: str) -> str:
     """A guide page's text (``"identification"``)."""
     return (GUIDE / f"{name}.md").read_text(encoding="utf-8")
+
+
+def row(label: str, text: str = TEXT) -> list:
+    """The cells after the label of the one table row that starts ``| label |`` (stripped strings)."""
+    rows = [line for line in text.splitlines() if line.startswith(f"| {label} |")]
+    assert len(rows) == 1, f"expected one table row '| {label} |' in the README and the guide, found {len(rows)}"
+    return [c.strip() for c in rows[0].strip().strip("|").split("|")[1:]]

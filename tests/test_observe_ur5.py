@@ -108,8 +108,8 @@ def test_the_thresholds_are_the_models_own_from_its_currents(model):
 
 
 def test_the_thresholds_widen_where_the_run_leaves_the_fit_data_not_everywhere(model):
-    """Each joint's threshold c_j sqrt(1 + g_j u) grows with the sample's leverage ratio (extrapolation.py).  On the
-    runs without a push, on every joint with g > 0: the median threshold in effect below the constant threshold
+    """Each joint's threshold T_j sqrt((1 + g_j u) / (1 + g_j)) grows with the sample's leverage ratio
+    (extrapolation.py).  On the runs without a push, on every joint with g > 0: the median threshold in effect below the constant threshold
     the same hold-outs give (the source states it), and the highest above the median (it widens where the run
     leaves the fit data).  Measured (N m): constant 38.8, 35.9, 20.4, 6.8, 4.98, 4.42; medians 34.3-34.5,
     30.6-33.8, 20.4, 4.1-4.75, 2.74-3.0, 1.09-1.11; highest 47.9, 38.4, 20.4, 9.93, 6.95, 3.06 (No7)."""
