@@ -352,21 +352,23 @@ def held_out_residuals(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, segment
     did not see it).  ``segments``: the stacked runs' sample counts, when the fit takes them
     (each refit gets the counts of what it keeps).  ``fit_kwargs`` go to
     :func:`manipdyn.identification.fit` (``method``, ``friction``, ``armature``, ``bounds``,
-    ``prior_weight``): the refits are the fit the user asked for, on less data.  ``masks``: the
+    ``prior_weight``, ``rest``): the refits are the fit the user asked for, on less data (with ``rest``, a
+    joint at rest still and out of its rows, as in the fit, and predicted still).  ``masks``: the
     folds' test samples, (N,) bool each, partitioning the samples (the held-out trajectories),
     instead of ``folds`` blocks in time.  ``refits``: a list to which each fold's ``(test, arm)`` is
     appended, ``test`` its held-out samples (N,) bool and ``arm`` the refit's arm (None when its
     parameters are no physical arm), for the collision thresholds, which watch the same hold-outs
     through the observer of the same refits (:mod:`manipdyn.control.collision.holdouts`).
     """
-    from ..estimation.fitting import fit, known_torque
+    from ..estimation.fitting import fit, known_torque, still_rows
 
     q, qd, qdd, tau = (np.asarray(x, dtype=np.float64) for x in (q, qd, qdd, tau))
     N = len(q)
     res = np.empty_like(tau)
     armature, friction = fit_kwargs.get("armature", False), fit_kwargs.get("friction", False)
-    Y = arm.lagrange.regressor(q, qd, qdd, armature=armature, friction=friction)   # once, sliced per fold
-    known = known_torque(arm, qd, qdd, armature, friction)
+    still, _ = still_rows(qd, fit_kwargs.get("rest"))    # the rows the fit builds: a joint at rest still
+    Y = arm.lagrange.regressor(q, still, qdd, armature=armature, friction=friction)   # once, sliced per fold
+    known = known_torque(arm, still, qdd, armature, friction)
     for test in _masks(N, folds, masks, segments):
         kept = _kept_segments(segments, test)
         extra = {} if kept is None else {"segments": kept}
