@@ -269,3 +269,38 @@ def test_the_ur5_rests_are_found_from_its_velocity_noise():
     rest = rest_mask(data.qd, threshold)
     assert np.mean(np.all(rest[still[k]], axis=1)) > 0.99
     assert np.all(np.mean(rest, axis=0) >= np.mean(still)), np.mean(rest, axis=0)
+
+
+@pytest.fixture(scope="module")
+def new_ptp(tmp_path_factory):
+    """A point-to-point run no fit sees (seed 13): its log, and the truth's error on its exact states (the
+    noise plus the held static friction, what no model of the law can predict)."""
+    truth = _truth()
+    t, q, qd, qdd = point_to_point(truth, 13)
+    path = tmp_path_factory.mktemp("new") / "ptp13.csv"
+    _write(path, truth, t, q, qd, qdd, 13)
+    own = _torques(truth, q, qd, qdd, 13) - truth.inverse_dynamics(q, qd, qdd)
+    return path, t, own
+
+
+@pytest.mark.parametrize("terms", ["viscous,coulomb,offset", "viscous,coulomb,stribeck,offset"])
+def test_a_fit_on_fourier_and_ptp_runs_predicts_a_new_ptp_run_as_the_truth(logs, new_ptp, terms):
+    """Issue 45's synthetic target: fitted on two Fourier runs and a point-to-point run, every joint's RMS on a new
+    point-to-point run is within 1.2x the truth's own (the truth on the run's exact states: its noise plus the
+    static friction it held at rest).  Measured (ratio to the truth's RMS, joints 1 to 6): viscous and Coulomb
+    1.10 1.04 1.05 1.04 1.09 1.03; with Stribeck 1.08 1.03 1.04 1.03 1.08 1.03 (the rest of it is the filtered
+    log's own error: the truth on the log's states, still at rest, scores 1.00 to 1.03 of the model).  The rests'
+    static friction dominates the whole run's RMS, so the moving samples are checked too: with the truth's law
+    they are within 1.5x the torque noise (measured 0.96 to 1.21x; before the prior weight's, the smoothing's and
+    the shapes' refits kept the rests out as the fit does, 2.9x on joint 5 and 16x on joint 6, the Stribeck
+    velocity of joint 6 fitted at 0.011 rad/s for 0.05); without Stribeck 1.1 to 22x (0.26 N m on joint 1)."""
+    r = identify("ur5", [logs["fourier1"], logs["fourier2"], logs["ptp11"]], friction_terms=terms)
+    path, t, own = new_ptp
+    v, data, inside, flags = _scores(r, path)
+    truth = np.sqrt(np.mean(own[np.searchsorted(t, data.t - 1e-9)] ** 2, axis=0))    # the log's samples, trimmed
+    ratio = v.rms / truth
+    assert np.all(ratio <= 1.2), ratio
+    rest = rest_mask(data.qd, carried_trust(r).rest.threshold)
+    moving = np.array([np.sqrt(np.mean((v.measured - v.predicted)[~rest[:, j], j] ** 2)) for j in range(6)])
+    if "stribeck" in terms:     # the law of the truth: on the moving samples within 1.5x the torque noise
+        assert np.all(moving <= 1.5 * SIGMA), moving / SIGMA
