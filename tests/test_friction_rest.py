@@ -212,19 +212,38 @@ def test_band_holds_at_rest_on_a_point_to_point_run(logs, tmp_path):
     assert np.mean(inside[rest]) >= 0.95
 
 
-def test_misses_are_warned_with_coulomb_only(logs, tmp_path):
-    """With viscous and Coulomb only (no Stribeck to reach the static level), the band at rest is a lower
-    bound and misses there; the flags point at the misses.  Measured: pooled 82.1 %; unflagged samples hold
-    88.6 %, flagged ones miss 1.96 times as often (the issue asks 2x: not met) and are 3.3 times the missed
-    ones (the issue asks at most 3x: not met; the range and leverage flags add a quarter of the run).
-    Today's main: pooled 62 %, unflagged samples hold 72 %, flagged ones miss 1.8 times as often."""
+def _warned(inside, flags, j) -> bool:
+    """Issue 45's rule for a joint whose band holds under 85 %: unflagged samples hold 85 % or more, flagged ones
+    miss at least twice as often, and at most 3x as many samples are flagged as missed."""
+    i, f = inside[:, j], flags[:, j]
+    if not np.any(f) or np.all(f):
+        return False
+    miss_f, miss_u = 1 - np.mean(i[f]), 1 - np.mean(i[~f])
+    return np.mean(i[~f]) >= 0.85 and miss_f >= 2 * miss_u and np.sum(f) <= 3 * np.sum(~i)
+
+
+def test_band_holds_with_coulomb_only_at_the_slowest_speeds(logs, tmp_path):
+    """With viscous and Coulomb only (no Stribeck to reach the static level), the law under-predicts the friction
+    of every start and stop, and at rest its breakaway (the fitted Coulomb level) is a lower bound of the static
+    one.  The band's speed class (uncertainty/conformal.py: the held-out error of the fit's slowest 5 % of moving
+    samples, where the Fourier runs' reversals show the breakaway the law left out) covers both: issue 45's
+    target, 90 to 98 % pooled or the misses warned on every joint under 85 %.  Measured: pooled 96.3 %, joints
+    91.6 96.2 95.6 97.2 97.3 100.0 %, rest samples 96.9 to 100 %, slow moving ones (under 0.1 rad/s) 83 to 99 %.
+    Before the speed class: pooled 82.1 %, joints 72.0 91.7 83.8 82.7 72.8 89.6 %, slow moving samples 34 to
+    60 % and unflagged, and joints 3 and 4 unwarned (joint 3: unflagged samples held 78.9 %, flagged ones
+    missed 0.7x as often).  Today's main: pooled 62 %."""
     r = identify("ur5", [logs["fourier1"], logs["fourier2"]], friction_terms="viscous,coulomb,offset")
+    band, rest_rec = carried_trust(r).band, carried_trust(r).rest
+    # the class is wider than the band on every joint (the slow samples' error is the law's missing breakaway)
+    assert np.all(band.slow_half_width > band.half_width), (band.slow_half_width, band.half_width)
     v, data, inside, flags = _scores(r, logs["ptp12"])
-    miss_flagged, miss_unflagged = 1 - np.mean(inside[flags]), 1 - np.mean(inside[~flags])
-    assert np.mean(inside[~flags]) >= 0.85          # the issue's bound for unflagged samples (main: 72 %)
-    # the flags point at the misses: 1.5x, below the 1.96x measured (about 0.1 of sampling spread on
-    # 12,600 correlated cells), above main's 1.8x only together with the unflagged bound above
-    assert miss_flagged >= 1.5 * miss_unflagged, (miss_flagged, miss_unflagged)
+    rest = rest_mask(data.qd, rest_rec.threshold)
+    # at rest where the fit never rested: the slow class plus the law's breakaway level
+    np.testing.assert_allclose(v.band[rest], (np.broadcast_to(band.slow_half_width, rest.shape)
+                                              + rest_rec.level)[rest])
+    assert 0.90 <= v.pooled_coverage <= 0.98, v.coverage
+    for j in range(6):
+        assert v.coverage[j] >= 0.85 or _warned(inside, flags, j), (j, v.coverage)
 
 
 def test_a_fit_that_rested_measures_the_static_level(logs, tmp_path):

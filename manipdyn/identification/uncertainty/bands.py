@@ -123,13 +123,13 @@ The numbers travel with the model in its trust record (:mod:`manipdyn.formats.tr
 
 from __future__ import annotations
 
-import math
 import re
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..._support.errors import ModelError
+from .conformal import GAIN_BENEFIT, GAINS, conformal_half_width, leverage_gain, slow_fields  # noqa: F401 (public here)
 
 __all__ = ["PredictionBand", "calibrate_band", "held_out_residuals", "held_out_leverage", "DEFAULT_FOLDS",
            "DEFAULT_LEVEL", "GAINS", "FLAG_LEVEL", "WITHIN_ONE_TRAJECTORY"]
@@ -138,10 +138,6 @@ DEFAULT_FOLDS = 5
 DEFAULT_LEVEL = 0.95
 #: a held-out block shorter than this many samples is too short to say anything
 MIN_BLOCK = 20
-#: the leverage gains g tried per joint (0: a constant band)
-GAINS = (0.0, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0)
-#: a gain is taken only when its band is this much narrower on average than the constant one
-GAIN_BENEFIT = 0.05
 #: the held-out leverage quantile past which a sample is flagged (module docstring)
 FLAG_LEVEL = 0.99
 #: what a band calibrated on one trajectory says of itself (validate and identify print it)
@@ -160,7 +156,9 @@ class PredictionBand:
     ``c_j sqrt(1 + g_j u)`` (module docstring; None or 0: constant); ``trajectories``: the distinct
     trajectories held out (1: the band is within one trajectory, from the blocks alone);
     ``flag_leverage`` (n,) or None: the leverage ratio past which a sample is flagged (module docstring);
-    ``regions``: the posture regions held out within one trajectory (0: none, the blocks alone).
+    ``regions``: the posture regions held out within one trajectory (0: none, the blocks alone);
+    ``slow_speed``, ``slow_half_width`` (n,) or None: the speed class of a fit with a rest threshold
+    (:mod:`.conformal`): a sample slower than ``slow_speed_j`` gets at least ``slow_half_width_j``.
     """
 
     level: float
@@ -172,9 +170,11 @@ class PredictionBand:
     trajectories: int = 1
     flag_leverage: np.ndarray | None = None
     regions: int = 0
+    slow_speed: np.ndarray | None = None
+    slow_half_width: np.ndarray | None = None
 
     def __post_init__(self):
-        for k in ("half_width", "held_out_rms", "leverage_gain", "flag_leverage"):
+        for k in ("half_width", "held_out_rms", "leverage_gain", "flag_leverage", "slow_speed", "slow_half_width"):
             if getattr(self, k) is None:
                 continue
             a = np.asarray(getattr(self, k), dtype=np.float64).reshape(-1)
@@ -188,8 +188,11 @@ class PredictionBand:
             raise ModelError("prediction band: held_out_rms and half_width differ in length")
         if self.leverage_gain is not None and len(self.leverage_gain) != len(self.half_width):
             raise ModelError("prediction band: leverage_gain and half_width differ in length")
-        if self.flag_leverage is not None and len(self.flag_leverage) != len(self.half_width):
-            raise ModelError("prediction band: flag_leverage and half_width differ in length")
+        for k in ("flag_leverage", "slow_speed", "slow_half_width"):
+            if getattr(self, k) is not None and len(getattr(self, k)) != len(self.half_width):
+                raise ModelError(f"prediction band: {k} and half_width differ in length")
+        if (self.slow_speed is None) != (self.slow_half_width is None):
+            raise ModelError("prediction band: slow_speed and slow_half_width go together")
         if int(self.trajectories) != self.trajectories or self.trajectories < 1:
             raise ModelError(f"prediction band: trajectories: expected an integer >= 1, got {self.trajectories!r}")
         object.__setattr__(self, "trajectories", int(self.trajectories))
@@ -217,6 +220,20 @@ class PredictionBand:
             return np.broadcast_to(self.half_width, (1, self.n) if u is None else np.shape(u))
         g = self.leverage_gain
         return self.half_width * np.sqrt((1.0 + g * np.asarray(u, dtype=np.float64)) / (1.0 + g))
+
+    def sample_widths(self, u, qd, rest=None) -> np.ndarray:
+        """Half-widths (N, n) at the leverage ratios ``u`` (N, n) or None and velocities ``qd`` (N, n): at least
+        ``slow_half_width_j`` where ``|qd_j| < slow_speed_j`` (:mod:`.conformal`), except at rest on a joint whose
+        static level was measured (``rest``, the :class:`~manipdyn.model.friction_rest.StaticFriction`, which
+        then adds that level: what the fit's own rests held), and the static band at rest (``rest``)."""
+        qd = np.atleast_2d(np.asarray(qd, dtype=np.float64))
+        w = np.array(np.broadcast_to(self.widths(u), qd.shape))
+        if self.slow_speed is not None:
+            slow = np.abs(qd) < self.slow_speed
+            if rest is not None:
+                slow &= ~(rest.rest(qd) & rest.measured)
+            w = np.where(slow, np.maximum(w, self.slow_half_width), w)
+        return w if rest is None else rest.widths(qd, w)
 
     def interval(self, predicted, u=None) -> tuple[np.ndarray, np.ndarray]:
         """``(lo, hi)`` around ``predicted`` (N, n), at the leverage ratios ``u`` (N, n) when the band grows."""
@@ -249,6 +266,9 @@ class PredictionBand:
             out["flag_leverage"] = [float(x) for x in self.flag_leverage]
         if self.regions:
             out["regions"] = int(self.regions)
+        if self.slow_speed is not None:
+            out["slow_speed"] = [float(x) for x in self.slow_speed]
+            out["slow_half_width"] = [float(x) for x in self.slow_half_width]
         return out
 
     @classmethod
@@ -263,7 +283,9 @@ class PredictionBand:
                                       else np.array(value["leverage_gain"], dtype=np.float64)),
                        trajectories=int(value.get("trajectories", 1)), regions=int(value.get("regions", 0)),
                        flag_leverage=(None if value.get("flag_leverage") is None
-                                      else np.array(value["flag_leverage"], dtype=np.float64)))
+                                      else np.array(value["flag_leverage"], dtype=np.float64)),
+                       **{k: np.array(value[k], dtype=np.float64) for k in ("slow_speed", "slow_half_width")
+                          if value.get(k) is not None})
         except (KeyError, TypeError, ValueError, OverflowError) as exc:
             raise ModelError(f"{where}: malformed prediction band ({exc})") from None
         if band.n != n:
@@ -380,18 +402,6 @@ def held_out_residuals(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, segment
     return res
 
 
-def conformal_half_width(residuals, level: float = DEFAULT_LEVEL) -> np.ndarray:
-    """Per column, the ``ceil((m + 1) level)``-th smallest ``|r|`` of ``m`` residuals (the largest when
-    that rank passes ``m``): the split-conformal half-width (module docstring)."""
-    r = np.abs(np.asarray(residuals, dtype=np.float64))
-    if np.isnan(r).any():           # NaN: no score (a joint at rest: the moving band's scores only); each column its own m
-        return np.array([conformal_half_width(c[~np.isnan(c)][:, None], level)[0] if np.any(~np.isnan(c)) else 0.0
-                         for c in r.T])
-    m = len(r)
-    rank = min(m, math.ceil((m + 1) * float(level)))
-    return np.sort(r, axis=0)[rank - 1]
-
-
 def held_out_leverage(arm, q, qd, qdd, folds: int, weights, smoothing, masks=None, segments=None) -> np.ndarray:
     """The leverage ratio ``u`` (N, n) of each held-out sample against the rows of the blocks its refit saw
     (:mod:`.leverage`; the blocks, or the ``masks``, of :func:`held_out_residuals`), over their own mean."""
@@ -406,20 +416,6 @@ def held_out_leverage(arm, q, qd, qdd, folds: int, weights, smoothing, masks=Non
         h = w**2 * np.sum(((Z[test] / scale) @ B) ** 2, axis=2)
         u[test] = h / np.maximum(np.mean(h_fit, axis=0), 1e-300)
     return u
-
-
-def _gain(r, u, level) -> tuple[float, float]:
-    """``(g, c)`` of one joint: the gain of :data:`GAINS` whose conformal band is narrowest on average over the
-    held-out samples (``r`` residuals, ``u`` leverage ratios, (m,)), and its ``c``."""
-    scored = []
-    for g in GAINS:
-        s = np.sqrt(1.0 + g * u)
-        c = float(conformal_half_width((r / s)[:, None], level)[0])
-        scored.append((c * float(np.mean(s)), g, c))
-    width, g, c = min(scored)
-    if width > (1.0 - GAIN_BENEFIT) * scored[0][0]:      # not clearly narrower: the constant band
-        return GAINS[0], scored[0][2]
-    return g, c
 
 
 def _at_rest(qd, rest) -> np.ndarray:
@@ -481,14 +477,17 @@ def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: floa
             flag = conformal_half_width(u, FLAG_LEVEL)
         return PredictionBand(level=float(level), half_width=width, folds=int(folds), samples=len(res_t),
                               held_out_rms=rms_t, leverage_gain=np.zeros(len(width)) if leverage else None,
-                              trajectories=1 if n_regions else len(groups), flag_leverage=flag, regions=n_regions)
+                              trajectories=1 if n_regions else len(groups), flag_leverage=flag, regions=n_regions,
+                              **slow_fields(fit_kwargs.get("rest"), [res, res_t], qd, still, level, width))
     if not leverage:
-        return PredictionBand(level=float(level), half_width=conformal_half_width(res, level), folds=int(folds),
-                              samples=len(res), held_out_rms=rms)
+        width = conformal_half_width(res, level)
+        return PredictionBand(level=float(level), half_width=width, folds=int(folds), samples=len(res),
+                              held_out_rms=rms, **slow_fields(fit_kwargs.get("rest"), [res], qd, still, level, width))
     u = held_out_leverage(arm, q, qd, qdd, folds, _weights(rms), smoothing, segments=fit_kwargs.get("segments"))
     gains, widths = np.zeros(res.shape[1]), np.zeros(res.shape[1])
     for j in range(res.shape[1]):
-        g, c = _gain(np.abs(res[:, j]), u[:, j], level)
+        g, c = leverage_gain(np.abs(res[:, j]), u[:, j], level)
         gains[j], widths[j] = g, c * np.sqrt(1.0 + g)          # the width at u = 1
     return PredictionBand(level=float(level), half_width=widths, folds=int(folds), samples=len(res),
-                          held_out_rms=rms, leverage_gain=gains, flag_leverage=conformal_half_width(u, FLAG_LEVEL))
+                          held_out_rms=rms, leverage_gain=gains, flag_leverage=conformal_half_width(u, FLAG_LEVEL),
+                          **slow_fields(fit_kwargs.get("rest"), [res], qd, still, level, widths))
