@@ -294,8 +294,9 @@ def _identify(prior, logs, o) -> IdentifyResult:
         law_notes = [x for x in law_notes if not x.startswith("Coulomb smoothing")] + [note]
     # joints at rest (.inputs.rest) with the friction terms of a real log's route (--friction-terms, a smoothed
     # sign); --friction keeps its sharp sign(qd) law at every speed, rest included (a simulated log's exact law:
-    # taken as a static band at rest it cost the README's synthetic UR5 27 % on joint 6's residual).  Every refit
-    # from here on (shapes, prior weight, band, bootstrap) fits with it, as the fit does
+    # taken as a static band at rest it cost the README's synthetic UR5 27 % on joint 6's residual).  The refits
+    # (smoothing, shapes, band, bootstrap) fit with it, as the fit does; the prior weight's folds do not yet (with it
+    # the Panda's weight fell from 1 to 0.1 and its replay lost joint 3 to the published model at 10 ms, issue 44)
     rest = rest_option(data, smoothing, law_notes) if o["friction_terms"] is not None else None
     shapes = None
     from ..model.friction import Friction
@@ -320,7 +321,7 @@ def _identify(prior, logs, o) -> IdentifyResult:
         dt = float(np.median(np.diff(data.t))) if len(data.t) > 1 else None
         weight, selection = choose_prior_weight(arm, data.q, data.qd, data.qdd, data.tau, friction=law, dt=dt,
                                                 armature=o["armature"], bounds=bounds, labels=labels,
-                                                segments=data.segments, extra_scale=extra, rest=rest)
+                                                segments=data.segments, extra_scale=extra)
         _, why = one_se_choice(selection, "prior_weight", 0.0)
         law_notes.append(describe_weight_choice(selection, weight, why,
                                                 fold_kind(fold_masks(len(data.q), PRIOR_WEIGHT_FOLDS, labels,

@@ -22,9 +22,8 @@ def still_rows(qd, rest):
     """``(qd, keep)`` of a fit with the rest threshold ``rest`` ((n,) or a scalar, rad/s; None: no rest):
     ``qd`` (N, n) with each joint at rest set to 0 (:func:`manipdyn.model.friction_rest.at_rest_velocity`),
     and ``keep`` (N, n) bool, the rows each joint fits (False at rest: the torque there holds an unknown
-    static friction), or None without ``rest``.  Every refit of a fit with ``rest`` (the band's, the prior
-    weight's, the smoothing's, the friction shapes', the bootstrap's) builds its rows from this, as
-    :func:`.fitting.fit` does."""
+    static friction), or None without ``rest``.  The refits of a fit with ``rest`` (the band's, the smoothing's,
+    the friction shapes', the bootstrap's) build their rows from this, as :func:`.fitting.fit` does."""
     from ...model.friction_rest import rest_mask
 
     qd = np.asarray(qd, dtype=np.float64)

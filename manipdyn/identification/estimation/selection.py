@@ -178,7 +178,7 @@ PRIOR_WEIGHT_FOLDS = 5
 
 
 def choose_prior_weight(arm, q, qd, qdd, tau, weights=DEFAULT_WEIGHTS, folds: int = PRIOR_WEIGHT_FOLDS, labels=None,
-                        segments=None, dt=None, rest=None, **fit_kwargs):
+                        segments=None, dt=None, **fit_kwargs):
     """``(best_weight, table)``: the prior weight of ``consistent`` by blocked cross-validation.
 
     Parameters
@@ -199,10 +199,6 @@ def choose_prior_weight(arm, q, qd, qdd, tau, weights=DEFAULT_WEIGHTS, folds: in
     dt : float, optional
         The sample period (s): the torque error is averaged over :data:`ACCEL_HORIZON` before the acceleration
         error is scored (:func:`horizon_mean`); None scores it sample by sample.
-    rest : (n,) or float, optional
-        The fit's rest threshold (:func:`manipdyn.identification.fit`'s ``rest``): each refit keeps a joint at
-        rest still and out of its rows, as the fit does, and the held-out scores leave its rest samples out
-        (their torque holds a static friction no candidate models; the acceleration error counts them as 0).
     **fit_kwargs
         Passed to :func:`manipdyn.identification.fit` (``friction``, ``armature``, ``bounds``).
 
@@ -211,7 +207,7 @@ def choose_prior_weight(arm, q, qd, qdd, tau, weights=DEFAULT_WEIGHTS, folds: in
     beats it by more than one standard error of the folds (:func:`one_se_choice`).
     """
     from .base import base_parameters
-    from .fitting import fit, known_torque, moving_mean_square, still_rows
+    from .fitting import fit, known_torque
 
     weights = [float(w) for w in weights]
     if not weights or any(not (0 <= w < float("inf")) for w in weights):
@@ -221,12 +217,10 @@ def choose_prior_weight(arm, q, qd, qdd, tau, weights=DEFAULT_WEIGHTS, folds: in
     masks = fold_masks(N, folds, labels, segments=segments)
     armature, friction = fit_kwargs.get("armature", False), fit_kwargs.get("friction", False)
     base = fit_kwargs.pop("base", None) or base_parameters(arm, armature=armature, friction=friction)
-    still, keep = still_rows(qd, rest)           # the fit's rows: a joint at rest still, out of its rows
-    Y = arm.lagrange.regressor(q, still, qdd, armature=armature, friction=friction)     # (N, n, p)
-    known = known_torque(arm, still, qdd, armature, friction)
+    Y = arm.lagrange.regressor(q, qd, qdd, armature=armature, friction=friction)     # (N, n, p)
+    known = known_torque(arm, qd, qdd, armature, friction)
     Yb = base.regressor(Y)
-    train = fold_factors(Yb, tau - known, masks) if keep is None else \
-        fold_factors(Yb * keep[:, :, None], (tau - known) * keep, masks)
+    train = fold_factors(Yb, tau - known, masks)
     accel = [_accel_setup(arm, q[test], base, armature, friction) for test in masks]
     table = []
     for w in weights:
@@ -235,7 +229,7 @@ def choose_prior_weight(arm, q, qd, qdd, tau, weights=DEFAULT_WEIGHTS, folds: in
         for f, test in enumerate(masks):
             try:
                 r = fit(arm, q[~test], qd[~test], qdd[~test], tau[~test], method="consistent",
-                        prior_weight=w, base=base, regressor=Y[~test], factors=train[f], rest=rest, **fit_kwargs)
+                        prior_weight=w, base=base, regressor=Y[~test], factors=train[f], **fit_kwargs)
             except ModelError as exc:
                 if w == 0.0:
                     raise               # the data alone must fit: their error is the user's to see
@@ -243,11 +237,9 @@ def choose_prior_weight(arm, q, qd, qdd, tau, weights=DEFAULT_WEIGHTS, folds: in
                 break
             pred = base.regressor(Y[test]) @ r.beta + known[test]       # r.predict, from the sliced Y
             err = tau[test] - pred
-            if keep is not None:            # at rest: a static friction no candidate models (scored as 0)
-                err = np.where(keep[test], err, 0.0)
-            sq += np.sum(err ** 2, axis=0)
-            ms = moving_mean_square(err, None if keep is None else keep[test])
-            ts = float(np.mean(np.log(np.maximum(np.sqrt(ms), 1e-300))))
+            e2 = np.sum(err ** 2, axis=0)
+            sq += e2
+            ts = float(np.mean(np.log(np.maximum(np.sqrt(e2 / np.sum(test)), 1e-300))))
             a2 = _accel_error_sq(accel[f], r.beta, horizon_mean(err, test, dt))
             sa += a2
             count_a += len(accel[f][0])
@@ -258,7 +250,7 @@ def choose_prior_weight(arm, q, qd, qdd, tau, weights=DEFAULT_WEIGHTS, folds: in
         if failed is not None:       # a pull the solver cannot hold at this data's scale: passed over, said
             table.append({"prior_weight": w, "score": None, "fold_scores": None, "rms": None, "failed": failed})
             continue
-        rms = np.sqrt(sq / (N if keep is None else np.maximum(np.sum(keep, axis=0), 1)))
+        rms = np.sqrt(sq / N)
         table.append({"prior_weight": w, "score": float(np.mean(fold_scores)), "fold_scores": fold_scores,
                       "torque_score": float(np.mean(fold_tau)), "accel_score": float(np.mean(fold_acc)),
                       "rms": [float(x) for x in rms], "accel_rms": [float(x) for x in np.sqrt(sa / count_a)]})

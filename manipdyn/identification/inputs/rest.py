@@ -38,8 +38,8 @@ import numpy as np
 from ...model.friction_law import DEFAULT_SMOOTHING
 from ...model.friction_rest import StaticFriction, rest_mask
 
-__all__ = ["rest_threshold", "static_record", "breakaway_of", "rest_option", "rest_trust", "measured_rest", "REST_NOISE",
-           "STATIC_QUANTILE", "MIN_REST_SAMPLES", "SLOW_FRACTION"]
+__all__ = ["rest_threshold", "static_record", "breakaway_of", "rest_option", "rest_trust", "measured_rest",
+           "REST_NOISE", "STATIC_QUANTILE", "MIN_REST_SAMPLES", "SLOW_FRACTION"]
 
 #: a joint is at rest within this many times its velocity noise (module docstring)
 REST_NOISE = 3.0

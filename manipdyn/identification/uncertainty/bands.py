@@ -129,7 +129,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..._support.errors import ModelError
-from .conformal import GAIN_BENEFIT, GAINS, conformal_half_width, leverage_gain, slow_fields  # noqa: F401 (public here)
+from .conformal import GAIN_BENEFIT, GAINS, conformal_half_width, leverage_gain, slow_fields, slow_speeds  # noqa: F401
 
 __all__ = ["PredictionBand", "calibrate_band", "held_out_residuals", "held_out_leverage", "DEFAULT_FOLDS",
            "DEFAULT_LEVEL", "GAINS", "FLAG_LEVEL", "WITHIN_ONE_TRAJECTORY"]
@@ -452,6 +452,7 @@ def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: floa
         raise ModelError(f"level: expected a fraction in (0, 1), got {level}")
     kept = None if refits is None else refits.setdefault("blocks", [])
     still = _at_rest(qd, fit_kwargs.get("rest"))       # the moving band: the joints at rest score elsewhere
+    speed, slow = slow_speeds(qd, still) if fit_kwargs.get("rest") is not None else (None, still & False)
     res = np.where(still, np.nan, held_out_residuals(arm, q, qd, qdd, tau, folds=folds, refits=kept, **fit_kwargs))
     rms = np.sqrt(np.nanmean(res**2, axis=0))
     groups = None if labels is None else np.unique(np.asarray(labels))
@@ -478,11 +479,11 @@ def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: floa
         return PredictionBand(level=float(level), half_width=width, folds=int(folds), samples=len(res_t),
                               held_out_rms=rms_t, leverage_gain=np.zeros(len(width)) if leverage else None,
                               trajectories=1 if n_regions else len(groups), flag_leverage=flag, regions=n_regions,
-                              **slow_fields(fit_kwargs.get("rest"), [res, res_t], qd, still, level, width))
+                              **slow_fields(speed, slow, [res, res_t], level, width))
     if not leverage:
         width = conformal_half_width(res, level)
         return PredictionBand(level=float(level), half_width=width, folds=int(folds), samples=len(res),
-                              held_out_rms=rms, **slow_fields(fit_kwargs.get("rest"), [res], qd, still, level, width))
+                              held_out_rms=rms, **slow_fields(speed, slow, [res], level, width))
     u = held_out_leverage(arm, q, qd, qdd, folds, _weights(rms), smoothing, segments=fit_kwargs.get("segments"))
     gains, widths = np.zeros(res.shape[1]), np.zeros(res.shape[1])
     for j in range(res.shape[1]):
@@ -490,4 +491,4 @@ def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: floa
         gains[j], widths[j] = g, c * np.sqrt(1.0 + g)          # the width at u = 1
     return PredictionBand(level=float(level), half_width=widths, folds=int(folds), samples=len(res),
                           held_out_rms=rms, leverage_gain=gains, flag_leverage=conformal_half_width(u, FLAG_LEVEL),
-                          **slow_fields(fit_kwargs.get("rest"), [res], qd, still, level, widths))
+                          **slow_fields(speed, slow, [res], level, widths))
