@@ -142,6 +142,36 @@ def test_the_static_record_widens_flags_and_round_trips():
         check_trust({"format": "manipdyn-trust/1", "rest": bad})
 
 
+def test_the_bands_speed_class_widens_slow_samples_and_round_trips():
+    """The band's speed class (uncertainty/conformal.py): samples slower than ``slow_speed`` get at least
+    ``slow_half_width``; at rest on a joint whose static level was measured the class gives way to that level
+    (the fit's own rests held it), and where it was not, the class plus the law's breakaway; the trust record
+    carries both numbers."""
+    from manipdyn.identification.uncertainty.bands import PredictionBand
+    from manipdyn.identification.uncertainty.conformal import slow_fields, slow_speeds
+
+    band = PredictionBand(level=0.95, half_width=[0.5, 0.5], folds=5, samples=100, held_out_rms=[0.2, 0.2],
+                          slow_speed=[0.1, 0.1], slow_half_width=[0.9, 0.9])
+    rest = StaticFriction(threshold=[0.01, 0.01], level=[1.0, 2.0], measured=np.array([True, False]),
+                          rest_fraction=[0.3, 0.0])
+    qd = np.array([[0.0, 0.0], [0.05, 0.05], [0.5, 0.5]])
+    assert band.sample_widths(None, qd).tolist() == [[0.9, 0.9], [0.9, 0.9], [0.5, 0.5]]
+    assert band.sample_widths(None, qd, rest).tolist() == [[1.5, 2.9], [0.9, 0.9], [0.5, 0.5]]
+    back = PredictionBand.from_dict(band.to_dict(), 2, "band")
+    assert back.slow_speed.tolist() == [0.1, 0.1] and back.slow_half_width.tolist() == [0.9, 0.9]
+    with pytest.raises(ModelError, match="go together"):
+        PredictionBand(level=0.95, half_width=[0.5], folds=5, samples=100, held_out_rms=[0.2], slow_speed=[0.1])
+    # the class: the slowest 5 % of the moving samples; its width never under the band's
+    rng = np.random.default_rng(0)
+    v = rng.uniform(-1, 1, (2000, 1))
+    still = np.abs(v) < 0.01
+    speed, slow = slow_speeds(v, still)
+    assert np.isclose(speed[0], np.quantile(np.abs(v[~still]), 0.05)) and not np.any(slow & still)
+    r = np.where(slow, 3.0, 0.1) * rng.standard_normal(v.shape)
+    out = slow_fields(speed, slow, [r], 0.95, np.array([0.2]))
+    assert out["slow_half_width"][0] > 3.0 and slow_fields(None, slow, [r], 0.95, np.array([0.2])) == {}
+
+
 def test_fit_keeps_a_joint_at_rest_still_and_out_of_its_rows():
     """fit(rest=...): the rows of a joint at rest are out of its least squares, and predict gives the rigid
     part there, whatever the sign of the velocity's noise (today's main: Fc sign(noise))."""
