@@ -142,6 +142,36 @@ def test_the_static_record_widens_flags_and_round_trips():
         check_trust({"format": "manipdyn-trust/1", "rest": bad})
 
 
+def test_the_bands_speed_class_widens_slow_samples_and_round_trips():
+    """The band's speed class (uncertainty/conformal.py): samples slower than ``slow_speed`` get at least
+    ``slow_half_width``; at rest on a joint whose static level was measured the class gives way to that level
+    (the fit's own rests held it), and where it was not, the class plus the law's breakaway; the trust record
+    carries both numbers."""
+    from manipdyn.identification.uncertainty.bands import PredictionBand
+    from manipdyn.identification.uncertainty.conformal import slow_fields, slow_speeds
+
+    band = PredictionBand(level=0.95, half_width=[0.5, 0.5], folds=5, samples=100, held_out_rms=[0.2, 0.2],
+                          slow_speed=[0.1, 0.1], slow_half_width=[0.9, 0.9])
+    rest = StaticFriction(threshold=[0.01, 0.01], level=[1.0, 2.0], measured=np.array([True, False]),
+                          rest_fraction=[0.3, 0.0])
+    qd = np.array([[0.0, 0.0], [0.05, 0.05], [0.5, 0.5]])
+    assert band.sample_widths(None, qd).tolist() == [[0.9, 0.9], [0.9, 0.9], [0.5, 0.5]]
+    assert band.sample_widths(None, qd, rest).tolist() == [[1.5, 2.9], [0.9, 0.9], [0.5, 0.5]]
+    back = PredictionBand.from_dict(band.to_dict(), 2, "band")
+    assert back.slow_speed.tolist() == [0.1, 0.1] and back.slow_half_width.tolist() == [0.9, 0.9]
+    with pytest.raises(ModelError, match="go together"):
+        PredictionBand(level=0.95, half_width=[0.5], folds=5, samples=100, held_out_rms=[0.2], slow_speed=[0.1])
+    # the class: the slowest 5 % of the moving samples; its width never under the band's
+    rng = np.random.default_rng(0)
+    v = rng.uniform(-1, 1, (2000, 1))
+    still = np.abs(v) < 0.01
+    speed, slow = slow_speeds(v, still)
+    assert np.isclose(speed[0], np.quantile(np.abs(v[~still]), 0.05)) and not np.any(slow & still)
+    r = np.where(slow, 3.0, 0.1) * rng.standard_normal(v.shape)
+    out = slow_fields(speed, slow, [r], 0.95, np.array([0.2]))
+    assert out["slow_half_width"][0] > 3.0 and slow_fields(None, slow, [r], 0.95, np.array([0.2])) == {}
+
+
 def test_fit_keeps_a_joint_at_rest_still_and_out_of_its_rows():
     """fit(rest=...): the rows of a joint at rest are out of its least squares, and predict gives the rigid
     part there, whatever the sign of the velocity's noise (today's main: Fc sign(noise))."""
@@ -186,8 +216,9 @@ def _scores(model, path):
 
 def test_band_holds_at_rest_on_a_point_to_point_run(logs, tmp_path):
     """Issue 45's synthetic target: fitted on Fourier runs with the truth's friction terms, scored on a
-    point-to-point run, the band holds 90 to 98 % pooled.  Measured: 95.9 % pooled, 94.0 to 97.4 % per
-    joint, rest samples 98.6 to 100 % (today's main: 64.5 % pooled, 61.7 to 68.5 % per joint)."""
+    point-to-point run, the band holds 90 to 98 % pooled.  Measured: 96.3 % pooled, 95.2 to 97.4 % per
+    joint, rest samples 98.9 to 100 % (before the band's speed class and the rests kept out of the smoothing's
+    and the shapes' refits: 95.9 %, 94.0 to 97.4 %; before the rest: 64.5 % pooled, 61.7 to 68.5 % per joint)."""
     out = tmp_path / "m.toml"
     r = identify("ur5", [logs["fourier1"], logs["fourier2"]], friction_terms="viscous,coulomb,stribeck,offset",
                  output=out)
@@ -212,19 +243,38 @@ def test_band_holds_at_rest_on_a_point_to_point_run(logs, tmp_path):
     assert np.mean(inside[rest]) >= 0.95
 
 
-def test_misses_are_warned_with_coulomb_only(logs, tmp_path):
-    """With viscous and Coulomb only (no Stribeck to reach the static level), the band at rest is a lower
-    bound and misses there; the flags point at the misses.  Measured: pooled 82.1 %; unflagged samples hold
-    88.6 %, flagged ones miss 1.96 times as often (the issue asks 2x: not met) and are 3.3 times the missed
-    ones (the issue asks at most 3x: not met; the range and leverage flags add a quarter of the run).
-    Today's main: pooled 62 %, unflagged samples hold 72 %, flagged ones miss 1.8 times as often."""
+def _warned(inside, flags, j) -> bool:
+    """Issue 45's rule for a joint whose band holds under 85 %: unflagged samples hold 85 % or more, flagged ones
+    miss at least twice as often, and at most 3x as many samples are flagged as missed."""
+    i, f = inside[:, j], flags[:, j]
+    if not np.any(f) or np.all(f):
+        return False
+    miss_f, miss_u = 1 - np.mean(i[f]), 1 - np.mean(i[~f])
+    return np.mean(i[~f]) >= 0.85 and miss_f >= 2 * miss_u and np.sum(f) <= 3 * np.sum(~i)
+
+
+def test_band_holds_with_coulomb_only_at_the_slowest_speeds(logs, tmp_path):
+    """With viscous and Coulomb only (no Stribeck to reach the static level), the law under-predicts the friction
+    of every start and stop, and at rest its breakaway (the fitted Coulomb level) is a lower bound of the static
+    one.  The band's speed class (uncertainty/conformal.py: the held-out error of the fit's slowest 5 % of moving
+    samples, where the Fourier runs' reversals show the breakaway the law left out) covers both: issue 45's
+    target, 90 to 98 % pooled or the misses warned on every joint under 85 %.  Measured: pooled 96.3 %, joints
+    91.6 96.2 95.6 97.2 97.3 100.0 %, rest samples 96.9 to 100 %, slow moving ones (under 0.1 rad/s) 83 to 99 %.
+    Before the speed class: pooled 82.1 %, joints 72.0 91.7 83.8 82.7 72.8 89.6 %, slow moving samples 34 to
+    60 % and unflagged, and joints 3 and 4 unwarned (joint 3: unflagged samples held 78.9 %, flagged ones
+    missed 0.7x as often).  Today's main: pooled 62 %."""
     r = identify("ur5", [logs["fourier1"], logs["fourier2"]], friction_terms="viscous,coulomb,offset")
+    band, rest_rec = carried_trust(r).band, carried_trust(r).rest
+    # the class is wider than the band on every joint (the slow samples' error is the law's missing breakaway)
+    assert np.all(band.slow_half_width > band.half_width), (band.slow_half_width, band.half_width)
     v, data, inside, flags = _scores(r, logs["ptp12"])
-    miss_flagged, miss_unflagged = 1 - np.mean(inside[flags]), 1 - np.mean(inside[~flags])
-    assert np.mean(inside[~flags]) >= 0.85          # the issue's bound for unflagged samples (main: 72 %)
-    # the flags point at the misses: 1.5x, below the 1.96x measured (about 0.1 of sampling spread on
-    # 12,600 correlated cells), above main's 1.8x only together with the unflagged bound above
-    assert miss_flagged >= 1.5 * miss_unflagged, (miss_flagged, miss_unflagged)
+    rest = rest_mask(data.qd, rest_rec.threshold)
+    # at rest where the fit never rested: the slow class plus the law's breakaway level
+    np.testing.assert_allclose(v.band[rest], (np.broadcast_to(band.slow_half_width, rest.shape)
+                                              + rest_rec.level)[rest])
+    assert 0.90 <= v.pooled_coverage <= 0.98, v.coverage
+    for j in range(6):
+        assert v.coverage[j] >= 0.85 or _warned(inside, flags, j), (j, v.coverage)
 
 
 def test_a_fit_that_rested_measures_the_static_level(logs, tmp_path):
@@ -269,3 +319,38 @@ def test_the_ur5_rests_are_found_from_its_velocity_noise():
     rest = rest_mask(data.qd, threshold)
     assert np.mean(np.all(rest[still[k]], axis=1)) > 0.99
     assert np.all(np.mean(rest, axis=0) >= np.mean(still)), np.mean(rest, axis=0)
+
+
+@pytest.fixture(scope="module")
+def new_ptp(tmp_path_factory):
+    """A point-to-point run no fit sees (seed 13): its log, and the truth's error on its exact states (the
+    noise plus the held static friction, what no model of the law can predict)."""
+    truth = _truth()
+    t, q, qd, qdd = point_to_point(truth, 13)
+    path = tmp_path_factory.mktemp("new") / "ptp13.csv"
+    _write(path, truth, t, q, qd, qdd, 13)
+    own = _torques(truth, q, qd, qdd, 13) - truth.inverse_dynamics(q, qd, qdd)
+    return path, t, own
+
+
+@pytest.mark.parametrize("terms", ["viscous,coulomb,offset", "viscous,coulomb,stribeck,offset"])
+def test_a_fit_on_fourier_and_ptp_runs_predicts_a_new_ptp_run_as_the_truth(logs, new_ptp, terms):
+    """Issue 45's synthetic target: fitted on two Fourier runs and a point-to-point run, every joint's RMS on a new
+    point-to-point run is within 1.2x the truth's own (the truth on the run's exact states: its noise plus the
+    static friction it held at rest).  Measured (ratio to the truth's RMS, joints 1 to 6): viscous and Coulomb
+    1.10 1.04 1.05 1.04 1.09 1.03; with Stribeck 1.08 1.03 1.04 1.03 1.08 1.03 (the rest of it is the filtered
+    log's own error: the truth on the log's states, still at rest, scores 1.00 to 1.03 of the model).  The rests'
+    static friction dominates the whole run's RMS, so the moving samples are checked too: with the truth's law
+    they are within 1.5x the torque noise (measured 0.96 to 1.19x; before the smoothing's and the friction
+    shapes' refits kept the rests out as the fit does, 2.9x on joint 5 and 16x on joint 6, the Stribeck velocity
+    of joint 6 fitted at 0.011 rad/s for 0.05); without Stribeck 1.1 to 22x (0.26 N m on joint 1)."""
+    r = identify("ur5", [logs["fourier1"], logs["fourier2"], logs["ptp11"]], friction_terms=terms)
+    path, t, own = new_ptp
+    v, data, inside, flags = _scores(r, path)
+    truth = np.sqrt(np.mean(own[np.searchsorted(t, data.t - 1e-9)] ** 2, axis=0))    # the log's samples, trimmed
+    ratio = v.rms / truth
+    assert np.all(ratio <= 1.2), ratio
+    rest = rest_mask(data.qd, carried_trust(r).rest.threshold)
+    moving = np.array([np.sqrt(np.mean((v.measured - v.predicted)[~rest[:, j], j] ** 2)) for j in range(6)])
+    if "stribeck" in terms:     # the law of the truth: on the moving samples within 1.5x the torque noise
+        assert np.all(moving <= 1.5 * SIGMA), moving / SIGMA

@@ -58,7 +58,7 @@ _COMMENT_HEAD = " " + TRUST_FORMAT + " "
 
 
 #: the record's numbers that are widths, scales or weights: a negative one is no record manipdyn wrote
-_NONNEGATIVE = {"prediction_band": ("half_width", "held_out_rms", "leverage_gain"),
+_NONNEGATIVE = {"prediction_band": ("half_width", "held_out_rms", "leverage_gain", "slow_speed", "slow_half_width"),
                 "leverage": ("weights", "scale", "mean", "largest", "smoothing"),
                 "rest": ("threshold", "static_level", "rest_fraction", "slow")}
 

@@ -224,7 +224,7 @@ def identify(prior, logs, *, method: str = "consistent", tip=None, friction: boo
 def _identify(prior, logs, o) -> IdentifyResult:
     from .estimation.fitting import METHODS, fit
     from .inputs.options import brace_safe, bounds_option, friction_option, prior_weight_option
-    from .inputs.rest import rest_option, rest_trust
+    from .inputs.rest import measured_rest, rest_option, rest_trust
     from .results.provenance import fit_record, model_metadata, provenance
 
     if o["method"] not in METHODS:
@@ -289,9 +289,15 @@ def _identify(prior, logs, o) -> IdentifyResult:
     if o["smoothing"] is None and o["friction_terms"] is not None and smoothing is not None:
         tell("Coulomb smoothing by held-out error (a refit per candidate and fold)")
         smoothing, law, smoothing_table, note = _held_out_smoothing(arm, data, o, side, smoothing, bounds, weight,
-                                                                    labels)
+                                                                    labels, rest=o["friction_terms"] is not None)
         # one note: the held-out choice names the noise level it started from (no second, contradicting one)
         law_notes = [x for x in law_notes if not x.startswith("Coulomb smoothing")] + [note]
+    # joints at rest (.inputs.rest) with the friction terms of a real log's route (--friction-terms, a smoothed
+    # sign); --friction keeps its sharp sign(qd) law at every speed, rest included (a simulated log's exact law:
+    # taken as a static band at rest it cost the README's synthetic UR5 27 % on joint 6's residual).  The refits
+    # (smoothing, shapes, band, bootstrap) fit with it, as the fit does; the prior weight's folds do not yet (with it
+    # the Panda's weight fell from 1 to 0.1 and its replay lost joint 3 to the published model at 10 ms, issue 44)
+    rest = rest_option(data, smoothing, law_notes) if o["friction_terms"] is not None else None
     shapes = None
     from ..model.friction import Friction
     from .inputs.options import SHAPED
@@ -300,7 +306,7 @@ def _identify(prior, logs, o) -> IdentifyResult:
         from .estimation.varpro import fit_shapes
 
         tell("friction shapes (Stribeck, sigmoid) by variable projection")
-        law, shapes = fit_shapes(arm, data, law, armature=o["armature"])
+        law, shapes = fit_shapes(arm, data, law, armature=o["armature"], rest=measured_rest(data, rest))
         if tc is not None:         # the gains again, with the fitted shapes
             arm, runs, tc = _torque_constants(as_read, _reread(runs, tc, arm), law, o["armature"],
                                               o["torque_constant_reference"], o["scale_from_gravity"])
@@ -324,10 +330,6 @@ def _identify(prior, logs, o) -> IdentifyResult:
     given_name = o["name"]
     name = given_name or _name_from(o["output"]) or f"{arm.name or 'arm'}_identified"
     segments = data.segments if len(data.segments) > 1 else None
-    # joints at rest (.inputs.rest) with the friction terms of a real log's route (--friction-terms, a smoothed
-    # sign); --friction keeps its sharp sign(qd) law at every speed, rest included (a simulated log's exact law:
-    # taken as a static band at rest it cost the README's synthetic UR5 27 % on joint 6's residual)
-    rest = rest_option(data, smoothing, law_notes) if o["friction_terms"] is not None else None
     tell(f"fit ({o['method']})")
     result = fit(arm, data.q, data.qd, data.qdd, data.tau, method=o["method"], friction=law,
                  armature=o["armature"], bounds=bounds, name=name, prior_weight=weight, segments=segments,
@@ -383,7 +385,7 @@ def _identify(prior, logs, o) -> IdentifyResult:
 
         tell(f"bootstrap ({boot} refits)")
         bs = bootstrap(arm, data, boot, scheduler=o["scheduler"], method=o["method"], friction=law,
-                       armature=o["armature"], bounds=bounds, prior_weight=weight, extra_scale=extra,
+                       armature=o["armature"], bounds=bounds, prior_weight=weight, extra_scale=extra, rest=rest,
                        progress=lambda done, total: tell("bootstrap refits", done, total))
         out.bootstrap = bootstrap_summary(bs)     # its std and covariance go to the base model too
     if o["output"] is not None or o["base_json"] is not None:
@@ -432,10 +434,12 @@ def _trajectory_groups(runs, data):
     return group_labels(data.segments, groups), note
 
 
-def _held_out_smoothing(arm, data, o, side, v0, bounds, weight, labels=None):
+def _held_out_smoothing(arm, data, o, side, v0, bounds, weight, labels=None, rest=False):
     """``(smoothing, law, table, note)``: the Coulomb smoothing by blocked held-out error
-    (:mod:`.inputs.smoothing`), starting from the noise-level choice ``v0``."""
+    (:mod:`.inputs.smoothing`), starting from the noise-level choice ``v0``; with ``rest``, each candidate's
+    refits keep the joints at rest still at the rest threshold a fit with that smoothing would use."""
     from .inputs.options import friction_option
+    from .inputs.rest import rest_threshold
     from .inputs.smoothing import choose_smoothing
 
     def law_of(v):
@@ -443,7 +447,8 @@ def _held_out_smoothing(arm, data, o, side, v0, bounds, weight, labels=None):
                                o["sigmoid_alpha"])
 
     v, table, note = choose_smoothing(arm, data, law_of, v0, method=o["method"], armature=o["armature"],
-                                      bounds=bounds, prior_weight=0.0 if weight == "auto" else weight, labels=labels)
+                                      bounds=bounds, prior_weight=0.0 if weight == "auto" else weight, labels=labels,
+                                      rest=(lambda v: rest_threshold(data, v)[0]) if rest else None)
     return v, law_of(v), table, note
 
 

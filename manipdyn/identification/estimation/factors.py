@@ -15,7 +15,33 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["known_torque", "nonnegative_extras", "joint_factors", "joint_noise", "stack_factors", "stacked",
-           "noise_from_factors", "reduce_problem"]
+           "noise_from_factors", "reduce_problem", "still_rows", "moving_mean_square"]
+
+
+def still_rows(qd, rest):
+    """``(qd, keep)`` of a fit with the rest threshold ``rest`` ((n,) or a scalar, rad/s; None: no rest):
+    ``qd`` (N, n) with each joint at rest set to 0 (:func:`manipdyn.model.friction_rest.at_rest_velocity`),
+    and ``keep`` (N, n) bool, the rows each joint fits (False at rest: the torque there holds an unknown
+    static friction), or None without ``rest``.  The refits of a fit with ``rest`` (the band's, the smoothing's,
+    the friction shapes', the bootstrap's) build their rows from this, as :func:`.fitting.fit` does."""
+    from ...model.friction_rest import rest_mask
+
+    qd = np.asarray(qd, dtype=np.float64)
+    if rest is None:
+        return qd, None
+    keep = ~rest_mask(qd, rest)
+    return np.where(keep, qd, 0.0), keep
+
+
+def moving_mean_square(err, keep) -> np.ndarray:
+    """Per joint, the mean of ``err**2`` (N, n) over the rows ``keep`` (N, n) bool, or over every row (``keep``
+    None); 0 where a joint kept no row.  The held-out score of a fit with a rest threshold: the joints at rest
+    hold a static friction no candidate models."""
+    e2 = np.asarray(err, dtype=np.float64) ** 2
+    if keep is None:
+        return np.mean(e2, axis=0)
+    count = np.sum(keep, axis=0)
+    return np.where(count > 0, np.sum(np.where(keep, e2, 0.0), axis=0) / np.maximum(count, 1), 0.0)
 
 
 def known_torque(prior, qd, qdd, armature, friction):

@@ -45,11 +45,11 @@ from .base import BaseParameters, base_parameters, check_base
 from .sdp import Bounds, consistent_fit
 from ...formats.logs.measurements import segment_edges
 from .covariance import base_covariance
-from .factors import (joint_factors, joint_noise, known_torque, noise_from_factors,  # noqa: F401 (public here)
-                      nonnegative_extras, stack_factors, stacked)
+from .factors import (joint_factors, joint_noise, known_torque, moving_mean_square, noise_from_factors,  # noqa: F401
+                      nonnegative_extras, stack_factors, stacked, still_rows)
 from .noise import floor_noise
 from .report import FLOOR_DROPPED, build_report, shortfall
-from ...model.friction_rest import at_rest_velocity, rest_mask
+from ...model.friction_rest import at_rest_velocity
 
 __all__ = ["fit", "FitResult", "METHODS", "link_min_eigenvalues", "known_torque", "joint_noise"]
 
@@ -255,10 +255,9 @@ def fit(arm, q, qd, qdd, tau, method: str = "wls", friction: bool = False, armat
         raise ModelError("extra_scale: only the 'consistent' method takes an extra scale")
     n = arm.n
     q, qd, qdd, tau = _check(q, qd, qdd, tau, n)
-    keep = None
-    if rest is not None:          # the joints at rest: still, and out of their own rows (friction_rest)
-        keep = ~rest_mask(qd, rest)
-        qd, rest = np.where(keep, qd, 0.0), np.broadcast_to(np.asarray(rest, dtype=np.float64), (n,)).copy()
+    qd, keep = still_rows(qd, rest)       # the joints at rest: still, and out of their own rows (friction_rest)
+    if rest is not None:
+        rest = np.broadcast_to(np.asarray(rest, dtype=np.float64), (n,)).copy()
     # no MAX_SIGNAL cap: logs are capped where read; the fit is unit-independent (test_fit_scaling)
     if not np.any(tau):
         raise ModelError("tau: every torque of every joint is 0; a logged torque is never exactly 0 "

@@ -42,7 +42,7 @@ import numpy as np
 from ..._support.errors import ModelError
 from ...model.friction import Friction
 from .base import base_parameters
-from .fitting import fit
+from .fitting import fit, still_rows
 
 __all__ = ["fit_friction_shapes", "fit_shapes", "SHAPE_RANGE", "SHAPES"]
 
@@ -183,20 +183,23 @@ def fit_friction_shapes(arm, data, friction: Friction, method: str = "wls", *, a
         bound (``at_bound``) and those the data do not determine (``undetermined``: the
         residual does not change with them).
     """
-    law, info = fit_shapes(arm, data, friction, armature=armature, max_nfev=max_nfev)
+    law, info = fit_shapes(arm, data, friction, armature=armature, max_nfev=max_nfev, rest=fit_kwargs.get("rest"))
     q, qd, qdd, tau = (np.asarray(a, dtype=np.float64) for a in _samples(data))
     result = fit(arm, q, qd, qdd, tau, method=method, friction=law, armature=armature, **fit_kwargs)
     result.report["friction_shapes"] = info
     return result
 
 
-def fit_shapes(arm, data, friction: Friction, *, armature: bool = False, max_nfev: int = 60):
+def fit_shapes(arm, data, friction: Friction, *, armature: bool = False, max_nfev: int = 60, rest=None):
     """``(law, info)``: the shapes of ``friction`` fitted by variable projection (module docstring).
 
     The search of :func:`fit_friction_shapes` alone, for callers that go on to fit with the
     shapes held (e.g. to choose a prior weight first).  ``law`` is ``friction`` with the fitted
     shapes (its amplitudes untouched: zeros for a spec); ``info`` is what
-    ``report["friction_shapes"]`` holds.  Parameters as for :func:`fit_friction_shapes`.
+    ``report["friction_shapes"]`` holds.  Parameters as for :func:`fit_friction_shapes`; ``rest``
+    (n,) or None: the fit's rest threshold (:func:`~manipdyn.identification.fit`), a joint at rest still
+    and out of its rows in the search too (a static friction there, at any level up to the breakaway,
+    would pull a Stribeck shape towards whatever the rests held).
     """
     from ..._support.deps import require
 
@@ -213,21 +216,22 @@ def fit_shapes(arm, data, friction: Friction, *, armature: bool = False, max_nfe
     unknowns = _unknowns(friction)
     # the weights: each joint's noise level at the initial shapes (wls's, module docstring)
     try:
-        first = fit(arm, q, qd, qdd, tau, method="wls", friction=friction, armature=armature)
+        first = fit(arm, q, qd, qdd, tau, method="wls", friction=friction, armature=armature, rest=rest)
     except ModelError as exc:
         raise ModelError(f"friction shapes: the search by variable projection runs weighted least squares "
                          f"at the starting shapes, and {exc}") from None
-    w = 1.0 / first.sigma
+    qd, keep = still_rows(qd, rest)
+    w = np.broadcast_to(1.0 / first.sigma, q.shape) if keep is None else keep / first.sigma    # (N, n): 0 at rest
     base0 = base_parameters(arm, armature=armature, friction=False)
     Yb = base0.regressor(arm.lagrange.regressor(q, qd, qdd, armature=armature, friction=False))
     y = tau if armature else tau - qdd @ np.asarray(arm.rotor_inertia)
-    Aw0 = (Yb * w[None, :, None]).reshape(len(q) * n, -1)
+    Aw0 = (Yb * w[:, :, None]).reshape(len(q) * n, -1)
     yw = (y * w).reshape(-1)
     tr = arm.transmission
 
     def residual(x):
         law = _with_shapes(friction, _unpack(x, unknowns, n))
-        F = law.columns(qd, tr) * w[None, :, None]
+        F = law.columns(qd, tr) * w[:, :, None]
         A = np.column_stack([Aw0, F.reshape(len(q) * n, -1)])
         sol = np.linalg.lstsq(A, yw, rcond=None)[0]
         return A @ sol - yw

@@ -58,19 +58,23 @@ def smoothing_candidates(v0: float, best: float | None = None) -> list[float]:
     return sorted({float(f"{best * f:.3g}") for f in REFINE})
 
 
-def choose_smoothing(arm, data, law_of, v0: float, folds: int = 5, progress=None, labels=None,
+def choose_smoothing(arm, data, law_of, v0: float, folds: int = 5, progress=None, labels=None, rest=None,
                      **fit_kwargs) -> tuple[float, list, str]:
     """``(v_s, table, note)``: the Coulomb smoothing with the lowest blocked held-out error (module docstring).
 
     ``data``: the stacked Measurements (``q, qd, qdd, tau`` (N, n)); ``law_of(v)``: the friction law
     (what :func:`.fit` takes as ``friction=``) with smoothing ``v``; ``v0``: the noise-level choice,
     rad/s; ``labels`` (N,): the held-out group of each sample (two or more: the folds are the groups);
+    ``rest`` (n,), a function of ``v`` giving it, or None: the fit's rest threshold (:mod:`.rest`; a function
+    where it follows the smoothing: a log with no measured velocity noise): each refit keeps a joint at rest
+    still and out of its rows as the fit does, and the held-out scores leave its rest samples out (a static friction no
+    candidate models; at rest no smoothing changes the prediction);
     ``fit_kwargs``: ``method``, ``armature``, ``bounds``, ``prior_weight``.  ``table``: one
     ``{"smoothing", "score", "fold_scores", "gain", "spread", "rms"}`` per candidate (``rms`` (n,), N m).  A candidate whose fits
     fail is left out (the table says why); all failing: a :class:`ModelError`.
     """
     from ..estimation.base import base_parameters
-    from ..estimation.fitting import fit, known_torque
+    from ..estimation.fitting import fit, known_torque, moving_mean_square, still_rows
     from ..estimation.selection import describe_choice, fold_factors, fold_kind, fold_masks, one_se_choice
     from ...model.parameters import with_extra_columns
 
@@ -81,31 +85,46 @@ def choose_smoothing(arm, data, law_of, v0: float, folds: int = 5, progress=None
     except ModelError as exc:
         raise ModelError(f"{exc} to choose the smoothing") from None
     armature = fit_kwargs.get("armature", False)
-    Y0 = arm.lagrange.regressor(q, qd, qdd)            # the rigid-body columns, common to every candidate
+    rigid = {}                                         # the rigid-body columns, common to the candidates
+
+    def rows(v):
+        """``(threshold, qd, keep, Y0)`` of candidate ``v``: the fit's rows, a joint at rest still and out."""
+        threshold = rest(v) if callable(rest) else rest
+        still, keep = still_rows(qd, threshold)
+        key = None if threshold is None else np.asarray(threshold, dtype=np.float64).tobytes()
+        if key not in rigid:
+            rigid[key] = arm.lagrange.regressor(q, still, qdd)
+        return threshold, still, keep, rigid[key]
+
     table = []
 
     def score(v):
         law = law_of(v)
         try:
+            threshold, still, keep, Y0 = rows(v)
             base = base_parameters(arm, armature=armature, friction=law)
-            Y = with_extra_columns(Y0, qd, qdd, armature, law, arm.transmission)
-            known = known_torque(arm, qd, qdd, armature, law)
+            Y = with_extra_columns(Y0, still, qdd, armature, law, arm.transmission)
+            known = known_torque(arm, still, qdd, armature, law)
             Yb = base.regressor(Y)
-            train = fold_factors(Yb, tau - known, masks)
+            train = fold_factors(Yb, tau - known, masks) if keep is None else \
+                fold_factors(Yb * keep[:, :, None], (tau - known) * keep, masks)
             sq, fold_scores = np.zeros(q.shape[1]), []
             for f, test in enumerate(masks):
                 r = fit(arm, q[~test], qd[~test], qdd[~test], tau[~test], friction=law, base=base,
-                        regressor=Y[~test], factors=train[f], complete=False, **fit_kwargs)
-                e2 = np.sum((tau[test] - Yb[test] @ r.beta - known[test]) ** 2, axis=0)
-                sq += e2
-                fold_scores.append(float(np.mean(np.log(np.maximum(np.sqrt(e2 / np.sum(test)), 1e-300)))))
+                        regressor=Y[~test], factors=train[f], complete=False, rest=threshold, **fit_kwargs)
+                err = tau[test] - Yb[test] @ r.beta - known[test]
+                if keep is not None:             # at rest: a static friction no candidate models
+                    err = np.where(keep[test], err, 0.0)
+                sq += np.sum(err ** 2, axis=0)
+                ms = moving_mean_square(err, None if keep is None else keep[test])
+                fold_scores.append(float(np.mean(np.log(np.maximum(np.sqrt(ms), 1e-300)))))
         except ModelError as exc:
             table.append({"smoothing": v, "score": None, "rms": None, "error": str(exc)})
             return
         finally:
             if progress is not None:
                 progress()
-        rms = np.sqrt(sq / N)
+        rms = np.sqrt(sq / (N if keep is None else np.maximum(np.sum(keep, axis=0), 1)))
         table.append({"smoothing": v, "score": float(np.mean(fold_scores)), "fold_scores": fold_scores,
                       "rms": [float(x) for x in rms]})
 
@@ -122,6 +141,14 @@ def choose_smoothing(arm, data, law_of, v0: float, folds: int = 5, progress=None
     table.sort(key=lambda row: row["smoothing"])
     scored = [row for row in table if row["score"] is not None]
     if not scored:
+        if labels is not None and len(np.unique(np.asarray(labels))) >= 2:
+            # a trajectory held out leaves the others unable to fit alone (a run that never moves a joint): the
+            # choice within the runs, blocks in time, as the band then is (uncertainty/bands.py), and said so
+            why = table[0]["error"]
+            v, table, note = choose_smoothing(arm, data, law_of, v0, folds=folds, progress=progress, labels=None,
+                                              rest=rest, **fit_kwargs)
+            return v, table, (f"{note} (the trajectories cannot each be predicted by a fit on the others: {why}; "
+                              "blocks in time instead)")
         raise ModelError("smoothing: every candidate's fit failed: " + "; ".join(row["error"] for row in table))
     default = float(f"{v0:.3g}")
     best, why = one_se_choice(table, "smoothing", default)

@@ -224,8 +224,7 @@ def validate(model, data, name: str | None = None) -> ValidationResult:
     band = coverage = method = None
     std = None
     if held_out is not None:
-        band = np.array(np.broadcast_to(held_out.widths(u), pred.shape))
-        band = band if trust.rest is None else trust.rest.widths(data.qd, band)     # the static band at rest
+        band = held_out.sample_widths(u, data.qd, trust.rest)    # the slowest speeds' class, the static band at rest
         method = held_out.describe()
     elif hasattr(model, "prediction_std"):
         std = model.prediction_std(data.q, data.qd, data.qdd)

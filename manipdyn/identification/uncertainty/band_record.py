@@ -34,7 +34,9 @@ class PredictionBand:
     ``c_j sqrt(1 + g_j u)`` (module docstring; None or 0: constant); ``trajectories``: the distinct
     trajectories held out (1: the band is within one trajectory, from the blocks alone);
     ``flag_leverage`` (n,) or None: the leverage ratio past which a sample is flagged (module docstring);
-    ``regions``: the posture regions held out within one trajectory (0: none, the blocks alone).
+    ``regions``: the posture regions held out within one trajectory (0: none, the blocks alone);
+    ``slow_speed``, ``slow_half_width`` (n,) or None: the speed class of a fit with a rest threshold
+    (:mod:`.conformal`): a sample slower than ``slow_speed_j`` gets at least ``slow_half_width_j``.
     """
 
     level: float
@@ -46,9 +48,11 @@ class PredictionBand:
     trajectories: int = 1
     flag_leverage: np.ndarray | None = None
     regions: int = 0
+    slow_speed: np.ndarray | None = None
+    slow_half_width: np.ndarray | None = None
 
     def __post_init__(self):
-        for k in ("half_width", "held_out_rms", "leverage_gain", "flag_leverage"):
+        for k in ("half_width", "held_out_rms", "leverage_gain", "flag_leverage", "slow_speed", "slow_half_width"):
             if getattr(self, k) is None:
                 continue
             a = np.asarray(getattr(self, k), dtype=np.float64).reshape(-1)
@@ -62,8 +66,11 @@ class PredictionBand:
             raise ModelError("prediction band: held_out_rms and half_width differ in length")
         if self.leverage_gain is not None and len(self.leverage_gain) != len(self.half_width):
             raise ModelError("prediction band: leverage_gain and half_width differ in length")
-        if self.flag_leverage is not None and len(self.flag_leverage) != len(self.half_width):
-            raise ModelError("prediction band: flag_leverage and half_width differ in length")
+        for k in ("flag_leverage", "slow_speed", "slow_half_width"):
+            if getattr(self, k) is not None and len(getattr(self, k)) != len(self.half_width):
+                raise ModelError(f"prediction band: {k} and half_width differ in length")
+        if (self.slow_speed is None) != (self.slow_half_width is None):
+            raise ModelError("prediction band: slow_speed and slow_half_width go together")
         if int(self.trajectories) != self.trajectories or self.trajectories < 1:
             raise ModelError(f"prediction band: trajectories: expected an integer >= 1, got {self.trajectories!r}")
         object.__setattr__(self, "trajectories", int(self.trajectories))
@@ -91,6 +98,20 @@ class PredictionBand:
             return np.broadcast_to(self.half_width, (1, self.n) if u is None else np.shape(u))
         g = self.leverage_gain
         return self.half_width * np.sqrt((1.0 + g * np.asarray(u, dtype=np.float64)) / (1.0 + g))
+
+    def sample_widths(self, u, qd, rest=None) -> np.ndarray:
+        """Half-widths (N, n) at the leverage ratios ``u`` (N, n) or None and velocities ``qd`` (N, n): at least
+        ``slow_half_width_j`` where ``|qd_j| < slow_speed_j`` (:mod:`.conformal`), except at rest on a joint whose
+        static level was measured (``rest``, the :class:`~manipdyn.model.friction_rest.StaticFriction`, which
+        then adds that level: what the fit's own rests held), and the static band at rest (``rest``)."""
+        qd = np.atleast_2d(np.asarray(qd, dtype=np.float64))
+        w = np.array(np.broadcast_to(self.widths(u), qd.shape))
+        if self.slow_speed is not None:
+            slow = np.abs(qd) < self.slow_speed
+            if rest is not None:
+                slow &= ~(rest.rest(qd) & rest.measured)
+            w = np.where(slow, np.maximum(w, self.slow_half_width), w)
+        return w if rest is None else rest.widths(qd, w)
 
     def interval(self, predicted, u=None) -> tuple[np.ndarray, np.ndarray]:
         """``(lo, hi)`` around ``predicted`` (N, n), at the leverage ratios ``u`` (N, n) when the band grows."""
@@ -123,6 +144,9 @@ class PredictionBand:
             out["flag_leverage"] = [float(x) for x in self.flag_leverage]
         if self.regions:
             out["regions"] = int(self.regions)
+        if self.slow_speed is not None:
+            out["slow_speed"] = [float(x) for x in self.slow_speed]
+            out["slow_half_width"] = [float(x) for x in self.slow_half_width]
         return out
 
     @classmethod
@@ -137,7 +161,9 @@ class PredictionBand:
                                       else np.array(value["leverage_gain"], dtype=np.float64)),
                        trajectories=int(value.get("trajectories", 1)), regions=int(value.get("regions", 0)),
                        flag_leverage=(None if value.get("flag_leverage") is None
-                                      else np.array(value["flag_leverage"], dtype=np.float64)))
+                                      else np.array(value["flag_leverage"], dtype=np.float64)),
+                       **{k: np.array(value[k], dtype=np.float64) for k in ("slow_speed", "slow_half_width")
+                          if value.get(k) is not None})
         except (KeyError, TypeError, ValueError, OverflowError) as exc:
             raise ModelError(f"{where}: malformed prediction band ({exc})") from None
         if band.n != n:

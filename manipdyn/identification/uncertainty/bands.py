@@ -123,12 +123,11 @@ The numbers travel with the model in its trust record (:mod:`manipdyn.formats.tr
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ..._support.errors import ModelError
 from .band_record import WITHIN_ONE_TRAJECTORY, PredictionBand
+from .conformal import GAIN_BENEFIT, GAINS, conformal_half_width, leverage_gain, slow_fields, slow_speeds  # noqa: F401
 
 __all__ = ["PredictionBand", "calibrate_band", "held_out_residuals", "held_out_leverage", "DEFAULT_FOLDS",
            "DEFAULT_LEVEL", "GAINS", "FLAG_LEVEL", "WITHIN_ONE_TRAJECTORY"]
@@ -137,10 +136,6 @@ DEFAULT_FOLDS = 5
 DEFAULT_LEVEL = 0.95
 #: a held-out block shorter than this many samples is too short to say anything
 MIN_BLOCK = 20
-#: the leverage gains g tried per joint (0: a constant band)
-GAINS = (0.0, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0)
-#: a gain is taken only when its band is this much narrower on average than the constant one
-GAIN_BENEFIT = 0.05
 #: the held-out leverage quantile past which a sample is flagged (module docstring)
 FLAG_LEVEL = 0.99
 def _blocks(N: int, folds: int) -> np.ndarray:
@@ -193,21 +188,23 @@ def held_out_residuals(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, segment
     did not see it).  ``segments``: the stacked runs' sample counts, when the fit takes them
     (each refit gets the counts of what it keeps).  ``fit_kwargs`` go to
     :func:`manipdyn.identification.fit` (``method``, ``friction``, ``armature``, ``bounds``,
-    ``prior_weight``): the refits are the fit the user asked for, on less data.  ``masks``: the
+    ``prior_weight``, ``rest``): the refits are the fit the user asked for, on less data (with ``rest``, a
+    joint at rest still and out of its rows, as in the fit, and predicted still).  ``masks``: the
     folds' test samples, (N,) bool each, partitioning the samples (the held-out trajectories),
     instead of ``folds`` blocks in time.  ``refits``: a list to which each fold's ``(test, arm)`` is
     appended, ``test`` its held-out samples (N,) bool and ``arm`` the refit's arm (None when its
     parameters are no physical arm), for the collision thresholds, which watch the same hold-outs
     through the observer of the same refits (:mod:`manipdyn.control.collision.holdouts`).
     """
-    from ..estimation.fitting import fit, known_torque
+    from ..estimation.fitting import fit, known_torque, still_rows
 
     q, qd, qdd, tau = (np.asarray(x, dtype=np.float64) for x in (q, qd, qdd, tau))
     N = len(q)
     res = np.empty_like(tau)
     armature, friction = fit_kwargs.get("armature", False), fit_kwargs.get("friction", False)
-    Y = arm.lagrange.regressor(q, qd, qdd, armature=armature, friction=friction)   # once, sliced per fold
-    known = known_torque(arm, qd, qdd, armature, friction)
+    still, _ = still_rows(qd, fit_kwargs.get("rest"))    # the rows the fit builds: a joint at rest still
+    Y = arm.lagrange.regressor(q, still, qdd, armature=armature, friction=friction)   # once, sliced per fold
+    known = known_torque(arm, still, qdd, armature, friction)
     for test in _masks(N, folds, masks, segments):
         kept = _kept_segments(segments, test)
         extra = {} if kept is None else {"segments": kept}
@@ -217,18 +214,6 @@ def held_out_residuals(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, segment
         if refits is not None:
             refits.append((test, r.arm))
     return res
-
-
-def conformal_half_width(residuals, level: float = DEFAULT_LEVEL) -> np.ndarray:
-    """Per column, the ``ceil((m + 1) level)``-th smallest ``|r|`` of ``m`` residuals (the largest when
-    that rank passes ``m``): the split-conformal half-width (module docstring)."""
-    r = np.abs(np.asarray(residuals, dtype=np.float64))
-    if np.isnan(r).any():           # NaN: no score (a joint at rest: the moving band's scores only); each column its own m
-        return np.array([conformal_half_width(c[~np.isnan(c)][:, None], level)[0] if np.any(~np.isnan(c)) else 0.0
-                         for c in r.T])
-    m = len(r)
-    rank = min(m, math.ceil((m + 1) * float(level)))
-    return np.sort(r, axis=0)[rank - 1]
 
 
 def held_out_leverage(arm, q, qd, qdd, folds: int, weights, smoothing, masks=None, segments=None) -> np.ndarray:
@@ -245,20 +230,6 @@ def held_out_leverage(arm, q, qd, qdd, folds: int, weights, smoothing, masks=Non
         h = w**2 * np.sum(((Z[test] / scale) @ B) ** 2, axis=2)
         u[test] = h / np.maximum(np.mean(h_fit, axis=0), 1e-300)
     return u
-
-
-def _gain(r, u, level) -> tuple[float, float]:
-    """``(g, c)`` of one joint: the gain of :data:`GAINS` whose conformal band is narrowest on average over the
-    held-out samples (``r`` residuals, ``u`` leverage ratios, (m,)), and its ``c``."""
-    scored = []
-    for g in GAINS:
-        s = np.sqrt(1.0 + g * u)
-        c = float(conformal_half_width((r / s)[:, None], level)[0])
-        scored.append((c * float(np.mean(s)), g, c))
-    width, g, c = min(scored)
-    if width > (1.0 - GAIN_BENEFIT) * scored[0][0]:      # not clearly narrower: the constant band
-        return GAINS[0], scored[0][2]
-    return g, c
 
 
 def _at_rest(qd, rest) -> np.ndarray:
@@ -297,6 +268,7 @@ def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: floa
         raise ModelError(f"level: expected a fraction in (0, 1), got {level}")
     kept = None if refits is None else refits.setdefault("blocks", [])
     still = _at_rest(qd, fit_kwargs.get("rest"))       # the moving band: the joints at rest score elsewhere
+    speed, slow = slow_speeds(qd, still) if fit_kwargs.get("rest") is not None else (None, still & False)
     res = np.where(still, np.nan, held_out_residuals(arm, q, qd, qdd, tau, folds=folds, refits=kept, **fit_kwargs))
     rms = np.sqrt(np.nanmean(res**2, axis=0))
     groups = None if labels is None else np.unique(np.asarray(labels))
@@ -336,14 +308,17 @@ def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: floa
             flag = conformal_half_width(u, FLAG_LEVEL)
         return PredictionBand(level=float(level), half_width=width, folds=int(folds), samples=len(res_t),
                               held_out_rms=rms_t, leverage_gain=np.zeros(len(width)) if leverage else None,
-                              trajectories=1 if n_regions else len(groups), flag_leverage=flag, regions=n_regions)
+                              trajectories=1 if n_regions else len(groups), flag_leverage=flag, regions=n_regions,
+                              **slow_fields(speed, slow, [res, res_t], level, width))
     if not leverage:
-        return PredictionBand(level=float(level), half_width=conformal_half_width(res, level), folds=int(folds),
-                              samples=len(res), held_out_rms=rms)
+        width = conformal_half_width(res, level)
+        return PredictionBand(level=float(level), half_width=width, folds=int(folds), samples=len(res),
+                              held_out_rms=rms, **slow_fields(speed, slow, [res], level, width))
     u = held_out_leverage(arm, q, qd, qdd, folds, _weights(rms), smoothing, segments=fit_kwargs.get("segments"))
     gains, widths = np.zeros(res.shape[1]), np.zeros(res.shape[1])
     for j in range(res.shape[1]):
-        g, c = _gain(np.abs(res[:, j]), u[:, j], level)
+        g, c = leverage_gain(np.abs(res[:, j]), u[:, j], level)
         gains[j], widths[j] = g, c * np.sqrt(1.0 + g)          # the width at u = 1
     return PredictionBand(level=float(level), half_width=widths, folds=int(folds), samples=len(res),
-                          held_out_rms=rms, leverage_gain=gains, flag_leverage=conformal_half_width(u, FLAG_LEVEL))
+                          held_out_rms=rms, leverage_gain=gains, flag_leverage=conformal_half_width(u, FLAG_LEVEL),
+                          **slow_fields(speed, slow, [res], level, widths))
