@@ -168,3 +168,36 @@ def test_no4_alone_agrees_with_the_fit_within_3_percent_on_joints_2_and_3(scored
     alone = no4_alone
     assert np.all(np.isfinite(alone.std[1:3]))
     assert np.all(np.abs(alone.values[1:3] / r.torque_constants.values[1:3] - 1) <= 0.03), alone.values
+
+
+def test_the_guides_table_is_this_run(scored):
+    """docs/guide/work.md's first table is this run, to its printed digits (3 significant for N m and N m/A,
+    0.1 % for the band, 1 % for the flags): a change to reading or fitting moves them, so update the page."""
+    import re
+
+    import guide
+
+    r, _, rep = scored
+    ours, ur = _rms(rep)
+    m = next(x for x in rep["models"] if x["model"] == "M")
+    page = guide.page("work")
+
+    def same(label, values, fmt):
+        cells = guide.row(label, page)
+        assert [float(c.split()[0]) for c in cells] == [float(fmt.format(v)) for v in values], (label, cells, values)
+
+    same("RMS of the model fitted on No6 and No1 (N m)", ours, "{:.3g}")
+    same("RMS of the UR controller's target torque on the five held-out runs (N m)", ur, "{:.3g}")
+    same("95 % band of the model fitted on No6 and No1 holds", 100 * np.array(m["band_95_coverage"]), "{:.1f}")
+    same("its samples flagged beyond the fit data", 100 * np.array(m["flagged_fraction"]), "{:.0f}")
+    same("that band holds on the unflagged samples", 100 * np.array(m["band_95_coverage_unflagged"]), "{:.1f}")
+    pooled = re.search(r"Pooled over the five held-out runs the band holds ([0-9.]+) %", page)
+    assert pooled and float(pooled.group(1)) == round(100 * m["band_95_pooled"], 1), pooled
+    tc = r.torque_constants
+    cells = guide.row("k_t (N m/A), scale from joints 2 and 3", page)
+    for j, c in enumerate(cells):
+        if np.isfinite(tc.std[j]):
+            value, std = (float(x) for x in c.split(" +- "))
+            assert (value, std) == (float(f"{tc.values[j]:.3g}"), float(f"{tc.std[j]:.2g}")), (j + 1, c)
+        else:
+            assert c == f"{tc.values[j]:.2g} (not determined)", (j + 1, c)

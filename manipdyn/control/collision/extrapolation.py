@@ -27,8 +27,8 @@ it there, accelerations included)::
   ``T_j`` through the same tail fit and false-alarm rate as the constant thresholds
   (:func:`~manipdyn.identification.uncertainty.thresholds.fit_thresholds`; with held-out trajectories, the
   blocks' at the same ``g`` a floor).  ``g_j`` is the one of the band's gains
-  (:data:`~manipdyn.identification.uncertainty.bands.GAINS`) whose threshold, averaged over the held-out samples,
-  is lowest, taken only when that is :data:`~manipdyn.identification.uncertainty.bands.GAIN_BENEFIT` (5 %) below
+  (:data:`~manipdyn.identification.uncertainty.conformal.GAINS`) whose threshold, averaged over the held-out samples,
+  is lowest, taken only when that is :data:`~manipdyn.identification.uncertainty.conformal.GAIN_BENEFIT` (5 %) below
   the constant threshold's; else ``g_j = 0``, the constant threshold.  The observer's gain ``K`` is chosen first
   (:mod:`.gain`, on the constant thresholds), then ``g`` at that ``K``.
 * **Watching a log** (:func:`threshold_levels`): ``u`` of each sample against the model's own reference (its
