@@ -20,9 +20,9 @@ response ``F y_K(t)`` exceeds ``T_j`` by ``t = budget - min_duration``::
 The gain kept is the one whose largest ``F_j(K)`` over the joints is smallest: the smallest torque that is
 detected within the budget **on every joint**.  A higher gain answers faster, a lower one is quieter: the
 choice weighs both on the log's own noise, not on a constant.  Measured on the Panda's log (identified on
-0 to 10 s, the band's five blocks; ``F`` per gain 10, 20, 30, 50, 100 1/s: 17.8, 13.0, 12.6, 13.8, 15.4 N m,
-joint 2's at 20 to 100) it keeps 30 1/s: thresholds 1.61, 2.65, 1.60, 1.89, 1.23, 0.40, 0.79 N m, 7.5 to 35
-times below libfranka's hand-set 20, 20, 18, 18, 16, 14, 12 N m (gain 100: 2.6 to 24 times).  (The
+0 to 10 s, the band's five blocks; ``F`` per gain 10, 20, 30, 50, 100 1/s: 17.1, 13.7, 13.6, 14.2, 15.4 N m,
+joint 2's at 20 to 100) it keeps 30 1/s: thresholds 1.53, 2.85, 1.49, 1.96, 1.21, 0.47, 0.84 N m, 7.0 to 30
+times below libfranka's hand-set 20, 20, 18, 18, 16, 14, 12 N m (gain 100: 2.6 to 20 times).  (The
 geometric mean over the joints kept 100 there: the wrist's joints, which the velocity noise does not set,
 outvoted joint 2, whose detectable torque is the arm's largest.)
 """
