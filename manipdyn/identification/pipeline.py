@@ -289,7 +289,7 @@ def _identify(prior, logs, o) -> IdentifyResult:
     if o["smoothing"] is None and o["friction_terms"] is not None and smoothing is not None:
         tell("Coulomb smoothing by held-out error (a refit per candidate and fold)")
         smoothing, law, smoothing_table, note = _held_out_smoothing(arm, data, o, side, smoothing, bounds, weight,
-                                                                    labels, rest=o["friction_terms"] is not None)
+                                                                    labels)
         # one note: the held-out choice names the noise level it started from (no second, contradicting one)
         law_notes = [x for x in law_notes if not x.startswith("Coulomb smoothing")] + [note]
     # joints at rest (.inputs.rest) with the friction terms of a real log's route (--friction-terms, a smoothed
@@ -434,10 +434,11 @@ def _trajectory_groups(runs, data):
     return group_labels(data.segments, groups), note
 
 
-def _held_out_smoothing(arm, data, o, side, v0, bounds, weight, labels=None, rest=False):
+def _held_out_smoothing(arm, data, o, side, v0, bounds, weight, labels=None):
     """``(smoothing, law, table, note)``: the Coulomb smoothing by blocked held-out error
-    (:mod:`.inputs.smoothing`), starting from the noise-level choice ``v0``; with ``rest``, each candidate's
-    refits keep the joints at rest still at the rest threshold a fit with that smoothing would use."""
+    (:mod:`.inputs.smoothing`), starting from the noise-level choice ``v0`` (with ``--friction-terms``, whose
+    fit has a rest threshold: each candidate's refits keep the joints at rest still at the threshold a fit with
+    that smoothing would use)."""
     from .inputs.options import friction_option
     from .inputs.rest import rest_threshold
     from .inputs.smoothing import choose_smoothing
@@ -448,7 +449,7 @@ def _held_out_smoothing(arm, data, o, side, v0, bounds, weight, labels=None, res
 
     v, table, note = choose_smoothing(arm, data, law_of, v0, method=o["method"], armature=o["armature"],
                                       bounds=bounds, prior_weight=0.0 if weight == "auto" else weight, labels=labels,
-                                      rest=(lambda v: rest_threshold(data, v)[0]) if rest else None)
+                                      rest=lambda v: rest_threshold(data, v)[0])
     return v, law_of(v), table, note
 
 

@@ -118,7 +118,7 @@ def choose_leverage_gain(record_at, ratios, gains=None, benefit=None):
     held-out residuals divided by ``sqrt((1 + g u) / (1 + g))`` (every joint at gain ``g``); ``ratios``: the held-out samples'
     ``u``, a list of (N_k, n).  Returns the record whose joint j is ``record_at(g_j)``'s, with ``leverage_gain``
     and its source saying the choice."""
-    from ...identification.uncertainty.bands import GAIN_BENEFIT, GAINS
+    from ...identification.uncertainty.conformal import GAIN_BENEFIT, GAINS
 
     gains = tuple(GAINS if gains is None else gains)
     benefit = GAIN_BENEFIT if benefit is None else float(benefit)
@@ -143,8 +143,7 @@ def choose_leverage_gain(record_at, ratios, gains=None, benefit=None):
     const = ", ".join(f"{x:.3g}" for x in mean_level[g0])
     return replace(base, **fields, leverage_gain=g,
                    source=f"{base.source}; each joint's threshold T_j sqrt((1 + g_j u) / (1 + g_j)) grows with "
-                          f"the sample's "
-                          f"leverage ratio u against the fit data (g {told}: the lowest held-out mean threshold, "
+                          f"the sample's leverage ratio u against the fit data (g {told}: the lowest held-out mean threshold, "
                           f"{means} N m, against the constant {const} N m)")
 
 

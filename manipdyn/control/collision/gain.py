@@ -57,10 +57,9 @@ def step_fraction(gain: float, velocity_cutoff: float, t: float) -> float:
 def detectable_torque(thr, budget: float = DELAY_BUDGET) -> np.ndarray:
     """Per joint, N m: the smallest step of external torque that ``thr`` (a CollisionThresholds) detects within
     ``budget`` s (module docstring); ``inf`` where its ``min_duration`` uses up the budget.  Thresholds that grow
-    with the leverage ratio are taken at a typical fitted sample (``u = 1``)."""
+    with the leverage ratio are taken at a typical fitted sample (``u = 1``): ``threshold`` is that level."""
     y = step_fraction(thr.gain, thr.velocity_cutoff, float(budget) - thr.min_duration)
-    T = np.asarray(thr.typical if getattr(thr, "leverage_gain", None) is not None else thr.threshold)
-    return T / y if y > 0 else np.full(thr.n, np.inf)
+    return np.asarray(thr.threshold) / y if y > 0 else np.full(thr.n, np.inf)
 
 
 def choose_gain(thresholds_at, candidates=GAIN_CANDIDATES, budget: float = DELAY_BUDGET):

@@ -268,7 +268,7 @@ def calibrate_band(arm, q, qd, qdd, tau, folds: int = DEFAULT_FOLDS, level: floa
         raise ModelError(f"level: expected a fraction in (0, 1), got {level}")
     kept = None if refits is None else refits.setdefault("blocks", [])
     still = _at_rest(qd, fit_kwargs.get("rest"))       # the moving band: the joints at rest score elsewhere
-    speed, slow = slow_speeds(qd, still) if fit_kwargs.get("rest") is not None else (None, still & False)
+    speed, slow = slow_speeds(qd, still) if fit_kwargs.get("rest") is not None else (None, None)
     res = np.where(still, np.nan, held_out_residuals(arm, q, qd, qdd, tau, folds=folds, refits=kept, **fit_kwargs))
     rms = np.sqrt(np.nanmean(res**2, axis=0))
     groups = None if labels is None else np.unique(np.asarray(labels))

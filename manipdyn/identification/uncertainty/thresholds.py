@@ -192,11 +192,6 @@ class CollisionThresholds:
         return self.threshold * leverage_factor(self.leverage_gain, u)
 
     @property
-    def typical(self) -> np.ndarray:
-        """(n,) N m: the thresholds at a typical fitted sample (leverage ratio 1): ``threshold`` itself."""
-        return np.asarray(self.threshold)
-
-    @property
     def given(self) -> bool:
         """Thresholds given as numbers (no tail: every ``tail_b`` is 0): the same at every rate."""
         return bool(np.all(self.tail_b == 0))
