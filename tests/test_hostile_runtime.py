@@ -107,3 +107,20 @@ def test_only_the_command_gets_the_quiet_hook():
     assert not is_command_line(["python", "-c", "import manipdyn"])
     assert not is_command_line(["python", "-m", "pytest", "tests"])
     assert not is_command_line(["python"])
+
+
+@pytest.mark.parametrize("module", ["pinocchio", "yourdfpy"])
+def test_a_python_without_a_core_dependency_gets_one_line_not_a_traceback(tmp_path, module):
+    """``python -m manipdyn ...`` run by a Python that lacks a core dependency (not the venv manipdyn was
+    installed into) printed a 20-line ImportError traceback; now one line naming the package and the Python,
+    exit 2.  The dependency is made unimportable by a stand-in package earlier on the path."""
+    fake = tmp_path / module
+    fake.mkdir()
+    (fake / "__init__.py").write_text(f"raise ModuleNotFoundError(\"No module named '{module}'\", name='{module}')\n")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(tmp_path), str(ROOT)]))
+    p = subprocess.run([sys.executable, "-m", "manipdyn", "check", "--all", "--samples", "5"], env=env,
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2, p.stderr
+    assert "Traceback" not in p.stderr, p.stderr
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1 and f"module {module!r}" in lines[0] and "pip install" in lines[0], lines

@@ -5,7 +5,10 @@ Layer 0 (support).
 :func:`require` imports a module of an extra (by default ``identify``: scipy, cvxpy with the
 Clarabel and SCS solvers) or raises :class:`MissingExtraError` naming what needs it and the
 command that installs it (:func:`install_command`), never a bare ``ImportError`` traceback.
-The engines' extras (``codegen``, ``mujoco``) go through it too.
+The engines' extras (``codegen``, ``mujoco``) go through it too.  A **core** dependency missing
+(:data:`CORE`: a Python without the package's own dependencies, e.g. not the venv it was installed in) is
+told in one line by :func:`missing_core`, which the command's start-up hook prints
+(:mod:`.interrupt`).
 """
 
 from __future__ import annotations
@@ -14,7 +17,24 @@ import importlib
 
 from .errors import MissingExtraError
 
-__all__ = ["MissingExtraError", "require", "install_command", "INSTALL"]
+__all__ = ["MissingExtraError", "require", "install_command", "INSTALL", "CORE", "missing_core"]
+
+#: the core dependencies: module imported -> the distribution pip installs (pyproject.toml's dependencies)
+CORE = {"numpy": "numpy", "pinocchio": "pin", "yourdfpy": "yourdfpy", "lxml": "lxml",
+        "example_robot_data": "example-robot-data"}
+
+
+def missing_core(exc) -> str | None:
+    """The one line that says a core dependency (:data:`CORE`) is not installed in this Python, for the
+    :class:`ModuleNotFoundError` ``exc``; None for any other error."""
+    import sys
+
+    name = (getattr(exc, "name", None) or "").split(".")[0]
+    if not isinstance(exc, ModuleNotFoundError) or name not in CORE:
+        return None
+    return (f"manipdyn: the Python running it ({sys.executable}) does not have manipdyn's dependency "
+            f"{CORE[name]!r} (module {name!r}); run manipdyn with the Python it was installed into (its venv), or "
+            "install it there: pip install manipdyn (in a source checkout: pip install -e .)")
 
 
 def install_command(extra: str) -> str:

@@ -1,4 +1,5 @@
-"""Ctrl-C while the ``manipdyn`` command is still starting: one line, not a traceback.
+"""Ctrl-C, or a core dependency missing, while the ``manipdyn`` command is still starting: one line, not a
+traceback.
 
 Layer 0 (support).  The command's own ``main`` turns a Ctrl-C into ``manipdyn: interrupted``
 (exit 130), but the first half second of a run is spent importing NumPy, SciPy and the
@@ -9,7 +10,8 @@ installs a ``sys.excepthook`` that prints the same one line for an uncaught
 that follows a Ctrl-C (a C extension being imported may turn the interrupt into an
 ``ImportError``: then exit 130), and only when this
 process is the command (``manipdyn ...`` or ``python -m manipdyn ...``): a program that
-imports manipdyn keeps its own hook.
+imports manipdyn keeps its own hook.  The same hook says in one line (exit 2) when a core
+dependency is not installed in the Python that runs the command (:func:`.deps.missing_core`).
 """
 
 from __future__ import annotations
@@ -60,6 +62,16 @@ def quiet_interrupt_while_starting() -> None:
         signal.signal(signal.SIGINT, on_sigint)
 
     def hook(kind, value, tb):
+        from .deps import missing_core
+
+        line = None if seen else missing_core(value)
+        if line is not None:
+            try:
+                sys.stderr.write(line + "\n")
+                sys.stderr.flush()
+            except (OSError, ValueError):
+                pass
+            os._exit(2)              # the command's usage exit: what is to be installed, not a bug
         if issubclass(kind, KeyboardInterrupt) or seen:
             try:
                 sys.stderr.write("manipdyn: interrupted\n")

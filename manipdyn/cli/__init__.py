@@ -20,6 +20,7 @@ import sys
 import warnings
 
 from .._support.errors import MissingExtraError, ModelError, SingularMassMatrixError, StateError
+from .._support.deps import missing_core
 from . import (bench, check, codegen, compare, excite, identify, mjcf, models, montecarlo, observe, replay, synthesize, track,
                urdf, validate)
 from .._support.text import EscapingWriter
@@ -165,6 +166,9 @@ def _main(argv) -> int:
     except Exception as exc:  # never a bare traceback for users
         if args.debug:
             raise
+        if missing_core(exc) is not None:      # a core dependency imported late: not a bug, an install
+            print(missing_core(exc).replace("manipdyn:", f"manipdyn {args.command}: error:", 1), file=sys.stderr)
+            return EXIT_USAGE
         print(f"manipdyn {args.command}: internal error: {type(exc).__name__}: {one_line(exc)} "
               "(rerun with --debug for the traceback)", file=sys.stderr)
         return EXIT_INTERNAL
